@@ -1,0 +1,85 @@
+"""Typed topics: publishers, subscribers, latching, and the shared per-message encode cache."""
+
+from __future__ import annotations
+
+import itertools
+import logging
+from collections.abc import Callable, Hashable
+from typing import Any
+
+from ..types.registry import MsgType, TypeRegistry
+
+log = logging.getLogger(__name__)
+
+_seq = itertools.count(1)
+
+
+class Message:
+    """One published message as every subscriber sees it.
+
+    Wire encodings are computed by whoever needs them and kept in ``cache`` so that a
+    message fanned out to fifty clients is serialised once per (topic spelling, encoding),
+    not fifty times — the main cost rosbridge pays per client (rosbridge #332, #559).
+    """
+
+    __slots__ = ("topic", "msg", "stamp", "seq", "cache")
+
+    def __init__(self, topic: Topic, msg: dict, stamp: float):
+        self.topic = topic
+        self.msg = msg
+        self.stamp = stamp
+        self.seq = next(_seq)
+        self.cache: dict[Hashable, Any] = {}
+
+    def cached(self, key: Hashable, make: Callable[[], Any]) -> Any:
+        try:
+            return self.cache[key]
+        except KeyError:
+            value = self.cache[key] = make()
+            return value
+
+
+Subscriber = Callable[[Message], None]
+
+
+class Topic:
+    """A named, typed channel. Owners are opaque hashable keys (sessions, node names)."""
+
+    __slots__ = (
+        "name",
+        "mtype",
+        "types",
+        "latched",
+        "last",
+        "publishers",
+        "subscribers",
+        "_expiry",
+    )
+
+    def __init__(self, name: str, mtype: MsgType, types: TypeRegistry, latched: bool = False):
+        self.name = name
+        self.mtype = mtype
+        self.types = types
+        self.latched = latched
+        self.last: Message | None = None
+        self.publishers: dict[Hashable, str] = {}  # owner -> node name
+        self.subscribers: dict[Hashable, tuple[str, Subscriber]] = {}  # key -> (node, callback)
+        self._expiry = None
+
+    @property
+    def type_name(self) -> str:
+        return self.mtype.name
+
+    @property
+    def idle(self) -> bool:
+        return not self.publishers and not self.subscribers
+
+    def fan_out(self, message: Message) -> None:
+        """Deliver to every subscriber; one failing callback never starves the others."""
+        if self.latched:
+            self.last = message
+        for key, (_node, callback) in list(self.subscribers.items()):
+            try:
+                callback(message)
+            except Exception:
+                log.exception("subscriber %r of %s failed", key, self.name)

@@ -1,0 +1,80 @@
+"""``hitrobot-server`` command line: run the server, or a tool (``conformance``)."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import logging
+import signal
+import sys
+
+from . import __version__
+from .config import Settings, add_arguments, load
+
+TOOLS = {
+    "conformance": "hitrobot_server.conformance.runner",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="hitrobot-server",
+        description=(
+            "A rosbridge-v2-compatible (hitrobot protocol) WebSocket and TCP server with an "
+            "in-process topic/service/action bus. Tools: 'hitrobot-server conformance --url "
+            "ws://HOST:PORT' runs the protocol conformance vectors against any server."
+        ),
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    add_arguments(parser)
+    return parser
+
+
+async def serve(settings: Settings) -> None:
+    from .server import HitrobotServer
+
+    server = HitrobotServer(settings)
+    await server.start()
+    print(
+        f"hitrobot-server {__version__}: ws://{settings.address}:{server.port}"
+        + (f"  tcp://{settings.address}:{server.tcp_port}" if server.tcp_port else ""),
+        flush=True,
+    )
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        with contextlib.suppress(NotImplementedError):
+            loop.add_signal_handler(sig, stop.set)
+    try:
+        await stop.wait()
+    finally:
+        await server.stop()
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] in TOOLS:
+        import importlib
+
+        return importlib.import_module(TOOLS[argv[0]]).main(argv[1:])
+    args = build_parser().parse_args(argv)
+    try:
+        settings = load(args)
+    except (OSError, ValueError) as exc:
+        print(f"hitrobot-server: {exc}", file=sys.stderr)
+        return 2
+    logging.basicConfig(
+        level=settings.log_level.upper(),
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+    )
+    try:
+        asyncio.run(serve(settings))
+    except (OSError, ValueError) as exc:
+        print(f"hitrobot-server: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

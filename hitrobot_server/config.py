@@ -1,0 +1,128 @@
+"""Server settings: one dataclass filled from defaults, a TOML file, then command-line flags.
+
+Flag names follow rosbridge_websocket's parameters so a rosbridge user finds them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tomllib
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+from .bus.names import GlobFilter
+
+STATUS_LEVELS = ("info", "warning", "error", "none")
+
+
+@dataclass
+class Settings:
+    port: int = 9090
+    address: str = "127.0.0.1"
+    tcp_port: int = 9091
+    authenticate: bool = False
+    auth_secret_file: str | None = None
+    fragment_timeout: float = 600.0
+    max_message_size: int | None = None
+    max_frame_size: int = 256 * 1024 * 1024
+    delay_between_messages: float = 0.0
+    unregister_timeout: float = 10.0
+    call_service_timeout: float | None = None
+    topics_glob: str | None = None
+    services_glob: str | None = None
+    params_glob: str | None = None
+    status_level: str = "error"
+    send_buffer_limit: int = 10_000_000
+    use_compression: bool = False
+    log_level: str = "info"
+    auth_secret: str | None = field(default=None, repr=False)
+    topics_filter: GlobFilter = field(init=False, repr=False)
+    services_filter: GlobFilter = field(init=False, repr=False)
+    params_filter: GlobFilter = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.refresh_filters()
+
+    def refresh_filters(self) -> None:
+        self.topics_filter = GlobFilter.parse(self.topics_glob)
+        self.services_filter = GlobFilter.parse(self.services_glob, always=("/rosapi/*",))
+        self.params_filter = GlobFilter.parse(self.params_glob)
+
+
+_HELP = {
+    "port": "WebSocket port (0 = pick a free one); plain HTTP GET on it serves the web UI",
+    "address": "address to bind; 127.0.0.1 by default, use 0.0.0.0 to serve a robot LAN",
+    "tcp_port": "raw TCP JSON port (one JSON object per line out); 0 = off, -1 = pick a free one",
+    "authenticate": "require a valid rosauth 'auth' op before any other op",
+    "auth_secret_file": "file whose first line is the 16-character rosauth secret",
+    "fragment_timeout": "seconds an incomplete fragmented message is kept",
+    "max_message_size": "fragment outgoing JSON ops longer than this many characters",
+    "max_frame_size": "largest incoming WebSocket frame accepted, in bytes",
+    "delay_between_messages": "seconds to wait after each frame sent to a client",
+    "unregister_timeout": "seconds an unused topic lingers before it is removed",
+    "call_service_timeout": "default timeout of call_service in seconds (none = wait forever)",
+    "topics_glob": "comma-separated fnmatch patterns of topics clients may use",
+    "services_glob": "comma-separated fnmatch patterns of services clients may use",
+    "params_glob": "comma-separated fnmatch patterns of parameters clients may use",
+    "status_level": "initial status level of each client: info, warning, error or none",
+    "send_buffer_limit": "bytes queued per client before its oldest topic messages are dropped",
+    "use_compression": "offer WebSocket permessage-deflate",
+    "log_level": "logging level: debug, info, warning, error",
+}
+
+_SKIP = {"auth_secret", "topics_filter", "services_filter", "params_filter"}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """One flag per Settings field, documented; defaults stay None so TOML can fill them."""
+    parser.add_argument("--config", metavar="FILE", help="TOML file with the same settings")
+    for f in fields(Settings):
+        if f.name in _SKIP:
+            continue
+        flag = "--" + f.name.replace("_", "-")
+        default = f.default
+        text = f"{_HELP[f.name]} (default: {default})"
+        if f.type in ("bool", bool):
+            parser.add_argument(
+                flag, action=argparse.BooleanOptionalAction, default=None, help=text
+            )
+            continue
+        kind = _kind(f.type)
+        kwargs: dict[str, Any] = {"type": kind, "default": None, "help": text}
+        if f.name in ("status_level",):
+            kwargs["choices"] = STATUS_LEVELS
+        parser.add_argument(flag, **kwargs)
+
+
+def _kind(annotation: Any):
+    text = str(annotation)
+    if text.startswith("int"):
+        return int
+    if text.startswith("float"):
+        return float
+    return str
+
+
+def load(args: argparse.Namespace) -> Settings:
+    """Defaults < TOML file (``--config``) < explicit flags."""
+    values: dict[str, Any] = {}
+    if getattr(args, "config", None):
+        data = tomllib.loads(Path(args.config).read_text())
+        section = data.get("server", data)
+        known = {f.name for f in fields(Settings)} - _SKIP
+        for key, value in section.items():
+            name = key.replace("-", "_")
+            if name not in known:
+                raise ValueError(f"{args.config}: unknown setting '{key}'")
+            values[name] = value
+    for f in fields(Settings):
+        if f.name in _SKIP:
+            continue
+        value = getattr(args, f.name, None)
+        if value is not None:
+            values[f.name] = value
+    settings = Settings(**values)
+    if settings.status_level not in STATUS_LEVELS:
+        raise ValueError(f"status_level must be one of {', '.join(STATUS_LEVELS)}")
+    return settings

@@ -1,0 +1,226 @@
+"""rosapi: graph, type and parameter introspection services (roslibjs ``Ros.get*``, roslibpy).
+
+Registered once under ``/rosapi/<name>``; the bus canonicalises names, so roslibjs 2.x's
+relative ``rosapi/<name>`` reaches the same service.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Awaitable, Callable
+
+import orjson
+
+from ..bus.core import Bus
+from ..bus.errors import ServiceError
+from ..bus.names import canonical
+from ..config import Settings
+from ..types.registry import UnknownType
+from ..types.typedef import srv_request_typedefs, srv_response_typedefs, typedefs
+from .base import Node
+
+ACTIONLIB_SUFFIXES = ("goal", "cancel", "status", "feedback", "result")
+
+
+class Rosapi(Node):
+    def __init__(self, bus: Bus, settings: Settings):
+        super().__init__(bus, "/rosapi")
+        self.settings = settings
+        handlers: dict[str, tuple[str, Callable[[dict], Awaitable[dict]]]] = {
+            "topics": ("rosapi/Topics", self.topics),
+            "topics_for_type": ("rosapi/TopicsForType", self.topics_for_type),
+            "topics_and_raw_types": ("rosapi/TopicsAndRawTypes", self.topics_and_raw_types),
+            "topic_type": ("rosapi/TopicType", self.topic_type),
+            "services": ("rosapi/Services", self.services),
+            "services_for_type": ("rosapi/ServicesForType", self.services_for_type),
+            "service_type": ("rosapi/ServiceType", self.service_type),
+            "service_providers": ("rosapi/ServiceProviders", self.service_providers),
+            "service_node": ("rosapi/ServiceNode", self.service_node),
+            "service_host": ("rosapi/ServiceHost", self.service_host),
+            "nodes": ("rosapi/Nodes", self.nodes),
+            "node_details": ("rosapi/NodeDetails", self.node_details),
+            "publishers": ("rosapi/Publishers", self.publishers),
+            "subscribers": ("rosapi/Subscribers", self.subscribers),
+            "action_servers": ("rosapi/GetActionServers", self.action_servers),
+            "get_param": ("rosapi/GetParam", self.get_param),
+            "set_param": ("rosapi/SetParam", self.set_param),
+            "has_param": ("rosapi/HasParam", self.has_param),
+            "delete_param": ("rosapi/DeleteParam", self.delete_param),
+            "search_param": ("rosapi/SearchParam", self.search_param),
+            "get_param_names": ("rosapi/GetParamNames", self.get_param_names),
+            "message_details": ("rosapi/MessageDetails", self.message_details),
+            "service_request_details": ("rosapi/ServiceRequestDetails", self.request_details),
+            "service_response_details": ("rosapi/ServiceResponseDetails", self.response_details),
+            "get_time": ("rosapi/GetTime", self.get_time),
+        }
+        for name, (type_name, handler) in handlers.items():
+            self.service(f"/rosapi/{name}", type_name, handler)
+
+    # ------------------------------------------------------------------ helpers
+    def _short(self, name: str) -> str:
+        return self.bus.types.short(name)
+
+    def _topics(self) -> list:
+        allow = self.settings.topics_filter.allows
+        return sorted((t for t in self.bus.topics.values() if allow(t.name)), key=lambda t: t.name)
+
+    def _services(self) -> list:
+        allow = self.settings.services_filter.allows
+        return sorted(
+            (s for s in self.bus.services.values() if allow(s.name)), key=lambda s: s.name
+        )
+
+    def _same_type(self, a: str, b: str, kind: str) -> bool:
+        lookup = getattr(self.bus.types, kind)
+        try:
+            return lookup(a).name == lookup(b).name
+        except UnknownType:
+            return False
+
+    # ------------------------------------------------------------------ topics
+    async def topics(self, req: dict) -> dict:
+        ts = self._topics()
+        return {"topics": [t.name for t in ts], "types": [self._short(t.type_name) for t in ts]}
+
+    async def topics_for_type(self, req: dict) -> dict:
+        return {
+            "topics": [
+                t.name for t in self._topics() if self._same_type(t.type_name, req["type"], "msg")
+            ]
+        }
+
+    async def topics_and_raw_types(self, req: dict) -> dict:
+        ts = self._topics()
+        return {
+            "topics": [t.name for t in ts],
+            "types": [self._short(t.type_name) for t in ts],
+            "typedefs_full_text": [self.bus.types.definition_text(t.type_name) for t in ts],
+        }
+
+    async def topic_type(self, req: dict) -> dict:
+        topic = self.bus.topic(req["topic"]) if req["topic"] else None
+        visible = topic is not None and self.settings.topics_filter.allows(topic.name)
+        return {"type": self._short(topic.type_name) if visible else ""}
+
+    async def publishers(self, req: dict) -> dict:
+        topic = self.bus.topic(req["topic"]) if req["topic"] else None
+        return {"publishers": sorted(set(topic.publishers.values())) if topic else []}
+
+    async def subscribers(self, req: dict) -> dict:
+        topic = self.bus.topic(req["topic"]) if req["topic"] else None
+        nodes = {node for node, _cb in topic.subscribers.values()} if topic else set()
+        return {"subscribers": sorted(nodes)}
+
+    # ------------------------------------------------------------------ services
+    async def services(self, req: dict) -> dict:
+        return {"services": [s.name for s in self._services()]}
+
+    async def services_for_type(self, req: dict) -> dict:
+        return {
+            "services": [
+                s.name for s in self._services() if self._same_type(s.type_name, req["type"], "srv")
+            ]
+        }
+
+    async def service_type(self, req: dict) -> dict:
+        svc = self.bus.service(req["service"]) if req["service"] else None
+        return {"type": self._short(svc.type_name) if svc else ""}
+
+    async def service_providers(self, req: dict) -> dict:
+        svc = self.bus.service(req["service"]) if req["service"] else None
+        return {"providers": [svc.node] if svc else []}
+
+    async def service_node(self, req: dict) -> dict:
+        svc = self.bus.service(req["service"]) if req["service"] else None
+        return {"node": svc.node if svc else ""}
+
+    async def service_host(self, req: dict) -> dict:
+        svc = self.bus.service(req["service"]) if req["service"] else None
+        return {"host": "localhost" if svc else ""}
+
+    # ------------------------------------------------------------------ graph
+    async def nodes(self, req: dict) -> dict:
+        return {"nodes": sorted(self.bus.nodes)}
+
+    async def node_details(self, req: dict) -> dict:
+        node = canonical(req["node"]) if req["node"] else ""
+        ts = self.bus.topics.values()
+        return {
+            "subscribing": sorted(
+                t.name for t in ts if any(n == node for n, _cb in t.subscribers.values())
+            ),
+            "publishing": sorted(t.name for t in ts if node in t.publishers.values()),
+            "services": sorted(s.name for s in self.bus.services.values() if s.node == node),
+        }
+
+    async def action_servers(self, req: dict) -> dict:
+        """ROS 1 actionlib namespaces (all five topics present) plus ROS 2 actions."""
+        names = {t.name for t in self.bus.topics.values()}
+        spaces = {n.rsplit("/", 1)[0] for n in names if n.endswith("/goal")}
+        found = {ns for ns in spaces if all(f"{ns}/{s}" in names for s in ACTIONLIB_SUFFIXES)}
+        found.update(self.bus.actions)
+        return {"action_servers": sorted(found)}
+
+    # ------------------------------------------------------------------ types
+    def _typedefs(self, fn, name: str) -> dict:
+        try:
+            return {"typedefs": fn(self.bus.types, name)}
+        except UnknownType as exc:
+            raise ServiceError(str(exc.args[0] if exc.args else exc)) from None
+
+    async def message_details(self, req: dict) -> dict:
+        return self._typedefs(typedefs, req["type"])
+
+    async def request_details(self, req: dict) -> dict:
+        return self._typedefs(srv_request_typedefs, req["type"])
+
+    async def response_details(self, req: dict) -> dict:
+        return self._typedefs(srv_response_typedefs, req["type"])
+
+    # ------------------------------------------------------------------ params
+    def _param_name(self, name: str) -> str:
+        name = canonical(name)
+        if not self.settings.params_filter.allows(name):
+            raise ServiceError(f"parameter '{name}' is not allowed by --params-glob")
+        return name
+
+    @staticmethod
+    def _parse(text: str, what: str):
+        try:
+            return orjson.loads(text)
+        except orjson.JSONDecodeError as exc:
+            raise ServiceError(f"{what} must be JSON text (e.g. '42' or '\"a\"'): {exc}") from None
+
+    async def get_param(self, req: dict) -> dict:
+        name = self._param_name(req["name"])
+        default = self._parse(req["default"], "default") if req.get("default") else None
+        return {"value": orjson.dumps(self.bus.params.get(name, default)).decode()}
+
+    async def set_param(self, req: dict) -> dict:
+        name = self._param_name(req["name"])
+        try:
+            self.bus.params.set(name, self._parse(req["value"], "value"))
+        except ValueError as exc:
+            raise ServiceError(str(exc)) from None
+        return {}
+
+    async def has_param(self, req: dict) -> dict:
+        return {"exists": self.bus.params.has(self._param_name(req["name"]))}
+
+    async def delete_param(self, req: dict) -> dict:
+        name = self._param_name(req["name"])
+        if not self.bus.params.delete(name):
+            raise ServiceError(f"parameter '{name}' is not set")
+        return {}
+
+    async def search_param(self, req: dict) -> dict:
+        return {"global_name": self.bus.params.search(req["name"])}
+
+    async def get_param_names(self, req: dict) -> dict:
+        allow = self.settings.params_filter.allows
+        return {"names": [n for n in self.bus.params.names() if allow(n)]}
+
+    async def get_time(self, req: dict) -> dict:
+        now = time.time()
+        secs = int(now)
+        return {"time": {"secs": secs, "nsecs": int((now - secs) * 1e9)}}

@@ -1,0 +1,150 @@
+"""rosbridge's ``cbor`` compression: type-directed CBOR with RFC 8746 typed arrays.
+
+Numeric arrays travel as little-endian packed bytes under a typed-array tag, which roslibjs turns
+straight into JS typed arrays. Unlike rosbridge we also tag fixed-size arrays (``float64[9]``
+crashed rosbridge, #864) and accept numpy arrays anywhere a list is allowed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import cbor2
+import numpy as np
+
+from hitrobot_server.types.registry import MsgType, TypeRegistry
+
+Encoder = Callable[[Any], Any]
+
+# ROS base type → (RFC 8746 tag, little-endian numpy dtype). uint8/char go out as byte strings.
+_TYPED_ARRAYS = {
+    "uint16": (69, "<u2"),
+    "uint32": (70, "<u4"),
+    "uint64": (71, "<u8"),
+    "int8": (72, "i1"),
+    "byte": (72, "i1"),
+    "int16": (77, "<i2"),
+    "int32": (78, "<i4"),
+    "int64": (79, "<i8"),
+    "float32": (85, "<f4"),
+    "float64": (86, "<f8"),
+}
+# Every RFC 8746 typed-array tag numpy can represent, for decoding what peers send.
+_TAG_DTYPES = {
+    64: "u1",
+    65: ">u2",
+    66: ">u4",
+    67: ">u8",
+    68: "u1",
+    69: "<u2",
+    70: "<u4",
+    71: "<u8",
+    72: "i1",
+    73: ">i2",
+    74: ">i4",
+    75: ">i8",
+    77: "<i2",
+    78: "<i4",
+    79: "<i8",
+    80: ">f2",
+    81: ">f4",
+    82: ">f8",
+    84: "<f2",
+    85: "<f4",
+    86: "<f8",
+}
+_INTS = frozenset(
+    {"int8", "byte", "uint8", "char", "int16", "uint16", "int32", "uint32", "int64", "uint64"}
+)
+
+
+def _as_bytes(value: Any) -> bytes:
+    if type(value) is bytes:
+        return value
+    if isinstance(value, bytearray | memoryview):
+        return bytes(value)
+    return np.asarray(value, dtype=np.uint8).tobytes()
+
+
+def _time(value: Any) -> dict[str, int]:
+    return {"secs": int(value["secs"]), "nsecs": int(value["nsecs"])}
+
+
+def _scalar_encoder(typ: str) -> Encoder:
+    if typ in ("float32", "float64"):
+        return float
+    if typ in _INTS:
+        return int
+    if typ == "bool":
+        return bool
+    return str
+
+
+def _typed_array(tag: int, dtype: str) -> Encoder:
+    return lambda value: cbor2.CBORTag(tag, np.asarray(value, dtype=dtype).tobytes())
+
+
+def _field_encoder(field_type: str, is_msg: bool, array: int | None, reg: TypeRegistry) -> Encoder:
+    if is_msg:
+        elem = _plan(reg.msg(field_type), reg)
+    elif field_type in ("time", "duration"):
+        elem = _time
+    elif array is None:
+        return _scalar_encoder(field_type)
+    elif field_type in ("uint8", "char"):
+        return _as_bytes
+    elif field_type in _TYPED_ARRAYS:
+        return _typed_array(*_TYPED_ARRAYS[field_type])
+    elif field_type == "bool":
+        return lambda value: [bool(x) for x in value]
+    else:
+        return lambda value: [str(x) for x in value]
+    if array is None:
+        return elem
+    return lambda value: [elem(x) for x in value]
+
+
+def _plan(mtype: MsgType, reg: TypeRegistry) -> Encoder:
+    plans = reg.plan_cache("cbor")
+    plan = plans.get(mtype.name)
+    if plan is None:
+        entries = tuple(
+            (f.name, _field_encoder(f.type, f.is_msg, f.array, reg)) for f in mtype.fields
+        )
+
+        def plan(msg: dict[str, Any]) -> dict[str, Any]:
+            return {name: enc(msg[name]) for name, enc in entries}
+
+        plans[mtype.name] = plan
+    return plan
+
+
+def to_cbor_value(msg: dict[str, Any], mtype: MsgType, reg: TypeRegistry) -> dict[str, Any]:
+    """Canonical message → values that ``cbor2.dumps`` encodes the way rosbridge clients expect."""
+    return _plan(mtype, reg)(msg)
+
+
+def encode_publish_cbor(
+    topic: str, msg: dict[str, Any], mtype: MsgType, reg: TypeRegistry
+) -> bytes:
+    """A complete binary ``publish`` frame for a ``compression: cbor`` subscriber."""
+    return cbor2.dumps({"op": "publish", "topic": topic, "msg": to_cbor_value(msg, mtype, reg)})
+
+
+def decode_typed_arrays(obj: Any) -> Any:
+    """Replace RFC 8746 typed-array tags (as left by ``cbor2.loads``) with lists, recursively."""
+    if isinstance(obj, dict):
+        return {key: decode_typed_arrays(value) for key, value in obj.items()}
+    if isinstance(obj, list):
+        return [decode_typed_arrays(value) for value in obj]
+    if isinstance(obj, cbor2.CBORTag):
+        dtype = _TAG_DTYPES.get(obj.tag)
+        if dtype is not None and isinstance(obj.value, bytes):
+            return np.frombuffer(obj.value, dtype=dtype).tolist()
+    return obj
+
+
+def decode(data: bytes) -> Any:
+    """Decode a CBOR frame with typed arrays turned into lists."""
+    return decode_typed_arrays(cbor2.loads(data))

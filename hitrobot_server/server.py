@@ -1,0 +1,88 @@
+"""Assemble the bus, its nodes and the transports into one running server."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+
+from .bus.core import Bus
+from .config import Settings
+from .nodes.base import Node
+from .nodes.rosapi import Rosapi
+from .protocol.auth import load_secret
+from .session.session import Session
+from .transport.tcp import start_tcp
+from .transport.websocket import start_websocket
+from .types.registry import TypeRegistry
+
+log = logging.getLogger(__name__)
+
+
+class HitrobotServer:
+    """The bridge: ``await start()``, read ``port``/``tcp_port``, ``await stop()``."""
+
+    def __init__(self, settings: Settings | None = None, types: TypeRegistry | None = None):
+        self.settings = settings or Settings()
+        self.bus = Bus(
+            types or TypeRegistry.default(), unregister_timeout=self.settings.unregister_timeout
+        )
+        self.nodes: list[Node] = []
+        self.sessions: set[Session] = set()
+        self._ws = None
+        self._tcp: asyncio.Server | None = None
+        self.port: int | None = None
+        self.tcp_port: int | None = None
+
+    def new_session(self, peer: str, transport: str) -> Session:
+        session = Session(self.bus, self.settings, peer=peer, transport=transport)
+        self.sessions.add(session)
+        session.on_close.append(self.sessions.discard)
+        return session
+
+    async def start(self) -> None:
+        s = self.settings
+        if s.authenticate:
+            if not s.auth_secret_file:
+                raise ValueError("--authenticate needs --auth-secret-file")
+            s.auth_secret = load_secret(s.auth_secret_file)
+        self.nodes.append(Rosapi(self.bus, s))
+
+        def factory(peer: str, transport: str) -> Session:
+            return self.new_session(peer, transport)
+
+        self._ws = await start_websocket(
+            factory,
+            s.address,
+            s.port,
+            max_frame_size=s.max_frame_size,
+            delay_between_messages=s.delay_between_messages,
+            compression=s.use_compression,
+        )
+        self.port = self._ws.sockets[0].getsockname()[1] if self._ws.sockets else s.port
+        if s.tcp_port:
+            self._tcp = await start_tcp(
+                factory,
+                s.address,
+                s.tcp_port if s.tcp_port > 0 else 0,
+                max_frame_size=s.max_frame_size,
+                delay_between_messages=s.delay_between_messages,
+            )
+            self.tcp_port = self._tcp.sockets[0].getsockname()[1]
+        log.info("hitrobot-server: ws://%s:%s tcp:%s", s.address, self.port, self.tcp_port)
+
+    async def stop(self) -> None:
+        if self._tcp is not None:
+            self._tcp.close()
+        if self._ws is not None:
+            self._ws.close()
+            with contextlib.suppress(Exception):
+                await asyncio.wait_for(self._ws.wait_closed(), 5)
+        if self._tcp is not None:
+            with contextlib.suppress(Exception):
+                await asyncio.wait_for(self._tcp.wait_closed(), 5)
+        for session in list(self.sessions):
+            session.close()
+        for node in reversed(self.nodes):
+            node.close()
+        self.nodes.clear()

@@ -1,0 +1,86 @@
+"""Per-client bounded send buffer.
+
+rosbridge's classic failure is one slow client growing an unbounded queue until latency is
+minutes (rosbridge #765, #889, #989). Here every client gets ``limit`` bytes; topic data
+beyond that evicts that client's own oldest topic data, and the bus never waits for it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections import deque
+from dataclasses import dataclass
+
+Frame = tuple[bytes, bool]  # (payload, is_binary)
+
+
+@dataclass(slots=True)
+class _Entry:
+    frames: list[Frame]
+    size: int
+    droppable: bool
+
+
+class Outbox:
+    """Queue of outgoing frame groups; a group (e.g. one message's fragments) goes out whole."""
+
+    def __init__(self, limit: int = 10_000_000):
+        self.limit = limit
+        self._queue: deque[_Entry] = deque()
+        self._bytes = 0
+        self._wakeup = asyncio.Event()
+        self.dropped = 0
+        self.closed = False
+
+    @property
+    def buffered(self) -> int:
+        return self._bytes
+
+    def __len__(self) -> int:
+        return len(self._queue)
+
+    def put(self, frames: list[Frame], droppable: bool = False) -> bool:
+        """Queue frames; returns False when topic data was dropped for lack of room.
+
+        Replies (service responses, status, action results) are never dropped: they are
+        small and a lost reply would hang the caller. A message larger than the whole
+        limit is still sent when the buffer is empty, so a big map always gets through.
+        """
+        if self.closed:
+            return False
+        size = sum(len(f[0]) for f in frames)
+        if droppable and self.limit > 0:
+            while self._bytes + size > self.limit and self._drop_oldest():
+                pass
+            if self._bytes + size > self.limit and self._queue:
+                self.dropped += 1
+                return False
+        self._queue.append(_Entry(frames, size, droppable))
+        self._bytes += size
+        self._wakeup.set()
+        return True
+
+    def _drop_oldest(self) -> bool:
+        for i, entry in enumerate(self._queue):
+            if entry.droppable:
+                del self._queue[i]
+                self._bytes -= entry.size
+                self.dropped += 1
+                return True
+        return False
+
+    async def get(self) -> list[Frame] | None:
+        """Next frame group, or None once closed and drained."""
+        while not self._queue:
+            if self.closed:
+                return None
+            self._wakeup.clear()
+            await self._wakeup.wait()
+        entry = self._queue.popleft()
+        self._bytes -= entry.size
+        return entry.frames
+
+    def close(self) -> None:
+        """Stop accepting; what is queued is still delivered, then get() returns None."""
+        self.closed = True
+        self._wakeup.set()

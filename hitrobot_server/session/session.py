@@ -1,0 +1,209 @@
+"""One connected client: parses its ops, keeps its state, and talks to the bus.
+
+The session owns no socket. A transport feeds it frames (``receive``) or decoded objects
+(``handle``) and drains ``outbox``; that is all a transport does.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import logging
+import time
+from collections.abc import Callable, Coroutine
+from typing import Any
+
+import cbor2
+
+from ..bus.core import Bus
+from ..bus.errors import BusError
+from ..config import Settings
+from ..protocol import auth, ops, png
+from ..protocol.errors import ProtocolError
+from ..protocol.fragment import Defragmenter
+from ..protocol.status import LEVELS, should_send
+from ..types import jsoncodec
+from ..types.convert import ConversionError
+from .actions import ActionOps
+from .outbox import Frame, Outbox
+from .publish import PublishOps
+from .services import ServiceOps
+from .subscribe import SubscribeOps
+from .wire import json_frames
+
+log = logging.getLogger(__name__)
+_client_ids = itertools.count(1)
+
+
+class Session:
+    """Per-client protocol state machine (transport-independent)."""
+
+    def __init__(self, bus: Bus, settings: Settings, *, peer: str = "", transport: str = "ws"):
+        self.bus = bus
+        self.settings = settings
+        self.types = bus.types
+        self.peer = peer
+        self.transport = transport
+        self.client_id = next(_client_ids)
+        self.node = f"/hitrobot_client_{self.client_id}"
+        self.outbox = Outbox(settings.send_buffer_limit)
+        self.status_level = settings.status_level
+        self.authenticated = not settings.authenticate
+        self.auth_level: str | None = None
+        self.connected_at = time.time()
+        self.closed = False
+        self._defrag = Defragmenter(
+            fragment_timeout=settings.fragment_timeout, max_bytes=settings.max_frame_size
+        )
+        self._tasks: set[asyncio.Task] = set()
+        self.on_close: list[Callable[[Session], None]] = []
+        self.publishing = PublishOps(self)
+        self.subscriptions = SubscribeOps(self)
+        self.service_ops = ServiceOps(self)
+        self.action_ops = ActionOps(self)
+        self._handlers: dict[str, Callable[[dict], None]] = {
+            "fragment": self._op_fragment,
+            "png": self._op_png,
+            "set_level": self._op_set_level,
+            "auth": self._op_auth,
+            "advertise": self.publishing.advertise,
+            "unadvertise": self.publishing.unadvertise,
+            "publish": self.publishing.publish,
+            "subscribe": self.subscriptions.subscribe,
+            "unsubscribe": self.subscriptions.unsubscribe,
+            "call_service": self.service_ops.call_service,
+            "advertise_service": self.service_ops.advertise_service,
+            "unadvertise_service": self.service_ops.unadvertise_service,
+            "service_response": self.service_ops.service_response,
+            "advertise_action": self.action_ops.advertise_action,
+            "unadvertise_action": self.action_ops.unadvertise_action,
+            "send_action_goal": self.action_ops.send_action_goal,
+            "cancel_action_goal": self.action_ops.cancel_action_goal,
+            "action_feedback": self.action_ops.action_feedback,
+            "action_result": self.action_ops.action_result,
+        }
+        bus.register_node(self.node)
+
+    # ------------------------------------------------------------------ input
+    def receive(self, data: str | bytes, binary: bool = False) -> None:
+        """One WebSocket frame (text JSON, or binary CBOR) or a re-assembled text."""
+        try:
+            obj = cbor2.loads(data) if binary else jsoncodec.loads(data)
+        except Exception as exc:  # orjson.JSONDecodeError, cbor2.CBORDecodeError
+            kind = "CBOR" if binary else "JSON"
+            self.status("error", f"invalid {kind}: {exc}", None)
+            return
+        self.handle(obj)
+
+    def handle(self, obj: object) -> None:
+        """Run one decoded op; every failure becomes a status message, never an exception."""
+        op_id = obj.get("id") if isinstance(obj, dict) else None
+        try:
+            msg = ops.parse_message(obj)
+            op_id = msg.get("id")
+            if not self.authenticated and msg["op"] != "auth":
+                self._reject_unauthenticated(msg)
+                return
+            ops.validate_op(msg)
+            self._handlers[msg["op"]](msg)
+        except ProtocolError as exc:
+            self.status(exc.level, exc.msg, exc.id if exc.id is not None else op_id)
+        except (BusError, ConversionError) as exc:
+            op = obj.get("op") if isinstance(obj, dict) else "?"
+            self.status("error", f"{op}: {exc}", op_id)
+        except Exception as exc:
+            log.exception("client %s: op failed", self.node)
+            self.status("error", f"internal error: {exc}", op_id)
+
+    def _op_fragment(self, msg: dict) -> None:
+        text = self._defrag.add(msg, time.monotonic())
+        if text is not None:
+            self.receive(text)
+
+    def _op_png(self, msg: dict) -> None:
+        try:
+            text = png.decode(msg["data"])
+        except Exception as exc:
+            raise ProtocolError(
+                f"png: field 'data' is not a valid PNG payload: {exc}", msg.get("id")
+            ) from None
+        self.receive(text)
+
+    def _op_set_level(self, msg: dict) -> None:
+        level = msg["level"]
+        if level not in LEVELS:
+            raise ProtocolError(
+                f"set_level: field 'level' must be one of {', '.join(LEVELS)}, got {level!r}",
+                msg.get("id"),
+            )
+        self.status_level = level
+        self.status("info", f"status level set to {level}", msg.get("id"))
+
+    def _op_auth(self, msg: dict) -> None:
+        if not self.settings.authenticate:
+            self.status("info", "auth: authentication is not enabled; ignored", msg.get("id"))
+            return
+        if self.authenticated:
+            self.status("warning", "auth: already authenticated", msg.get("id"))
+            return
+        if auth.verify(msg, self.settings.auth_secret or "", time.time()):
+            self.authenticated = True
+            self.auth_level = msg.get("level")
+            self.status("info", f"authenticated at level {self.auth_level!r}", msg.get("id"))
+        else:
+            self.status("error", "auth: authentication failed; closing", msg.get("id"))
+            self.close_connection()
+
+    def _reject_unauthenticated(self, msg: dict) -> None:
+        self.status("error", f"{msg['op']}: not authenticated; send 'auth' first", msg.get("id"))
+        self.close_connection()
+
+    # ------------------------------------------------------------------ output
+    def send(
+        self, obj: dict, *, fragment_size: int | None = None, compression: str = "none"
+    ) -> None:
+        """Queue a reply op; replies are never dropped by the send buffer."""
+        size = fragment_size or self.settings.max_message_size
+        self.outbox.put(json_frames(obj, size, compression))
+
+    def send_frames(self, frames: list[Frame], droppable: bool) -> None:
+        self.outbox.put(frames, droppable)
+
+    def status(self, level: str, msg: str, op_id: Any = None) -> None:
+        if level == "error":
+            log.info("client %s: %s", self.node, msg)
+        if not should_send(self.status_level, level):
+            return
+        out: dict[str, Any] = {"op": "status", "level": level, "msg": msg}
+        if op_id is not None:
+            out["id"] = op_id
+        self.outbox.put(json_frames(out))
+
+    def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:
+        """Run a coroutine tied to this client; it is cancelled when the client goes."""
+        task = asyncio.ensure_future(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+        return task
+
+    # ------------------------------------------------------------------ lifecycle
+    def close_connection(self) -> None:
+        """Ask the transport to close after flushing what is queued."""
+        self.outbox.close()
+
+    def close(self) -> None:
+        """The connection is gone: release everything this client held on the bus."""
+        if self.closed:
+            return
+        self.closed = True
+        self.outbox.close()
+        self.subscriptions.close()
+        self.service_ops.close()
+        self.action_ops.close()
+        self.publishing.close()
+        for task in list(self._tasks):
+            task.cancel()
+        self.bus.remove_owner(self)
+        self.bus.unregister_node(self.node)
+        for callback in self.on_close:
+            callback(self)

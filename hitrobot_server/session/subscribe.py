@@ -1,0 +1,179 @@
+"""``subscribe`` / ``unsubscribe``: per-client subscriptions with throttle and queue.
+
+A client may subscribe to one topic several times (one per component, each with an id).
+The effective parameters follow the seed: lowest throttle_rate, lowest fragment_size,
+highest queue_length, strongest compression.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections import deque
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from ..bus.topics import Message, Topic
+from ..protocol.errors import ProtocolError
+from .publish import check_topic_name
+from .wire import is_binary, publish_frames, strongest
+
+if TYPE_CHECKING:
+    from .session import Session
+
+
+@dataclass(frozen=True, slots=True)
+class SubParams:
+    throttle_rate: int  # ms
+    queue_length: int
+    fragment_size: int | None
+    compression: str
+
+
+class ClientSubscription:
+    """All subscriptions of one client to one topic spelling; the bus sees one subscriber.
+
+    Keyed by the topic string exactly as the client wrote it, because the outgoing
+    ``publish`` must echo that string (roslibjs dispatches on it).
+    """
+
+    def __init__(self, session: Session, topic_str: str):
+        self.session = session
+        self.topic_str = topic_str
+        self.topic: Topic | None = None
+        self.params: dict[object, SubParams] = {}
+        self.throttle = 0.0
+        self.queue_length = 0
+        self.fragment_size: int | None = None
+        self.compression = "none"
+        self._pending: deque[Message] = deque(maxlen=1)
+        self._last_sent = float("-inf")
+        self._timer: asyncio.TimerHandle | None = None
+
+    def update(self) -> None:
+        ps = list(self.params.values())
+        self.throttle = min(p.throttle_rate for p in ps) / 1000.0
+        self.queue_length = max(p.queue_length for p in ps)
+        sizes = [p.fragment_size for p in ps if p.fragment_size]
+        self.fragment_size = min(sizes) if sizes else self.session.settings.max_message_size
+        self.compression = strongest(p.compression for p in ps)
+        keep = max(self.queue_length, 1)
+        if self._pending.maxlen != keep:
+            self._pending = deque(self._pending, maxlen=keep)
+
+    # The bus calls this synchronously for every message; it must never block.
+    def __call__(self, message: Message) -> None:
+        if self.throttle <= 0:
+            self._send(message)
+            return
+        now = time.monotonic()
+        if not self._pending and now - self._last_sent >= self.throttle:
+            self._send(message)
+            self._last_sent = now
+            return
+        self._pending.append(message)  # a full queue drops its oldest
+        self._arm(now)
+
+    def _arm(self, now: float) -> None:
+        if self._timer is None:
+            delay = max(self._last_sent + self.throttle - now, 0.0)
+            self._timer = asyncio.get_running_loop().call_later(delay, self._flush)
+
+    def _flush(self) -> None:
+        """Throttle slot reached: send the head of the queue (so a burst's last one arrives)."""
+        self._timer = None
+        if self._pending:
+            self._send(self._pending.popleft())
+            self._last_sent = time.monotonic()
+        if self._pending:
+            self._arm(time.monotonic())
+
+    def _send(self, message: Message) -> None:
+        frames = publish_frames(message, self.topic_str, self.compression, self.fragment_size)
+        self.session.send_frames(frames, droppable=True)
+
+    def cancel(self) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+        self._pending.clear()
+
+
+class SubscribeOps:
+    def __init__(self, session: Session):
+        self.session = session
+        self.subs: dict[str, ClientSubscription] = {}
+
+    def subscribe(self, msg: dict) -> None:
+        s = self.session
+        op_id = msg.get("id")
+        topic_str = msg["topic"]
+        name = check_topic_name(s, "subscribe", topic_str, op_id)
+        compression = msg.get("compression") or "none"
+        if is_binary(compression) and s.transport != "ws":
+            s.status(
+                "warning",
+                f"subscribe: compression '{compression}' needs WebSocket binary frames; "
+                "sending JSON on this TCP connection",
+                op_id,
+            )
+            compression = "none"
+        params = SubParams(
+            int(msg.get("throttle_rate") or 0),
+            int(msg.get("queue_length") or 0),
+            msg.get("fragment_size"),
+            compression,
+        )
+        type_name = msg.get("type") or None
+        sub = self.subs.get(topic_str)
+        if sub is None:
+            sub = ClientSubscription(s, topic_str)
+            sub.params[op_id] = params
+            sub.update()
+            try:
+                sub.topic = s.bus.subscribe(name, type_name, (s, topic_str), s.node, sub)
+            except Exception:
+                sub.cancel()
+                raise
+            self.subs[topic_str] = sub
+        else:
+            if type_name is not None:  # same checks as a first subscribe, for a clear error
+                s.bus.subscribe(name, type_name, (s, topic_str), s.node, sub, replay_latched=False)
+            sub.params[op_id] = params
+            sub.update()
+            topic = sub.topic
+            if topic is not None and topic.latched and topic.last is not None:
+                sub(topic.last)  # a second component of this client also wants the latched map
+        s.status("info", f"subscribed to '{name}'", op_id)
+
+    def unsubscribe(self, msg: dict) -> None:
+        s = self.session
+        op_id = msg.get("id")
+        topic_str = msg["topic"]
+        sub = self.subs.get(topic_str)
+        if sub is None:
+            raise ProtocolError(
+                f"unsubscribe: not subscribed to topic '{topic_str}'", op_id, level="warning"
+            )
+        if op_id is not None and op_id in sub.params and len(sub.params) > 1:
+            del sub.params[op_id]
+            sub.update()
+            return
+        if op_id is not None and op_id not in sub.params:
+            raise ProtocolError(
+                f"unsubscribe: no subscription with id {op_id!r} on '{topic_str}'",
+                op_id,
+                level="warning",
+            )
+        self._drop(topic_str)
+        s.status("info", f"unsubscribed from '{topic_str}'", op_id)
+
+    def _drop(self, topic_str: str) -> None:
+        sub = self.subs.pop(topic_str)
+        sub.cancel()
+        if sub.topic is not None:
+            self.session.bus.unsubscribe(sub.topic.name, (self.session, topic_str))
+
+    def close(self) -> None:
+        for topic_str in list(self.subs):
+            self._drop(topic_str)

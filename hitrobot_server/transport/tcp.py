@@ -1,0 +1,65 @@
+"""Raw TCP transport: a byte stream of JSON objects in, one JSON object per line out."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+
+from ..protocol.errors import ProtocolError
+from ..protocol.jsonstream import JsonStreamDecoder
+from .websocket import SessionFactory, pump
+
+log = logging.getLogger(__name__)
+
+
+async def start_tcp(
+    new_session: SessionFactory,
+    host: str,
+    port: int,
+    *,
+    max_frame_size: int,
+    delay_between_messages: float = 0.0,
+) -> asyncio.Server:
+    async def handler(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        peer = writer.get_extra_info("peername")
+        session = new_session(peer[0] if peer else "", "tcp")
+
+        async def send_frame(data: bytes, binary: bool) -> None:
+            writer.write(data + b"\n")
+            await writer.drain()
+
+        out = asyncio.create_task(pump(session, send_frame, delay_between_messages))
+        inp = asyncio.create_task(_read(reader, session, max_frame_size))
+        try:
+            await asyncio.wait({out, inp}, return_when=asyncio.FIRST_COMPLETED)
+            if session.outbox.closed and not out.done():  # the session asked to close: flush
+                await asyncio.wait({out}, timeout=2.0)
+        finally:
+            session.close()
+            inp.cancel()
+            if not out.done():
+                out.cancel()
+            writer.close()
+            with contextlib.suppress(ConnectionError, OSError):
+                await writer.wait_closed()
+
+    return await asyncio.start_server(handler, host, port, reuse_address=True)
+
+
+async def _read(reader: asyncio.StreamReader, session, max_frame_size: int) -> None:
+    decoder = JsonStreamDecoder(max_message_size=max_frame_size)
+    try:
+        while True:
+            data = await reader.read(65536)
+            if not data:
+                return
+            for item in decoder.feed(data):
+                if isinstance(item, ProtocolError):
+                    session.status(item.level, item.msg, item.id)
+                else:
+                    session.handle(item)
+            if session.outbox.closed:
+                return
+    except (ConnectionError, OSError):
+        return

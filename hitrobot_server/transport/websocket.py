@@ -1,0 +1,93 @@
+"""WebSocket transport: frames in → Session.receive; Session.outbox → frames out.
+
+Plain HTTP GETs on the same port are answered by ``http_handler`` (the web UI), as
+decisions.md asks: one port for the page and the bridge.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from collections.abc import Callable
+
+from websockets.asyncio.server import Server, ServerConnection, serve
+from websockets.exceptions import ConnectionClosed
+from websockets.http11 import Request, Response
+
+from ..session.session import Session
+
+log = logging.getLogger(__name__)
+
+SessionFactory = Callable[[str, str], Session]
+HttpHandler = Callable[[ServerConnection, Request], Response | None]
+
+
+async def pump(session: Session, send_frame, delay: float) -> None:
+    """Drain the session's outbox into the connection until it closes."""
+    while True:
+        frames = await session.outbox.get()
+        if frames is None:
+            return
+        for data, binary in frames:
+            await send_frame(data, binary)
+            if delay > 0:
+                await asyncio.sleep(delay)
+
+
+async def start_websocket(
+    new_session: SessionFactory,
+    host: str,
+    port: int,
+    *,
+    max_frame_size: int,
+    delay_between_messages: float = 0.0,
+    compression: bool = False,
+    http_handler: HttpHandler | None = None,
+) -> Server:
+    async def handler(ws: ServerConnection) -> None:
+        peer = ws.remote_address[0] if ws.remote_address else ""
+        session = new_session(peer, "ws")
+
+        async def send_frame(data: bytes, binary: bool) -> None:
+            await ws.send(data, text=not binary)
+
+        writer = asyncio.create_task(pump(session, send_frame, delay_between_messages))
+        reader = asyncio.create_task(_read(ws, session))
+        try:
+            await asyncio.wait({writer, reader}, return_when=asyncio.FIRST_COMPLETED)
+            if session.outbox.closed and not writer.done():  # the session asked to close: flush
+                await asyncio.wait({writer}, timeout=2.0)
+        finally:
+            session.close()
+            reader.cancel()
+            if not writer.done():
+                writer.cancel()
+            await ws.close()
+
+    def process_request(ws: ServerConnection, request: Request) -> Response | None:
+        if request.headers.get("Upgrade", "").lower() == "websocket":
+            return None
+        if http_handler is not None:
+            return http_handler(ws, request)
+        return ws.respond(426, "This is a WebSocket endpoint (hitrobot protocol).\n")
+
+    return await serve(
+        handler,
+        host,
+        port,
+        max_size=max_frame_size,
+        compression="deflate" if compression else None,
+        process_request=process_request,
+        ping_interval=None,
+        max_queue=64,
+    )
+
+
+async def _read(ws: ServerConnection, session: Session) -> None:
+    try:
+        async for frame in ws:
+            session.receive(frame, binary=isinstance(frame, bytes))
+            if session.outbox.closed:
+                return
+    except ConnectionClosed:
+        pass

@@ -1,0 +1,45 @@
+from __future__ import annotations
+
+import pytest
+
+from hitrobot_server.config import Settings
+from hitrobot_server.server import HitrobotServer
+
+from .helpers import ServerProcess, WsClient
+
+
+@pytest.fixture
+async def make_server():
+    """Start real servers on ephemeral loopback ports; stopped after the test."""
+    started: list[HitrobotServer] = []
+
+    async def make(**overrides) -> HitrobotServer:
+        kw = {"port": 0, "tcp_port": -1, "address": "127.0.0.1", "unregister_timeout": 0.2}
+        kw.update(overrides)
+        server = HitrobotServer(Settings(**kw))
+        await server.start()
+        started.append(server)
+        return server
+
+    yield make
+    for server in started:
+        await server.stop()
+
+
+@pytest.fixture
+async def server(make_server):
+    return await make_server()
+
+
+@pytest.fixture
+async def client(server):
+    c = await WsClient.open(server.port)
+    yield c
+    await c.close()
+
+
+@pytest.fixture(scope="module")
+def server_process():
+    proc = ServerProcess()
+    yield proc
+    proc.stop()

@@ -1,0 +1,150 @@
+"""Test clients that speak the protocol over real loopback sockets."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+
+import cbor2
+import orjson
+from websockets.asyncio.client import connect
+
+
+def matches(msg: dict, **fields) -> bool:
+    return all(msg.get(k) == v for k, v in fields.items())
+
+
+class WsClient:
+    """A raw protocol client over a real WebSocket; decodes JSON text and CBOR binary frames."""
+
+    def __init__(self, ws):
+        self.ws = ws
+        self.seen: list[dict] = []
+
+    @classmethod
+    async def open(cls, port: int, **kw) -> WsClient:
+        ws = await connect(f"ws://127.0.0.1:{port}", max_size=None, **kw)
+        return cls(ws)
+
+    async def send(self, obj: dict | str) -> None:
+        await self.ws.send(obj if isinstance(obj, str) else json.dumps(obj))
+
+    async def recv(self, timeout: float = 5.0) -> dict:
+        frame = await asyncio.wait_for(self.ws.recv(), timeout)
+        msg = cbor2.loads(frame) if isinstance(frame, bytes) else orjson.loads(frame)
+        if isinstance(frame, bytes):
+            msg["_binary"] = True
+        self.seen.append(msg)
+        return msg
+
+    async def expect(self, pred: Callable[[dict], bool] | None = None, timeout: float = 5.0,
+                     **fields) -> dict:
+        """The first message satisfying ``pred`` and ``fields``; others are skipped."""
+        deadline = time.monotonic() + timeout
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                recent = [str(m)[:200] for m in self.seen[-5:]]
+                raise AssertionError(f"no message matching {fields} within {timeout}s; "
+                                     f"saw {recent}")
+            try:
+                msg = await self.recv(left)
+            except TimeoutError:
+                continue
+            if matches(msg, **fields) and (pred is None or pred(msg)):
+                return msg
+
+    async def expect_none(self, timeout: float = 0.3, **fields) -> None:
+        deadline = time.monotonic() + timeout
+        while (left := deadline - time.monotonic()) > 0:
+            try:
+                msg = await self.recv(left)
+            except TimeoutError:
+                return
+            assert not matches(msg, **fields), f"unexpected {msg}"
+
+    async def call(self, service: str, args=None, timeout: float = 5.0, **extra) -> dict:
+        op_id = f"call:{service}:{time.monotonic_ns()}"
+        await self.send({"op": "call_service", "id": op_id, "service": service,
+                         "args": args or {}, **extra})
+        return await self.expect(op="service_response", id=op_id, timeout=timeout)
+
+    async def close(self) -> None:
+        await self.ws.close()
+
+
+class TcpClient:
+    """A raw TCP protocol client; reads newline-delimited JSON."""
+
+    def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter):
+        self.reader = reader
+        self.writer = writer
+
+    @classmethod
+    async def open(cls, port: int) -> TcpClient:
+        reader, writer = await asyncio.open_connection("127.0.0.1", port, limit=2**26)
+        return cls(reader, writer)
+
+    async def send_bytes(self, data: bytes) -> None:
+        self.writer.write(data)
+        await self.writer.drain()
+
+    async def send(self, obj: dict) -> None:
+        await self.send_bytes(json.dumps(obj).encode())
+
+    async def recv(self, timeout: float = 5.0) -> dict:
+        line = await asyncio.wait_for(self.reader.readline(), timeout)
+        if not line:
+            raise ConnectionError("closed")
+        return orjson.loads(line)
+
+    async def expect(self, timeout: float = 5.0, **fields) -> dict:
+        deadline = time.monotonic() + timeout
+        while (left := deadline - time.monotonic()) > 0:
+            msg = await self.recv(left)
+            if matches(msg, **fields):
+                return msg
+        raise AssertionError(f"no message matching {fields}")
+
+    async def close(self) -> None:
+        self.writer.close()
+
+
+class ServerProcess:
+    """``hitrobot-server`` run for real as a subprocess on ephemeral loopback ports."""
+
+    def __init__(self, *args: str):
+        env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "hitrobot_server", "--port", "0", "--tcp-port", "-1",
+             "--address", "127.0.0.1", *args],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+        )
+        deadline = time.monotonic() + 30
+        self.output: list[str] = []
+        while time.monotonic() < deadline:
+            line = self.proc.stdout.readline()
+            if not line:
+                break
+            self.output.append(line)
+            m = re.search(r"ws://[\d.]+:(\d+)(?:\s+tcp://[\d.]+:(\d+))?", line)
+            if m:
+                self.port = int(m.group(1))
+                self.tcp_port = int(m.group(2)) if m.group(2) else None
+                return
+        self.stop()
+        raise RuntimeError("server did not start:\n" + "".join(self.output))
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()

@@ -1,0 +1,102 @@
+"""Service calls between clients and to in-process providers."""
+
+from __future__ import annotations
+
+import asyncio
+
+from ..helpers import WsClient
+
+
+async def test_client_provider_round_trip_with_list_and_object_args(server):
+    provider = await WsClient.open(server.port)
+    caller = await WsClient.open(server.port)
+    await provider.send({"op": "advertise_service", "service": "/add", "type": "std_srvs/SetBool"})
+    await asyncio.sleep(0.05)
+    await caller.send({"op": "call_service", "id": "c1", "service": "/add", "args": [True]})
+    req = await provider.expect(op="call_service")
+    assert req["id"] == "service_request:/add:1" and req["args"] == {"data": True}
+    await provider.send({"op": "service_response", "id": req["id"], "service": "/add",
+                         "values": {"success": True, "message": "ok"}, "result": True})
+    reply = await caller.expect(op="service_response", id="c1")
+    assert reply == {"op": "service_response", "service": "/add", "id": "c1",
+                     "values": {"success": True, "message": "ok"}, "result": True}
+    await caller.send({"op": "call_service", "service": "add#legacy", "args": {"data": False}})
+    req = await provider.expect(op="call_service")
+    assert req["id"].endswith(":2") and req["args"] == {"data": False}
+    await provider.send({"op": "service_response", "id": req["id"], "service": "/add",
+                         "values": {"success": False}, "result": True})
+    reply = await caller.expect(op="service_response", id="legacy")
+    assert reply["service"] == "add#legacy" and reply["values"]["message"] == ""
+
+
+async def test_provider_result_false_without_values_fails_caller(server):
+    provider = await WsClient.open(server.port)
+    caller = await WsClient.open(server.port)
+    await provider.send({"op": "advertise_service", "service": "/f", "type": "std_srvs/Trigger"})
+    await asyncio.sleep(0.05)
+    await caller.send({"op": "call_service", "id": "c", "service": "/f"})
+    req = await provider.expect(op="call_service")
+    await provider.send({"op": "service_response", "id": req["id"], "service": "/f",
+                         "result": False})
+    reply = await caller.expect(op="service_response", id="c", timeout=2)
+    assert reply["result"] is False and "/f" in reply["values"]
+
+
+async def test_provider_disconnect_fails_pending_and_removes_service(server):
+    provider = await WsClient.open(server.port)
+    caller = await WsClient.open(server.port)
+    await provider.send({"op": "advertise_service", "service": "/gone", "type": "std_srvs/Empty"})
+    await asyncio.sleep(0.05)
+    await caller.send({"op": "call_service", "id": "p", "service": "/gone"})
+    await provider.expect(op="call_service")
+    await provider.close()
+    reply = await caller.expect(op="service_response", id="p", timeout=3)
+    assert reply["result"] is False and "disconnected" in reply["values"]
+    services = (await caller.call("/rosapi/services"))["values"]["services"]
+    assert "/gone" not in services
+
+
+async def test_unknown_service_answers_and_reports(client):
+    reply = await client.call("/does/not/exist")
+    assert reply["result"] is False and "does not exist" in reply["values"]
+    status = await client.expect(op="status")
+    assert "/does/not/exist" in status["msg"]
+
+
+async def test_call_timeout(server):
+    provider = await WsClient.open(server.port)
+    caller = await WsClient.open(server.port)
+    await provider.send({"op": "advertise_service", "service": "/slow", "type": "std_srvs/Empty"})
+    await asyncio.sleep(0.05)
+    await caller.send({"op": "call_service", "id": "t", "service": "/slow", "timeout": 0.2})
+    reply = await caller.expect(op="service_response", id="t", timeout=3)
+    assert reply["result"] is False and "0.2" in reply["values"]
+
+
+async def test_rosapi_params_and_types(client):
+    assert (await client.call("rosapi/set_param", {"name": "/robot/speed", "value": "0.5"}))[
+        "result"]
+    got = await client.call("/rosapi/get_param", {"name": "/robot/speed"})
+    assert got["values"]["value"] == "0.5"
+    tree = await client.call("/rosapi/get_param", {"name": "/robot"})
+    assert tree["values"]["value"] == '{"speed":0.5}'
+    names = (await client.call("/rosapi/get_param_names"))["values"]["names"]
+    assert "/robot/speed" in names
+    assert (await client.call("/rosapi/has_param", {"name": "/robot/speed"}))["values"]["exists"]
+    await client.call("/rosapi/delete_param", {"name": "/robot/speed"})
+    assert not (await client.call("/rosapi/has_param", {"name": "/robot/speed"}))["values"][
+        "exists"]
+    details = (await client.call("/rosapi/message_details", {"type": "geometry_msgs/PoseStamped"}))
+    defs = details["values"]["typedefs"]
+    assert defs[0]["type"] == "geometry_msgs/PoseStamped"
+    assert defs[0]["fieldnames"] == ["header", "pose"]
+    assert defs[0]["fieldarraylen"] == [-1, -1]
+    t = (await client.call("/rosapi/get_time"))["values"]["time"]
+    assert set(t) == {"secs", "nsecs"}
+    await client.send({"op": "advertise", "topic": "/x", "type": "std_msgs/String"})
+    await asyncio.sleep(0.05)
+    topics = (await client.call("/rosapi/topics"))["values"]
+    assert "/x" in topics["topics"]
+    assert topics["types"][topics["topics"].index("/x")] == "std_msgs/String"
+    assert (await client.call("/rosapi/topic_type", {"topic": "x"}))["values"]["type"] == \
+        "std_msgs/String"
