@@ -36,12 +36,16 @@ _PART_SUFFIXES = {
     "action": ("_Goal", "_Result", "_Feedback"),
 }
 
-Typesdict = dict[str, Any]
+_Typesdict = dict[str, Any]
 
 
 @dataclass(frozen=True, slots=True)
 class Field:
-    """One field of a message type."""
+    """One field of a message type.
+
+    ``type`` is a base type name (``time``/``duration`` included) or a canonical message name;
+    ``array`` is None for a scalar, 0 for a variable-length array, N for a fixed length N.
+    """
 
     name: str
     type: str
@@ -61,6 +65,8 @@ class MsgType:
 
 @dataclass(frozen=True, slots=True)
 class SrvType:
+    """A service: ``pkg/srv/Type`` with its ``_Request``/``_Response`` message types."""
+
     name: str
     request: MsgType
     response: MsgType
@@ -68,6 +74,8 @@ class SrvType:
 
 @dataclass(frozen=True, slots=True)
 class ActionType:
+    """An action: ``pkg/action/Type`` with its ``_Goal``/``_Result``/``_Feedback`` messages."""
+
     name: str
     goal: MsgType
     result: MsgType
@@ -110,7 +118,7 @@ def _split(path: Path, parts: int) -> list[str]:
     return chunks
 
 
-def _load_package(pkg_dir: Path, typs: Typesdict, srvs: set[str], actions: set[str]) -> None:
+def _load_package(pkg_dir: Path, typs: _Typesdict, srvs: set[str], actions: set[str]) -> None:
     pkg = pkg_dir.name
     for path in sorted(pkg_dir.glob("msg/*.msg")):
         typs[f"{pkg}/msg/{path.stem}"] = _parse(path.read_text(encoding="utf-8"), pkg, path.stem)
@@ -142,7 +150,7 @@ def _load_package(pkg_dir: Path, typs: Typesdict, srvs: set[str], actions: set[s
         actions.add(f"{pkg}/action/{name}")
 
 
-def _store_actions(store: Typestore, typs: Typesdict, actions: set[str]) -> None:
+def _store_actions(store: Typestore, typs: _Typesdict, actions: set[str]) -> None:
     """Expose actionlib actions already in the store (``pkg/msg/XAction``) as action types."""
     for name, (_, fields) in store.fielddefs.items():
         if not name.endswith("Action") or "/msg/" not in name:
@@ -189,7 +197,7 @@ class TypeRegistry:
     def __init__(self, extra_dirs: Iterable[Path | str] = ()) -> None:
         """Load rosbags' ROS 1 Noetic types, then ``schema_dirs()`` and ``extra_dirs``."""
         self.typestore: Typestore = get_typestore(Stores.ROS1_NOETIC)
-        typs: Typesdict = {}
+        typs: _Typesdict = {}
         srvs: set[str] = set()
         actions: set[str] = set()
         for root in [*schema_dirs(), *map(Path, extra_dirs)]:

@@ -1,0 +1,45 @@
+"""The command line: documented flags, TOML config, precedence."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from hitrobot_server.cli import build_parser
+from hitrobot_server.config import load
+
+FLAGS = ["--port", "--address", "--tcp-port", "--authenticate", "--auth-secret-file",
+         "--fragment-timeout", "--max-message-size", "--delay-between-messages",
+         "--unregister-timeout", "--topics-glob", "--services-glob", "--params-glob",
+         "--status-level", "--send-buffer-limit", "--log-level", "--config"]
+
+
+def test_help_documents_every_flag():
+    out = subprocess.run([sys.executable, "-m", "hitrobot_server", "--help"],
+                         capture_output=True, text=True, check=True).stdout
+    for flag in FLAGS:
+        assert flag in out
+
+
+def test_defaults_are_rosbridge_like_but_loopback():
+    s = load(build_parser().parse_args([]))
+    assert (s.port, s.address, s.tcp_port, s.status_level) == (9090, "127.0.0.1", 9091, "error")
+    assert s.fragment_timeout == 600 and s.unregister_timeout == 10
+
+
+def test_toml_config_then_flags_override(tmp_path):
+    cfg = tmp_path / "server.toml"
+    cfg.write_text('[server]\nport = 9999\ntopics-glob = "/robot/*"\nstatus_level = "warning"\n')
+    s = load(build_parser().parse_args(["--config", str(cfg), "--port", "7000"]))
+    assert s.port == 7000  # flag beats file
+    assert s.status_level == "warning"
+    assert s.topics_filter.allows("/robot/odom") and not s.topics_filter.allows("/other")
+
+
+def test_unknown_config_key_is_an_error(tmp_path):
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text("[server]\nprot = 1\n")
+    with pytest.raises(ValueError, match="prot"):
+        load(build_parser().parse_args(["--config", str(cfg)]))
