@@ -1,0 +1,131 @@
+"""The in-process bus, without any transport."""
+
+from __future__ import annotations
+
+import asyncio
+
+import pytest
+
+from hitrobot_server.bus.core import Bus
+from hitrobot_server.bus.errors import ActionError, BusError, ServiceError
+from hitrobot_server.bus.params import ParamStore
+from hitrobot_server.bus.services import STATUS_CANCELED, STATUS_SUCCEEDED, GoalOutcome
+from hitrobot_server.types.registry import TypeRegistry
+
+
+@pytest.fixture
+def bus() -> Bus:
+    return Bus(TypeRegistry.default(), unregister_timeout=0)
+
+
+def test_publish_fans_out_one_message_object_to_all(bus):
+    got = []
+    bus.advertise("/a", "std_msgs/String", "pub", "/n")
+    for key in ("s1", "s2", "s3"):
+        bus.subscribe("a", None, key, "/n", got.append)
+    bus.publish("/a", {"data": "x"})
+    assert len(got) == 3 and got[0] is got[1] is got[2]  # same Message: encoded once
+    assert got[0].cached("k", lambda: object()) is got[1].cached("k", lambda: None)
+
+
+def test_latched_replay_and_type_conflict(bus):
+    bus.advertise("/map", "std_msgs/String", "pub", "/n", latch=True)
+    bus.publish("/map", {"data": "m"})
+    got = []
+    bus.subscribe("/map", "std_msgs/msg/String", "late", "/n", got.append)
+    assert got[0].msg == {"data": "m"}
+    with pytest.raises(BusError, match="std_msgs/String.*std_msgs/Int32"):
+        bus.subscribe("/map", "std_msgs/Int32", "x", "/n", got.append)
+    with pytest.raises(BusError, match="unknown"):
+        bus.advertise("/z", "nope_msgs/Nothing", "pub", "/n")
+
+
+def test_failing_subscriber_does_not_starve_others(bus):
+    bus.advertise("/t", "std_msgs/Int32", "pub", "/n")
+    got = []
+
+    def broken(_m):
+        raise RuntimeError("boom")
+
+    bus.subscribe("/t", None, "bad", "/n", broken)
+    bus.subscribe("/t", None, "good", "/n", got.append)
+    bus.publish("/t", {"data": 1})
+    assert len(got) == 1
+
+
+def test_unused_topic_disappears(bus):
+    bus.advertise("/gone", "std_msgs/Int32", "pub", "/n")
+    bus.unadvertise("/gone", "pub")
+    assert bus.topic("/gone") is None
+
+
+async def test_unregister_timeout_keeps_topic_for_a_while():
+    bus = Bus(TypeRegistry.default(), unregister_timeout=0.05)
+    bus.advertise("/linger", "std_msgs/Int32", "pub", "/n")
+    bus.unadvertise("/linger", "pub")
+    assert bus.topic("/linger") is not None
+    bus.advertise("/linger", "std_msgs/Int32", "pub2", "/n")  # re-registered in time
+    await asyncio.sleep(0.1)
+    assert bus.topic("/linger") is not None
+    bus.unadvertise("/linger", "pub2")
+    await asyncio.sleep(0.1)
+    assert bus.topic("/linger") is None
+
+
+async def test_services_call_timeout_and_failures(bus):
+    async def ok(req):
+        return {"success": req["data"], "message": "m"}
+
+    async def slow(req):
+        await asyncio.sleep(1)
+        return {}
+
+    async def broken(req):
+        raise RuntimeError("bug")
+
+    bus.advertise_service("/ok", "std_srvs/SetBool", "p", "/n", ok)
+    bus.advertise_service("/slow", "std_srvs/Empty", "p", "/n", slow)
+    bus.advertise_service("/broken", "std_srvs/Empty", "p", "/n", broken)
+    assert (await bus.call_service("ok", {"data": True}))["success"] is True
+    with pytest.raises(ServiceError, match="within 0.05"):
+        await bus.call_service("/slow", {}, timeout=0.05)
+    with pytest.raises(ServiceError, match="bug"):
+        await bus.call_service("/broken", {})
+    with pytest.raises(ServiceError, match="does not exist"):
+        await bus.call_service("/none", {})
+    bus.remove_owner("p")
+    assert bus.service("/ok") is None
+
+
+async def test_action_goal_feedback_cancel(bus):
+    async def handler(handle):
+        handle.feedback({"distance_to_goal": 1.0, "speed": 0.5})
+        try:
+            await asyncio.wait_for(handle.cancelled.wait(), 0.05)
+            return GoalOutcome(STATUS_CANCELED, {}, True)
+        except TimeoutError:
+            return GoalOutcome(STATUS_SUCCEEDED, {}, True)
+
+    bus.advertise_action("/follow", "nav2_msgs/FollowPath", "p", "/n", handler)
+    feedback = []
+    _h, task = bus.start_goal("/follow", {}, feedback.append)
+    assert (await task).status == STATUS_SUCCEEDED and feedback[0]["speed"] == 0.5
+    handle, task = bus.start_goal("/follow", {})
+    handle.cancel()
+    assert (await task).status == STATUS_CANCELED
+    with pytest.raises(ActionError):
+        bus.start_goal("/nothing", {})
+
+
+def test_param_store_tree_semantics():
+    p = ParamStore()
+    p.set("/robot/speed", 0.5)
+    p.set("robot/name", "r1")
+    assert p.get("/robot") == {"speed": 0.5, "name": "r1"}
+    assert p.names() == ["/robot/name", "/robot/speed"]
+    assert p.search("speed", "/robot/sub") == "/robot/speed"
+    assert p.delete("/robot/speed") and not p.has("/robot/speed")
+    with pytest.raises(KeyError):
+        p.get("/missing")
+    with pytest.raises(ValueError):
+        p.set("/", 3)
