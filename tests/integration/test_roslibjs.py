@@ -1,0 +1,49 @@
+"""The real roslibjs 2.x (from npm, run by Node) against a live hitrobot-server."""
+
+from __future__ import annotations
+
+import asyncio
+import shutil
+from pathlib import Path
+
+import pytest
+
+from hitrobot_server.bus.services import STATUS_SUCCEEDED, GoalOutcome
+from hitrobot_server.nodes.base import Node
+
+JS = Path(__file__).resolve().parents[1] / "js"
+CHECKS = ["pubsub", "png_compression", "cbor_compression", "fragmented_large_message",
+          "service_between_clients", "service_failure", "rosapi_and_params", "ros2_action_goal",
+          "status_errors_reach_client"]
+
+
+@pytest.fixture(scope="module")
+def node_modules() -> Path:
+    if shutil.which("node") is None or not (JS / "node_modules" / "roslib").is_dir():
+        raise RuntimeError("roslibjs is not installed: run `npm ci --prefix tests/js` "
+                           "(.ci/run does this)")
+    return JS
+
+
+async def test_roslibjs_client_suite(make_server, node_modules):
+    server = await make_server(max_message_size=100_000)
+    node = Node(server.bus, "/js_test_node")
+
+    async def count(handle):
+        for left in (2.0, 1.0, 0.0):
+            handle.feedback({"distance_to_goal": left, "speed": 0.5})
+            await asyncio.sleep(0.02)
+        return GoalOutcome(STATUS_SUCCEEDED, {}, True)
+
+    node.action("/js/count", "nav2_msgs/FollowPath", count)
+    proc = await asyncio.create_subprocess_exec(
+        "node", str(node_modules / "roslibjs_client.mjs"), f"ws://127.0.0.1:{server.port}",
+        stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.STDOUT, cwd=node_modules,
+    )
+    out, _ = await asyncio.wait_for(proc.communicate(), 90)
+    lines = out.decode().splitlines()
+    report = {line.split(":")[0].split(" ", 1)[1]: line for line in lines
+              if line.startswith(("ok ", "fail "))}
+    for name in CHECKS:
+        assert report.get(name, "").startswith("ok "), f"{name}: {report.get(name)}\n{out.decode()}"
+    assert proc.returncode == 0
