@@ -82,7 +82,6 @@ from websockets.exceptions import ConnectionClosed, WebSocketException
 from .matcher import PatternError, check_pattern, match
 
 DEFAULT_URL = "ws://127.0.0.1:9090"
-DEFAULT_VECTORS = Path(__file__).resolve().parents[2] / "protocol" / "vectors"
 BUILTIN_VARIABLES = ("ns", "ns_rel")
 EXPECT_MS = 2000
 EXPECT_NONE_MS = 300
@@ -118,6 +117,13 @@ TYPED_ARRAYS: dict[int, tuple[str, str]] = {
     80: (">", "e"), 81: (">", "f"), 82: (">", "d"),
     84: ("<", "e"), 85: ("<", "f"), 86: ("<", "d"),
 }  # fmt: skip
+
+
+def default_vectors() -> Path:
+    """The checkout's ``protocol/vectors``, else the copy an installed wheel ships."""
+    package = Path(__file__).resolve().parents[1]
+    repo = package.parent / "protocol" / "vectors"
+    return repo if repo.is_dir() else package / "_protocol" / "vectors"
 
 
 class VectorError(ValueError):
@@ -731,8 +737,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--vectors",
         type=Path,
-        default=DEFAULT_VECTORS,
-        help="a vector file or a directory of them (default: the repository's protocol/vectors)",
+        default=None,
+        help="a vector file or a directory of them (default: the protocol/vectors shipped with "
+        "hitrobot-server)",
     )
     parser.add_argument(
         "--only",
@@ -758,7 +765,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("--timeout-scale must be between 0.1 and 20", file=sys.stderr)
         return 2
     try:
-        cases = load_cases(args.vectors)
+        cases = load_cases(args.vectors or default_vectors())
     except VectorError as exc:
         print(f"cannot load vectors: {exc}", file=sys.stderr)
         return 2

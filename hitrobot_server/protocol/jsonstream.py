@@ -26,6 +26,7 @@ import re
 
 import orjson
 
+from ..types import jsoncodec
 from .errors import ProtocolError
 
 _NOT_SPACE = re.compile(rb"[^ \t\r\n]")
@@ -154,7 +155,7 @@ class JsonStreamDecoder:
             out.append(self._oversized())
             return
         try:
-            out.append(orjson.loads(self._buf[self._start : end]))
+            out.append(jsoncodec.loads(self._buf[self._start : end]))
         except orjson.JSONDecodeError as exc:
             out.append(ProtocolError(f"invalid JSON: {exc}"))
 

@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import base64
+import json
 import re
 from typing import Any
 
@@ -56,5 +57,20 @@ def dumps_ascii(obj: Any) -> bytes:
 
 
 def loads(data: bytes | bytearray | memoryview | str) -> Any:
-    """Parse JSON text; raises ``orjson.JSONDecodeError`` (a ``ValueError``) when malformed."""
-    return orjson.loads(data)
+    """Parse JSON text; raises ``orjson.JSONDecodeError`` (a ``ValueError``) when malformed.
+
+    Python's ``json.dumps`` (so roslibpy) writes ``NaN``/``Infinity`` literals, which
+    rosbridge accepts but strict JSON and orjson do not; only when orjson refuses is the
+    text re-read by the standard library, so the fast path stays fast.
+    """
+    try:
+        return orjson.loads(data)
+    except orjson.JSONDecodeError as exc:
+        text = bytes(data) if isinstance(data, memoryview | bytearray) else data
+        literals = (b"NaN", b"Infinity") if isinstance(text, bytes) else ("NaN", "Infinity")
+        if not any(lit in text for lit in literals):
+            raise  # no NaN/Infinity literal could be the reason
+        try:
+            return json.loads(text)
+        except ValueError:
+            raise exc from None

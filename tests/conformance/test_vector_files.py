@@ -61,8 +61,11 @@ def test_every_case_runs_on_its_own_namespace():
     for case in load_cases(VECTORS):
         for step in case.steps:
             sent = step.get("send", step.get("send_fragmented"))
-            if isinstance(sent, dict) and sent.get("op") in ("advertise", "advertise_service",
-                                                             "advertise_action"):
+            if isinstance(sent, dict) and sent.get("op") in (
+                "advertise",
+                "advertise_service",
+                "advertise_action",
+            ):
                 name = sent.get("topic", sent.get("service", sent.get("action")))
                 assert name.startswith("${ns"), f"{case.name}: {name}"
 

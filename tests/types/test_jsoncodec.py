@@ -67,3 +67,14 @@ def test_loads_accepts_text_and_bytes() -> None:
     assert loads('{"b":"\\u00e9"}') == {"b": "é"}
     with pytest.raises(ValueError):
         loads(b"{nope")
+
+
+def test_loads_accepts_python_nan_and_infinity_literals():
+    import math
+
+    from hitrobot_server.types import jsoncodec
+
+    value = jsoncodec.loads(b'{"a": NaN, "b": -Infinity, "c": [Infinity]}')
+    assert math.isnan(value["a"]) and value["b"] == -math.inf and value["c"] == [math.inf]
+    with pytest.raises(ValueError):
+        jsoncodec.loads(b'{"a": nope}')
