@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ..bus.names import canonical
+from ..bus.names import canonical, valid_name
 from ..protocol.errors import ProtocolError
 from ..types.convert import from_json
 
@@ -13,14 +13,21 @@ if TYPE_CHECKING:
 
 
 def check_topic_name(session: Session, op: str, topic: str, op_id) -> str:
-    """Canonical name, or a status error naming the field when unusable or glob-denied."""
-    from ..bus.names import valid_name
+    """Canonical name, or a status error naming the field when unusable or glob-denied.
 
+    Accepted spellings are remembered per client: a 1 kHz publisher should not pay for
+    validation and glob matching on every message.
+    """
+    name = session.topic_names.get(topic)
+    if name is not None:
+        return name
     if not valid_name(topic):
         raise ProtocolError(f"{op}: field 'topic' is not a valid topic name: {topic!r}", op_id)
     name = canonical(topic)
     if not session.settings.topics_filter.allows(name):
         raise ProtocolError(f"{op}: topic '{name}' is not allowed by --topics-glob", op_id)
+    if len(session.topic_names) < 4096:  # bounded: a client cycling names cannot grow it
+        session.topic_names[topic] = name
     return name
 
 

@@ -57,6 +57,7 @@ class Session:
         )
         self._tasks: set[asyncio.Task] = set()
         self.on_close: list[Callable[[Session], None]] = []
+        self.topic_names: dict[str, str] = {}  # accepted topic spellings → canonical names
         self.publishing = PublishOps(self)
         self.subscriptions = SubscribeOps(self)
         self.service_ops = ServiceOps(self)

@@ -8,7 +8,7 @@ import logging
 
 from ..protocol.errors import ProtocolError
 from ..protocol.jsonstream import JsonStreamDecoder
-from .websocket import SessionFactory, pump
+from .websocket import DIRECT_WRITE_LIMIT, SessionFactory, pump
 
 log = logging.getLogger(__name__)
 
@@ -28,6 +28,15 @@ async def start_tcp(
         async def send_frame(data: bytes, binary: bool) -> None:
             writer.write(data + b"\n")
             await writer.drain()
+
+        def direct(frames: list) -> bool:
+            if writer.is_closing() or writer.transport.get_write_buffer_size() > DIRECT_WRITE_LIMIT:
+                return False
+            writer.writelines([part for data, _binary in frames for part in (data, b"\n")])
+            return True
+
+        if delay_between_messages <= 0:
+            session.outbox.direct = direct
 
         out = asyncio.create_task(pump(session, send_frame, delay_between_messages))
         inp = asyncio.create_task(_read(reader, session, max_frame_size))

@@ -10,9 +10,10 @@ import asyncio
 import logging
 from collections.abc import Callable
 
-from websockets.asyncio.server import Server, ServerConnection, serve
+from websockets.asyncio.server import Server, ServerConnection, broadcast, serve
 from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request, Response
+from websockets.protocol import State
 
 from ..session.session import Session
 
@@ -22,16 +23,40 @@ SessionFactory = Callable[[str, str], Session]
 HttpHandler = Callable[[ServerConnection, Request], Response | None]
 
 
+# Above this many bytes in a socket's write buffer, frames wait in the outbox instead.
+DIRECT_WRITE_LIMIT = 256 * 1024
+
+
 async def pump(session: Session, send_frame, delay: float) -> None:
     """Drain the session's outbox into the connection until it closes."""
+    outbox = session.outbox
     while True:
-        frames = await session.outbox.get()
+        frames = await outbox.get()
         if frames is None:
             return
         for data, binary in frames:
             await send_frame(data, binary)
             if delay > 0:
                 await asyncio.sleep(delay)
+        outbox.sent()
+
+
+def direct_writer(ws: ServerConnection):
+    """Synchronous write while the socket keeps up (``broadcast`` to one connection)."""
+
+    def write(frames: list) -> bool:
+        transport = ws.transport
+        if (
+            ws.protocol.state is not State.OPEN
+            or transport is None
+            or transport.get_write_buffer_size() > DIRECT_WRITE_LIMIT
+        ):
+            return False
+        for data, binary in frames:
+            broadcast((ws,), data, text=not binary)
+        return True
+
+    return write
 
 
 async def start_websocket(
@@ -47,6 +72,8 @@ async def start_websocket(
     async def handler(ws: ServerConnection) -> None:
         peer = ws.remote_address[0] if ws.remote_address else ""
         session = new_session(peer, "ws")
+        if delay_between_messages <= 0:
+            session.outbox.direct = direct_writer(ws)
 
         async def send_frame(data: bytes, binary: bool) -> None:
             await ws.send(data, text=not binary)

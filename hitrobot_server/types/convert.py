@@ -15,6 +15,8 @@ Rules (rosbridge's ROS 1 conventions plus the choices below):
 * ``time``/``duration`` take ``{secs,nsecs}``, ``{sec,nanosec}``, ``{sec,nsec}``, a number of
   seconds, or (``time`` only) the string ``"now"``.
 * Omitted fields get defaults and their paths are reported so the caller can warn.
+* Integer arrays of ``BIG_ARRAY`` or more elements (other than uint64) become numpy arrays of
+  the field's width; smaller arrays stay lists. Encoders accept both.
 * Header auto-fill, applied to every ``std_msgs/Header`` value at any depth: an omitted ``stamp``
   becomes now, an omitted header becomes ``{seq: 0, stamp: now, frame_id: ""}``. Neither is
   reported as missing, nor is an omitted ``seq`` (publishers number messages themselves).
@@ -31,6 +33,8 @@ import math
 import time
 from collections.abc import Callable
 from typing import Any
+
+import numpy as np
 
 from hitrobot_server.types.registry import HEADER, Field, MsgType, TypeRegistry
 
@@ -240,16 +244,29 @@ def _float_array(length: int) -> Conv:
     return conv
 
 
+# Integer arrays at least this long (maps, images as int8) are checked and stored with numpy:
+# half the time of Python's min/max, and 1 byte per int8 cell instead of a 32-byte list slot.
+BIG_ARRAY = 4096
+_NUMPY_INTS = {
+    "int8": np.int8, "byte": np.int8, "int16": np.int16, "uint16": np.uint16,
+    "int32": np.int32, "uint32": np.uint32, "int64": np.int64,
+}
+
+
 def _int_array(typ: str, length: int) -> Conv:
     lo, hi = _INT_RANGES[typ]
     elem = _int_conv(typ)
+    dtype = _NUMPY_INTS.get(typ)
 
-    def conv(value: Any, path: str, ctx: _Ctx) -> list[int]:
+    def conv(value: Any, path: str, ctx: _Ctx) -> list[int] | np.ndarray:
         _check_array(value, path, length)
-        if set(map(type, value)) <= _ONLY_INT and (
-            not value or (lo <= min(value) and max(value) <= hi)
-        ):
-            return list(value)
+        if set(map(type, value)) <= _ONLY_INT:
+            if dtype is not None and len(value) >= BIG_ARRAY:
+                wide = np.fromiter(value, dtype=np.int64, count=len(value))
+                if lo <= wide.min() and wide.max() <= hi:
+                    return wide.astype(dtype)
+            elif not value or (lo <= min(value) and max(value) <= hi):
+                return list(value)
         return _each(elem, value, path, ctx)
 
     return conv

@@ -442,3 +442,22 @@ def test_empty_service_request(reg: TypeRegistry) -> None:
     assert msg == {} and missing == []
     msg, missing = from_json(reg.srv("std_srvs/SetBool").request, {"data": True}, reg)
     assert msg == {"data": True} and missing == []
+
+
+def test_big_integer_arrays_become_compact_numpy_arrays():
+    import numpy as np
+
+    from hitrobot_server.types import jsoncodec
+    from hitrobot_server.types.convert import BIG_ARRAY, from_json
+    from hitrobot_server.types.registry import TypeRegistry
+
+    reg = TypeRegistry.default()
+    grid = reg.msg("nav_msgs/OccupancyGrid")
+    data = [(-1, 0, 100)[i % 3] for i in range(BIG_ARRAY + 5)]
+    value, _ = from_json(grid, {"data": data}, reg)
+    assert isinstance(value["data"], np.ndarray) and value["data"].dtype == np.int8
+    assert jsoncodec.loads(jsoncodec.dumps(value))["data"] == data  # same JSON as a list
+    with pytest.raises(ConversionError, match=rf"data\[{BIG_ARRAY + 4}\].*out of range"):
+        from_json(grid, {"data": data[:-1] + [128]}, reg)
+    small, _ = from_json(grid, {"data": data[:10]}, reg)
+    assert small["data"] == data[:10]
