@@ -26,7 +26,7 @@ from .services import (
     Service,
     ServiceHandler,
 )
-from .topics import Message, Subscriber, Topic
+from .topics import Message, Reply, Subscriber, Topic
 
 log = logging.getLogger(__name__)
 
@@ -88,12 +88,17 @@ class Bus:
         if topic is not None and topic.publishers.pop(owner, None) is not None:
             self._maybe_expire(topic)
 
-    def publish(self, name: str, msg: dict, stamp: float | None = None) -> Message:
-        """Fan ``msg`` (canonical dict) out to every subscriber of an existing topic."""
-        topic = self.topics.get(canonical(name))
+    def publish(
+        self, name: str, msg: dict, stamp: float | None = None, reply: Reply | None = None
+    ) -> Message:
+        """Fan ``msg`` (canonical dict) out to every subscriber of an existing topic.
+
+        ``reply`` reaches the publisher when a subscriber refuses the message.
+        """
+        topic = self.topics.get(name) or self.topics.get(canonical(name))
         if topic is None:
             raise BusError(f"topic '{canonical(name)}' does not exist")
-        message = Message(topic, msg, self.clock() if stamp is None else stamp)
+        message = Message(topic, msg, self.clock() if stamp is None else stamp, reply)
         topic.fan_out(message)
         return message
 

@@ -22,14 +22,24 @@ class Message:
     not fifty times — the main cost rosbridge pays per client (rosbridge #332, #559).
     """
 
-    __slots__ = ("topic", "msg", "stamp", "seq", "cache")
+    __slots__ = ("topic", "msg", "stamp", "seq", "cache", "reply")
 
-    def __init__(self, topic: Topic, msg: dict, stamp: float):
+    def __init__(self, topic: Topic, msg: dict, stamp: float, reply: Reply | None = None):
         self.topic = topic
         self.msg = msg
         self.stamp = stamp
         self.seq = next(_seq)
         self.cache: dict[Hashable, Any] = {}
+        self.reply = reply
+
+    def reject(self, text: str, level: str = "error") -> None:
+        """Tell the publisher (if it is a client) that its message was refused, and why.
+
+        Robot nodes validate requests published on topics, sometimes only after awaiting the
+        robot; this is how the error still reaches the client that sent it.
+        """
+        if self.reply is not None:
+            self.reply(level, text)
 
     def cached(self, key: Hashable, make: Callable[[], Any]) -> Any:
         try:
@@ -40,6 +50,11 @@ class Message:
 
 
 Subscriber = Callable[[Message], None]
+Reply = Callable[[str, str], None]  # (level, text) → a status message to the publisher
+
+
+class RequestRejected(Exception):
+    """Raised by a subscriber callback to refuse a message; the text goes to its publisher."""
 
 
 class Topic:
@@ -81,5 +96,7 @@ class Topic:
         for key, (_node, callback) in list(self.subscribers.items()):
             try:
                 callback(message)
+            except RequestRejected as exc:
+                message.reject(str(exc))
             except Exception:
                 log.exception("subscriber %r of %s failed", key, self.name)

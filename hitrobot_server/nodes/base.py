@@ -24,9 +24,11 @@ class Node:
     def publish(self, topic: str, msg: dict) -> Message:
         return self.bus.publish(topic, msg)
 
-    def subscribe(self, topic: str, type_name: str, callback: Callable[[dict], None]) -> None:
+    def subscribe(self, topic: str, type_name: str, callback: Callable[[Message], None]) -> None:
+        """``callback`` gets the Message: ``.msg`` is the data; raising RequestRejected or
+        calling ``.reject(text)`` later sends the publishing client a status error."""
         key = (self, topic)
-        self.bus.subscribe(topic, type_name, key, self.name, lambda m: callback(m.msg))
+        self.bus.subscribe(topic, type_name, key, self.name, callback)
         self._subs.append((topic, key))
 
     def service(self, name: str, type_name: str, handler: ServiceHandler) -> None:

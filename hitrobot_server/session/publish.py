@@ -85,7 +85,11 @@ class PublishOps:
                 f"publish: message for '{name}' lacks field(s) {', '.join(missing)}; defaults used",
                 op_id,
             )
-        s.bus.publish(name, value)
+
+        def reply(level: str, text: str) -> None:
+            s.status(level, f"publish to '{name}': {text}", op_id)
+
+        s.bus.publish(name, value, reply=reply)
 
     def close(self) -> None:
         for name in list(self.ads):

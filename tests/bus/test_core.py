@@ -129,3 +129,22 @@ def test_param_store_tree_semantics():
         p.get("/missing")
     with pytest.raises(ValueError):
         p.set("/", 3)
+
+
+def test_subscriber_can_reject_a_message_back_to_its_publisher(bus):
+    from hitrobot_server.bus.topics import RequestRejected
+
+    bus.advertise("/cmd", "std_msgs/String", "pub", "/n")
+
+    def picky(message):
+        if message.msg["data"] == "bad":
+            raise RequestRejected("field 'data' must not be 'bad'")
+
+    later = []
+    bus.subscribe("/cmd", None, "picky", "/node", picky)
+    bus.subscribe("/cmd", None, "async", "/node", later.append)
+    replies = []
+    bus.publish("/cmd", {"data": "bad"}, reply=lambda level, text: replies.append((level, text)))
+    bus.publish("/cmd", {"data": "good"}, reply=lambda level, text: replies.append((level, text)))
+    later[1].reject("found out later")  # e.g. after awaiting the robot
+    assert replies == [("error", "field 'data' must not be 'bad'"), ("error", "found out later")]
