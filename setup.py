@@ -13,7 +13,7 @@ setup(
     packages=find_packages(include=["hitrobot_server", "hitrobot_server.*"]) + list(DATA),
     package_dir={"": ".", **DATA},
     package_data={
-        "hitrobot_server": ["py.typed"],
+        "hitrobot_server": ["py.typed", "robot/worlds/*.yaml", "robot/worlds/*.pgm"],
         "hitrobot_server._schemas": ["*/*/*.msg", "*/*/*.srv", "*/*/*.action"],
         "hitrobot_server._protocol": ["*.md", "schemas/*.json", "vectors/*.json"],
     },

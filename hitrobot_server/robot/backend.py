@@ -1,0 +1,274 @@
+"""The robot backend boundary: everything the Slamware node asks of a robot.
+
+The node never talks to a robot directly; it awaits these methods. Two implementations are meant
+to exist: :class:`~hitrobot_server.robot.sim.backend.SimBackend` (the built-in simulator) and a
+Slamware REST client. The interface is therefore shaped after the REST API (actions with
+status/result/reason polled by id, lines by usage, bare getters and setters), so a REST client
+maps each method to one or two HTTP calls, while the simulator answers from memory.
+
+Conventions: poses are in the robot's map frame; failures raise :class:`BackendError`;
+``NotConnectedError`` means the robot is unreachable (the node should drop the request and
+retry later, as ``slamware_ros_sdk_server_node`` does).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+
+from .model import (
+    ActionDirection,
+    ActionInfo,
+    ArtifactUsage,
+    BasicSensorInfo,
+    BasicSensorValue,
+    DeviceInfo,
+    HealthInfo,
+    LaserScan,
+    Line,
+    LocalizationMovement,
+    MapKind,
+    MapRegion,
+    MoveOptions,
+    Odometry,
+    Point2D,
+    Pose2D,
+    PowerStatus,
+    Rect,
+)
+
+ACTION_PREFIX = "slamtec.agent.actions."
+"""Action names carry the REST prefix so clients written against Slamware can match on them."""
+
+
+class BackendError(Exception):
+    """A request the robot refused or could not carry out."""
+
+
+class NotConnectedError(BackendError):
+    """The robot is not reachable (not started, or the connection dropped)."""
+
+
+class UnsupportedError(BackendError):
+    """The robot does not offer this feature (e.g. a map kind other than the explore map)."""
+
+
+class RobotBackend(ABC):
+    """Async interface to one robot. Methods are cheap to await and never block the loop."""
+
+    @property
+    @abstractmethod
+    def connected(self) -> bool:
+        """Whether the robot is reachable right now."""
+
+    @abstractmethod
+    async def start(self) -> None:
+        """Connect (or start simulating); idempotent."""
+
+    @abstractmethod
+    async def stop(self) -> None:
+        """Disconnect (or stop simulating); idempotent."""
+
+    # --- state -------------------------------------------------------------------------------
+
+    @abstractmethod
+    async def get_pose(self) -> Pose2D:
+        """The localized robot pose (what the robot believes, not ground truth)."""
+
+    @abstractmethod
+    async def get_odometry(self) -> Odometry:
+        """Pose plus body-frame velocity."""
+
+    @abstractmethod
+    async def get_laser_scan(self) -> LaserScan:
+        """The latest lidar frame with the pose it was taken from."""
+
+    @abstractmethod
+    async def get_known_area(self, kind: MapKind = MapKind.EXPLORERMAP) -> Rect:
+        """Bounding box of the mapped area; empty when nothing is mapped."""
+
+    @abstractmethod
+    async def get_map(
+        self, area: Rect | None = None, kind: MapKind = MapKind.EXPLORERMAP
+    ) -> MapRegion:
+        """The map cells covering ``area`` (the known area when ``None``), cell-aligned."""
+
+    @abstractmethod
+    async def clear_map(self, kind: MapKind = MapKind.EXPLORERMAP) -> None:
+        """Forget the map."""
+
+    @abstractmethod
+    async def get_map_update(self, kind: MapKind = MapKind.EXPLORERMAP) -> bool:
+        """Whether scans are written into the map (mapping mode)."""
+
+    @abstractmethod
+    async def set_map_update(self, enabled: bool, kind: MapKind = MapKind.EXPLORERMAP) -> None:
+        """Switch mapping on or off; off freezes the map."""
+
+    @abstractmethod
+    async def get_localization_enabled(self) -> bool:
+        """Whether the robot localizes against its map (off = pure odometry)."""
+
+    @abstractmethod
+    async def set_localization_enabled(self, enabled: bool) -> None:
+        """Switch localization on or off."""
+
+    @abstractmethod
+    async def get_localization_quality(self) -> int:
+        """Localization quality 0-100; 0 while localization is disabled."""
+
+    @abstractmethod
+    async def set_pose(self, pose: Pose2D) -> None:
+        """Force the robot's believed pose."""
+
+    @abstractmethod
+    async def recover_localization(
+        self,
+        area: Rect | None = None,
+        max_time_ms: int | None = None,
+        movement: LocalizationMovement | None = None,
+    ) -> ActionInfo:
+        """Start a relocalization action searching ``area`` (whole map when ``None``/empty)."""
+
+    @abstractmethod
+    async def get_power_status(self) -> PowerStatus:
+        """Battery, charging and dock state."""
+
+    @abstractmethod
+    async def get_board_temperature(self) -> int:
+        """Main board temperature in degrees Celsius."""
+
+    @abstractmethod
+    async def get_sensors_info(self) -> list[BasicSensorInfo]:
+        """The bumpers, cliff sensors and sonars the robot has."""
+
+    @abstractmethod
+    async def get_sensor_values(self) -> dict[int, BasicSensorValue]:
+        """Current readings keyed by sensor id. ``is_in_impact`` follows slamware_ros_sdk: a
+        digital sensor is in impact when triggered; a sonar always reports in impact."""
+
+    @abstractmethod
+    async def get_device_info(self) -> DeviceInfo:
+        """Identity and version strings."""
+
+    @abstractmethod
+    async def get_health(self) -> HealthInfo:
+        """Active warnings and errors."""
+
+    @abstractmethod
+    async def clear_health_error(self, error_code: int) -> bool:
+        """Acknowledge an error by its ``error_code``; False if it was not active."""
+
+    # --- motion ------------------------------------------------------------------------------
+
+    @abstractmethod
+    async def move_to(
+        self,
+        targets: Sequence[Point2D],
+        options: MoveOptions | None = None,
+        yaw: float = 0.0,
+    ) -> ActionInfo:
+        """Navigate through ``targets`` in order. ``yaw`` is the final heading and only counts
+        with ``WITH_YAW``; ``APPENDING`` adds the targets to a running move instead of
+        replacing it."""
+
+    @abstractmethod
+    async def move_by_direction(
+        self,
+        direction: ActionDirection,
+        options: MoveOptions | None = None,
+        duration: float = 0.5,
+    ) -> ActionInfo:
+        """Drive or turn for ``duration`` seconds without obstacle avoidance (re-send to keep
+        moving, as with the REST ``MoveByAction``)."""
+
+    @abstractmethod
+    async def move_by_theta(
+        self, theta: float, options: MoveOptions | None = None, duration: float = 0.5
+    ) -> ActionInfo:
+        """Like :meth:`move_by_direction`, heading ``theta`` radians off the robot's nose."""
+
+    @abstractmethod
+    async def rotate_to(self, yaw: float, options: MoveOptions | None = None) -> ActionInfo:
+        """Turn in place to the absolute heading ``yaw``."""
+
+    @abstractmethod
+    async def rotate(self, angle: float, options: MoveOptions | None = None) -> ActionInfo:
+        """Turn in place by ``angle`` radians (positive = counter-clockwise)."""
+
+    @abstractmethod
+    async def go_home(self, options: MoveOptions | None = None) -> ActionInfo:
+        """Return to the home dock and dock for charging."""
+
+    @abstractmethod
+    async def cancel_action(self) -> ActionInfo | None:
+        """Cancel the current action; its final state, or ``None`` when idle."""
+
+    @abstractmethod
+    async def get_current_action(self) -> ActionInfo | None:
+        """The unfinished current action, or ``None`` when idle (REST 404)."""
+
+    @abstractmethod
+    async def get_action(self, action_id: int) -> ActionInfo | None:
+        """A recent action by id (the last 20 are kept), or ``None``."""
+
+    @abstractmethod
+    async def get_remaining_path(self) -> list[Point2D]:
+        """The planned path still ahead of the robot; empty when idle."""
+
+    @abstractmethod
+    async def get_remaining_milestones(self) -> list[Point2D]:
+        """The targets of the current move still to reach."""
+
+    @abstractmethod
+    async def set_velocity(self, linear: float, angular: float) -> None:
+        """Drive at ``linear`` m/s and ``angular`` rad/s (``/cmd_vel``). The command holds until
+        the next one or until the backend's dead-man timeout lapses, then the robot stops. It
+        replaces any running action."""
+
+    # --- artifacts ---------------------------------------------------------------------------
+
+    @abstractmethod
+    async def get_lines(self, usage: ArtifactUsage) -> list[Line]:
+        """All virtual walls or all virtual tracks."""
+
+    @abstractmethod
+    async def add_lines(self, usage: ArtifactUsage, lines: Sequence[Line]) -> list[Line]:
+        """Store lines and return them with the ids they were stored under (a non-zero unused
+        id is kept; otherwise the robot assigns one)."""
+
+    @abstractmethod
+    async def remove_line(self, usage: ArtifactUsage, line_id: int) -> bool:
+        """Delete one line; False if no such id."""
+
+    @abstractmethod
+    async def clear_lines(self, usage: ArtifactUsage) -> None:
+        """Delete every line of ``usage``."""
+
+    @abstractmethod
+    async def move_lines(self, usage: ArtifactUsage, lines: Sequence[Line]) -> bool:
+        """Replace the geometry of existing lines by id; False if any id is unknown (the known
+        ones are still moved)."""
+
+    @abstractmethod
+    async def set_blocked_areas(self, areas: Sequence[Rect]) -> None:
+        """Areas the planner must keep out of (the map manager's blocked masks; a REST client
+        maps them to forbidden rectangle areas)."""
+
+    @abstractmethod
+    async def get_home_pose(self) -> Pose2D | None:
+        """Pose of the home dock, or ``None`` when the map has no dock (REST 404)."""
+
+    @abstractmethod
+    async def set_home_pose(self, pose: Pose2D) -> None:
+        """Declare where the home dock is."""
+
+    @abstractmethod
+    async def get_composite_map(self) -> bytes:
+        """The robot's whole map as bytes (``sync_get_stcm``). A real robot returns its own
+        format; the simulator returns :mod:`hitrobot_server.robot.composite_map` bytes."""
+
+    @abstractmethod
+    async def set_composite_map(self, data: bytes, pose: Pose2D) -> None:
+        """Replace map, lines and home with ``data`` and set the robot's pose
+        (``sync_set_stcm``)."""

@@ -1,0 +1,269 @@
+"""``SimBackend``: the simulator behind the async :class:`RobotBackend` interface.
+
+A background task steps the :class:`Simulator` at a fixed rate, paced against the event loop's
+clock (``time_scale`` > 1 runs faster than real time). Every request is answered synchronously
+from simulator state, so awaiting a method never waits on the stepping task. Work inside one
+step is bounded (planning and relocalization run in slices), typically a few milliseconds; the
+slowest step seen is kept in :attr:`SimBackend.max_step_seconds` for diagnostics.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+from collections.abc import Callable, Sequence
+from typing import TypeVar
+
+from ..backend import BackendError, NotConnectedError, RobotBackend, UnsupportedError
+from ..model import (
+    ActionDirection,
+    ActionInfo,
+    ArtifactUsage,
+    BasicSensorInfo,
+    BasicSensorValue,
+    DeviceInfo,
+    HealthInfo,
+    LaserScan,
+    Line,
+    LocalizationMovement,
+    MapKind,
+    MapRegion,
+    MoveOptions,
+    Odometry,
+    Point2D,
+    Pose2D,
+    PowerStatus,
+    Rect,
+)
+from .simulator import Simulator
+
+log = logging.getLogger(__name__)
+
+T = TypeVar("T")
+
+SLOW_STEP = 0.05
+"""A step slower than this (s) is logged: it delays every other task on the loop."""
+MAX_CATCH_UP = 5
+"""Steps run back to back at most when the loop fell behind; older backlog is dropped."""
+
+
+class SimBackend(RobotBackend):
+    """Runs a :class:`Simulator` on the event loop."""
+
+    def __init__(self, simulator: Simulator, rate_hz: float = 20.0, time_scale: float = 1.0):
+        if rate_hz <= 0.0 or time_scale <= 0.0:
+            raise ValueError("rate_hz and time_scale must be positive")
+        self.simulator = simulator
+        self._period = 1.0 / rate_hz
+        self._time_scale = time_scale
+        self._task: asyncio.Task[None] | None = None
+        self.max_step_seconds = 0.0
+
+    @property
+    def connected(self) -> bool:
+        return self._task is not None and not self._task.done()
+
+    async def start(self) -> None:
+        if not self.connected:
+            self._task = asyncio.get_running_loop().create_task(self._run(), name="sim-stepper")
+
+    async def stop(self) -> None:
+        task, self._task = self._task, None
+        if task is not None:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+
+    async def _run(self) -> None:
+        loop = asyncio.get_running_loop()
+        due = loop.time()
+        while True:
+            behind = 0
+            while loop.time() >= due and behind < MAX_CATCH_UP:
+                try:
+                    self._step()
+                except Exception:
+                    log.exception("simulator step failed; the simulated robot is now offline")
+                    raise
+                due += self._period
+                behind += 1
+            now = loop.time()
+            if now >= due:
+                due = now + self._period
+            await asyncio.sleep(due - now if due > now else 0.0)
+
+    def _step(self) -> None:
+        started = time.perf_counter()
+        self.simulator.step(self._period * self._time_scale)
+        spent = time.perf_counter() - started
+        if spent > self.max_step_seconds:
+            self.max_step_seconds = spent
+        if spent > SLOW_STEP:
+            log.warning("simulator step took %.1f ms", spent * 1000.0)
+
+    def _call(self, fn: Callable[..., T], *args: object) -> T:
+        """Run a simulator call as a backend request: refuse when stopped, translate errors."""
+        if not self.connected:
+            raise NotConnectedError("simulator is not running")
+        try:
+            return fn(*args)
+        except ValueError as exc:
+            raise BackendError(str(exc)) from exc
+
+    def _map_call(self, kind: MapKind, fn: Callable[..., T], *args: object) -> T:
+        if kind != MapKind.EXPLORERMAP:
+            raise UnsupportedError(f"the simulator only has an explore map, not {kind!r}")
+        return self._call(fn, *args)
+
+    # --- state -------------------------------------------------------------------------------
+
+    async def get_pose(self) -> Pose2D:
+        return self._call(lambda: self.simulator.pose)
+
+    async def get_odometry(self) -> Odometry:
+        return self._call(self.simulator.odometry)
+
+    async def get_laser_scan(self) -> LaserScan:
+        return self._call(lambda: self.simulator.latest_scan)
+
+    async def get_known_area(self, kind: MapKind = MapKind.EXPLORERMAP) -> Rect:
+        return self._map_call(kind, self.simulator.known_area)
+
+    async def get_map(
+        self, area: Rect | None = None, kind: MapKind = MapKind.EXPLORERMAP
+    ) -> MapRegion:
+        return self._map_call(kind, self.simulator.map_region, area)
+
+    async def clear_map(self, kind: MapKind = MapKind.EXPLORERMAP) -> None:
+        self._map_call(kind, self.simulator.clear_map)
+
+    async def get_map_update(self, kind: MapKind = MapKind.EXPLORERMAP) -> bool:
+        return self._map_call(kind, lambda: self.simulator.map_update)
+
+    async def set_map_update(self, enabled: bool, kind: MapKind = MapKind.EXPLORERMAP) -> None:
+        self._map_call(kind, setattr, self.simulator, "map_update", enabled)
+
+    async def get_localization_enabled(self) -> bool:
+        return self._call(lambda: self.simulator.localization_enabled)
+
+    async def set_localization_enabled(self, enabled: bool) -> None:
+        self._call(setattr, self.simulator, "localization_enabled", enabled)
+
+    async def get_localization_quality(self) -> int:
+        return self._call(lambda: self.simulator.localization_quality)
+
+    async def set_pose(self, pose: Pose2D) -> None:
+        self._call(self.simulator.set_pose, pose)
+
+    async def recover_localization(
+        self,
+        area: Rect | None = None,
+        max_time_ms: int | None = None,
+        movement: LocalizationMovement | None = None,
+    ) -> ActionInfo:
+        return self._call(self.simulator.recover_localization, area, max_time_ms, movement)
+
+    async def get_power_status(self) -> PowerStatus:
+        return self._call(self.simulator.power_status)
+
+    async def get_board_temperature(self) -> int:
+        return self._call(self.simulator.board_temperature)
+
+    async def get_sensors_info(self) -> list[BasicSensorInfo]:
+        return self._call(self.simulator.sensors_info)
+
+    async def get_sensor_values(self) -> dict[int, BasicSensorValue]:
+        return self._call(self.simulator.sensor_values)
+
+    async def get_device_info(self) -> DeviceInfo:
+        return self._call(self.simulator.device_info)
+
+    async def get_health(self) -> HealthInfo:
+        return self._call(self.simulator.health)
+
+    async def clear_health_error(self, error_code: int) -> bool:
+        return self._call(self.simulator.clear_health_error, error_code)
+
+    # --- motion ------------------------------------------------------------------------------
+
+    async def move_to(
+        self,
+        targets: Sequence[Point2D],
+        options: MoveOptions | None = None,
+        yaw: float = 0.0,
+    ) -> ActionInfo:
+        return self._call(self.simulator.move_to, targets, options, yaw)
+
+    async def move_by_direction(
+        self,
+        direction: ActionDirection,
+        options: MoveOptions | None = None,
+        duration: float = 0.5,
+    ) -> ActionInfo:
+        return self._call(self.simulator.move_by_direction, direction, options, duration)
+
+    async def move_by_theta(
+        self, theta: float, options: MoveOptions | None = None, duration: float = 0.5
+    ) -> ActionInfo:
+        return self._call(self.simulator.move_by_theta, theta, options, duration)
+
+    async def rotate_to(self, yaw: float, options: MoveOptions | None = None) -> ActionInfo:
+        return self._call(self.simulator.rotate_to, yaw, options)
+
+    async def rotate(self, angle: float, options: MoveOptions | None = None) -> ActionInfo:
+        return self._call(self.simulator.rotate, angle, options)
+
+    async def go_home(self, options: MoveOptions | None = None) -> ActionInfo:
+        return self._call(self.simulator.go_home, options)
+
+    async def cancel_action(self) -> ActionInfo | None:
+        return self._call(self.simulator.cancel_action)
+
+    async def get_current_action(self) -> ActionInfo | None:
+        return self._call(self.simulator.current_action)
+
+    async def get_action(self, action_id: int) -> ActionInfo | None:
+        return self._call(self.simulator.action, action_id)
+
+    async def get_remaining_path(self) -> list[Point2D]:
+        return self._call(self.simulator.remaining_path)
+
+    async def get_remaining_milestones(self) -> list[Point2D]:
+        return self._call(self.simulator.remaining_milestones)
+
+    async def set_velocity(self, linear: float, angular: float) -> None:
+        self._call(self.simulator.set_velocity, linear, angular)
+
+    # --- artifacts ---------------------------------------------------------------------------
+
+    async def get_lines(self, usage: ArtifactUsage) -> list[Line]:
+        return self._call(self.simulator.get_lines, usage)
+
+    async def add_lines(self, usage: ArtifactUsage, lines: Sequence[Line]) -> list[Line]:
+        return self._call(self.simulator.add_lines, usage, lines)
+
+    async def remove_line(self, usage: ArtifactUsage, line_id: int) -> bool:
+        return self._call(self.simulator.remove_line, usage, line_id)
+
+    async def clear_lines(self, usage: ArtifactUsage) -> None:
+        self._call(self.simulator.clear_lines, usage)
+
+    async def move_lines(self, usage: ArtifactUsage, lines: Sequence[Line]) -> bool:
+        return self._call(self.simulator.move_lines, usage, lines)
+
+    async def set_blocked_areas(self, areas: Sequence[Rect]) -> None:
+        self._call(self.simulator.set_blocked_areas, areas)
+
+    async def get_home_pose(self) -> Pose2D | None:
+        return self._call(lambda: self.simulator.home_pose)
+
+    async def set_home_pose(self, pose: Pose2D) -> None:
+        self._call(setattr, self.simulator, "home_pose", pose)
+
+    async def get_composite_map(self) -> bytes:
+        return self._call(self.simulator.composite_map)
+
+    async def set_composite_map(self, data: bytes, pose: Pose2D) -> None:
+        self._call(self.simulator.load_composite_map, data, pose)

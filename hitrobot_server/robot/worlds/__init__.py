@@ -1,0 +1,1 @@
+"""Worlds for the simulator, in ROS map_server format (YAML + PGM), and their generators."""

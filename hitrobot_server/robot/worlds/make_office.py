@@ -1,0 +1,162 @@
+"""Generate ``office.yaml`` + ``office.pgm``: the simulator's default world.
+
+A 24 m x 16 m office floor at 0.05 m/cell inside a 0.5 m unknown margin: a 2 m east-west
+corridor; four rooms north of it (three offices and a meeting room, one door each); south of it
+a lobby with the charging dock, an open-plan area with desk clusters and pillars, and a kitchen.
+The layout is written out by hand (no randomness), so the output is byte-identical on every
+run. Run ``python -m hitrobot_server.robot.worlds.make_office [OUT_DIR]``.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+RESOLUTION = 0.05
+MARGIN = 0.5
+WIDTH_M = 24.0
+HEIGHT_M = 16.0
+
+FREE, OCCUPIED, UNKNOWN = 254, 0, 205
+
+START_POSE = (5.0, 8.0, 0.0)
+DOCK_POSE = (3.5, 0.55, math.pi / 2)
+
+WALL = 0.2
+PARTITION = 0.15
+
+Box = tuple[float, float, float, float]
+
+OUTER_WALLS: list[Box] = [
+    (0.0, 0.0, WIDTH_M, WALL),
+    (0.0, HEIGHT_M - WALL, WIDTH_M, HEIGHT_M),
+    (0.0, 0.0, WALL, HEIGHT_M),
+    (WIDTH_M - WALL, 0.0, WIDTH_M, HEIGHT_M),
+]
+PARTITIONS: list[Box] = [
+    (WALL, 6.85, WIDTH_M - WALL, 7.0),  # corridor, south side
+    (WALL, 9.0, WIDTH_M - WALL, 9.15),  # corridor, north side
+    (5.95, 9.15, 6.1, HEIGHT_M - WALL),  # office A | office B
+    (11.95, 9.15, 12.1, HEIGHT_M - WALL),  # office B | office C
+    (17.95, 9.15, 18.1, HEIGHT_M - WALL),  # office C | meeting room
+    (7.0, WALL, 7.15, 6.85),  # lobby | open plan
+    (17.0, WALL, 17.15, 6.85),  # open plan | kitchen
+]
+DOORS: list[Box] = [
+    (2.0, 9.0, 2.9, 9.15),  # office A
+    (8.4, 9.0, 9.3, 9.15),  # office B
+    (14.2, 9.0, 15.1, 9.15),  # office C
+    (20.0, 9.0, 21.0, 9.15),  # meeting room
+    (2.5, 6.85, 4.5, 7.0),  # lobby opening
+    (9.0, 6.85, 10.0, 7.0),  # open plan, west door
+    (14.0, 6.85, 15.0, 7.0),  # open plan, east door
+    (19.5, 6.85, 20.4, 7.0),  # kitchen
+    (7.0, 4.5, 7.15, 5.4),  # lobby <-> open plan
+    (17.0, 1.5, 17.15, 2.4),  # open plan <-> kitchen
+]
+FURNITURE: list[Box] = [
+    # office A
+    (WALL, 11.0, 1.0, 13.0),
+    (2.5, 15.0, 4.5, HEIGHT_M - WALL),
+    (5.35, 10.0, 5.95, 11.2),
+    # office B
+    (7.0, 12.0, 9.0, 13.6),
+    (9.5, 15.4, 11.95, HEIGHT_M - WALL),
+    # office C: L-shaped desk, sofa
+    (12.1, 12.0, 12.9, 15.0),
+    (12.9, 14.2, 14.5, 15.0),
+    (15.5, 11.0, 17.95, 11.8),
+    # meeting room: table and screen
+    (19.5, 11.5, 22.5, 13.0),
+    (23.6, 11.5, WIDTH_M - WALL, 13.0),
+    # lobby: sofa, reception desk
+    (WALL, 3.0, 1.0, 5.0),
+    (4.5, 2.0, 6.2, 2.8),
+    # open plan: four desk clusters, printer
+    (8.5, 1.5, 11.0, 2.9),
+    (12.5, 1.5, 15.0, 2.9),
+    (8.5, 4.2, 11.0, 5.6),
+    (12.5, 4.2, 15.0, 5.6),
+    (16.2, 5.5, 17.0, 6.85),
+    # kitchen: counter, fridge
+    (23.0, WALL, WIDTH_M - WALL, 5.0),
+    (17.15, 5.8, 18.0, 6.85),
+]
+ROUND_THINGS: list[tuple[float, float, float]] = [
+    (1.4, 12.0, 0.25),  # office A chair
+    (10.5, 11.0, 0.5),  # office B round table
+    (17.4, 9.8, 0.2),  # office C plant
+    *[(x, y, 0.2) for y in (11.1, 13.4) for x in (20.0, 21.0, 22.0)],  # meeting chairs
+    (2.0, 5.5, 0.2),  # lobby pillar
+    (12.0, 4.9, 0.25),  # open-plan pillar
+    (16.0, 3.5, 0.25),  # open-plan pillar
+    (20.0, 3.0, 0.6),  # kitchen table
+    (20.0, 1.9, 0.18),  # kitchen stool
+    (21.2, 3.0, 0.18),  # kitchen stool
+    (13.1, 8.75, 0.2),  # corridor plant
+    (23.4, 8.0, 0.25),  # corridor plant, east end
+]
+
+
+def render() -> np.ndarray:
+    """The map as map_server pixel values, row 0 at the minimum y."""
+    cols = round((WIDTH_M + 2 * MARGIN) / RESOLUTION)
+    rows = round((HEIGHT_M + 2 * MARGIN) / RESOLUTION)
+    pixels = np.full((rows, cols), UNKNOWN, dtype=np.uint8)
+    _box(pixels, (0.0, 0.0, WIDTH_M, HEIGHT_M), FREE)
+    for box in OUTER_WALLS + PARTITIONS:
+        _box(pixels, box, OCCUPIED)
+    for box in DOORS:
+        _box(pixels, box, FREE)
+    for box in FURNITURE:
+        _box(pixels, box, OCCUPIED)
+    for cx, cy, r in ROUND_THINGS:
+        _disc(pixels, cx, cy, r)
+    return pixels
+
+
+def _index(value: float) -> int:
+    return round((value + MARGIN) / RESOLUTION)
+
+
+def _box(pixels: np.ndarray, box: Box, value: int) -> None:
+    x0, y0, x1, y1 = box
+    pixels[_index(y0) : _index(y1), _index(x0) : _index(x1)] = value
+
+
+def _disc(pixels: np.ndarray, cx: float, cy: float, r: float) -> None:
+    rows, cols = np.indices(pixels.shape)
+    x = (cols + 0.5) * RESOLUTION - MARGIN
+    y = (rows + 0.5) * RESOLUTION - MARGIN
+    pixels[(x - cx) ** 2 + (y - cy) ** 2 <= r * r] = OCCUPIED
+
+
+def write(out_dir: Path) -> None:
+    """Write ``office.pgm`` (binary P5, top row first) and ``office.yaml`` into ``out_dir``."""
+    pixels = render()
+    height, width = pixels.shape
+    header = f"P5\n# hitrobot office world\n{width} {height}\n255\n".encode("ascii")
+    (out_dir / "office.pgm").write_bytes(header + pixels[::-1].tobytes())
+    yaml = "\n".join(
+        [
+            "# hitrobot simulator world: a 24 m x 16 m office (generated by make_office.py)",
+            "image: office.pgm",
+            f"resolution: {RESOLUTION}",
+            f"origin: [{-MARGIN}, {-MARGIN}, 0.0]",
+            "negate: 0",
+            "occupied_thresh: 0.65",
+            "free_thresh: 0.196",
+            "mode: trinary",
+            f"start_pose: [{START_POSE[0]}, {START_POSE[1]}, {START_POSE[2]}]",
+            f"dock_pose: [{DOCK_POSE[0]}, {DOCK_POSE[1]}, {DOCK_POSE[2]!r}]",
+            "",
+        ]
+    )
+    (out_dir / "office.yaml").write_text(yaml, encoding="utf-8")
+
+
+if __name__ == "__main__":
+    write(Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).resolve().parent)
