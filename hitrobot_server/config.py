@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from .bus.names import GlobFilter
+from .nodes.slamware.params import SlamwareParams
 
 STATUS_LEVELS = ("info", "warning", "error", "none")
 
@@ -36,6 +37,12 @@ class Settings:
     send_buffer_limit: int = 10_000_000
     use_compression: bool = False
     log_level: str = "info"
+    robot: str = "sim"
+    world: str | None = None
+    sim_seed: int = 0
+    sim_speed: float = 1.0
+    sim_mapping: bool = False
+    slamware: SlamwareParams = field(default_factory=SlamwareParams)
     auth_secret: str | None = field(default=None, repr=False)
     topics_filter: GlobFilter = field(init=False, repr=False)
     services_filter: GlobFilter = field(init=False, repr=False)
@@ -69,9 +76,15 @@ _HELP = {
     "send_buffer_limit": "bytes queued per client before its oldest topic messages are dropped",
     "use_compression": "offer WebSocket permessage-deflate",
     "log_level": "logging level: debug, info, warning, error",
+    "robot": "the robot behind the bus: 'sim' (built-in simulated Slamware robot) or 'none'",
+    "world": "map_server YAML (+ PGM) the simulator drives in (default: the built-in office)",
+    "sim_seed": "random seed of the simulator (sensor noise); same seed, same run",
+    "sim_speed": "simulated seconds per wall-clock second (2 = twice as fast)",
+    "sim_mapping": "start the simulator with an empty map and mapping on (not a prebuilt map)",
 }
 
-_SKIP = {"auth_secret", "topics_filter", "services_filter", "params_filter"}
+_SKIP = {"auth_secret", "topics_filter", "services_filter", "params_filter", "slamware"}
+ROBOTS = ("sim", "none")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -90,8 +103,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             continue
         kind = _kind(f.type)
         kwargs: dict[str, Any] = {"type": kind, "default": None, "help": text}
-        if f.name in ("status_level",):
+        if f.name == "status_level":
             kwargs["choices"] = STATUS_LEVELS
+        if f.name == "robot":
+            kwargs["choices"] = ROBOTS
         parser.add_argument(flag, **kwargs)
 
 
@@ -109,6 +124,8 @@ def load(args: argparse.Namespace) -> Settings:
     values: dict[str, Any] = {}
     if getattr(args, "config", None):
         data = tomllib.loads(Path(args.config).read_text())
+        if "slamware" in data:
+            values["slamware"] = SlamwareParams.from_mapping(data.pop("slamware"))
         section = data.get("server", data)
         known = {f.name for f in fields(Settings)} - _SKIP
         for key, value in section.items():
@@ -125,4 +142,8 @@ def load(args: argparse.Namespace) -> Settings:
     settings = Settings(**values)
     if settings.status_level not in STATUS_LEVELS:
         raise ValueError(f"status_level must be one of {', '.join(STATUS_LEVELS)}")
+    if settings.robot not in ROBOTS:
+        raise ValueError(f"robot must be one of {', '.join(ROBOTS)}")
+    if settings.sim_speed <= 0:
+        raise ValueError("sim_speed must be positive")
     return settings

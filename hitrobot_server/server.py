@@ -28,6 +28,7 @@ class HitrobotServer:
             types or TypeRegistry.default(), unregister_timeout=self.settings.unregister_timeout
         )
         self.nodes: list[Node] = []
+        self.backend = None  # the robot (RobotBackend) when one is attached
         self.sessions: set[Session] = set()
         self._ws = None
         self._tcp: asyncio.Server | None = None
@@ -47,6 +48,8 @@ class HitrobotServer:
                 raise ValueError("--authenticate needs --auth-secret-file")
             s.auth_secret = load_secret(s.auth_secret_file)
         self.nodes.append(Rosapi(self.bus, s))
+        if s.robot == "sim":
+            await self._start_simulated_robot()
 
         def factory(peer: str, transport: str) -> Session:
             return self.new_session(peer, transport)
@@ -71,6 +74,22 @@ class HitrobotServer:
             self.tcp_port = self._tcp.sockets[0].getsockname()[1]
         log.info("hitrobot-server: ws://%s:%s tcp:%s", s.address, self.port, self.tcp_port)
 
+    async def _start_simulated_robot(self) -> None:
+        from .nodes.slamware import SlamwareNode
+        from .robot.sim.backend import SimBackend
+        from .robot.sim.simulator import SimConfig, Simulator
+        from .robot.sim.world import load_world
+
+        s = self.settings
+        world = load_world(s.world) if s.world else load_world()
+        config = SimConfig(prebuilt_map=not s.sim_mapping, map_update=s.sim_mapping)
+        self.backend = SimBackend(Simulator(world, seed=s.sim_seed, config=config),
+                                  time_scale=s.sim_speed)
+        await self.backend.start()
+        node = SlamwareNode(self.bus, self.backend, s.slamware)
+        self.nodes.append(node)
+        await node.start()
+
     async def stop(self) -> None:
         if self._tcp is not None:
             self._tcp.close()
@@ -84,5 +103,12 @@ class HitrobotServer:
         for session in list(self.sessions):
             session.close()
         for node in reversed(self.nodes):
-            node.close()
+            stop = getattr(node, "stop", None)
+            if stop is not None:
+                await stop()
+            else:
+                node.close()
         self.nodes.clear()
+        if self.backend is not None:
+            await self.backend.stop()
+            self.backend = None

@@ -14,7 +14,8 @@ async def make_server():
     started: list[HitrobotServer] = []
 
     async def make(**overrides) -> HitrobotServer:
-        kw = {"port": 0, "tcp_port": -1, "address": "127.0.0.1", "unregister_timeout": 0.2}
+        kw = {"port": 0, "tcp_port": -1, "address": "127.0.0.1", "unregister_timeout": 0.2,
+              "robot": "none"}
         kw.update(overrides)
         server = HitrobotServer(Settings(**kw))
         await server.start()

@@ -119,11 +119,11 @@ class TcpClient:
 class ServerProcess:
     """``hitrobot-server`` run for real as a subprocess on ephemeral loopback ports."""
 
-    def __init__(self, *args: str):
+    def __init__(self, *args: str, robot: str = "none"):
         env = {**os.environ, "PYTHONUNBUFFERED": "1"}
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "hitrobot_server", "--port", "0", "--tcp-port", "-1",
-             "--address", "127.0.0.1", *args],
+             "--address", "127.0.0.1", "--robot", robot, *args],
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
         )
         deadline = time.monotonic() + 30
@@ -148,3 +148,80 @@ class ServerProcess:
                 self.proc.wait(10)
             except subprocess.TimeoutExpired:
                 self.proc.kill()
+
+
+class Watcher:
+    """A WebSocket client that keeps every message per topic and every status, in the
+    background, so robot tests can wait for conditions on the latest state."""
+
+    def __init__(self, client: WsClient):
+        self.client = client
+        self.messages: dict[str, list[tuple[float, dict]]] = {}
+        self.statuses: list[dict] = []
+        self.replies: dict[str, dict] = {}
+        self._task = asyncio.ensure_future(self._read())
+
+    @classmethod
+    async def open(cls, port: int) -> Watcher:
+        return cls(await WsClient.open(port))
+
+    async def _read(self) -> None:
+        while True:
+            try:
+                msg = await self.client.recv(timeout=3600)
+            except Exception:
+                return
+            self.client.seen.clear()  # the watcher keeps its own records
+            op = msg.get("op")
+            if op == "publish":
+                self.messages.setdefault(msg["topic"], []).append((time.monotonic(), msg["msg"]))
+            elif op == "status":
+                self.statuses.append(msg)
+            elif op == "service_response":
+                self.replies[msg.get("id")] = msg
+
+    async def subscribe(self, topic: str, type_name: str | None = None, **extra) -> None:
+        op = {"op": "subscribe", "id": f"w:{topic}", "topic": topic, **extra}
+        if type_name:
+            op["type"] = type_name
+        await self.client.send(op)
+
+    async def publish(self, topic: str, msg: dict, type_name: str | None = None,
+                      op_id: str | None = None) -> None:
+        if type_name:
+            await self.client.send({"op": "advertise", "topic": topic, "type": type_name})
+        op = {"op": "publish", "topic": topic, "msg": msg}
+        if op_id:
+            op["id"] = op_id
+        await self.client.send(op)
+
+    async def call(self, service: str, args: dict | None = None, timeout: float = 10) -> dict:
+        op_id = f"call:{service}:{time.monotonic_ns()}"
+        await self.client.send({"op": "call_service", "id": op_id, "service": service,
+                                "args": args or {}})
+        await self.until(lambda: op_id in self.replies, timeout, f"reply from {service}")
+        return self.replies.pop(op_id)
+
+    def latest(self, topic: str) -> dict | None:
+        got = self.messages.get(topic)
+        return got[-1][1] if got else None
+
+    async def next(self, topic: str, timeout: float = 10) -> dict:
+        """The first message on ``topic`` that arrives after this call."""
+        count = len(self.messages.get(topic, []))
+        await self.until(lambda: len(self.messages.get(topic, [])) > count, timeout,
+                         f"a new message on {topic}")
+        return self.messages[topic][-1][1]
+
+    async def until(self, predicate: Callable[[], object], timeout: float, what: str):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            value = predicate()
+            if value:
+                return value
+            await asyncio.sleep(0.05)
+        raise AssertionError(f"timed out after {timeout}s waiting for {what}")
+
+    async def close(self) -> None:
+        self._task.cancel()
+        await self.client.close()
