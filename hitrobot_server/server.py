@@ -8,9 +8,10 @@ import logging
 
 from .bus.core import Bus
 from .config import Settings
+from .nodes.assembly import start_nodes, stop_nodes
 from .nodes.base import Node
-from .nodes.rosapi import Rosapi
 from .protocol.auth import load_secret
+from .robot.factory import build_backend
 from .session.session import Session
 from .transport.tcp import start_tcp
 from .transport.websocket import start_websocket
@@ -47,9 +48,10 @@ class HitrobotServer:
             if not s.auth_secret_file:
                 raise ValueError("--authenticate needs --auth-secret-file")
             s.auth_secret = load_secret(s.auth_secret_file)
-        self.nodes.append(Rosapi(self.bus, s))
-        if s.robot == "sim":
-            await self._start_simulated_robot()
+        self.backend = build_backend(s)
+        if self.backend is not None:
+            await self.backend.start()
+        self.nodes = await start_nodes(self.bus, s, self.backend)
 
         def factory(peer: str, transport: str) -> Session:
             return self.new_session(peer, transport)
@@ -74,22 +76,6 @@ class HitrobotServer:
             self.tcp_port = self._tcp.sockets[0].getsockname()[1]
         log.info("hitrobot-server: ws://%s:%s tcp:%s", s.address, self.port, self.tcp_port)
 
-    async def _start_simulated_robot(self) -> None:
-        from .nodes.slamware import SlamwareNode
-        from .robot.sim.backend import SimBackend
-        from .robot.sim.simulator import SimConfig, Simulator
-        from .robot.sim.world import load_world
-
-        s = self.settings
-        world = load_world(s.world) if s.world else load_world()
-        config = SimConfig(prebuilt_map=not s.sim_mapping, map_update=s.sim_mapping)
-        self.backend = SimBackend(Simulator(world, seed=s.sim_seed, config=config),
-                                  time_scale=s.sim_speed)
-        await self.backend.start()
-        node = SlamwareNode(self.bus, self.backend, s.slamware)
-        self.nodes.append(node)
-        await node.start()
-
     async def stop(self) -> None:
         if self._tcp is not None:
             self._tcp.close()
@@ -102,12 +88,7 @@ class HitrobotServer:
                 await asyncio.wait_for(self._tcp.wait_closed(), 5)
         for session in list(self.sessions):
             session.close()
-        for node in reversed(self.nodes):
-            stop = getattr(node, "stop", None)
-            if stop is not None:
-                await stop()
-            else:
-                node.close()
+        await stop_nodes(self.nodes)
         self.nodes.clear()
         if self.backend is not None:
             await self.backend.stop()
