@@ -251,7 +251,7 @@ class RobotBackend(ABC):
         ones are still moved)."""
 
     @abstractmethod
-    async def set_blocked_areas(self, areas: Sequence[Rect]) -> None:
+    async def set_blocked_areas(self, areas: Sequence[Sequence[Point2D]]) -> None:
         """Areas the planner must keep out of (the map manager's blocked masks; a REST client
         maps them to forbidden rectangle areas)."""
 

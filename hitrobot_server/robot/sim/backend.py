@@ -253,7 +253,7 @@ class SimBackend(RobotBackend):
     async def move_lines(self, usage: ArtifactUsage, lines: Sequence[Line]) -> bool:
         return self._call(self.simulator.move_lines, usage, lines)
 
-    async def set_blocked_areas(self, areas: Sequence[Rect]) -> None:
+    async def set_blocked_areas(self, areas: Sequence[Sequence[Point2D]]) -> None:
         self._call(self.simulator.set_blocked_areas, areas)
 
     async def get_home_pose(self) -> Pose2D | None:

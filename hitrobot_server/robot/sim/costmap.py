@@ -1,7 +1,7 @@
 """The planner's view of the map: lethal cells and per-cell traversal costs.
 
 Built from the robot's *own* explore map (not the ground truth), plus virtual walls rasterised
-as obstacles and blocked rectangles from callers. Obstacles are inflated by the robot radius
+as obstacles and blocked polygons from callers. Obstacles are inflated by the robot radius
 (cells whose centre would put the disc into an obstacle are lethal) and a cost that decays with
 distance keeps paths off walls where there is room. Unknown cells stay traversable at a penalty,
 so the robot can plan into unexplored space and replan when its lidar reveals walls.
@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import Line, Rect
-from .grid import GridSpec, distance_field, rasterize_rects, rasterize_segments
+from ..model import Line, Point2D
+from .grid import GridSpec, distance_field, rasterize_polygons, rasterize_segments
 
 
 @dataclass(frozen=True, slots=True)
@@ -57,7 +57,7 @@ def build_costmap(
     unknown: np.ndarray,
     config: CostmapConfig,
     walls: Sequence[Line] = (),
-    blocked: Sequence[Rect] = (),
+    blocked: Sequence[Sequence[Point2D]] = (),
     tracks: Sequence[Line] = (),
 ) -> Costmap:
     """Combine map, virtual walls and blocked areas into a :class:`Costmap`."""
@@ -66,7 +66,7 @@ def build_costmap(
     if walls:
         obstacles |= rasterize_segments(spec, (_segment(w) for w in walls))
     if blocked:
-        obstacles |= rasterize_rects(spec, blocked)
+        obstacles |= rasterize_polygons(spec, blocked)
     max_cells = math.ceil(config.inflation_radius / res)
     clearance = distance_field(obstacles, max_cells) * np.float32(res)
     # Distances run between cell centres; half a cell converts that to the distance to the

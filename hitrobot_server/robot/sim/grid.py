@@ -8,12 +8,13 @@ explore-map crop can be handed out without flipping.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from PIL import Image, ImageDraw
 
-from ..model import Rect
+from ..model import Point2D, Rect
 
 
 @dataclass(frozen=True, slots=True)
@@ -119,11 +120,15 @@ def rasterize_segments(
     return mask
 
 
-def rasterize_rects(spec: GridSpec, rects: Iterable[Rect]) -> np.ndarray:
-    """Mask of the cells overlapping each rectangle."""
-    mask = np.zeros(spec.shape, dtype=bool)
-    for rect in rects:
-        window = spec.window(rect)
-        if window is not None:
-            mask[window] = True
-    return mask
+def rasterize_polygons(spec: GridSpec, polygons: Iterable[Sequence[Point2D]]) -> np.ndarray:
+    """Mask of the cells inside (or on the outline of) each polygon, drawn with Pillow."""
+    image = Image.new("1", (spec.width, spec.height), 0)
+    draw = ImageDraw.Draw(image)
+    for polygon in polygons:
+        corners = [((p.x - spec.origin_x) / spec.resolution,
+                    (p.y - spec.origin_y) / spec.resolution) for p in polygon]
+        if len(corners) >= 3:
+            draw.polygon(corners, fill=1, outline=1)
+        elif corners:
+            draw.line(corners, fill=1, width=1)
+    return np.asarray(image, dtype=bool)

@@ -138,7 +138,7 @@ class Simulator:
         self._localizer = Localizer(self._field, cfg.localization, self._rng)
         self._battery = Battery(cfg.initial_battery, cfg.power)
         self._lines = LineStore()
-        self._blocked: tuple[Rect, ...] = ()
+        self._blocked: tuple[tuple[Point2D, ...], ...] = ()
         self._blocked_revision = 0
         self._home = world.dock_pose
         self._costmap: Costmap | None = None
@@ -516,8 +516,8 @@ class Simulator:
     def move_lines(self, usage: ArtifactUsage, lines: Sequence[Line]) -> bool:
         return self._lines.move(ArtifactUsage(usage), [_checked_line(line) for line in lines])
 
-    def set_blocked_areas(self, areas: Sequence[Rect]) -> None:
-        self._blocked = tuple(areas)
+    def set_blocked_areas(self, areas: Sequence[Sequence[Point2D]]) -> None:
+        self._blocked = tuple(tuple(polygon) for polygon in areas)
         self._blocked_revision += 1
 
     def composite_map(self) -> bytes:

@@ -1,10 +1,10 @@
 import numpy as np
 
-from hitrobot_server.robot.model import Rect
+from hitrobot_server.robot.model import Point2D, Rect
 from hitrobot_server.robot.sim.grid import (
     GridSpec,
     distance_field,
-    rasterize_rects,
+    rasterize_polygons,
     rasterize_segments,
 )
 
@@ -30,8 +30,11 @@ def test_segments_are_four_connected():
         assert any(0 <= a < 20 and 0 <= b < 20 and mask[a, b] for a, b in neighbours)
 
 
-def test_rects_and_windows():
-    spec = GridSpec(-1.0, -1.0, 0.5, 8, 6)
-    mask = rasterize_rects(spec, [Rect(0.0, 0.0, 1.0, 0.5)])
-    assert mask.sum() == 2 and mask[2, 2] and mask[2, 3]
+def test_polygons_and_windows():
+    spec = GridSpec(0.0, 0.0, 0.1, 40, 30)
+    triangle = [Point2D(0.5, 0.5), Point2D(3.5, 0.5), Point2D(0.5, 2.5)]
+    mask = rasterize_polygons(spec, [triangle])
+    assert mask[7, 7] and mask[5, 30] and mask[20, 6]  # inside, near each corner
+    assert not mask[20, 30] and not mask[0, 0]  # beyond the hypotenuse, outside
+    assert mask[24, 5] and not mask[5, 36]  # the top corner is in, right of x=3.5 is out
     assert spec.window(Rect(10.0, 10.0, 1.0, 1.0)) is None
