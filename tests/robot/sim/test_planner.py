@@ -50,7 +50,7 @@ def test_no_way_around_fails_with_a_reason(world):
 
 
 def test_blocked_area_acts_like_an_obstacle(world):
-    blocked = [Rect(11.0, 6.5, 1.0, 3.0)]
+    blocked = [[Point2D(11.0, 6.5), Point2D(12.0, 6.5), Point2D(12.0, 9.5), Point2D(11.0, 9.5)]]
     result = plan(_costmap(world, blocked=blocked), START, (20.0, 8.0))
     assert result.ok and not _crosses_x(result.path, 11.5, 6.5, 9.5)
 
