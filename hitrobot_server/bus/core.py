@@ -26,7 +26,7 @@ from .services import (
     Service,
     ServiceHandler,
 )
-from .topics import Message, Reply, Subscriber, Topic
+from .topics import Message, Origin, Reply, Subscriber, Topic
 
 log = logging.getLogger(__name__)
 
@@ -89,7 +89,12 @@ class Bus:
             self._maybe_expire(topic)
 
     def publish(
-        self, name: str, msg: dict, stamp: float | None = None, reply: Reply | None = None
+        self,
+        name: str,
+        msg: dict,
+        stamp: float | None = None,
+        reply: Reply | None = None,
+        origin: Origin | None = None,
     ) -> Message:
         """Fan ``msg`` (canonical dict) out to every subscriber of an existing topic.
 
@@ -98,7 +103,7 @@ class Bus:
         topic = self.topics.get(name) or self.topics.get(canonical(name))
         if topic is None:
             raise BusError(f"topic '{canonical(name)}' does not exist")
-        message = Message(topic, msg, self.clock() if stamp is None else stamp, reply)
+        message = Message(topic, msg, self.clock() if stamp is None else stamp, reply, origin)
         topic.fan_out(message)
         return message
 

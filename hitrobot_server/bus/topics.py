@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 import logging
 from collections.abc import Callable, Hashable
+from dataclasses import dataclass
 from typing import Any
 
 from ..types.registry import MsgType, TypeRegistry
@@ -22,15 +23,23 @@ class Message:
     not fifty times — the main cost rosbridge pays per client (rosbridge #332, #559).
     """
 
-    __slots__ = ("topic", "msg", "stamp", "seq", "cache", "reply")
+    __slots__ = ("topic", "msg", "stamp", "seq", "cache", "reply", "origin")
 
-    def __init__(self, topic: Topic, msg: dict, stamp: float, reply: Reply | None = None):
+    def __init__(
+        self,
+        topic: Topic,
+        msg: dict,
+        stamp: float,
+        reply: Reply | None = None,
+        origin: Origin | None = None,
+    ):
         self.topic = topic
         self.msg = msg
         self.stamp = stamp
         self.seq = next(_seq)
         self.cache: dict[Hashable, Any] = {}
         self.reply = reply
+        self.origin = origin  # None for in-process publishers
 
     def reject(self, text: str, level: str = "error") -> None:
         """Tell the publisher (if it is a client) that its message was refused, and why.
@@ -51,6 +60,14 @@ class Message:
 
 Subscriber = Callable[[Message], None]
 Reply = Callable[[str, str], None]  # (level, text) → a status message to the publisher
+
+
+@dataclass(frozen=True, slots=True)
+class Origin:
+    """Who published a message: nodes use it to authorise dangerous requests."""
+
+    node: str
+    auth_level: str | None = None  # the rosauth level a client authenticated with
 
 
 class RequestRejected(Exception):

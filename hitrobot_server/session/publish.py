@@ -89,7 +89,7 @@ class PublishOps:
         def reply(level: str, text: str) -> None:
             s.status(level, f"publish to '{name}': {text}", op_id)
 
-        s.bus.publish(name, value, reply=reply)
+        s.bus.publish(name, value, reply=reply, origin=s.origin)
 
     def close(self) -> None:
         for name in list(self.ads):

@@ -17,6 +17,7 @@ import cbor2
 
 from ..bus.core import Bus
 from ..bus.errors import BusError
+from ..bus.topics import Origin
 from ..config import Settings
 from ..protocol import auth, ops, png
 from ..protocol.errors import ProtocolError
@@ -83,6 +84,7 @@ class Session:
             "action_feedback": self.action_ops.action_feedback,
             "action_result": self.action_ops.action_result,
         }
+        self.origin = Origin(self.node)
         bus.register_node(self.node)
 
     # ------------------------------------------------------------------ input
@@ -150,6 +152,7 @@ class Session:
         if auth.verify(msg, self.settings.auth_secret or "", time.time()):
             self.authenticated = True
             self.auth_level = msg.get("level")
+            self.origin = Origin(self.node, self.auth_level)
             self.status("info", f"authenticated at level {self.auth_level!r}", msg.get("id"))
         else:
             self.status("error", "auth: authentication failed; closing", msg.get("id"))

@@ -65,3 +65,17 @@ async def test_auth_over_tcp(auth_server):
     reply = await c.expect(op="service_response", id="t")
     assert reply["result"] is True
     await c.close()
+
+
+async def test_published_messages_carry_the_publishers_auth_level(auth_server):
+    from hitrobot_server.nodes.base import Node
+
+    node = Node(auth_server.bus, "/auth_probe")
+    got = []
+    node.subscribe("/probe", "std_msgs/String", got.append)
+    c = await WsClient.open(auth_server.port)
+    await c.send(auth_op("operator"))
+    await c.send({"op": "publish", "topic": "/probe", "msg": {"data": "x"}})
+    await c.call("/rosapi/get_time")  # ops are handled in order: the publish is done
+    assert got and got[0].origin.auth_level == "operator"
+    assert got[0].origin.node.startswith("/hitrobot_client_")
