@@ -6,6 +6,7 @@ Flag names follow rosbridge_websocket's parameters so a rosbridge user finds the
 from __future__ import annotations
 
 import argparse
+import os
 import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -42,6 +43,7 @@ class Settings:
     sim_seed: int = 0
     sim_speed: float = 1.0
     sim_mapping: bool = False
+    map_dir: str | None = None
     slamware: SlamwareParams = field(default_factory=SlamwareParams)
     auth_secret: str | None = field(default=None, repr=False)
     topics_filter: GlobFilter = field(init=False, repr=False)
@@ -50,6 +52,14 @@ class Settings:
 
     def __post_init__(self) -> None:
         self.refresh_filters()
+
+    @property
+    def map_store(self) -> Path:
+        """Where map folders are saved: ``--map-dir`` or the per-user data directory."""
+        if self.map_dir:
+            return Path(self.map_dir)
+        base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
+        return Path(base) / "hitrobot-server" / "maps"
 
     def refresh_filters(self) -> None:
         self.topics_filter = GlobFilter.parse(self.topics_glob)
@@ -76,11 +86,13 @@ _HELP = {
     "send_buffer_limit": "bytes queued per client before its oldest topic messages are dropped",
     "use_compression": "offer WebSocket permessage-deflate",
     "log_level": "logging level: debug, info, warning, error",
-    "robot": "the robot behind the bus: 'sim' (built-in simulated Slamware robot) or 'none'",
+    "robot": "the robot behind the bus: 'sim' (built-in simulated Slamware robot), 'none', or "
+    "a Slamware REST URL such as http://192.168.11.1:1448",
     "world": "map_server YAML (+ PGM) the simulator drives in (default: the built-in office)",
     "sim_seed": "random seed of the simulator (sensor noise); same seed, same run",
     "sim_speed": "simulated seconds per wall-clock second (2 = twice as fast)",
     "sim_mapping": "start the simulator with an empty map and mapping on (not a prebuilt map)",
+    "map_dir": "folder of saved map folders (default: $XDG_DATA_HOME/hitrobot-server/maps)",
 }
 
 _SKIP = {"auth_secret", "topics_filter", "services_filter", "params_filter", "slamware"}
@@ -105,8 +117,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         kwargs: dict[str, Any] = {"type": kind, "default": None, "help": text}
         if f.name == "status_level":
             kwargs["choices"] = STATUS_LEVELS
-        if f.name == "robot":
-            kwargs["choices"] = ROBOTS
         parser.add_argument(flag, **kwargs)
 
 
@@ -142,8 +152,8 @@ def load(args: argparse.Namespace) -> Settings:
     settings = Settings(**values)
     if settings.status_level not in STATUS_LEVELS:
         raise ValueError(f"status_level must be one of {', '.join(STATUS_LEVELS)}")
-    if settings.robot not in ROBOTS:
-        raise ValueError(f"robot must be one of {', '.join(ROBOTS)}")
+    if settings.robot not in ROBOTS and not settings.robot.startswith(("http://", "https://")):
+        raise ValueError(f"robot must be {', '.join(ROBOTS)} or an http(s):// URL")
     if settings.sim_speed <= 0:
         raise ValueError("sim_speed must be positive")
     return settings

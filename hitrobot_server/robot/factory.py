@@ -10,6 +10,8 @@ def build_backend(settings: Settings) -> RobotBackend | None:
     """The robot backend for ``--robot``; the caller starts and stops it."""
     if settings.robot == "none":
         return None
+    if settings.robot != "sim":
+        raise ValueError(f"--robot {settings.robot}: the Slamware REST client is not built yet")
     from .sim.backend import SimBackend
     from .sim.simulator import SimConfig, Simulator
     from .sim.world import load_world
