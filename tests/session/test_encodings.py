@@ -108,3 +108,16 @@ async def test_cbor_raw_carries_ros1_bytes(client):
     msg = await client.expect(op="publish")
     assert msg["msg"]["bytes"] == (258).to_bytes(4, "little")
     assert isinstance(msg["msg"]["secs"], int)
+
+
+async def test_png_op_from_a_client_is_decoded_and_run(server):
+    from hitrobot_server.protocol import png
+
+    sender = await WsClient.open(server.port)
+    receiver = await WsClient.open(server.port)
+    await receiver.send({"op": "subscribe", "topic": "/from_png", "type": "std_msgs/String"})
+    await asyncio.sleep(0.05)
+    inner = json.dumps({"op": "publish", "topic": "/from_png", "msg": {"data": "via png"}})
+    await sender.send({"op": "png", "data": png.encode(inner.encode())})
+    got = await receiver.expect(op="publish", topic="/from_png")
+    assert got["msg"]["data"] == "via png"
