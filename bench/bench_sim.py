@@ -1,16 +1,18 @@
 """Throughput of the simulator: ``Simulator.step`` rate and the cost of one lidar scan.
 
 Run ``python bench/bench_sim.py``; it prints figures and asserts nothing. Steps are 0.05 s of
-simulated time (the backend's default 20 Hz), i.e. two 40 Hz physics ticks each.
+simulated time (the backend's default 20 Hz), i.e. two 40 Hz physics ticks each. The last lines
+are REST round trips from the Slamware client to a sim-device on loopback.
 """
 
 from __future__ import annotations
 
+import asyncio
 import time
 
 import numpy as np
 
-from hitrobot_server.robot.model import Point2D, Pose2D
+from hitrobot_server.robot.model import Point2D, Pose2D, Rect
 from hitrobot_server.robot.sim.lidar import Lidar, LidarConfig, RayCaster
 from hitrobot_server.robot.sim.planner import plan
 from hitrobot_server.robot.sim.simulator import SimConfig, Simulator
@@ -70,6 +72,36 @@ def main() -> None:
     while not search.advance(1 << 30):
         pass
     print(f"global relocalization:       {(time.perf_counter() - started) * 1000:8.1f} ms")
+
+    asyncio.run(rest_round_trips())
+
+
+async def rest_round_trips(count: int = 200) -> None:
+    """Mean wall time of the node's most frequent REST calls against a sim-device."""
+    from hitrobot_server.robot.rest.client import SlamwareRestBackend
+    from hitrobot_server.robot.rest.device import SimDevice
+
+    device = SimDevice(Simulator(load_world(), seed=0), port=0)
+    await device.start()
+    client = SlamwareRestBackend(device.url)
+    await client.start()
+    while not client.connected:
+        await asyncio.sleep(0.01)
+    calls = {
+        "odometry (pose + speed)": client.get_odometry,
+        "laser scan, 360 points": client.get_laser_scan,
+        "explore map, 16 m window": lambda: client.get_map(Rect(2.0, 0.0, 16.0, 16.0)),
+    }
+    try:
+        for name, call in calls.items():
+            started = time.perf_counter()
+            for _ in range(count):
+                await call()
+            per_call = (time.perf_counter() - started) / count * 1000.0
+            print(f"REST {name + ':':27s}{per_call:6.2f} ms/call")
+    finally:
+        await client.stop()
+        await device.stop()
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-"""``hitrobot-server`` command line: run the server, or a tool (``conformance``)."""
+"""``hitrobot-server`` command line: run the server, or a tool (``conformance``,
+``sim-device``)."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from .config import Settings, add_arguments, load
 
 TOOLS = {
     "conformance": "hitrobot_server.conformance.runner",
+    "sim-device": "hitrobot_server.robot.rest.device",
 }
 
 
@@ -23,7 +25,9 @@ def build_parser() -> argparse.ArgumentParser:
         description=(
             "A rosbridge-v2-compatible (hitrobot protocol) WebSocket and TCP server with an "
             "in-process topic/service/action bus. Tools: 'hitrobot-server conformance --url "
-            "ws://HOST:PORT' runs the protocol conformance vectors against any server."
+            "ws://HOST:PORT' runs the protocol conformance vectors against any server; "
+            "'hitrobot-server sim-device --port 1448' serves the simulated robot over the "
+            "Slamware REST API (for --robot http://127.0.0.1:1448)."
         ),
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")

@@ -1,7 +1,10 @@
 """The simulated robot through the slamware_ros_sdk_server_node interface, over real WebSockets.
 
 Every test starts a real server on loopback with the built-in simulator (running faster than
-real time) and drives it only through the protocol, as a client of the real node would.
+real time) and drives it only through the protocol, as a client of the real node would. Each
+test runs twice: with the simulator in process (``sim``), and with the simulator behind a
+sim-device on an ephemeral loopback port that the server drives over the Slamware REST API
+(``rest``), so the REST client is held to the same acceptance tests.
 """
 
 from __future__ import annotations
@@ -13,6 +16,8 @@ import numpy as np
 import pytest
 
 from hitrobot_server.nodes.slamware.messages import yaw_of
+from hitrobot_server.robot.factory import build_simulator
+from hitrobot_server.robot.rest.device import SimDevice
 from hitrobot_server.robot.sim.world import load_world
 
 from ..helpers import Watcher
@@ -32,10 +37,42 @@ def world():
     return load_world()
 
 
+@pytest.fixture(params=["sim", "rest"])
+def backend(request) -> str:
+    return request.param
+
+
 @pytest.fixture
-async def robot(make_server):
+async def start_robot(make_server, backend):
+    """``await start_robot(**settings)``: a server with the simulated robot, in process or
+    behind a sim-device over HTTP (the simulator settings then go to the device)."""
+    servers, devices = [], []
+
+    async def start(**overrides):
+        if backend == "sim":
+            return await make_server(robot="sim", **overrides)
+        world = overrides.pop("world", None)
+        seed = overrides.pop("sim_seed", 0)
+        mapping = overrides.pop("sim_mapping", False)
+        speed = overrides.pop("sim_speed", 1.0)
+        device = SimDevice(build_simulator(world, seed, mapping), port=0, time_scale=speed)
+        await device.start()
+        devices.append(device)
+        server = await make_server(robot=device.url, **overrides)
+        servers.append(server)
+        return server
+
+    yield start
+    for server in servers:  # the server first, so it never sees its robot go away
+        await server.stop()
+    for device in devices:
+        await device.stop()
+
+
+@pytest.fixture
+async def robot(start_robot):
     """(server, watcher) with odom, path and basic state watched."""
-    server = await make_server(robot="sim", sim_speed=SPEED)
+    server = await start_robot(sim_speed=SPEED)
     w = await Watcher.open(server.port)
     await w.subscribe(f"{NS}/odom", "nav_msgs/Odometry")
     await w.subscribe(f"{NS}/robot_basic_state")
@@ -190,8 +227,8 @@ async def test_scan_matches_the_known_geometry(robot, world):
     assert np.median(error) < 0.05 and np.percentile(error, 90) < 0.15
 
 
-async def test_map_grows_while_mapping_and_freezes_when_disabled(make_server):
-    server = await make_server(robot="sim", sim_speed=SPEED, sim_mapping=True)
+async def test_map_grows_while_mapping_and_freezes_when_disabled(start_robot):
+    server = await start_robot(sim_speed=SPEED, sim_mapping=True)
     w = await Watcher.open(server.port)
     await w.subscribe(f"{NS}/map", "nav_msgs/OccupancyGrid")
     await w.subscribe(f"{NS}/odom")
@@ -314,11 +351,11 @@ async def test_invalid_requests_get_status_errors_and_change_nothing(robot):
     assert math.hypot(after[0] - before[0], after[1] - before[1]) < 0.01
 
 
-async def test_parameters_tf_and_device_info(make_server):
+async def test_parameters_tf_and_device_info(start_robot):
     from hitrobot_server.nodes.slamware import SlamwareParams
 
-    server = await make_server(robot="sim", slamware=SlamwareParams(scan_pub_period=0.0,
-                                                                    map_frame="/slamware_map"))
+    server = await start_robot(slamware=SlamwareParams(scan_pub_period=0.0,
+                                                       map_frame="/slamware_map"))
     w = await Watcher.open(server.port)
     got = await w.call("/rosapi/get_param", {"name": f"{NS}/robot_pose_pub_period"})
     assert got["values"]["value"] == "0.05"

@@ -1,0 +1,13 @@
+"""The Slamware REST API (port 1448): a client backend for real robots and a simulated device.
+
+* :mod:`.client` - :class:`SlamwareRestBackend`, the :class:`RobotBackend` over aiohttp;
+* :mod:`.http` - the session wrapper (timeouts, one request in flight per resource);
+* :mod:`.mapformat` - the binary explore map (36-byte header), sans I/O;
+* :mod:`.shapes` - JSON ⇄ model conversions, pure;
+* :mod:`.paths` - the endpoints;
+* :mod:`.device` - the sim-device: the simulator served over the same API.
+"""
+
+from .client import SlamwareRestBackend
+
+__all__ = ["SlamwareRestBackend"]
