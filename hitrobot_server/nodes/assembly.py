@@ -18,6 +18,29 @@ async def start_nodes(bus: Bus, settings: Settings, backend: RobotBackend | None
         slamware = SlamwareNode(bus, backend, settings.slamware)
         nodes.append(slamware)
         await slamware.start()
+        from .conventional import ConventionalNode
+        from .move_base import MoveBaseNode
+        from .shell import ShellNode
+
+        conventional = ConventionalNode(bus, backend, settings.slamware.map_frame)
+        move_base = MoveBaseNode(bus, backend, settings.slamware.map_frame)
+        shell = ShellNode(bus, backend, settings.authenticate, move_base)
+        for node in (conventional, move_base, shell):
+            nodes.append(node)
+            await node.start()
+        from .map_manager import MapManager
+        from .navigation import NavigationNode
+
+        map_manager = MapManager(bus, backend, settings)
+        navigation = NavigationNode(bus, backend, map_manager.pois.get)
+        for node in (map_manager, navigation):
+            nodes.append(node)
+            await node.start()
+    from .diagnostics import DiagnosticsNode
+
+    diagnostics = DiagnosticsNode(bus, backend)  # runs without a robot too (bridge part)
+    nodes.append(diagnostics)
+    await diagnostics.start()
     return nodes
 
 

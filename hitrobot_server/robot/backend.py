@@ -159,6 +159,19 @@ class RobotBackend(ABC):
     async def clear_health_error(self, error_code: int) -> bool:
         """Acknowledge an error by its ``error_code``; False if it was not active."""
 
+    # --- power (optional) ------------------------------------------------------------------
+
+    async def power_off(self) -> None:
+        """Shut the robot down: it goes offline and stays so (``/cmd_string shutdown``).
+        Optional; raises :class:`UnsupportedError` when the robot cannot do it."""
+        raise UnsupportedError("this robot cannot be shut down remotely")
+
+    async def reboot(self) -> None:
+        """Restart the robot: it goes offline now and comes back later with a fresh state
+        (``/cmd_string reboot``); returns once it is offline. Optional; raises
+        :class:`UnsupportedError` when the robot cannot do it."""
+        raise UnsupportedError("this robot cannot be rebooted remotely")
+
     # --- motion ------------------------------------------------------------------------------
 
     @abstractmethod

@@ -337,7 +337,9 @@ class MoveOptions:
     """Motion options: the ROS ``MoveOptions`` (flags, speed ratio) plus the SDK/REST extras.
 
     ``speed_ratio`` scales the maximum speeds (clamped to 0.1-1.0); ``acceptable_precision``
-    overrides the arrival tolerance in metres; ``fail_retry_count`` bounds replanning.
+    overrides the arrival tolerance in metres; ``fail_retry_count`` bounds replanning;
+    ``planning_area`` confines path planning to a map rectangle (the map manager's "fast
+    planning"; a backend without such a restriction may ignore it).
     """
 
     flags: MoveOptionFlag = MoveOptionFlag.NONE
@@ -345,6 +347,7 @@ class MoveOptions:
     mode: NavigationMode = NavigationMode.FREE
     acceptable_precision: float | None = None
     fail_retry_count: int | None = None
+    planning_area: Rect | None = None
 
 
 @dataclass(frozen=True, slots=True)

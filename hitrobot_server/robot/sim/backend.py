@@ -59,7 +59,10 @@ class SimBackend(RobotBackend):
         self._period = 1.0 / rate_hz
         self._time_scale = time_scale
         self._task: asyncio.Task[None] | None = None
+        self._reboot: asyncio.Task[None] | None = None
         self.max_step_seconds = 0.0
+        self.reboot_delay = 2.0
+        """Wall-clock seconds a simulated reboot keeps the robot offline."""
 
     @property
     def connected(self) -> bool:
@@ -70,11 +73,36 @@ class SimBackend(RobotBackend):
             self._task = asyncio.get_running_loop().create_task(self._run(), name="sim-stepper")
 
     async def stop(self) -> None:
+        reboot, self._reboot = self._reboot, None
+        if reboot is not None and reboot is not asyncio.current_task():
+            reboot.cancel()
         task, self._task = self._task, None
         if task is not None:
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await task
+
+    async def power_off(self) -> None:
+        """The simulated robot goes offline and stays so (until the server restarts)."""
+        if not self.connected:
+            raise NotConnectedError("simulator is not running")
+        await self.stop()
+
+    async def reboot(self) -> None:
+        """Offline now; back after :attr:`reboot_delay` as a freshly started simulator (same
+        world, seed and configuration; map, pose, lines and actions as at start-up)."""
+        if not self.connected:
+            raise NotConnectedError("simulator is not running")
+        await self.stop()
+
+        async def come_back() -> None:
+            await asyncio.sleep(self.reboot_delay)
+            old = self.simulator
+            self.simulator = Simulator(old.world, seed=old.seed, config=old.config)
+            self._reboot = None
+            await self.start()
+
+        self._reboot = asyncio.get_running_loop().create_task(come_back(), name="sim-reboot")
 
     async def _run(self) -> None:
         loop = asyncio.get_running_loop()

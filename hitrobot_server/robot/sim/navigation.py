@@ -10,6 +10,7 @@ This is where the Slamware move flags take effect:
   nearest free spot;
 * ``KEY_POINTS`` / mode 1 plan strictly along virtual tracks; ``KEY_POINTS_WITH_OA`` / mode 2
   prefer tracks but may leave them;
+* ``planning_area`` (not a flag) confines every leg's search to that rectangle;
 * ``APPENDING`` is handled by the caller (:meth:`Navigator.append`); ``MILESTONE`` is deprecated
   in the SDK and ignored.
 
@@ -158,6 +159,7 @@ class Navigator:
             smooth=not flags & MoveOptionFlag.NO_SMOOTH,
             substitute_goal=not flags & MoveOptionFlag.RETURN_UNREACHABLE_DIRECTLY,
             track_mode=track_mode(self._options),
+            bbox=self._options.planning_area,
         )
         return search
 

@@ -1,0 +1,163 @@
+"""``/diagnostics_agg``: the robot's and the bridge's health as ``diagnostic_msgs/DiagnosticArray``.
+
+Published once a second, named the way ``diagnostic_aggregator`` names its output: a summary per
+group (``/Robot``, ``/Bridge``) followed by its items. The node runs with or without a robot;
+without one only the ``/Bridge`` group is published. While the robot is offline its connection
+item is ERROR and the other robot items are STALE.
+
+==========================  ==================================================================
+``/Robot/Connection``       OK when reachable, ERROR when not
+``/Robot/Battery``          WARN below 15 % (Slamware's "power low"), ERROR below 5 %, unless
+                            charging; the charging / dock state in the message and values
+``/Robot/Localization``     quality: WARN below 50, ERROR below 30; WARN when disabled
+``/Robot/Motion``           the current action and the velocity
+``/Robot/Health``           the robot's own warnings and errors (``get_health``)
+``/Bridge/Clients``         connected clients (``/hitrobot_client_*`` nodes), topics, services
+==========================  ==================================================================
+"""
+
+from __future__ import annotations
+
+import time
+
+from ..bus.core import Bus
+from ..robot.backend import ACTION_PREFIX, BackendError, NotConnectedError, RobotBackend
+from ..robot.model import HealthLevel
+from .conventional import RobotNode
+from .slamware import messages as m
+
+OK, WARN, ERROR, STALE = 0, 1, 2, 3
+LEVEL_WORDS = {OK: "OK", WARN: "Warning", ERROR: "Error", STALE: "Stale"}
+PERIOD = 1.0
+BATTERY_LOW = 15
+BATTERY_CRITICAL = 5
+QUALITY_WARN = 50
+QUALITY_ERROR = 30
+CLIENT_PREFIX = "/hitrobot_client_"
+TOPIC = "/diagnostics_agg"
+
+
+def status(name: str, level: int, message: str, hardware_id: str = "",
+           **values: object) -> dict:
+    return {"level": level, "name": name, "message": message, "hardware_id": hardware_id,
+            "values": [{"key": k.replace("_", " "), "value": _text(v)}
+                       for k, v in values.items()]}
+
+
+def _text(value: object) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return f"{value:.3f}"
+    return str(value)
+
+
+def summary(name: str, items: list[dict]) -> dict:
+    """A group's summary: ERROR over STALE over WARN over OK, as the aggregator reports."""
+    levels = {item["level"] for item in items}
+    level = next((lv for lv in (ERROR, STALE, WARN) if lv in levels), OK)
+    return status(name, level, LEVEL_WORDS[level])
+
+
+class DiagnosticsNode(RobotNode):
+    def __init__(self, bus: Bus, backend: RobotBackend | None = None):
+        super().__init__(bus, "/diagnostic_aggregator", backend)
+        self._device_id = ""
+        self.advertise(TOPIC, "diagnostic_msgs/DiagnosticArray")
+
+    async def start(self) -> None:
+        self.every(PERIOD, self._publish, needs_robot=False)
+
+    async def _publish(self) -> None:
+        statuses: list[dict] = []
+        if self.backend is not None:
+            robot = await self.robot_items()
+            statuses += [summary("/Robot", robot), *robot]
+        bridge = self.bridge_items()
+        statuses += [summary("/Bridge", bridge), *bridge]
+        self.publish(TOPIC, {"header": m.header("", time.time()), "status": statuses})
+
+    def bridge_items(self) -> list[dict]:
+        bus = self.bus
+        clients = sorted(n for n in bus.nodes if n.startswith(CLIENT_PREFIX))
+        return [status(
+            "/Bridge/Clients", OK,
+            f"{len(clients)} client{'' if len(clients) == 1 else 's'} connected",
+            clients=len(clients), topics=len(bus.topics), services=len(bus.services),
+            actions=len(bus.actions), nodes=len(bus.nodes), client_names=" ".join(clients))]
+
+    async def robot_items(self) -> list[dict]:
+        assert self.backend is not None
+        kind = type(self.backend).__name__
+        level, text, stale = ERROR, "not connected", "no data: the robot is not connected"
+        if self.backend.connected:
+            try:
+                return await self._robot_items(kind)
+            except NotConnectedError:
+                pass
+            except BackendError as exc:
+                level, text, stale = ERROR, f"the robot does not answer: {exc}", "no data"
+        hw = self._device_id
+        return [status("/Robot/Connection", level, text, hw, backend=kind),
+                *(status(f"/Robot/{name}", STALE, stale, hw)
+                  for name in ("Battery", "Localization", "Motion", "Health"))]
+
+    async def _robot_items(self, kind: str) -> list[dict]:
+        b = self.backend
+        assert b is not None
+        info = await b.get_device_info()
+        hw = self._device_id = info.device_id
+        items = [status("/Robot/Connection", OK, "connected", hw, backend=kind,
+                        model=info.model_name, software_version=info.software_version)]
+
+        power = await b.get_power_status()
+        pct = int(power.battery_percentage)
+        state = ("charging" if power.is_charging else
+                 "on dock" if power.is_dc_in else "discharging")
+        level = OK
+        if not power.is_charging:
+            level = ERROR if pct < BATTERY_CRITICAL else WARN if pct < BATTERY_LOW else OK
+        words = {OK: "", WARN: ", low", ERROR: ", critically low"}
+        items.append(status(
+            "/Robot/Battery", level, f"{pct} %, {state}{words[level]}", hw,
+            battery_percentage=pct, charging=power.is_charging, dc_connected=power.is_dc_in,
+            docking_status=power.docking_status.value, power_stage=power.power_stage.value,
+            sleep_mode=power.sleep_mode.value))
+
+        enabled = await b.get_localization_enabled()
+        quality = int(await b.get_localization_quality())
+        mapping = await b.get_map_update()
+        if not enabled:
+            level, text = WARN, "localization disabled"
+        elif quality < QUALITY_ERROR:
+            level, text = ERROR, f"quality {quality}: localization lost"
+        elif quality < QUALITY_WARN:
+            level, text = WARN, f"quality {quality}: poor localization"
+        else:
+            level, text = OK, f"quality {quality}"
+        items.append(status("/Robot/Localization", level, text, hw, quality=quality,
+                            localization_enabled=enabled, map_update=mapping))
+
+        action = await b.get_current_action()
+        odo = await b.get_odometry()
+        if action is None:
+            text, values = "idle", {}
+        else:
+            name = action.action_name.removeprefix(ACTION_PREFIX)
+            text = f"{name} ({action.status.name.lower()})"
+            values = {"action": name, "action_id": action.action_id, "stage": action.stage}
+        items.append(status("/Robot/Motion", OK, text, hw, **values,
+                            linear_velocity=odo.twist.vx, angular_velocity=odo.twist.omega))
+
+        health = await b.get_health()
+        temperature = await b.get_board_temperature()
+        level = OK
+        for err in health.errors:
+            level = max(level, WARN if err.level == HealthLevel.WARN
+                        else ERROR if err.level >= HealthLevel.ERROR else OK)
+        text = "; ".join(e.message for e in health.errors) or "no errors"
+        errors = {f"{e.level.name.lower()} 0x{e.error_code:08X}": e.message
+                  for e in health.errors}
+        items.append(status("/Robot/Health", level, text, hw,
+                            board_temperature=temperature, **errors))
+        return items

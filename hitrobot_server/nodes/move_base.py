@@ -1,0 +1,294 @@
+"""``/move_base``: a ROS 1 actionlib server (``move_base_msgs/MoveBaseAction``) over plain topics.
+
+roslibjs's and roslibpy's ``ActionClient`` (and nav2d's Navigator) speak actionlib as five
+topics: they publish ``/move_base/goal`` and ``/move_base/cancel`` and listen to
+``/move_base/status``, ``/move_base/feedback`` and ``/move_base/result``. This node is the
+server side, with the semantics of ``move_base``'s SimpleActionServer:
+
+* one goal runs at a time; a new goal preempts the running one (old → PREEMPTED, or RECALLED
+  if it had not started yet);
+* an invalid goal (NaN, a frame other than the map) is REJECTED with the reason, and leaves
+  the running goal alone; an all-zero quaternion is accepted as yaw 0;
+* the goal is the robot's ``move_to`` (precise, with yaw); its action is polled until done:
+  success → SUCCEEDED, failure (no path, blocked, ...) → ABORTED with the robot's reason, an
+  action cancelled or replaced on the robot by someone else → PREEMPTED with the robot's
+  reason, the robot disconnecting → ABORTED;
+* a cancel (``actionlib_msgs/GoalID``; empty id and zero stamp = every goal, a stamp = every
+  goal stamped at or before it) → PREEMPTING then PREEMPTED once the robot was told to stop,
+  or RECALLED for a goal that had not started;
+* ``/move_base/status`` is published every 100 ms even when idle (roslibpy's ActionClient
+  blocks until it sees one) and on every transition; finished goals stay in its list for
+  5 s, as actionlib's ``status_list_timeout``; feedback carries the robot's pose.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import logging
+import time
+from dataclasses import dataclass, field
+
+from ..bus.core import Bus
+from ..bus.topics import Message, RequestRejected
+from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.model import ActionResult, MoveOptions, Point2D, Pose2D
+from .conventional import RobotNode, map_frames, pose2d_of
+from .slamware import messages as m
+from .slamware.node import GOAL_FLAGS
+
+log = logging.getLogger(__name__)
+
+PENDING, ACTIVE, PREEMPTED, SUCCEEDED, ABORTED, REJECTED = 0, 1, 2, 3, 4, 5
+PREEMPTING, RECALLING, RECALLED, LOST = 6, 7, 8, 9
+TERMINAL = frozenset({PREEMPTED, SUCCEEDED, ABORTED, REJECTED, RECALLED, LOST})
+
+STATUS_PERIOD = 0.1
+"""Seconds between ``status`` messages (actionlib's default is 5 Hz; we send 10)."""
+POLL_PERIOD = 0.1
+"""Seconds between looks at the robot's action; one feedback message per look."""
+STATUS_LIST_TIMEOUT = 5.0
+"""Seconds a finished goal stays in the status list (actionlib's ``status_list_timeout``)."""
+NEW_GOAL_TEXT = "This goal was canceled because another goal was received by the action server"
+CANCEL_TEXT = "cancelled by a cancel request"
+
+
+@dataclass(eq=False)
+class Goal:
+    """One goal the server knows, from acceptance until it drops out of the status list."""
+
+    goal_id: dict
+    target: Pose2D | None = None
+    status: int = PENDING
+    text: str = ""
+    action_id: int | None = None
+    finished: float | None = None
+    message: Message | None = field(default=None, repr=False)
+    task: asyncio.Task | None = field(default=None, repr=False)
+
+    @property
+    def id(self) -> str:
+        return self.goal_id["id"]
+
+    @property
+    def stamp(self) -> tuple[int, int]:
+        s = self.goal_id["stamp"]
+        return s["secs"], s["nsecs"]
+
+    @property
+    def done(self) -> bool:
+        return self.status in TERMINAL
+
+
+class MoveBaseNode(RobotNode):
+    """The actionlib server for ``/move_base`` (the server name is configurable)."""
+
+    def __init__(self, bus: Bus, backend: RobotBackend, map_frame: str = "/map",
+                 server: str = "/move_base"):
+        super().__init__(bus, server, backend)
+        self.backend: RobotBackend = backend
+        self.server = server
+        self.map_frame = map_frame
+        self.frames = map_frames(map_frame)
+        self.goals: dict[str, Goal] = {}
+        self.current: Goal | None = None
+        self._lock = asyncio.Lock()  # one robot command at a time, in arrival order
+        self._ids = itertools.count(1)
+        self._seqs: dict[str, itertools.count] = {}
+        pkg = "move_base_msgs/MoveBaseAction"
+        self.advertise(f"{server}/status", "actionlib_msgs/GoalStatusArray")
+        self.advertise(f"{server}/feedback", f"{pkg}Feedback")
+        self.advertise(f"{server}/result", f"{pkg}Result")
+        self.subscribe(f"{server}/goal", f"{pkg}Goal", self._on_goal)
+        self.subscribe(f"{server}/cancel", "actionlib_msgs/GoalID", self._on_cancel)
+
+    async def start(self) -> None:
+        self.every(STATUS_PERIOD, self._tick, needs_robot=False)
+
+    async def _tick(self) -> None:
+        now = time.monotonic()
+        for gid, goal in list(self.goals.items()):
+            if goal.finished is not None and now - goal.finished > STATUS_LIST_TIMEOUT:
+                del self.goals[gid]
+        self._publish_status()
+
+    # ------------------------------------------------------------------ publishing
+    def _header(self, topic: str, frame: str = "") -> dict:
+        """A header numbered per topic, as a ROS publisher numbers its messages."""
+        seq = self._seqs.setdefault(topic, itertools.count(1))
+        return m.header(frame, time.time(), next(seq))
+
+    @staticmethod
+    def _goal_status(goal: Goal) -> dict:
+        return {"goal_id": goal.goal_id, "status": goal.status, "text": goal.text}
+
+    def _publish_status(self) -> None:
+        self.publish(f"{self.server}/status", {
+            "header": self._header("status"),
+            "status_list": [self._goal_status(g) for g in self.goals.values()],
+        })
+
+    def _publish_feedback(self, goal: Goal, pose: Pose2D) -> None:
+        self.publish(f"{self.server}/feedback", {
+            "header": self._header("feedback"),
+            "status": self._goal_status(goal),
+            "feedback": {"base_position": {"header": self._header("pose", self.map_frame),
+                                           "pose": m.pose(pose)}},
+        })
+
+    def _finish(self, goal: Goal, status: int, text: str = "") -> None:
+        """Move ``goal`` to a terminal state: status first, then the result (roslibpy's Goal
+        only counts as finished once it has both)."""
+        if goal.done:
+            return
+        goal.status, goal.text, goal.finished = status, text, time.monotonic()
+        if self.current is goal:
+            self.current = None
+        self._publish_status()
+        self.publish(f"{self.server}/result", {
+            "header": self._header("result"), "status": self._goal_status(goal), "result": {}})
+        if goal.message is not None and status in (ABORTED, REJECTED):
+            goal.message.reject(f"goal '{goal.id}' {'aborted' if status == ABORTED else 'rejected'}"
+                                f": {text}")
+
+    # ------------------------------------------------------------------ goals
+    def _on_goal(self, message: Message) -> None:
+        msg = message.msg
+        goal_id = {"stamp": dict(msg["goal_id"]["stamp"]), "id": msg["goal_id"]["id"]}
+        now = time.time()
+        if not goal_id["id"]:  # actionlib's GoalIDGenerator: name-count-stamp
+            goal_id["id"] = f"{self.server}-{next(self._ids)}-{now:.6f}"
+        if goal_id["stamp"]["secs"] == 0 and goal_id["stamp"]["nsecs"] == 0:
+            goal_id["stamp"] = m.stamp(now)  # actionlib stamps goals sent without one
+        if goal_id["id"] in self.goals:
+            message.reject(f"goal id '{goal_id['id']}' is already known; goal ignored", "warning")
+            return
+        goal = Goal(goal_id, message=message)
+        self.goals[goal.id] = goal
+        try:
+            tp = msg["goal"]["target_pose"]
+            frame = tp["header"]["frame_id"]
+            if frame not in self.frames:
+                raise RequestRejected(f"field 'goal.target_pose.header.frame_id': '{frame}' is "
+                                      "not the map frame")
+            goal.target = pose2d_of(tp["pose"], "goal.target_pose.pose")
+            if not self.backend.connected:
+                raise RequestRejected("the robot is not connected")
+        except RequestRejected as exc:
+            self._finish(goal, REJECTED, str(exc))  # tells the publisher too
+            return
+        previous, self.current = self.current, goal
+        self._publish_status()
+        if previous is not None and not previous.done:
+            self._stop_watching(previous)
+            self._finish(previous, RECALLED if previous.status == PENDING else PREEMPTED,
+                         NEW_GOAL_TEXT)
+        goal.task = self.spawn(self._execute(goal))
+
+    async def _execute(self, goal: Goal) -> None:
+        assert goal.target is not None
+        target = goal.target
+        async with self._lock:
+            if goal.done:  # recalled or replaced while waiting for the robot
+                return
+            try:
+                info = await self.backend.move_to(
+                    [Point2D(target.x, target.y)], MoveOptions(flags=GOAL_FLAGS), target.yaw)
+            except NotConnectedError:
+                self._finish(goal, ABORTED, "the robot is not connected")
+                return
+            except BackendError as exc:
+                self._finish(goal, ABORTED, f"the robot refused the goal: {exc}")
+                return
+            goal.action_id = info.action_id
+            if goal.done:  # cancelled while the robot was being asked: undo
+                if goal.status == RECALLED and self.current is None:
+                    await self._cancel_robot_action(info.action_id)
+                return
+            goal.status = ACTIVE
+            self._publish_status()
+        await self._watch(goal)
+
+    async def _watch(self, goal: Goal) -> None:
+        while not goal.done:
+            await asyncio.sleep(POLL_PERIOD)
+            if goal.done or goal.status != ACTIVE or goal.action_id is None:
+                return
+            try:
+                action = await self.backend.get_action(goal.action_id)
+                pose = await self.backend.get_pose()
+            except NotConnectedError:
+                self._finish(goal, ABORTED, "the robot disconnected")
+                return
+            except BackendError as exc:  # transient: look again on the next poll
+                log.warning("move_base: polling action %s: %s", goal.action_id, exc)
+                continue
+            if goal.done or goal.status != ACTIVE:
+                return
+            if action is None:
+                self._finish(goal, ABORTED, "the robot no longer knows the goal's action")
+                return
+            if not action.done:
+                self._publish_feedback(goal, pose)
+                continue
+            if action.result == ActionResult.SUCCESS:
+                self._finish(goal, SUCCEEDED, "")
+            elif action.result == ActionResult.FAILED:
+                self._finish(goal, ABORTED, action.reason or "the robot could not reach the goal")
+            else:  # cancelled or replaced on the robot, not through us
+                self._finish(goal, PREEMPTED, f"stopped on the robot: {action.reason or 'aborted'}")
+
+    def _stop_watching(self, goal: Goal) -> None:
+        task = goal.task
+        if task is not None and task is not asyncio.current_task():
+            task.cancel()
+
+    async def _cancel_robot_action(self, action_id: int | None) -> None:
+        """Cancel the robot's current action if it is still ``action_id`` (never someone
+        else's)."""
+        if action_id is None:
+            return
+        try:
+            current = await self.backend.get_current_action()
+            if current is not None and current.action_id == action_id:
+                await self.backend.cancel_action()
+        except BackendError as exc:
+            log.warning("move_base: cancelling action %s: %s", action_id, exc)
+
+    # ------------------------------------------------------------------ cancel
+    def _on_cancel(self, message: Message) -> None:
+        msg = message.msg
+        cancel_id = msg["id"]
+        stamp = (msg["stamp"]["secs"], msg["stamp"]["nsecs"])
+        everything = not cancel_id and stamp == (0, 0)
+        targets = [g for g in self.goals.values() if not g.done and (
+            everything or g.id == cancel_id or (stamp != (0, 0) and g.stamp <= stamp))]
+        if not targets and cancel_id and cancel_id not in self.goals:
+            message.reject(f"no goal with id '{cancel_id}'", "warning")
+        for goal in targets:
+            self.cancel_goal(goal, CANCEL_TEXT)
+
+    def cancel_all(self, text: str = CANCEL_TEXT) -> int:
+        """Cancel every unfinished goal (``/cmd_string cancel``); how many there were."""
+        targets = [g for g in self.goals.values() if not g.done]
+        for goal in targets:
+            self.cancel_goal(goal, text)
+        return len(targets)
+
+    def cancel_goal(self, goal: Goal, text: str) -> None:
+        if goal.done or goal.status in (PREEMPTING, RECALLING):
+            return
+        if goal.status == PENDING:
+            self._finish(goal, RECALLED, text)
+            return
+        goal.status = PREEMPTING
+        if self.current is goal:
+            self.current = None
+        self._stop_watching(goal)
+        self._publish_status()
+        self.spawn(self._preempt(goal, text))
+
+    async def _preempt(self, goal: Goal, text: str) -> None:
+        async with self._lock:
+            await self._cancel_robot_action(goal.action_id)
+        self._finish(goal, PREEMPTED, text)

@@ -1,0 +1,158 @@
+"""``/navigation``: drive the robot to a pose or to a named POI (``map_messages``).
+
+``/navigation/start`` (StartNavigation) and ``/navigation/navigate_to_poi`` (NavigateToPOI) start
+a ``move_to`` on the robot:
+
+* ``distance_to_target`` > 0 is the arrival tolerance (``MoveOptions.acceptable_precision``);
+  0 keeps the robot's default;
+* ``skip_final_turn`` leaves out the final turn to the goal's orientation (no ``WITH_YAW``);
+* ``fast_planning`` confines the planner to the bounding box of the robot and the goal, grown
+  by :data:`FAST_PLANNING_MARGIN` on every side (``MoveOptions.planning_area``), so a goal
+  reachable only by a detour outside it is unreachable.
+
+The map manager's BLOCKED/OBSTACLE masks are already in the robot's planner. When the robot
+cannot get there (no path, stuck, blocked), ``/navigation/target_unreachable`` gets a
+TargetUnreachable with the reason's constant and the requester a status error; arrival is an
+``info`` status. A newer navigation (or any other motion request) replaces a running one
+silently, as on the robot.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import math
+from collections.abc import Callable
+
+from ..bus.core import Bus
+from ..bus.topics import Message, RequestRejected
+from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.model import ActionResult, ActionStatus, MoveOptionFlag, MoveOptions, Point2D, Rect
+from .base import Node
+from .slamware import messages as m
+
+NODE_NAME = "/navigation"
+PKG = "map_messages"
+START_TOPIC = f"{NODE_NAME}/start"
+POI_TOPIC = f"{NODE_NAME}/navigate_to_poi"
+UNREACHABLE_TOPIC = f"{NODE_NAME}/target_unreachable"
+FAST_PLANNING_MARGIN = 1.0
+"""Metres added around the robot-goal bounding box for ``fast_planning``."""
+POLL = 0.1
+"""Seconds between looks at the running move."""
+
+UNKNOWN, TILT_OCCURED, GRAVE_TILT_OCCURED, STALL_OCCURED, LASER_OBSTACLE = 0, 10, 15, 20, 30
+
+
+def unreachable_reason(text: str) -> int:
+    """The TargetUnreachable constant for a robot's failure text: tilts, a stall (stuck), an
+    obstacle (blocked path, collision), anything else (no path at all) UNKNOWN."""
+    t = text.lower()
+    if "tilt" in t:
+        return GRAVE_TILT_OCCURED if "grave" in t else TILT_OCCURED
+    if "stuck" in t or "stall" in t:
+        return STALL_OCCURED
+    if "obstacle" in t or "blocked" in t:
+        return LASER_OBSTACLE
+    return UNKNOWN
+
+
+def planning_area(start: tuple[float, float], goal: tuple[float, float],
+                  margin: float = FAST_PLANNING_MARGIN) -> Rect:
+    """The robot-goal bounding box grown by ``margin``."""
+    x0, x1 = sorted((start[0], goal[0]))
+    y0, y1 = sorted((start[1], goal[1]))
+    return Rect(x0 - margin, y0 - margin, x1 - x0 + 2 * margin, y1 - y0 + 2 * margin)
+
+
+def _finite(path: str, *values: float) -> None:
+    if not all(isinstance(v, int | float) and math.isfinite(v) for v in values):
+        raise RequestRejected(f"field '{path}' must be a finite number")
+
+
+class NavigationNode(Node):
+    """StartNavigation / NavigateToPOI on top of the robot's ``move_to``."""
+
+    def __init__(self, bus: Bus, backend: RobotBackend, find_poi: Callable[[str], dict | None]):
+        super().__init__(bus, NODE_NAME)
+        self.backend = backend
+        self.find_poi = find_poi
+        self._tasks: set[asyncio.Task] = set()
+        self.advertise(UNREACHABLE_TOPIC, f"{PKG}/TargetUnreachable")
+        self.subscribe(START_TOPIC, f"{PKG}/StartNavigation", self._on_start)
+        self.subscribe(POI_TOPIC, f"{PKG}/NavigateToPOI", self._on_poi)
+
+    async def start(self) -> None:
+        pass
+
+    async def stop(self) -> None:
+        for task in list(self._tasks):
+            task.cancel()
+        for task in list(self._tasks):
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await task
+        self.close()
+
+    def _on_start(self, message: Message) -> None:
+        msg = message.msg
+        self._navigate(message, "navigation/start", msg["goal"], msg["distance_to_target"],
+                       bool(msg["skip_final_turn"]), bool(msg["fast_planning"]))
+
+    def _on_poi(self, message: Message) -> None:
+        msg = message.msg
+        name = msg["poi_name"]
+        poi = self.find_poi(name)
+        if poi is None:
+            raise RequestRejected(f"navigate_to_poi: there is no POI named {name!r}")
+        self._navigate(message, f"navigate_to_poi {name!r}", poi["pose"],
+                       msg["distance_to_target"], bool(msg["skip_final_turn"]), False)
+
+    def _navigate(self, message: Message, what: str, goal: dict, distance: float,
+                  skip_final_turn: bool, fast_planning: bool) -> None:
+        position, q = goal["position"], goal["orientation"]
+        _finite("goal.position", position["x"], position["y"])
+        _finite("goal.orientation", q["x"], q["y"], q["z"], q["w"])
+        _finite("distance_to_target", distance)
+        if distance < 0:
+            raise RequestRejected("field 'distance_to_target' must not be negative")
+        if not self.backend.connected:
+            raise RequestRejected(f"{what}: the robot is not connected")
+        target = Point2D(float(position["x"]), float(position["y"]))
+        yaw = m.yaw_of(q)
+
+        async def go() -> None:
+            try:
+                area = None
+                if fast_planning:
+                    pose = await self.backend.get_pose()
+                    area = planning_area((pose.x, pose.y), (target.x, target.y))
+                options = MoveOptions(
+                    flags=MoveOptionFlag.NONE if skip_final_turn else MoveOptionFlag.WITH_YAW,
+                    acceptable_precision=float(distance) if distance > 0 else None,
+                    planning_area=area,
+                )
+                action = await self.backend.move_to([target], options, yaw)
+                while action.status != ActionStatus.DONE:
+                    await asyncio.sleep(POLL)
+                    current = await self.backend.get_action(action.action_id)
+                    if current is None:  # replaced and forgotten
+                        return
+                    action = current
+            except NotConnectedError:
+                message.reject(f"{what}: the robot is not connected")
+                return
+            except BackendError as exc:
+                message.reject(f"{what}: {exc}")
+                return
+            if action.result == ActionResult.SUCCESS:
+                message.reject(f"{what}: arrived", level="info")
+            elif action.result == ActionResult.FAILED:
+                why = action.reason or "unknown"
+                self.publish(UNREACHABLE_TOPIC, {"reason": unreachable_reason(why)})
+                message.reject(f"{what}: target unreachable: {why}")
+            else:
+                message.reject(f"{what}: {action.reason or 'aborted'}", level="warning")
+
+        task = asyncio.ensure_future(go())
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)

@@ -1,0 +1,232 @@
+"""``/system_shell``: the seed's custom string commands (§4.1) and the system mode (§4.2).
+
+Commands arrive as ``std_msgs/String`` on ``/cmd_string`` or ``/system_shell/cmd_string`` (the
+JavaScript example's name); both behave the same. The mode (``gmapping``, ``navigation``, or
+``busy`` while switching) is published, latched, on ``/ros_mode`` and
+``/system_shell/system_mode``. A command we cannot carry out is reported to the client that
+sent it as a ``status`` error; so is an unknown command.
+
+==================  ===========================================================================
+``shutdown``        the robot (never the host running this server) powers off and stays off;
+                    admin only when the server runs with ``--authenticate``
+``reboot``          the robot restarts: offline now, back shortly with a fresh state; admin
+                    only with ``--authenticate``
+``cancel``          cancel every ``/move_base`` goal and stop the robot's current motion
+``gmapping``        mapping mode: ``busy``, map updates on, then ``gmapping``
+``navigation``      navigation mode: ``busy``, map frozen (updates off), then ``navigation``
+``save_map``        ``map_messages/SaveMap {filename: "localization"}`` → /map_manager/save_map
+``save_map_edit``   ``{filename: "navigation"}`` → /map_manager/save_map
+``save_as_map``     ``{filename: "localization"}`` → /map_manager/load_map
+``save_as_map_edit``  ``{filename: "navigation"}`` → /map_manager/load_map
+``version``         server and robot versions, latched on ``/system_shell/version``
+``null``            nothing (an empty string too)
+==================  ===========================================================================
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from collections.abc import Callable
+
+from .. import __version__
+from ..bus.core import Bus
+from ..bus.errors import BusError
+from ..bus.topics import Message, RequestRejected
+from ..robot.backend import BackendError, NotConnectedError, RobotBackend, UnsupportedError
+from ..types.convert import default_message
+from .conventional import RobotNode
+from .move_base import MoveBaseNode
+
+log = logging.getLogger(__name__)
+
+NODE_NAME = "/system_shell"
+COMMAND_TOPICS = ("/cmd_string", f"{NODE_NAME}/cmd_string")
+MODE_TOPICS = ("/ros_mode", f"{NODE_NAME}/system_mode")
+VERSION_TOPIC = f"{NODE_NAME}/version"
+GMAPPING, NAVIGATION, BUSY = "gmapping", "navigation", "busy"
+MAP_REQUESTS = {
+    "save_map": ("/map_manager/save_map", "localization"),
+    "save_map_edit": ("/map_manager/save_map", "navigation"),
+    "save_as_map": ("/map_manager/load_map", "localization"),
+    "save_as_map_edit": ("/map_manager/load_map", "navigation"),
+}
+MAP_REQUEST_TYPE = "map_messages/SaveMap"
+MODE_POLL = 0.5
+"""Seconds between looks at the robot's map-update switch, so ``/ros_mode`` follows changes made
+by other means (``set_map_update``, a robot reboot)."""
+ADMIN = "admin"
+
+
+class ShellNode(RobotNode):
+    """Executes ``/cmd_string`` commands against the robot and publishes the mode."""
+
+    def __init__(self, bus: Bus, backend: RobotBackend, authenticate: bool = False,
+                 move_base: MoveBaseNode | None = None):
+        super().__init__(bus, NODE_NAME, backend)
+        self.backend: RobotBackend = backend
+        self.authenticate = authenticate
+        self.move_base = move_base
+        self.mode: str | None = None
+        self._switching = asyncio.Lock()
+        self._generation = 0
+        for topic in MODE_TOPICS:
+            self.advertise(topic, "std_msgs/String", latch=True)
+        self.advertise(VERSION_TOPIC, "std_msgs/String", latch=True)
+        for topic in COMMAND_TOPICS:
+            self.subscribe(topic, "std_msgs/String", self._on_command)
+        self.commands: dict[str, Callable[[Message], None]] = {
+            "shutdown": lambda msg: self._power(msg, "shutdown"),
+            "reboot": lambda msg: self._power(msg, "reboot"),
+            "cancel": self._cancel,
+            GMAPPING: lambda msg: self._switch(msg, GMAPPING),
+            NAVIGATION: lambda msg: self._switch(msg, NAVIGATION),
+            **{name: (lambda msg, name=name: self._map_request(msg, name))
+               for name in MAP_REQUESTS},
+            "version": lambda msg: self.spawn(self._version(msg)),
+            "null": lambda msg: None,
+            "": lambda msg: None,
+        }
+
+    async def start(self) -> None:
+        self.every(MODE_POLL, self._follow_robot_mode)
+
+    # ------------------------------------------------------------------ mode
+    def _publish_mode(self, mode: str) -> None:
+        self.mode = mode
+        for topic in MODE_TOPICS:
+            self.publish(topic, {"data": mode})
+
+    async def _follow_robot_mode(self) -> None:
+        if self._switching.locked():
+            return
+        generation = self._generation
+        mode = GMAPPING if await self.backend.get_map_update() else NAVIGATION
+        if self._switching.locked() or generation != self._generation:
+            return  # a switch started meanwhile: it publishes the mode itself
+        if mode != self.mode:
+            self._publish_mode(mode)
+
+    def _switch(self, message: Message, mode: str) -> None:
+        self._require_robot(mode)
+        self.spawn(self._do_switch(message, mode))
+
+    async def _do_switch(self, message: Message, mode: str) -> None:
+        async with self._switching:
+            self._generation += 1
+            self._publish_mode(BUSY)
+            try:
+                await self.backend.set_localization_enabled(True)
+                await self.backend.set_map_update(mode == GMAPPING)
+            except BackendError as exc:
+                message.reject(f"{mode}: {_robot_error(exc)}")
+                try:
+                    actual = GMAPPING if await self.backend.get_map_update() else NAVIGATION
+                except BackendError:
+                    actual = None
+                if actual is not None:
+                    self._publish_mode(actual)
+                else:
+                    self.mode = None  # unknown until the robot answers again
+                return
+            self._publish_mode(mode)
+
+    # ------------------------------------------------------------------ commands
+    def _on_command(self, message: Message) -> None:
+        command = message.msg["data"].strip()
+        handler = self.commands.get(command)
+        if handler is None:
+            known = ", ".join(c for c in self.commands if c)
+            raise RequestRejected(f"unknown command '{command}'; known commands: {known}")
+        handler(message)
+
+    def _require_robot(self, command: str) -> None:
+        if not self.backend.connected:
+            raise RequestRejected(f"{command}: the robot is not connected")
+
+    def _power(self, message: Message, command: str) -> None:
+        origin = message.origin
+        if self.authenticate and origin is not None and origin.auth_level != ADMIN:
+            level = origin.auth_level or "none"
+            raise RequestRejected(f"{command}: only clients authenticated at level '{ADMIN}' "
+                                  f"may {command} the robot (yours: '{level}')")
+        self._require_robot(command)
+
+        async def go() -> None:
+            who = origin.node if origin is not None else "an in-process node"
+            log.warning("robot %s requested by %s", command, who)
+            try:
+                if command == "shutdown":
+                    await self.backend.power_off()
+                else:
+                    await self.backend.reboot()
+            except UnsupportedError as exc:
+                message.reject(f"{command}: {exc}")
+            except BackendError as exc:
+                message.reject(f"{command}: {_robot_error(exc)}")
+            else:
+                message.reject(f"{command}: the robot is going down", level="info")
+
+        self.spawn(go())
+
+    def _cancel(self, message: Message) -> None:
+        goals = 0
+        if self.move_base is not None:
+            goals = self.move_base.cancel_all("cancelled by /cmd_string cancel")
+        if not self.backend.connected:
+            if goals:
+                return
+            raise RequestRejected("cancel: the robot is not connected")
+
+        async def go() -> None:
+            try:
+                await self.backend.cancel_action()
+            except BackendError as exc:
+                message.reject(f"cancel: {_robot_error(exc)}")
+
+        self.spawn(go())
+
+    def _map_request(self, message: Message, command: str) -> None:
+        """Hand the request to the map manager, which answers the client itself (the
+        original publisher's reply and origin go with the message)."""
+        topic_name, filename = MAP_REQUESTS[command]
+        topic = self.bus.topic(topic_name)
+        try:
+            if topic is None or self not in topic.publishers:
+                topic = self.bus.advertise(topic_name, MAP_REQUEST_TYPE if topic is None else None,
+                                           self, self.name)
+        except BusError as exc:
+            raise RequestRejected(f"{command}: cannot request it from the map manager: {exc}"
+                                  ) from None
+        if not topic.subscribers:
+            raise RequestRejected(f"{command}: the map manager is not running (nobody listens "
+                                  f"on {topic_name})")
+        body = default_message(topic.mtype, self.bus.types)
+        if "filename" not in body:
+            raise RequestRejected(f"{command}: {topic_name} has type "
+                                  f"'{self.bus.types.short(topic.type_name)}', not "
+                                  f"'{MAP_REQUEST_TYPE}'")
+        body["filename"] = filename
+        self.bus.publish(topic_name, body, reply=message.reply, origin=message.origin)
+
+    async def _version(self, message: Message) -> None:
+        lines = [f"hitrobot-server {__version__}"]
+        try:
+            info = await self.backend.get_device_info()
+        except BackendError as exc:
+            lines.append(f"robot: {_robot_error(exc)}")
+        else:
+            lines += [
+                f"robot: {info.model_name} by {info.manufacturer_name}, device {info.device_id}",
+                f"robot hardware: {info.hardware_version}",
+                f"robot software: {info.software_version}",
+                f"robot sdp: {info.sdp_version}",
+                f"robot sdk: {info.sdk_version}",
+            ]
+        text = "\n".join(lines)
+        self.publish(VERSION_TOPIC, {"data": text})
+        message.reject(text, level="info")
+
+
+def _robot_error(exc: BackendError) -> str:
+    return "the robot is not connected" if isinstance(exc, NotConnectedError) else str(exc)

@@ -1,0 +1,177 @@
+"""``/navigation`` (StartNavigation, NavigateToPOI, TargetUnreachable) on a real server with the
+simulated robot, and the map manager's masks as the robot's planner sees them."""
+
+from __future__ import annotations
+
+import math
+
+from hitrobot_server.nodes.navigation import (
+    LASER_OBSTACLE,
+    STALL_OCCURED,
+    TILT_OCCURED,
+    UNKNOWN,
+    planning_area,
+    unreachable_reason,
+)
+
+from .map_manager.util import (
+    BLOCKED,
+    MM,
+    NOT_MASKED,
+    NS,
+    current,
+    modify_map,
+    poi,
+    pose,
+    rect,
+    request,
+    start,
+    still,
+)
+
+NAV = "/navigation"
+START_T = "map_messages/StartNavigation"
+POI_T = "map_messages/NavigateToPOI"
+UNREACHABLE = f"{NAV}/target_unreachable"
+
+
+def start_msg(x: float, y: float, yaw: float = 0.0, distance: float = 0.0,
+              skip_final_turn: bool = False, fast_planning: bool = False) -> dict:
+    return {"goal": pose(x, y, yaw), "distance_to_target": distance,
+            "skip_final_turn": skip_final_turn, "fast_planning": fast_planning}
+
+
+def test_unreachable_reasons_and_planning_area():
+    assert unreachable_reason("no path to the target") == UNKNOWN
+    assert unreachable_reason("robot is stuck") == STALL_OCCURED
+    assert unreachable_reason("blocked by an obstacle") == LASER_OBSTACLE
+    assert unreachable_reason("the robot is inside an obstacle") == LASER_OBSTACLE
+    assert unreachable_reason("Tilt detected") == TILT_OCCURED
+    area = planning_area((5.0, 8.0), (3.0, 12.0), margin=1.0)
+    assert (area.x, area.y, area.width, area.height) == (2.0, 7.0, 4.0, 6.0)
+
+
+async def test_navigate_to_poi_arrives_and_turns(make_server, tmp_path):
+    _server, w = await start(make_server, tmp_path)
+    await request(w, f"{MM}/add_poi", "map_messages/PointOfInterest",
+                  poi("office B", 10.0, 12.5, math.pi / 2), "add")
+    status = await request(w, f"{NAV}/navigate_to_poi", POI_T,
+                           {"poi_name": "office B", "distance_to_target": 0.0,
+                            "skip_final_turn": False}, "go", timeout=60)
+    assert status["level"] == "info" and "arrived" in status["msg"], status
+    await w.until(lambda: still(w), 5, "the robot at rest")
+    x, y, yaw = current(w)
+    assert math.hypot(x - 10.0, y - 12.5) < 0.2
+    assert abs(math.remainder(yaw - math.pi / 2, 2 * math.pi)) < 0.1
+    assert UNREACHABLE not in w.messages
+    # refused requests
+    for op_id, topic, type_name, msg, needle in [
+        ("no-poi", f"{NAV}/navigate_to_poi", POI_T,
+         {"poi_name": "nowhere", "distance_to_target": 0.0, "skip_final_turn": False},
+         "no POI named 'nowhere'"),
+        ("negative", f"{NAV}/start", START_T, start_msg(5.0, 8.0, distance=-1.0),
+         "must not be negative"),
+        ("nan", f"{NAV}/start", START_T, dict(start_msg(5.0, 8.0), distance_to_target=None),
+         "distance_to_target"),
+    ]:
+        status = await request(w, topic, type_name, msg, op_id)
+        assert status["level"] == "error" and needle in status["msg"], status
+    await w.close()
+
+
+async def test_fast_planning_box_and_distance_to_target(make_server, tmp_path):
+    """Office A's door lies west of the robot-goal box: fast planning cannot get there, the
+    full planner can; ``distance_to_target`` ends the trip early, without the final turn."""
+    _server, w = await start(make_server, tmp_path)
+    await w.subscribe(UNREACHABLE, "map_messages/TargetUnreachable")
+    status = await request(w, f"{NAV}/start", START_T,
+                           start_msg(5.0, 12.0, fast_planning=True), "fast", timeout=30)
+    assert status["level"] == "error" and "target unreachable" in status["msg"], status
+    got = await w.until(lambda: w.latest(UNREACHABLE), 5, "TargetUnreachable")
+    assert got["reason"] == UNKNOWN
+    start_x, start_y, _ = current(w)
+    assert math.hypot(start_x - 5.0, start_y - 8.0) < 0.3  # it never left the corridor
+    status = await request(w, f"{NAV}/start", START_T,
+                           start_msg(5.0, 12.0, yaw=math.pi, distance=0.6,
+                                     skip_final_turn=True), "full", timeout=60)
+    assert status["level"] == "info" and "arrived" in status["msg"], status
+    x, y, yaw = current(w)
+    assert 0.3 < math.hypot(x - 5.0, y - 12.0) < 0.75  # stopped at about the given distance
+    assert abs(math.remainder(yaw - math.pi, 2 * math.pi)) > 0.3  # and did not turn
+    assert len(w.messages[UNREACHABLE]) == 1
+    await w.close()
+
+
+def path_points(w) -> list[tuple[float, float]]:
+    plan = w.latest(f"{NS}/global_plan_path") or {}
+    return [(p["pose"]["position"]["x"], p["pose"]["position"]["y"])
+            for p in plan.get("poses", [])]
+
+
+def crossings(route: list[tuple[float, float]], y: float) -> list[float]:
+    """x where the polyline crosses the horizontal line at ``y``."""
+    out = []
+    for (x0, y0), (x1, y1) in zip(route, route[1:], strict=False):
+        if (y0 - y) * (y1 - y) < 0:
+            out.append(x0 + (x1 - x0) * (y - y0) / (y1 - y0))
+    return out
+
+
+async def test_blocked_mask_across_a_door_changes_the_path(make_server, tmp_path):
+    """From the corridor into the open-plan area: through its west door, until a BLOCKED mask
+    closes that door; then the planner takes another way, and the robot still arrives."""
+    _server, w = await start(make_server, tmp_path)
+    await w.subscribe(f"{NS}/global_plan_path")
+    goal = start_msg(11.75, 3.5, skip_final_turn=True)
+    await w.client.send({"op": "advertise", "topic": f"{NAV}/start", "type": START_T})
+    await w.publish(f"{NAV}/start", goal, op_id="free")
+    free = await w.until(lambda: path_points(w), 20, "a plan")
+    route = [current(w)[:2], *free]
+    assert any(9.0 <= x <= 10.0 for x in crossings(route, 6.92)), route  # the west door
+    await w.publish(f"{NS}/cancel_action", {}, "slamware_ros_sdk/CancelActionRequest")
+    await w.until(lambda: still(w) and not path_points(w), 10, "the robot stopped")
+
+    door = (8.8, 6.5, 10.2, 7.4)
+    status = await modify_map(w, "close", rect(*door), BLOCKED)
+    assert status["level"] == "info", status
+    seen = len(w.messages[f"{NS}/global_plan_path"])
+    origin = current(w)[:2]
+    status = await request(w, f"{NAV}/start", START_T, goal, "masked", timeout=90)
+    assert status["level"] == "info" and "arrived" in status["msg"], status
+    plans = [[(p["pose"]["position"]["x"], p["pose"]["position"]["y"]) for p in m["poses"]]
+             for _t, m in w.messages[f"{NS}/global_plan_path"][seen:]]
+    first = next(plan for plan in plans if plan)
+    route = [origin, *first]
+    doors = crossings(route, 6.92)
+    assert doors and not any(9.0 <= x <= 10.0 for x in doors), route
+    for plan in plans:  # the whole way, no plan ever entered the masked area
+        assert not any(door[0] <= x <= door[2] and door[1] <= y <= door[3] for x, y in plan)
+    x, y, _ = current(w)
+    assert math.hypot(x - 11.75, y - 3.5) < 0.3
+    await w.close()
+
+
+async def test_goal_closed_off_by_a_mask_is_unreachable(make_server, tmp_path):
+    _server, w = await start(make_server, tmp_path)
+    await w.subscribe(UNREACHABLE, "map_messages/TargetUnreachable")
+    await modify_map(w, "door", rect(8.2, 8.7, 9.5, 9.5), BLOCKED)  # office B's door
+    status = await request(w, f"{NAV}/start", START_T, start_msg(10.0, 12.5), "boxed",
+                           timeout=30)
+    assert status["level"] == "error" and "no path" in status["msg"], status
+    assert (await w.until(lambda: w.latest(UNREACHABLE), 5, "TargetUnreachable"))["reason"] == (
+        UNKNOWN)
+    # a mask around the robot itself: it is inside an obstacle
+    x, y, _ = current(w)
+    await modify_map(w, "around", rect(x - 1.0, y - 0.8, x + 1.0, y + 0.8), BLOCKED)
+    status = await request(w, f"{NAV}/start", START_T, start_msg(3.0, 8.0), "inside",
+                           timeout=30)
+    assert status["level"] == "error" and "inside an obstacle" in status["msg"], status
+    await w.until(lambda: len(w.messages[UNREACHABLE]) == 2, 5, "a second TargetUnreachable")
+    assert w.latest(UNREACHABLE)["reason"] == LASER_OBSTACLE
+    # unmasking opens the way again
+    await modify_map(w, "open", rect(0.0, 0.0, 24.0, 16.0), NOT_MASKED)
+    await w.subscribe(f"{NS}/global_plan_path")
+    await w.client.send({"op": "advertise", "topic": f"{NAV}/start", "type": START_T})
+    await w.publish(f"{NAV}/start", start_msg(10.0, 12.5))
+    await w.until(lambda: path_points(w), 20, "a plan into office B")
+    await w.close()
