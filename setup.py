@@ -1,13 +1,43 @@
-"""Ship the top-level ``schemas/`` and ``protocol/`` folders inside the package.
+"""Ship the top-level ``schemas/``, ``protocol/`` and ``web/`` folders inside the package.
 
 The repository layout keeps them at the top level (they are language-neutral); an installed
-server still needs them, so they are mapped to ``hitrobot_server._schemas`` and
-``hitrobot_server._protocol``. Everything else is in pyproject.toml.
+server still needs them, so they are mapped to ``hitrobot_server._schemas``,
+``hitrobot_server._protocol`` and ``hitrobot_server._web``. The web console's libraries come
+from npm (``npm ci --prefix web``, run before ``pip install .``); only the browser builds the
+page loads are shipped, with their licences, never the rest of ``node_modules``. Everything
+else is in pyproject.toml.
 """
+
+import sys
+from pathlib import Path
 
 from setuptools import find_packages, setup
 
-DATA = {"hitrobot_server._schemas": "schemas", "hitrobot_server._protocol": "protocol"}
+DATA = {
+    "hitrobot_server._schemas": "schemas",
+    "hitrobot_server._protocol": "protocol",
+    "hitrobot_server._web": "web",
+}
+
+# The web console: our own files, and the browser builds of the npm libraries it loads.
+WEB_FILES = [
+    "*.html",
+    "*.js",
+    "*.css",
+    "*.svg",
+    "node_modules/eventemitter2/lib/eventemitter2.js",
+    "node_modules/eventemitter2/LICENSE.txt",
+    "node_modules/easeljs/lib/easeljs.min.js",
+    "node_modules/easeljs/LICENSE.txt",
+    "node_modules/roslib/build/roslib.min.js",
+    "node_modules/roslib/LICENSE",
+    "node_modules/ros2d/build/ros2d.min.js",
+    "node_modules/ros2d/LICENSE",
+]
+
+if not (Path(__file__).resolve().parent / "web" / "node_modules" / "roslib").is_dir():
+    print("warning: web/node_modules is missing, so the web console will lack its libraries; "
+          "run `npm ci --prefix web` before installing", file=sys.stderr)
 
 setup(
     packages=find_packages(include=["hitrobot_server", "hitrobot_server.*"]) + list(DATA),
@@ -16,5 +46,6 @@ setup(
         "hitrobot_server": ["py.typed", "robot/worlds/*.yaml", "robot/worlds/*.pgm"],
         "hitrobot_server._schemas": ["*/*/*.msg", "*/*/*.srv", "*/*/*.action"],
         "hitrobot_server._protocol": ["*.md", "schemas/*.json", "vectors/*.json"],
+        "hitrobot_server._web": WEB_FILES,
     },
 )

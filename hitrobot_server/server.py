@@ -13,6 +13,7 @@ from .nodes.base import Node
 from .protocol.auth import load_secret
 from .robot.factory import build_backend
 from .session.session import Session
+from .transport.http import StaticFiles, default_web_root
 from .transport.tcp import start_tcp
 from .transport.websocket import start_websocket
 from .types.registry import TypeRegistry
@@ -63,6 +64,7 @@ class HitrobotServer:
             max_frame_size=s.max_frame_size,
             delay_between_messages=s.delay_between_messages,
             compression=s.use_compression,
+            http_handler=_web_console(),
         )
         self.port = self._ws.sockets[0].getsockname()[1] if self._ws.sockets else s.port
         if s.tcp_port:
@@ -93,3 +95,12 @@ class HitrobotServer:
         if self.backend is not None:
             await self.backend.stop()
             self.backend = None
+
+
+def _web_console() -> StaticFiles | None:
+    """The web console's files (``web/``), served by plain HTTP GET on the WebSocket port."""
+    root = default_web_root()
+    if root is None:
+        log.warning("web console files not found; HTTP GET answers 426")
+        return None
+    return StaticFiles(root)

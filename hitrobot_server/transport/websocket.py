@@ -30,15 +30,18 @@ DIRECT_WRITE_LIMIT = 256 * 1024
 async def pump(session: Session, send_frame, delay: float) -> None:
     """Drain the session's outbox into the connection until it closes."""
     outbox = session.outbox
-    while True:
-        frames = await outbox.get()
-        if frames is None:
-            return
-        for data, binary in frames:
-            await send_frame(data, binary)
-            if delay > 0:
-                await asyncio.sleep(delay)
-        outbox.sent()
+    try:
+        while True:
+            frames = await outbox.get()
+            if frames is None:
+                return
+            for data, binary in frames:
+                await send_frame(data, binary)
+                if delay > 0:
+                    await asyncio.sleep(delay)
+            outbox.sent()
+    except (ConnectionClosed, ConnectionError, OSError):
+        return  # the peer went away mid-send; the reader side closes the session
 
 
 def direct_writer(ws: ServerConnection):

@@ -1,0 +1,126 @@
+"""Static files of the web console, answered on the WebSocket port (plain HTTP GET/HEAD).
+
+``StaticFiles(root)`` is the ``http_handler`` that ``start_websocket`` calls for a request
+without ``Upgrade: websocket``. It serves regular files under ``root`` only: the path is
+percent-decoded, hidden components (``.git``, ``..``) are refused, and the resolved file (after
+symlinks) must still lie under the resolved root. ``/`` (and any folder) means ``index.html``.
+Files are sent with ``Cache-Control: no-cache`` and an ``ETag``, so browsers revalidate and a
+``304`` costs no body. Only known file types are served; anything else is ``404``.
+"""
+
+from __future__ import annotations
+
+import email.utils
+import http
+import logging
+from pathlib import Path
+from urllib.parse import unquote
+
+from websockets.datastructures import Headers
+from websockets.http11 import Request, Response
+
+log = logging.getLogger(__name__)
+
+CONTENT_TYPES = {
+    ".html": "text/html; charset=utf-8",
+    ".js": "text/javascript; charset=utf-8",
+    ".mjs": "text/javascript; charset=utf-8",
+    ".css": "text/css; charset=utf-8",
+    ".json": "application/json",
+    ".map": "application/json",
+    ".svg": "image/svg+xml",
+    ".png": "image/png",
+    ".ico": "image/x-icon",
+    ".txt": "text/plain; charset=utf-8",
+}
+
+# The console talks only to its own origin (and, with ?url=, to another bridge over ws/wss);
+# roslib decodes png-compressed messages through a data: image.
+CSP = (
+    "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; "
+    "connect-src 'self' ws: wss:; object-src 'none'; base-uri 'none'; frame-ancestors 'none'"
+)
+
+
+def default_web_root() -> Path | None:
+    """The checkout's ``web/`` when running from one, else the copy shipped in the wheel."""
+    package = Path(__file__).resolve().parents[1]
+    for root in (package.parent / "web", package / "_web"):
+        if (root / "index.html").is_file():
+            return root
+    return None
+
+
+class StaticFiles:
+    """An ``http_handler`` serving the files under ``root``."""
+
+    def __init__(self, root: Path | str):
+        self.root = Path(root).resolve()
+
+    def resolve(self, raw_path: str) -> Path | None:
+        """The file a request path names, or None when it is not one we serve."""
+        path = unquote(raw_path.split("?", 1)[0].split("#", 1)[0])
+        if not path.startswith("/") or "\\" in path or "\0" in path:
+            return None
+        parts = [p for p in path.split("/") if p]
+        if any(p.startswith(".") for p in parts):
+            return None
+        candidate = self.root.joinpath(*parts)
+        if path.endswith("/") or not parts or candidate.is_dir():
+            candidate = candidate / "index.html"
+        try:
+            candidate = candidate.resolve(strict=True)
+        except (OSError, RuntimeError):
+            return None
+        if not candidate.is_relative_to(self.root) or not candidate.is_file():
+            return None
+        if candidate.suffix.lower() not in CONTENT_TYPES:
+            return None
+        return candidate
+
+    def __call__(self, ws, request: Request) -> Response:
+        method = getattr(request, "method", "GET")
+        if method not in ("GET", "HEAD"):
+            return _response(405, b"Method not allowed\n", [("Allow", "GET, HEAD")])
+        file = self.resolve(request.path)
+        if file is None:
+            return _response(404, b"Not found\n", head=method == "HEAD")
+        try:
+            stat = file.stat()
+            body = b"" if method == "HEAD" else file.read_bytes()
+        except OSError:
+            return _response(404, b"Not found\n", head=method == "HEAD")
+        etag = f'"{stat.st_mtime_ns:x}-{stat.st_size:x}"'
+        headers = [
+            ("Cache-Control", "no-cache"),
+            ("ETag", etag),
+            ("Last-Modified", email.utils.formatdate(stat.st_mtime, usegmt=True)),
+        ]
+        match = _etags(request.headers.get("If-None-Match", ""))
+        if etag in match or "*" in match:
+            return _response(304, b"", headers, head=True, length=False)
+        content_type = CONTENT_TYPES[file.suffix.lower()]
+        headers.append(("Content-Type", content_type))
+        if content_type.startswith("text/html"):
+            headers.append(("Content-Security-Policy", CSP))
+        return _response(200, body, headers, head=method == "HEAD", size=stat.st_size)
+
+
+def _etags(header: str) -> set[str]:
+    return {t.strip().removeprefix("W/") for t in header.split(",") if t.strip()}
+
+
+def _response(status: int, body: bytes, extra: list[tuple[str, str]] = (), *, head: bool = False,
+              size: int | None = None, length: bool = True) -> Response:
+    code = http.HTTPStatus(status)
+    headers = Headers([("Date", email.utils.formatdate(usegmt=True)),
+                       ("Connection", "close"),
+                       ("X-Content-Type-Options", "nosniff"),
+                       ("Referrer-Policy", "no-referrer")])
+    if status >= 400:
+        headers["Content-Type"] = "text/plain; charset=utf-8"
+    for name, value in extra:
+        headers[name] = value
+    if length:
+        headers["Content-Length"] = str(size if size is not None else len(body))
+    return Response(code.value, code.phrase, headers, b"" if head else body)

@@ -1,0 +1,166 @@
+// The hitrobot operator console: wires the connection, the map view and its layers, the tools,
+// navigation, POIs, system commands, driving and the robot's state together.
+/* global ROSLIB, ROS2D, createjs */
+import { connect } from './connection.js';
+import { dialogOpen } from './dialogs.js';
+import { log } from './log.js';
+import { MapView } from './mapview.js';
+import { Navigator } from './navigator.js';
+import { COLORS, LinesLayer, PathLayer, PoiLayer, RobotMarker, ScanLayer } from './overlays.js';
+import { Pois } from './pois.js';
+import { RobotState } from './robotstate.js';
+import { Shell } from './shell.js';
+import { Teleop } from './teleop.js';
+import { MapTools } from './tools.js';
+import { formatPose, yawOf } from './util.js';
+
+const NODE = '/slamware_ros_sdk_server_node';
+
+function librariesMissing() {
+  const missing = [['ROSLIB', 'roslib'], ['ROS2D', 'ros2d'], ['createjs', 'easeljs'],
+    ['EventEmitter2', 'eventemitter2']].filter(([global]) => !(global in window));
+  if (!missing.length) return false;
+  const text = `The console's libraries are missing (${missing.map((m) => m[1]).join(', ')}): ` +
+    'run `npm ci --prefix web` in the hitrobot-server checkout.';
+  document.getElementById('hint').textContent = text;
+  document.body.classList.add('broken');
+  console.error(text);
+  return true;
+}
+
+function main() {
+  if (librariesMissing()) return;
+  const ros = connect();
+  const view = new MapView(document.getElementById('map'), ros);
+  const topic = (name, messageType, options = {}) =>
+    new ROSLIB.Topic({ ros, name, messageType, ...options });
+
+  // ---- layers, bottom to top ---------------------------------------------------------------
+  const layers = {
+    tracks: new LinesLayer(view, { color: COLORS.track, width: 3, dash: [8, 5] }),
+    walls: new LinesLayer(view, { color: COLORS.wall, width: 3 }),
+    path: new PathLayer(view),
+    scan: new ScanLayer(view),
+    pois: new PoiLayer(view),
+  };
+  const navigator = new Navigator({ ros, view });
+  const robot = new RobotMarker(view);
+
+  topic(`${NODE}/virtual_walls`, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 1000 })
+    .subscribe((m) => layers.walls.set(m));
+  topic(`${NODE}/virtual_tracks`, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 1000 })
+    .subscribe((m) => layers.tracks.set(m));
+  topic(`${NODE}/global_plan_path`, 'nav_msgs/Path', { throttle_rate: 200, queue_length: 1 })
+    .subscribe((m) => layers.path.set(m));
+
+  // ---- the robot ---------------------------------------------------------------------------
+  const state = { pose: null, follow: false };
+  const poseText = document.getElementById('robot-pose');
+  topic('/robot_pose', 'geometry_msgs/Pose', { throttle_rate: 100, queue_length: 1 })
+    .subscribe((pose) => {
+      const yaw = yawOf(pose.orientation);
+      state.pose = { x: pose.position.x, y: pose.position.y, yaw };
+      robot.setPose(state.pose.x, state.pose.y, yaw);
+      navigator.robot = state.pose;
+      poseText.textContent = `robot at ${formatPose(state.pose.x, state.pose.y, yaw)}`;
+      if (state.follow) view.keepInView(state.pose.x, state.pose.y);
+    });
+
+  // Laser points, placed with the map→laser transform published with each scan (same stamp);
+  // the robot's pose stands in if no such transform comes.
+  const laserPoses = [];
+  let pendingScan = null;
+  const sameStamp = (a, b) => a && b && a.secs === b.secs && a.nsecs === b.nsecs;
+  const drawScan = (scan) => {
+    const tf = laserPoses.find((t) => sameStamp(t.stamp, scan.header.stamp));
+    if (tf) {
+      layers.scan.set(scan, tf);
+      pendingScan = null;
+      return true;
+    }
+    return false;
+  };
+  topic('/tf', 'tf2_msgs/TFMessage').subscribe((msg) => {
+    for (const t of msg.transforms || []) {
+      if (!/laser/.test(t.child_frame_id || '')) continue;
+      const tr = t.transform;
+      laserPoses.unshift({ stamp: t.header.stamp, x: tr.translation.x, y: tr.translation.y,
+        yaw: yawOf(tr.rotation) });
+      laserPoses.length = Math.min(laserPoses.length, 8);
+      if (pendingScan) drawScan(pendingScan.scan);
+    }
+  });
+  topic(`${NODE}/scan`, 'sensor_msgs/LaserScan', { throttle_rate: 200, queue_length: 1 })
+    .subscribe((scan) => {
+      if (drawScan(scan)) return;
+      pendingScan = { scan, at: Date.now() };
+      setTimeout(() => {
+        if (pendingScan && pendingScan.scan === scan && state.pose) {
+          layers.scan.set(scan, state.pose);
+          pendingScan = null;
+        }
+      }, 500);
+    });
+
+  // ---- panels ------------------------------------------------------------------------------
+  const pois = new Pois({ ros, layer: layers.pois });
+  const shell = new Shell({ ros });
+  const teleop = new Teleop({ ros });
+  const robotState = new RobotState({ ros });
+
+  const tools = new MapTools(view, (tool, pick) => {
+    const facing = () => (state.pose
+      ? Math.atan2(pick.y - state.pose.y, pick.x - state.pose.x) : 0);
+    if (tool === 'goal') navigator.sendGoal(pick.x, pick.y, pick.yaw ?? facing());
+    else if (tool === 'pose') navigator.setInitialPose(pick.x, pick.y, pick.yaw ?? (state.pose ? state.pose.yaw : 0));
+    else if (tool === 'poi') pois.addAt(pick.x, pick.y, pick.yaw ?? 0);
+  });
+
+  // ---- toolbar -----------------------------------------------------------------------------
+  const followButton = document.getElementById('follow');
+  const setFollow = (on) => {
+    state.follow = on;
+    followButton.setAttribute('aria-pressed', String(on));
+    followButton.classList.toggle('active', on);
+    if (on && state.pose) view.centerOn(state.pose.x, state.pose.y);
+  };
+  followButton.addEventListener('click', () => setFollow(!state.follow));
+  document.getElementById('zoom-in').addEventListener('click', () => view.zoomCentre(1.25));
+  document.getElementById('zoom-out').addEventListener('click', () => view.zoomCentre(0.8));
+  document.getElementById('fit').addEventListener('click', () => view.fit());
+  for (const box of document.querySelectorAll('[data-layer]')) {
+    box.addEventListener('change', () => {
+      const names = box.dataset.layer === 'lines' ? ['walls', 'tracks'] : [box.dataset.layer];
+      for (const name of names) layers[name].visible = box.checked;
+    });
+  }
+  view.addEventListener('map', (e) => {
+    if (e.detail.first) {
+      tools.setTool(tools.tool);
+      log('info', 'map received');
+    }
+  });
+  // dragging the map by hand stops following
+  view.canvas.addEventListener('pointerdown', (e) => {
+    if (state.follow && (tools.tool === 'move' || e.button !== 0)) setFollow(false);
+  });
+
+  window.addEventListener('keydown', (e) => {
+    const t = e.target;
+    if (e.ctrlKey || e.metaKey || e.altKey || dialogOpen() ||
+        (t && /^(INPUT|TEXTAREA|SELECT)$/.test(t.tagName))) return;
+    const shortcuts = { m: 'move', g: 'goal', p: 'pose', i: 'poi' };
+    if (shortcuts[e.key]) tools.setTool(shortcuts[e.key]);
+    else if (e.key === 'f') view.fit();
+    else if (e.key === '+' || e.key === '=') view.zoomCentre(1.25);
+    else if (e.key === '-') view.zoomCentre(0.8);
+    else if (e.key === 'Escape') tools.abort();
+  });
+
+  // For debugging from the browser console, and for the tests: the page's own objects.
+  window.hitrobot = { ros, view, navigator, pois, shell, teleop, robotState, tools, layers,
+    robot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
+      easeljs: createjs.EaselJS && createjs.EaselJS.version } };
+}
+
+main();

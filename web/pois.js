@@ -1,0 +1,88 @@
+// Points of interest: the list from /map_manager/pois (map_messages/PointsOfInterest), drawn on
+// the map; add at a picked pose, rename, delete, and "go" through /navigation/navigate_to_poi.
+/* global ROSLIB */
+import { confirmAction, poiForm } from './dialogs.js';
+import { log } from './log.js';
+import { el, formatPose, quatOfYaw, yawOf } from './util.js';
+
+export const POI_DEFAULT = 100; // map_messages/PointOfInterest.DEFAULT
+
+export class Pois {
+  constructor({ ros, layer }) {
+    this.layer = layer;
+    this.pois = [];
+    const topic = (name, messageType) => new ROSLIB.Topic({ ros, name, messageType });
+    this.addTopic = topic('/map_manager/add_poi', 'map_messages/PointOfInterest');
+    this.modifyTopic = topic('/map_manager/modify_poi', 'map_messages/ModifyPOI');
+    this.deleteTopic = topic('/map_manager/delete_poi', 'map_messages/DeletePointOfInterest');
+    this.goTopic = topic('/navigation/navigate_to_poi', 'map_messages/NavigateToPOI');
+    this.list = document.getElementById('poi-list');
+    this.count = document.getElementById('poi-count');
+    topic('/map_manager/pois', 'map_messages/PointsOfInterest')
+      .subscribe((msg) => this.set((msg && msg.pois) || []));
+  }
+
+  set(pois) {
+    this.pois = pois;
+    this.layer.set(pois);
+    this.count.textContent = pois.length ? `(${pois.length})` : '';
+    this.list.replaceChildren(...(pois.length ? pois.map((p) => this.item(p))
+      : [el('li', { class: 'empty' }, 'none yet — use “Add POI” on the map')]));
+  }
+
+  item(poi) {
+    const p = poi.pose.position;
+    const where = formatPose(p.x, p.y, yawOf(poi.pose.orientation));
+    return el('li', { dataset: { name: poi.name } },
+      el('div', { class: 'poi-text' },
+        el('span', { class: 'poi-name' }, poi.name),
+        el('span', { class: 'poi-where' }, poi.remarks ? `${where} · ${poi.remarks}` : where)),
+      el('div', { class: 'poi-actions' },
+        el('button', { type: 'button', class: 'go', title: `Go to ${poi.name}`, onclick: () => this.go(poi) }, 'Go'),
+        el('button', { type: 'button', class: 'rename', title: 'Rename', onclick: () => this.rename(poi) }, 'Rename'),
+        el('button', { type: 'button', class: 'delete danger', title: 'Delete', onclick: () => this.remove(poi) }, '✕')));
+  }
+
+  /** Ask for a name and add a POI at (x, y, yaw). */
+  async addAt(x, y, yaw) {
+    const n = this.pois.length + 1;
+    const answer = await poiForm({ title: 'Add point of interest', name: `poi ${n}`,
+      where: `at ${formatPose(x, y, yaw)}` });
+    if (!answer) return;
+    if (this.pois.some((p) => p.name === answer.name)) {
+      log('warning', `a POI named “${answer.name}” exists already`);
+      return;
+    }
+    this.addTopic.publish(new ROSLIB.Message({
+      type: POI_DEFAULT,
+      name: answer.name,
+      remarks: answer.remarks,
+      pose: { position: { x, y, z: 0 }, orientation: quatOfYaw(yaw) },
+    }));
+    log('info', `POI “${answer.name}” added at ${formatPose(x, y, yaw)}`);
+  }
+
+  async rename(poi) {
+    const answer = await poiForm({ title: `Rename “${poi.name}”`, name: poi.name,
+      remarks: poi.remarks || '' });
+    if (!answer || (answer.name === poi.name && answer.remarks === (poi.remarks || ''))) return;
+    this.modifyTopic.publish(new ROSLIB.Message({
+      poi: { ...poi, name: answer.name, remarks: answer.remarks },
+      old_name: poi.name,
+    }));
+    log('info', `POI “${poi.name}” renamed to “${answer.name}”`);
+  }
+
+  async remove(poi) {
+    if (!(await confirmAction(`Delete the POI “${poi.name}”?`, 'Delete'))) return;
+    this.deleteTopic.publish(new ROSLIB.Message({ name: poi.name }));
+    log('info', `POI “${poi.name}” deleted`);
+  }
+
+  go(poi) {
+    this.goTopic.publish(new ROSLIB.Message({
+      poi_name: poi.name, distance_to_target: 0.0, skip_final_turn: false,
+    }));
+    log('info', `navigating to POI “${poi.name}”`);
+  }
+}

@@ -1,0 +1,57 @@
+// The robot's state in the top bar: battery, charging and localization quality from
+// robot_basic_state, and whether the robot is connected, from /diagnostics_agg (the status
+// whose name mentions "connection").
+/* global ROSLIB */
+
+const NODE = '/slamware_ros_sdk_server_node';
+const LEVELS = ['ok', 'warn', 'error', 'stale'];
+const STALE_MS = 5000;
+
+function meter(id, percent, text, state) {
+  const box = document.getElementById(id);
+  const p = Math.max(0, Math.min(100, percent));
+  box.querySelector('.fill').style.width = `${p}%`;
+  box.querySelector('.value').textContent = text;
+  box.dataset.state = state;
+}
+
+export class RobotState {
+  constructor({ ros }) {
+    this.robotPill = document.getElementById('robot-state');
+    this.lastDiagnostics = 0;
+    new ROSLIB.Topic({ ros, name: `${NODE}/robot_basic_state`, messageType: 'slamware_ros_sdk/RobotBasicState',
+      throttle_rate: 500 }).subscribe((s) => this.basic(s));
+    new ROSLIB.Topic({ ros, name: '/diagnostics_agg', messageType: 'diagnostic_msgs/DiagnosticArray',
+      throttle_rate: 500 }).subscribe((d) => this.diagnostics(d));
+    setInterval(() => {
+      if (this.lastDiagnostics && Date.now() - this.lastDiagnostics > STALE_MS) {
+        this.setRobot('stale', 'no diagnostics');
+      }
+    }, 1000);
+  }
+
+  basic(s) {
+    const b = s.battery_percentage;
+    const charge = s.is_charging ? ' ⚡ charging' : s.is_dc_in ? ' · on dock' : '';
+    meter('battery', b, `${b}%${charge}`, b < 15 ? 'low' : s.is_charging ? 'charging' : 'ok');
+    const q = s.localization_quality;
+    const mapping = s.is_map_building_enabled ? ' · mapping' : '';
+    meter('localization', q, `${q}${mapping}`, q < 30 ? 'low' : q < 60 ? 'fair' : 'ok');
+  }
+
+  diagnostics(array) {
+    const statuses = (array && array.status) || [];
+    const conn = statuses.find((s) => /connection/i.test(s.name || ''));
+    if (!conn) return;
+    this.lastDiagnostics = Date.now();
+    const level = LEVELS[conn.level] || 'error';
+    const text = level === 'ok' ? (conn.message || 'connected') : conn.message || level;
+    this.setRobot(level, text);
+    this.robotPill.title = `${conn.name}: ${conn.message || ''}`;
+  }
+
+  setRobot(state, text) {
+    this.robotPill.dataset.state = state;
+    this.robotPill.querySelector('.value').textContent = text;
+  }
+}

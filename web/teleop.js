@@ -1,0 +1,124 @@
+// Driving by hand: arrow keys (or W/A/S/D) and the on-screen pad publish geometry_msgs/Twist on
+// /cmd_vel ten times a second while held. Dead-man: releasing the keys, lifting or losing the
+// pointer, leaving the window or hiding the page sends a stop at once (and the server stops
+// the robot by itself half a second after the last command).
+/* global ROSLIB */
+import { dialogOpen } from './dialogs.js';
+
+const PERIOD_MS = 100;
+const KEYS = {
+  ArrowUp: 'fwd', ArrowDown: 'back', ArrowLeft: 'left', ArrowRight: 'right',
+  w: 'fwd', s: 'back', a: 'left', d: 'right',
+};
+
+export class Teleop {
+  constructor({ ros }) {
+    this.topic = new ROSLIB.Topic({ ros, name: '/cmd_vel', messageType: 'geometry_msgs/Twist' });
+    this.keys = new Set();
+    this.pad = null;
+    this.timer = null;
+    this.moving = false;
+    this.state = document.getElementById('drive-state');
+    this.lin = document.getElementById('lin-speed');
+    this.ang = document.getElementById('ang-speed');
+    const showSpeeds = () => {
+      document.getElementById('lin-out').textContent = `${Number(this.lin.value).toFixed(2)} m/s`;
+      document.getElementById('ang-out').textContent = `${Number(this.ang.value).toFixed(1)} rad/s`;
+    };
+    this.lin.addEventListener('input', showSpeeds);
+    this.ang.addEventListener('input', showSpeeds);
+    showSpeeds();
+
+    window.addEventListener('keydown', (e) => this.key(e, true));
+    window.addEventListener('keyup', (e) => this.key(e, false));
+    window.addEventListener('blur', () => this.release());
+    document.addEventListener('visibilitychange', () => { if (document.hidden) this.release(); });
+    window.addEventListener('pagehide', () => this.release());
+
+    for (const b of document.querySelectorAll('#pad [data-drive]')) {
+      const dir = b.dataset.drive;
+      b.addEventListener('pointerdown', (e) => {
+        e.preventDefault();
+        if (dir === 'stop') {
+          this.release();
+          return;
+        }
+        b.setPointerCapture(e.pointerId);
+        this.pad = dir;
+        b.classList.add('held');
+        this.update();
+      });
+      const up = () => {
+        b.classList.remove('held');
+        if (this.pad === dir) {
+          this.pad = null;
+          this.update();
+        }
+      };
+      for (const ev of ['pointerup', 'pointercancel', 'lostpointercapture']) b.addEventListener(ev, up);
+    }
+  }
+
+  key(e, down) {
+    const dir = KEYS[e.key] || KEYS[e.key.toLowerCase()];
+    if (!dir) return;
+    const t = e.target;
+    if (down && (dialogOpen() || (t && (t.isContentEditable || /^(INPUT|TEXTAREA|SELECT)$/.test(t.tagName))))) {
+      return;
+    }
+    e.preventDefault();
+    if (down) this.keys.add(dir);
+    else this.keys.delete(dir);
+    this.update();
+  }
+
+  /** Stop now: forget every held key and the pad. */
+  release() {
+    this.keys.clear();
+    this.pad = null;
+    for (const b of document.querySelectorAll('#pad .held')) b.classList.remove('held');
+    this.update(true);
+  }
+
+  command() {
+    const held = new Set(this.keys);
+    if (this.pad) held.add(this.pad);
+    const v = Number(this.lin.value);
+    const w = Number(this.ang.value);
+    const linear = (held.has('fwd') ? v : 0) - (held.has('back') ? v : 0);
+    const angular = (held.has('left') ? w : 0) - (held.has('right') ? w : 0);
+    return { linear, angular, active: held.size > 0 };
+  }
+
+  update(forceStop = false) {
+    const c = this.command();
+    if (c.active) {
+      this.publish(c.linear, c.angular);
+      if (!this.timer) this.timer = setInterval(() => this.tick(), PERIOD_MS);
+      this.moving = true;
+      this.state.textContent = `driving ${c.linear.toFixed(2)} m/s, ${c.angular.toFixed(1)} rad/s`;
+      this.state.dataset.state = 'driving';
+      return;
+    }
+    if (this.timer) {
+      clearInterval(this.timer);
+      this.timer = null;
+    }
+    if (this.moving || forceStop) this.publish(0, 0);
+    this.moving = false;
+    this.state.textContent = 'stopped';
+    this.state.dataset.state = 'stopped';
+  }
+
+  tick() {
+    const c = this.command();
+    if (c.active) this.publish(c.linear, c.angular);
+    else this.update();
+  }
+
+  publish(linear, angular) {
+    this.topic.publish(new ROSLIB.Message({
+      linear: { x: linear, y: 0, z: 0 }, angular: { x: 0, y: 0, z: angular },
+    }));
+  }
+}
