@@ -2,11 +2,18 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import asyncio
+import contextlib
+import logging
+from collections.abc import Awaitable, Callable, Coroutine
+from typing import Any
 
 from ..bus.core import Bus
 from ..bus.services import ActionHandler, ServiceHandler
 from ..bus.topics import Message
+from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+
+log = logging.getLogger(__name__)
 
 
 class Node:
@@ -40,3 +47,59 @@ class Node:
     def close(self) -> None:
         self.bus.remove_owner(self, [key for _topic, key in self._subs])
         self.bus.unregister_node(self.name)
+
+
+class RobotNode(Node):
+    """A node backed by the robot: owns background tasks, stopped by :meth:`stop`."""
+
+    def __init__(self, bus: Bus, name: str, backend: RobotBackend | None):
+        super().__init__(bus, name)
+        self.backend = backend
+        self._tasks: set[asyncio.Task] = set()
+
+    @property
+    def robot_connected(self) -> bool:
+        return self.backend is not None and self.backend.connected
+
+    def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:
+        task = asyncio.ensure_future(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+        return task
+
+    def every(self, period: float, work: Callable[[], Awaitable[None]],
+              needs_robot: bool = True) -> asyncio.Task:
+        """Run ``work`` at a fixed rate without drift; ticks are skipped while the robot is
+        offline (when ``needs_robot``) and a slow tick never causes a burst."""
+
+        async def loop() -> None:
+            clock = asyncio.get_running_loop()
+            due = clock.time()
+            while True:
+                if not needs_robot or self.robot_connected:
+                    try:
+                        await work()
+                    except NotConnectedError:
+                        pass
+                    except BackendError as exc:
+                        log.warning("%s: %s", self.name, exc)
+                    except Exception:
+                        log.exception("%s: worker failed", self.name)
+                due += period
+                delay = due - clock.time()
+                if delay < 0:
+                    due, delay = clock.time(), 0.0
+                await asyncio.sleep(delay)
+
+        return self.spawn(loop())
+
+    async def start(self) -> None:
+        """Start the node's workers (none by default)."""
+
+    async def stop(self) -> None:
+        for task in list(self._tasks):
+            task.cancel()
+        for task in list(self._tasks):
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await task
+        self.close()

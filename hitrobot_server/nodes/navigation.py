@@ -20,7 +20,6 @@ silently, as on the robot.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import math
 from collections.abc import Callable
 
@@ -28,7 +27,7 @@ from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionResult, ActionStatus, MoveOptionFlag, MoveOptions, Point2D, Rect
-from .base import Node
+from .base import RobotNode
 from .slamware import messages as m
 
 NODE_NAME = "/navigation"
@@ -70,28 +69,15 @@ def _finite(path: str, *values: float) -> None:
         raise RequestRejected(f"field '{path}' must be a finite number")
 
 
-class NavigationNode(Node):
+class NavigationNode(RobotNode):
     """StartNavigation / NavigateToPOI on top of the robot's ``move_to``."""
 
     def __init__(self, bus: Bus, backend: RobotBackend, find_poi: Callable[[str], dict | None]):
-        super().__init__(bus, NODE_NAME)
-        self.backend = backend
+        super().__init__(bus, NODE_NAME, backend)
         self.find_poi = find_poi
-        self._tasks: set[asyncio.Task] = set()
         self.advertise(UNREACHABLE_TOPIC, f"{PKG}/TargetUnreachable")
         self.subscribe(START_TOPIC, f"{PKG}/StartNavigation", self._on_start)
         self.subscribe(POI_TOPIC, f"{PKG}/NavigateToPOI", self._on_poi)
-
-    async def start(self) -> None:
-        pass
-
-    async def stop(self) -> None:
-        for task in list(self._tasks):
-            task.cancel()
-        for task in list(self._tasks):
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await task
-        self.close()
 
     def _on_start(self, message: Message) -> None:
         msg = message.msg
@@ -153,6 +139,4 @@ class NavigationNode(Node):
             else:
                 message.reject(f"{what}: {action.reason or 'aborted'}", level="warning")
 
-        task = asyncio.ensure_future(go())
-        self._tasks.add(task)
-        task.add_done_callback(self._tasks.discard)
+        self.spawn(go())

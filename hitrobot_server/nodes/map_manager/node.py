@@ -28,7 +28,7 @@ from ...config import Settings
 from ...robot import composite_map
 from ...robot.backend import BackendError, NotConnectedError, RobotBackend
 from ...robot.model import ArtifactUsage, Line, MapRegion, Point2D, Pose2D, Rect
-from ..base import Node
+from ..base import RobotNode
 from ..slamware import messages as m
 from ..slamware.mapsync import MapHolder, tiles
 from ..slamware.node import NODE_NAME as SLAMWARE_NODE
@@ -135,12 +135,11 @@ def occupancy_message(grid: Grid, frame: str, now: float) -> dict:
     }
 
 
-class MapManager(Node):
+class MapManager(RobotNode):
     """The map manager node; needs a robot (the SLAM layer is the robot's map)."""
 
     def __init__(self, bus: Bus, backend: RobotBackend, settings: Settings):
-        super().__init__(bus, NODE_NAME)
-        self.backend = backend
+        super().__init__(bus, NODE_NAME, backend)
         self.store = MapStore(settings.map_store)
         params = settings.slamware
         self.params = params
@@ -151,7 +150,6 @@ class MapManager(Node):
         self.hits: dict[int, np.ndarray] = {}
         self.published: Grid | None = None
         self._pending_scans: dict[tuple[int, int], dict] = {}
-        self._tasks: set[asyncio.Task] = set()
         self._dirty: asyncio.Event | None = None
         self._last_publish = -math.inf
         self._io_lock = asyncio.Lock()
@@ -187,22 +185,8 @@ class MapManager(Node):
     # ------------------------------------------------------------------ lifecycle
     async def start(self) -> None:
         self._dirty = asyncio.Event()
-        self._spawn(self._publisher())
-        self._spawn(self._watch_connection())
-
-    async def stop(self) -> None:
-        for task in list(self._tasks):
-            task.cancel()
-        for task in list(self._tasks):
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await task
-        self.close()
-
-    def _spawn(self, coro) -> asyncio.Task:
-        task = asyncio.ensure_future(coro)
-        self._tasks.add(task)
-        task.add_done_callback(self._tasks.discard)
-        return task
+        self.spawn(self._publisher())
+        self.spawn(self._watch_connection())
 
     def _job(self, message: Message, what: str, work: Callable[[], Awaitable[str | None]],
              needs_robot: bool = True) -> None:
@@ -225,7 +209,7 @@ class MapManager(Node):
                 if text:
                     message.reject(f"{what}: {text}", level="info")
 
-        self._spawn(go())
+        self.spawn(go())
 
     # ------------------------------------------------------------------ /map
     def _resolution(self) -> float:

@@ -9,7 +9,6 @@ request we cannot carry out is reported to the client that sent it as a ``status
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 import math
 import time
@@ -36,7 +35,7 @@ from ...robot.model import (
     Pose2D,
     Rect,
 )
-from ..base import Node
+from ..base import RobotNode
 from . import messages as m
 from .mapsync import MapHolder, tiles, window
 from .params import SlamwareParams
@@ -97,19 +96,17 @@ def _line(msg: dict, path: str) -> Line:
     return Line(int(msg["id"]), start, end)
 
 
-class SlamwareNode(Node):
+class SlamwareNode(RobotNode):
     """Publishes the robot's state and executes requests exactly where the real node does."""
 
     def __init__(self, bus: Bus, backend: RobotBackend, params: SlamwareParams | None = None):
-        super().__init__(bus, NODE_NAME)
-        self.backend = backend
+        super().__init__(bus, NODE_NAME, backend)
         self.params = params or SlamwareParams()
         self.map = MapHolder()
         self._sync_requested = True
         self._last_pose: Pose2D | None = None
         self._sensor_signature: tuple | None = None
         self._was_connected = False
-        self._tasks: set[asyncio.Task] = set()
         self._seq = 0
         p = self.params
         for name, value in p.as_dict().items():
@@ -195,42 +192,8 @@ class SlamwareNode(Node):
              lambda: self._publish_lines(ArtifactUsage.VIRTUAL_TRACK)),
         ]
         for period, work in workers:
-            if period > 0:
-                self._spawn(self._every(period, work))
-
-    async def stop(self) -> None:
-        for task in list(self._tasks):
-            task.cancel()
-        for task in list(self._tasks):
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await task
-        self.close()
-
-    def _spawn(self, coro) -> asyncio.Task:
-        task = asyncio.ensure_future(coro)
-        self._tasks.add(task)
-        task.add_done_callback(self._tasks.discard)
-        return task
-
-    async def _every(self, period: float, work: Callable[[], Awaitable[None]]) -> None:
-        """Run ``work`` at a fixed rate (no drift), skipping ticks while disconnected."""
-        loop = asyncio.get_running_loop()
-        due = loop.time()
-        while True:
-            if self.backend.connected or work == self._watch_connection:
-                try:
-                    await work()
-                except NotConnectedError:
-                    pass
-                except BackendError as exc:
-                    log.warning("%s: %s", getattr(work, "__name__", "worker"), exc)
-                except Exception:
-                    log.exception("slamware worker failed")
-            due += period
-            delay = due - loop.time()
-            if delay < 0:  # fell behind (slow robot): start afresh rather than burst
-                due, delay = loop.time(), 0.0
-            await asyncio.sleep(delay)
+            if period > 0:  # the connection watch runs while the robot is away, too
+                self.every(period, work, needs_robot=work != self._watch_connection)
 
     async def _watch_connection(self) -> None:
         connected = self.backend.connected
@@ -393,7 +356,7 @@ class SlamwareNode(Node):
 
         if not self.backend.connected:
             raise RequestRejected(f"{what}: the robot is not connected")
-        self._spawn(go())
+        self.spawn(go())
 
     async def _watch_action(self, message: Message, what: str, action: ActionInfo) -> None:
         while action.status != ActionStatus.DONE:
