@@ -5,43 +5,62 @@ from __future__ import annotations
 from ..bus.core import Bus
 from ..config import Settings
 from ..robot.backend import RobotBackend
+from ..robot.locomotion import STAND_UP_SECONDS, LocomotionBackend
 from .base import Node
+from .conventional import ConventionalNode
+from .diagnostics import DiagnosticsNode
+from .graph import GraphNodeService
+from .intelligent_navigation import IntelligentNavigationNode
+from .locomotion import LocomotionNode
+from .map_manager import MapManager
+from .mapfiles import MapFilesNode
+from .move_base import MoveBaseNode
+from .nav2_actions import Nav2ActionsNode
+from .navigation import NavigationNode
+from .patrol import PatrolNode
+from .pointclouds import PointCloudNode
 from .rosapi import Rosapi
+from .shell import ShellNode
+from .slamware import SlamwareNode
 
 
 async def start_nodes(bus: Bus, settings: Settings, backend: RobotBackend | None) -> list[Node]:
     """Create and start every node; robot-facing nodes only when a robot is attached."""
     nodes: list[Node] = [Rosapi(bus, settings)]
     if backend is not None:
-        from .slamware import SlamwareNode
-
-        slamware = SlamwareNode(bus, backend, settings.slamware)
-        nodes.append(slamware)
-        await slamware.start()
-        from .conventional import ConventionalNode
-        from .move_base import MoveBaseNode
-        from .shell import ShellNode
-
-        conventional = ConventionalNode(bus, backend, settings.slamware.map_frame)
-        move_base = MoveBaseNode(bus, backend, settings.slamware.map_frame)
-        shell = ShellNode(bus, backend, settings.authenticate, move_base)
-        for node in (conventional, move_base, shell):
-            nodes.append(node)
-            await node.start()
-        from .map_manager import MapManager
-        from .navigation import NavigationNode
-
-        map_manager = MapManager(bus, backend, settings)
-        navigation = NavigationNode(bus, backend, map_manager.pois.get)
-        for node in (map_manager, navigation):
-            nodes.append(node)
-            await node.start()
-    from .diagnostics import DiagnosticsNode
-
-    diagnostics = DiagnosticsNode(bus, backend)  # runs without a robot too (bridge part)
-    nodes.append(diagnostics)
-    await diagnostics.start()
+        nodes += robot_nodes(bus, settings, backend)
+    nodes.append(DiagnosticsNode(bus, backend))  # runs without a robot too (the bridge part)
+    for node in nodes:
+        start = getattr(node, "start", None)
+        if start is not None:
+            await start()
     return nodes
+
+
+def robot_nodes(bus: Bus, settings: Settings, backend: RobotBackend) -> list[Node]:
+    """The robot-facing nodes, in start order. All of them drive the robot through the
+    locomotion gate, so a sitting robot refuses motion whichever interface asks."""
+    scale = settings.sim_speed if settings.robot == "sim" else 1.0
+    robot = LocomotionBackend(backend, STAND_UP_SECONDS / scale)
+    frame = settings.slamware.map_frame
+    move_base = MoveBaseNode(bus, robot, frame)
+    map_manager = MapManager(bus, robot, settings)
+    mapfiles = MapFilesNode(bus, robot, settings)
+    return [
+        SlamwareNode(bus, robot, settings.slamware),
+        ConventionalNode(bus, robot, frame),
+        move_base,
+        ShellNode(bus, robot, settings.authenticate, move_base),
+        map_manager,
+        NavigationNode(bus, robot, map_manager.pois.get),
+        PointCloudNode(bus, robot, frame),
+        Nav2ActionsNode(bus, robot, frame),
+        IntelligentNavigationNode(bus, robot, frame),
+        mapfiles,
+        PatrolNode(bus, robot, settings, mapfiles),
+        GraphNodeService(bus, robot, settings, mapfiles),
+        LocomotionNode(bus, robot, settings, lambda: mapfiles.loaded.frame),
+    ]
 
 
 async def stop_nodes(nodes: list[Node]) -> None:

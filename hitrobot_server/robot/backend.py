@@ -185,6 +185,17 @@ class RobotBackend(ABC):
         with ``WITH_YAW``; ``APPENDING`` adds the targets to a running move instead of
         replacing it."""
 
+    async def compute_path(
+        self, start: Pose2D | None, goal: Pose2D, options: MoveOptions | None = None
+    ) -> list[Point2D]:
+        """Plan a path from ``start`` (the robot's pose when ``None``) to ``goal`` without
+        moving, with the planner ``move_to`` would use and the same ``options`` (virtual-track
+        mode, ``NO_SMOOTH``, ``RETURN_UNREACHABLE_DIRECTLY``, ``planning_area``). The path runs
+        from the start to the goal (or the free spot that replaces an unusable goal). Raises
+        :class:`BackendError` with the reason when there is no path. Optional; raises
+        :class:`UnsupportedError` when the robot cannot plan without moving."""
+        raise UnsupportedError("this robot cannot plan a path without moving")
+
     @abstractmethod
     async def move_by_direction(
         self,

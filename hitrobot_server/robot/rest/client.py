@@ -20,7 +20,8 @@ Where REST and the interface differ (see the README's real-robot section):
 * ``add_lines`` cannot keep requested ids (the robot assigns them);
 * ``APPENDING`` is emulated by re-sending the remaining milestones plus the new targets;
 * basic sensors and the board temperature are not in the REST API: none and 0;
-* ``MoveOptions.planning_area`` has no REST form and is ignored.
+* ``MoveOptions.planning_area`` has no REST form and is ignored;
+* ``compute_path`` (plan without moving) has no REST form: :class:`UnsupportedError`.
 """
 
 from __future__ import annotations
@@ -434,6 +435,17 @@ class SlamwareRestBackend(RobotBackend):
             if current is not None and current.action_name in MOVE_ACTIONS:
                 targets = [*await self.get_remaining_milestones(), *targets]
         return await self._start_action(shapes.move_to_request(targets, options, yaw))
+
+    async def compute_path(
+        self, start: Pose2D | None, goal: Pose2D, options: MoveOptions | None = None
+    ) -> list[Point2D]:
+        """The REST endpoints this client speaks (:mod:`.paths`) only plan as part of a move
+        (``/motion/v1/path`` is the remaining path of the running action); planning without
+        moving is not among them."""
+        self._require_connection()
+        raise UnsupportedError(
+            "path planning without moving is not available over the Slamware REST API this "
+            "server speaks (only the running action's remaining path is); use move_to")
 
     async def move_by_direction(
         self,

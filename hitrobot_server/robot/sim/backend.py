@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import math
 import time
 from collections.abc import Callable, Sequence
 from typing import TypeVar
@@ -30,6 +31,7 @@ from ..model import (
     LocalizationMovement,
     MapKind,
     MapRegion,
+    MoveOptionFlag,
     MoveOptions,
     Odometry,
     Point2D,
@@ -37,6 +39,8 @@ from ..model import (
     PowerStatus,
     Rect,
 )
+from .navigation import track_mode
+from .planner import PathSearch
 from .simulator import Simulator
 
 log = logging.getLogger(__name__)
@@ -47,6 +51,8 @@ SLOW_STEP = 0.05
 """A step slower than this (s) is logged: it delays every other task on the loop."""
 MAX_CATCH_UP = 5
 """Steps run back to back at most when the loop fell behind; older backlog is dropped."""
+PLAN_SLICE = 20_000
+"""A* expansions ``compute_path`` runs between yields to the event loop."""
 
 
 class SimBackend(RobotBackend):
@@ -223,6 +229,34 @@ class SimBackend(RobotBackend):
         yaw: float = 0.0,
     ) -> ActionInfo:
         return self._call(self.simulator.move_to, targets, options, yaw)
+
+    async def compute_path(
+        self, start: Pose2D | None, goal: Pose2D, options: MoveOptions | None = None
+    ) -> list[Point2D]:
+        """A* on the current planning costmap with ``move_to``'s options, run in slices of
+        :data:`PLAN_SLICE` expansions so a long search never stalls the loop."""
+        options = options or MoveOptions()
+        for value in (goal.x, goal.y) + (() if start is None else (start.x, start.y)):
+            if not math.isfinite(value):
+                raise BackendError("compute_path needs finite poses")
+        sim = self._call(lambda: self.simulator)
+        origin = sim.pose if start is None else start
+        search = PathSearch(
+            sim.costmap(),
+            (origin.x, origin.y),
+            (goal.x, goal.y),
+            smooth=not options.flags & MoveOptionFlag.NO_SMOOTH,
+            substitute_goal=not options.flags & MoveOptionFlag.RETURN_UNREACHABLE_DIRECTLY,
+            track_mode=track_mode(options),
+            bbox=options.planning_area,
+        )
+        while (result := search.advance(PLAN_SLICE)) is None:
+            await asyncio.sleep(0)
+            if not self.connected:
+                raise NotConnectedError("simulator is not running")
+        if not result.ok:
+            raise BackendError(f"no path: {result.reason}")
+        return [Point2D(x, y) for x, y in result.path]
 
     async def move_by_direction(
         self,

@@ -1,0 +1,258 @@
+"""The daystar navigation interface: ``/intelligent_navigate_to_pose`` and ``/set_initialpose``.
+
+``/intelligent_navigate_to_pose`` (``daystar_navigation_msgs/action/IntelligentNavitateToPose``,
+the vendor's spelling; also served as ``/nav/intelligent_navigate_to_pose``, the name the
+vendor's test command uses) drives the robot to ``pose`` (map frame) with its travel parameters
+applied where a wheeled robot can:
+
+* ``speed_mode.value`` → the move's speed ratio: 2 low (0.3), 1 medium (0.6), 3 high (1.0);
+  0 = the robot's default;
+* ``ignore_final_yaw`` → no final turn (no ``WITH_YAW``); otherwise the robot ends facing the
+  pose's orientation;
+* navigation mode, from ``nav_mode.value`` or its alias ``path_following_mode`` (the seed's
+  test example; when both are non-zero they must agree): 1 or 4 line following = strictly along
+  virtual tracks (``KEY_POINTS``, fails without tracks), 2 free navigation, 3 intelligent =
+  prefer virtual tracks but leave them to get around obstacles (``KEY_POINTS_WITH_OA``); 0 =
+  intelligent;
+* ``direction_constraint``: 3 (forward) and 0 (unset) drive forward; 4 (reverse) is rejected
+  -- the robot's navigation only drives forward;
+* ``gait``, ``height`` and ``obstacle_params.disable_body_obstacle_avoidance`` are legged-robot
+  settings: validated (known values only) and otherwise ignored; the robot always avoids
+  obstacles.
+
+Feedback every 0.1 s: ``current_pose`` (the localized pose) and ``current_state`` (a
+``NavState``: PLANNING, MOVING, RECOVERING; a last one ARRIVED, FAILED or CANCELED). Result
+``{message, result}``: status 4 arrived, 6 failed (the robot's reason), 5 canceled
+(``cancel_action_goal``; the robot stops). ``should_stop: true`` is a stop command: it cancels
+every running goal of this action, stops the robot's current action and succeeds with
+``"stopped"`` (no pose needed). A new goal replaces a running one, which ends ABORTED.
+
+``/set_initialpose`` (``daystar_navigation_msgs/srv/SetInitialPose``): the robot's pose is set
+to ``init_pose``, then a local relocalization searches :data:`SEARCH_HALF_SIZE` m around it;
+``result_pose`` is the refined pose, ``result`` true when the relocalization succeeded and the
+localization quality then reaches :data:`GOOD_QUALITY`. The covariance is not estimated by the
+robot: we report a diagonal with σ = 0.05 m / 0.05 rad when the result is good and 1 m / π
+otherwise.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+
+from ..bus.core import Bus
+from ..bus.errors import ServiceError
+from ..bus.services import (
+    STATUS_ABORTED,
+    STATUS_CANCELED,
+    STATUS_SUCCEEDED,
+    GoalHandle,
+    GoalOutcome,
+)
+from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.model import (
+    ActionInfo,
+    ActionResult,
+    LocalizationMovement,
+    MoveOptionFlag,
+    MoveOptions,
+    NavigationMode,
+    Odometry,
+    Point2D,
+    Pose2D,
+    Rect,
+)
+from .conventional import RobotNode, map_frames
+from .nav2_actions import GoalRejected, drive, goal_pose, pose_stamped, rejected
+
+ACTION = "/intelligent_navigate_to_pose"
+ACTION_ALIASES = ("/nav/intelligent_navigate_to_pose",)
+ACTION_TYPE = "daystar_navigation_msgs/action/IntelligentNavitateToPose"
+SERVICE = "/set_initialpose"
+SERVICE_TYPE = "daystar_navigation_msgs/srv/SetInitialPose"
+
+# daystar_navigation_msgs constants
+SPEED_RATIOS = {0: None, 2: 0.3, 1: 0.6, 3: 1.0}
+GAITS = frozenset({0, 2, 5, 6, 7})
+HEIGHTS = frozenset({0, 1, 2, 3})
+LINE_FOLLOWING = frozenset({1, 4})
+FREE, INTELLIGENT = 2, 3
+FORWARD, REVERSE = 3, 4
+IDLE, PLANNING, MOVING, ARRIVED, FAILED, CANCELED, RECOVERING = range(7)
+
+SEARCH_HALF_SIZE = 1.0
+"""Half the side (m) of the square searched around the initial pose."""
+RELOCALIZATION_TIME_MS = 10_000
+"""Simulated/robot time the local relocalization may take."""
+RELOCALIZATION_WALL_LIMIT = 30.0
+"""Wall-clock seconds the service waits for the relocalization at most."""
+GOOD_QUALITY = 50
+"""Localization quality (0-100) that counts as localized."""
+QUALITY_WAIT = 3.0
+"""Seconds to wait for the quality to settle after a relocalization."""
+POLL = 0.1
+
+
+def _options(goal: dict) -> tuple[MoveOptions, str]:
+    """Move options from the travel parameters, plus a summary for the log."""
+    tp = goal["travel_params"]
+    speed = tp["speed_mode"]["value"]
+    if speed not in SPEED_RATIOS:
+        raise GoalRejected(f"field 'travel_params.speed_mode.value': {speed} is not 0-3 "
+                           "(2 low, 1 medium, 3 high)")
+    gait = tp["gait"]["gait"]
+    if gait not in GAITS:
+        raise GoalRejected(f"field 'travel_params.gait.gait': {gait} is not one of 0, 2, 5, 6, 7")
+    if tp["height"] not in HEIGHTS:
+        raise GoalRejected(f"field 'travel_params.height': {tp['height']} is not 0-3")
+    nav, alias = tp["nav_mode"]["value"], tp["path_following_mode"]
+    if nav and alias and nav != alias:
+        raise GoalRejected(f"'travel_params.nav_mode.value' ({nav}) and its alias "
+                           f"'travel_params.path_following_mode' ({alias}) disagree")
+    mode = alias or nav or INTELLIGENT
+    direction = tp["direction_constraint"]
+    if direction == REVERSE:
+        raise GoalRejected("'travel_params.direction_constraint' 4 (reverse) is not supported: "
+                           "this robot's navigation only drives forward")
+    if direction not in (0, FORWARD):
+        raise GoalRejected(f"field 'travel_params.direction_constraint': {direction} is not "
+                           "3 (forward) or 4 (reverse)")
+    flags = MoveOptionFlag.PRECISE
+    if not tp["ignore_final_yaw"]:
+        flags |= MoveOptionFlag.WITH_YAW
+    if mode in LINE_FOLLOWING:
+        flags |= MoveOptionFlag.KEY_POINTS
+        nav_mode = NavigationMode.STRICT_VIRTUAL_TRACK
+    elif mode == FREE:
+        nav_mode = NavigationMode.FREE
+    elif mode == INTELLIGENT:
+        flags |= MoveOptionFlag.KEY_POINTS_WITH_OA
+        nav_mode = NavigationMode.PRIORITY_VIRTUAL_TRACK
+    else:
+        raise GoalRejected(f"navigation mode {mode} is not 1/4 (line following), 2 (free) or "
+                           "3 (intelligent)")
+    return (MoveOptions(flags=flags, speed_ratio=SPEED_RATIOS[speed], mode=nav_mode),
+            f"mode {mode}, speed {speed}, gait {gait}, height {tp['height']}")
+
+
+def _state(action: ActionInfo) -> int:
+    if action.stage == "PLANNING":
+        return PLANNING
+    if action.stage == "RECOVERING":
+        return RECOVERING
+    return MOVING
+
+
+class IntelligentNavigationNode(RobotNode):
+    """Serves the intelligent navigation action and the relocalization service."""
+
+    def __init__(self, bus: Bus, backend: RobotBackend, map_frame: str = "/map"):
+        super().__init__(bus, "/intelligent_navigation", backend)
+        self.backend: RobotBackend = backend
+        self.map_frame = map_frame
+        self.frames = map_frames(map_frame)
+        self.running: set[GoalHandle] = set()
+        for name in (ACTION, *ACTION_ALIASES):
+            self.action(name, ACTION_TYPE, self._navigate)
+        self.service(SERVICE, SERVICE_TYPE, self._set_initialpose)
+
+    # ---------------------------------------------------------------- the action
+    def _feedback(self, handle: GoalHandle, pose: Pose2D, state: int) -> None:
+        handle.feedback({"current_pose": pose_stamped(pose, self.map_frame),
+                         "current_state": {"value": state}})
+
+    async def _navigate(self, handle: GoalHandle) -> GoalOutcome:
+        goal = handle.goal
+        if goal["should_stop"]:
+            return await self._stop()
+        try:
+            target = goal_pose(self.frames, goal["pose"], "pose")
+            options, summary = _options(goal)
+            if not self.backend.connected:
+                raise GoalRejected("the robot is not connected")
+        except GoalRejected as exc:
+            return rejected(str(exc))
+        self.running.add(handle)
+        try:
+            def on_poll(action: ActionInfo, odometry: Odometry) -> None:
+                self._feedback(handle, odometry.pose, _state(action))
+
+            end = await drive(
+                self.backend, handle,
+                lambda: self.backend.move_to([Point2D(target.x, target.y)], options, target.yaw),
+                on_poll)
+        finally:
+            self.running.discard(handle)
+        try:
+            pose = await self.backend.get_pose()
+        except BackendError:
+            pose = target if end.kind == "succeeded" else None
+        if end.kind == "succeeded":
+            state, status, message = ARRIVED, STATUS_SUCCEEDED, f"arrived ({summary})"
+        elif end.kind == "canceled":
+            state, status, message = CANCELED, STATUS_CANCELED, "canceled"
+        else:
+            state, status, message = FAILED, STATUS_ABORTED, end.reason
+        if pose is not None:
+            self._feedback(handle, pose, state)
+        return GoalOutcome(status, {"message": message, "result": end.kind == "succeeded"}, True)
+
+    async def _stop(self) -> GoalOutcome:
+        for other in list(self.running):
+            other.cancel()
+        try:
+            current = await self.backend.get_current_action()
+            if current is not None:
+                await self.backend.cancel_action()
+        except NotConnectedError:
+            return rejected("the robot is not connected")
+        except BackendError as exc:
+            return GoalOutcome(STATUS_ABORTED, {"message": f"stop failed: {exc}",
+                                                "result": False}, True)
+        return GoalOutcome(STATUS_SUCCEEDED, {"message": "stopped", "result": True}, True)
+
+    # ---------------------------------------------------------------- the service
+    async def _set_initialpose(self, request: dict) -> dict:
+        init = request["init_pose"]
+        try:
+            pose = goal_pose(self.frames, {"header": init["header"], "pose": init["pose"]["pose"]},
+                             "init_pose")
+        except GoalRejected as exc:
+            raise ServiceError(f"set_initialpose: {exc}") from None
+        b = self.backend
+        try:
+            await b.set_pose(pose)
+            info = await b.recover_localization(
+                Rect(pose.x - SEARCH_HALF_SIZE, pose.y - SEARCH_HALF_SIZE,
+                     2 * SEARCH_HALF_SIZE, 2 * SEARCH_HALF_SIZE),
+                RELOCALIZATION_TIME_MS, LocalizationMovement.NO_MOVE)
+            action = info
+            loop = asyncio.get_running_loop()
+            give_up = loop.time() + RELOCALIZATION_WALL_LIMIT
+            while not action.done and loop.time() < give_up:
+                await asyncio.sleep(POLL)
+                found = await b.get_action(info.action_id)
+                if found is None:
+                    break
+                action = found
+            ok = action.done and action.result == ActionResult.SUCCESS
+            quality = await b.get_localization_quality()
+            if ok:
+                deadline = loop.time() + QUALITY_WAIT
+                while quality < GOOD_QUALITY and loop.time() < deadline:
+                    await asyncio.sleep(POLL)
+                    quality = await b.get_localization_quality()
+            refined = await b.get_pose()
+        except NotConnectedError:
+            raise ServiceError("set_initialpose: the robot is not connected") from None
+        except BackendError as exc:
+            raise ServiceError(f"set_initialpose: {exc}") from None
+        good = ok and quality >= GOOD_QUALITY
+        sigma_xy, sigma_yaw = (0.05, 0.05) if good else (1.0, math.pi)
+        covariance = [0.0] * 36
+        covariance[0] = covariance[7] = sigma_xy ** 2
+        covariance[35] = sigma_yaw ** 2
+        stamped = pose_stamped(refined, self.map_frame)
+        return {"result": good,
+                "result_pose": {"header": stamped["header"],
+                                "pose": {"pose": stamped["pose"], "covariance": covariance}}}

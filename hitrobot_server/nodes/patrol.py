@@ -1,0 +1,371 @@
+"""Patrol routes (``planning/*``): the current waypoints, route files, and the patrol itself.
+
+Services (all answer ``success``/``message``; types in ``schemas/hitrobot_msgs/srv``):
+
+* ``planning/set_waypoints`` (SetWaypoints), ``planning/append_waypoint`` (AppendWaypoint),
+  ``planning/clear_waypoints`` (std_srvs/Trigger): edit the current route;
+* ``planning/save_waypoints_file`` / ``planning/load_waypoints_file`` /
+  ``planning/list_waypoints_files``: route files ``<name>.yaml`` in the route store (the
+  ``routes`` folder next to the map store); saving while a map is loaded also makes the route
+  that map's default (``route.yaml`` in its folder, loaded with the map);
+* ``planning/start_patrol`` (Trigger, from waypoint 0), ``planning/resume_patrol`` (from the
+  waypoint nearest the robot), ``planning/stop_patrol`` (Trigger).
+
+A patrol drives the robot to each waypoint in turn (``move_to``, waiting for the robot's action)
+and starts over after the last one, until stopped. A waypoint the robot cannot reach is skipped
+(the patrol stops when none is reachable); anything else that ends the robot's action — another
+command replacing it, ``sit_down``, a cancel — stops the patrol, as does a refused command.
+``planning/patrol_state`` (latched ``hitrobot_msgs/PatrolState``) reports the route and progress.
+
+Frames: a waypoint's ``frame`` is the loaded map's name (``map`` when none is loaded, ``map``
+is always accepted) or ``odom``; map→odom is the identity on this robot, so both mean the same
+coordinates. ``gps`` is refused: the robot has no GPS receiver. The robot is planar: ``z`` and
+``use_z`` are kept and returned but not checked.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+
+from ..bus.core import Bus
+from ..config import Settings
+from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.model import ActionInfo, ActionResult, Point2D
+from .conventional import RobotNode
+from .mapfiles import (
+    ROUTE_FILE,
+    FileError,
+    MapFilesNode,
+    NamedFiles,
+    dump_yaml,
+    list_reply,
+    load_yaml,
+    number,
+)
+
+log = logging.getLogger(__name__)
+
+NS = "/planning"
+PKG = "hitrobot_msgs"
+STATE_TOPIC = f"{NS}/patrol_state"
+MAX_WAYPOINTS = 256  # waypoint_index is a uint8
+ACTION_POLL = 0.1
+ODOM_FRAMES = frozenset({"odom"})
+
+
+class RouteError(ValueError):
+    """A refused waypoint or route; the text is user-facing."""
+
+
+@dataclass(frozen=True, slots=True)
+class Waypoint:
+    frame: str
+    x: float
+    y: float
+    z: float = 0.0
+    use_z: bool = False
+
+
+def frame_ok(frame: str, map_frames: frozenset[str]) -> None:
+    """Refuse a frame the robot cannot drive in, saying why."""
+    bare = frame.strip().lstrip("/")
+    if bare.lower() == "gps":
+        raise RouteError("frame 'gps' is not supported: the robot has no GPS receiver; give "
+                         "waypoints in the map frame or 'odom'")
+    if bare not in map_frames and bare not in ODOM_FRAMES:
+        names = ", ".join(repr(f) for f in sorted(map_frames | ODOM_FRAMES) if f)
+        raise RouteError(f"frame {frame!r} is neither the loaded map nor odom (use {names})")
+
+
+def waypoint_of(msg: dict, path: str, map_frames: frozenset[str]) -> Waypoint:
+    """A validated hitrobot_msgs/Waypoint (a dict from a request or a route file)."""
+    if not isinstance(msg, dict):
+        raise RouteError(f"{path} must be a mapping")
+    frame = msg.get("frame", "")
+    if not isinstance(frame, str):
+        raise RouteError(f"field '{path}.frame' must be a string")
+    try:
+        frame_ok(frame, map_frames)
+        x = number(msg.get("x"), f"{path}.x")
+        y = number(msg.get("y"), f"{path}.y")
+        z = number(msg.get("z", 0.0), f"{path}.z")
+    except (RouteError, FileError) as exc:
+        raise RouteError(f"{path}: {exc}") from None
+    return Waypoint(frame, x, y, z, bool(msg.get("use_z", False)))
+
+
+def waypoints_of(items: Sequence[dict], map_frames: frozenset[str],
+                 name: str = "waypoints") -> list[Waypoint]:
+    if len(items) > MAX_WAYPOINTS:
+        raise RouteError(f"a route has at most {MAX_WAYPOINTS} waypoints, got {len(items)}")
+    return [waypoint_of(item, f"{name}[{i}]", map_frames) for i, item in enumerate(items)]
+
+
+def encode_route(waypoints: Sequence[Waypoint]) -> bytes:
+    return dump_yaml("patrol route", {"waypoints": [asdict(w) for w in waypoints]})
+
+
+def decode_route(data: bytes, map_frames: frozenset[str], what: str = "route file"
+                 ) -> list[Waypoint]:
+    doc = load_yaml(data, what)
+    items = doc.get("waypoints")
+    if not isinstance(items, list):
+        raise RouteError(f"{what} has no 'waypoints' list")
+    return waypoints_of(items, map_frames)
+
+
+def nearest(waypoints: Sequence[Waypoint], x: float, y: float) -> int:
+    """Index of the waypoint closest to (x, y); the first of equals."""
+    return min(range(len(waypoints)),
+               key=lambda i: math.hypot(waypoints[i].x - x, waypoints[i].y - y))
+
+
+async def follow(backend: RobotBackend, action: ActionInfo) -> ActionInfo | None:
+    """Wait for the robot's ``action`` to end: its final state, or None when the robot no
+    longer knows it (replaced by a newer one)."""
+    while not action.done:
+        await asyncio.sleep(ACTION_POLL)
+        current = await backend.get_action(action.action_id)
+        if current is None:
+            return None
+        action = current
+    return action
+
+
+class PatrolNode(RobotNode):
+    """``planning/*``: the current route, route files and the patrol loop."""
+
+    def __init__(self, bus: Bus, backend: RobotBackend, settings: Settings,
+                 mapfiles: MapFilesNode):
+        super().__init__(bus, NS, backend)
+        self.backend: RobotBackend = backend
+        self.mapfiles = mapfiles
+        self.files = NamedFiles(settings.map_store.parent / "routes")
+        self.map_frames_extra = frozenset({"map", settings.slamware.map_frame.lstrip("/")})
+        self.waypoints: list[Waypoint] = []
+        self.route = ""
+        self.active = False
+        self.target = -1
+        self.laps = 0
+        self.text = "idle"
+        self._task: asyncio.Task | None = None
+        self._action_id: int | None = None
+        self.advertise(STATE_TOPIC, f"{PKG}/PatrolState", latch=True)
+        for name, type_name, handler in [
+            ("list_waypoints_files", "ListWaypointsFiles", self._list),
+            ("load_waypoints_file", "LoadWaypointsFile", self._load),
+            ("save_waypoints_file", "SaveWaypointsFile", self._save),
+            ("resume_patrol", "ResumePatrol", self._resume),
+            ("set_waypoints", "SetWaypoints", self._set),
+            ("append_waypoint", "AppendWaypoint", self._append),
+        ]:
+            self.service(f"{NS}/{name}", f"{PKG}/{type_name}", handler)
+        for name, handler in [("clear_waypoints", self._clear), ("start_patrol", self._start),
+                              ("stop_patrol", self._stop)]:
+            self.service(f"{NS}/{name}", "std_srvs/Trigger", handler)
+        mapfiles.defaults[ROUTE_FILE] = self._apply_default
+        self._publish()
+
+    @property
+    def map_frames(self) -> frozenset[str]:
+        return self.map_frames_extra | {self.mapfiles.loaded.frame}
+
+    async def stop(self) -> None:
+        await self._halt("stopped")
+        await super().stop()
+
+    # ------------------------------------------------------------------ state
+    def _publish(self) -> None:
+        self.publish(STATE_TOPIC, {
+            "active": self.active, "route": self.route,
+            "waypoints": [asdict(w) for w in self.waypoints],
+            "target_index": self.target, "laps": self.laps, "message": self.text})
+
+    def _replace(self, waypoints: list[Waypoint], route: str) -> None:
+        self.waypoints, self.route = waypoints, route
+        self._publish()
+
+    # ------------------------------------------------------------------ route services
+    async def _set(self, request: dict) -> dict:
+        try:
+            waypoints = waypoints_of(request["waypoints"], self.map_frames)
+        except RouteError as exc:
+            return {"success": False, "message": str(exc)}
+        await self._halt("stopped: the route was replaced")
+        self._replace(waypoints, "")
+        return {"success": True, "message": f"{len(waypoints)} waypoints set"}
+
+    async def _append(self, request: dict) -> dict:
+        if len(self.waypoints) >= MAX_WAYPOINTS:
+            return {"success": False, "waypoint_index": 0,
+                    "message": f"a route has at most {MAX_WAYPOINTS} waypoints"}
+        try:
+            waypoint = waypoint_of(request["waypoint"], "waypoint", self.map_frames)
+        except RouteError as exc:
+            return {"success": False, "message": str(exc), "waypoint_index": 0}
+        self.waypoints = [*self.waypoints, waypoint]  # a running patrol picks it up
+        self._publish()
+        index = len(self.waypoints) - 1
+        return {"success": True, "message": f"waypoint {index} added", "waypoint_index": index}
+
+    async def _clear(self, request: dict) -> dict:
+        await self._halt("stopped: the route was cleared")
+        self._replace([], "")
+        return {"success": True, "message": "waypoints cleared"}
+
+    async def _list(self, request: dict) -> dict:
+        return list_reply(self.files.root, request["directory"], self.files.names)
+
+    async def _save(self, request: dict) -> dict:
+        name = request["name"]
+        data = encode_route(self.waypoints)
+        try:
+            await asyncio.to_thread(self.files.write, name, data)
+        except FileError as exc:
+            return {"success": False, "message": str(exc)}
+        self.route = name
+        if await asyncio.to_thread(self.mapfiles.save_default, ROUTE_FILE, data):
+            log.info("route %s is now the default route of map %s", name,
+                     self.mapfiles.loaded.name)
+        self._publish()
+        return {"success": True, "message": f"Waypoints saved to: {name}"}
+
+    async def _load(self, request: dict) -> dict:
+        name = request["name"]
+        try:
+            if not self.files.exists(name):
+                return {"success": False, "message": f"File not found: {name}"}
+            data = await asyncio.to_thread(self.files.read, name)
+            waypoints = decode_route(data, self.map_frames, f"route {name!r}")
+        except (FileError, RouteError) as exc:
+            return {"success": False, "message": str(exc)}
+        await self._halt("stopped: another route was loaded")
+        self._replace(waypoints, name)
+        return {"success": True, "message": f"Waypoints loaded from: {name}"}
+
+    def _apply_default(self, data: bytes) -> str:
+        """The loaded map's ``route.yaml`` becomes the current route."""
+        try:
+            waypoints = decode_route(data, self.map_frames, ROUTE_FILE)
+        except RouteError as exc:
+            raise FileError(str(exc)) from None
+        self.spawn(self._halt("stopped: a map was loaded"))
+        self._replace(waypoints, ROUTE_FILE.removesuffix(".yaml"))
+        return f"{len(waypoints)} waypoints loaded"
+
+    # ------------------------------------------------------------------ patrol services
+    async def _start(self, request: dict) -> dict:
+        if not self.waypoints:
+            return {"success": False, "message": "No waypoints loaded"}
+        error = await self._begin(0)
+        if error:
+            return {"success": False, "message": error}
+        return {"success": True, "message": "Patrol started from waypoint 0"}
+
+    async def _resume(self, request: dict) -> dict:
+        if not self.waypoints:
+            return {"success": False, "message": "No waypoints loaded", "waypoint_index": 0}
+        try:
+            pose = await self.backend.get_pose()
+        except NotConnectedError:
+            return {"success": False, "message": "the robot is not connected",
+                    "waypoint_index": 0}
+        except BackendError as exc:
+            return {"success": False, "message": f"robot pose unavailable: {exc}",
+                    "waypoint_index": 0}
+        index = nearest(self.waypoints, pose.x, pose.y)
+        error = await self._begin(index)
+        if error:
+            return {"success": False, "message": error, "waypoint_index": index}
+        return {"success": True, "message": f"Resuming from waypoint {index}",
+                "waypoint_index": index}
+
+    async def _stop(self, request: dict) -> dict:
+        if not self.active:
+            return {"success": True, "message": "no patrol is running"}
+        await self._halt("stopped by request")
+        return {"success": True, "message": "patrol stopped"}
+
+    # ------------------------------------------------------------------ the patrol
+    async def _begin(self, index: int) -> str | None:
+        """Stop any patrol, send the robot to waypoint ``index`` and patrol from there; the
+        reason when the robot refuses."""
+        await self._halt("restarted")
+        w = self.waypoints[index]
+        try:
+            action = await self.backend.move_to([Point2D(w.x, w.y)])
+        except NotConnectedError:
+            return "the robot is not connected"
+        except BackendError as exc:
+            return f"the robot refused waypoint {index}: {exc}"
+        self.active, self.target, self.laps = True, index, 0
+        self.text = f"heading to waypoint {index}"
+        self._action_id = action.action_id
+        self._publish()
+        self._task = self.spawn(self._patrol(index, action))
+        return None
+
+    async def _halt(self, text: str) -> None:
+        """Stop the patrol (if any) and the robot's action if it is still ours."""
+        task, self._task = self._task, None
+        if task is not None and task is not asyncio.current_task():
+            task.cancel()
+        if self.active:
+            action_id, self._action_id = self._action_id, None
+            if action_id is not None and self.backend.connected:
+                try:
+                    current = await self.backend.get_current_action()
+                    if current is not None and current.action_id == action_id:
+                        await self.backend.cancel_action()
+                except BackendError as exc:
+                    log.warning("patrol: cancelling the robot's action: %s", exc)
+            self._end(text)
+
+    def _end(self, text: str) -> None:
+        self.active, self.target, self.text = False, -1, text
+        self._action_id = None
+        self._publish()
+
+    async def _patrol(self, index: int, action: ActionInfo | None) -> None:
+        first, failures = index, 0
+        try:
+            while True:
+                if not self.waypoints:
+                    self._end("stopped: the route is empty")
+                    return
+                index %= len(self.waypoints)
+                w = self.waypoints[index]
+                if action is None:
+                    self.target, self.text = index, f"heading to waypoint {index}"
+                    self._publish()
+                    action = await self.backend.move_to([Point2D(w.x, w.y)])
+                    self._action_id = action.action_id
+                final = await follow(self.backend, action)
+                action = None
+                if final is None:
+                    self._end("stopped: the robot's action was replaced by another command")
+                    return
+                if final.result == ActionResult.SUCCESS:
+                    failures = 0
+                    self.text = f"reached waypoint {index}"
+                elif final.result == ActionResult.FAILED:
+                    failures += 1
+                    self.text = f"skipped waypoint {index}: {final.reason or 'unreachable'}"
+                    if failures >= len(self.waypoints):
+                        self._end(f"stopped: no waypoint is reachable ({final.reason})")
+                        return
+                else:
+                    self._end(f"stopped: the robot's action ended ({final.reason or 'aborted'})")
+                    return
+                index = (index + 1) % len(self.waypoints)
+                if index == first % len(self.waypoints):
+                    self.laps += 1
+                self._publish()
+        except NotConnectedError:
+            self._end("stopped: the robot disconnected")
+        except BackendError as exc:
+            self._end(f"stopped: {exc}")

@@ -1,0 +1,272 @@
+"""The locomotion state machine and control mode, as a gate in front of a robot backend.
+
+:class:`LocomotionBackend` wraps any :class:`RobotBackend` and delegates everything to it, but
+its *motion* methods (``move_to``, ``move_by_direction``, ``move_by_theta``, ``rotate_to``,
+``rotate``, ``go_home`` and a non-zero ``set_velocity``) raise :class:`BackendError` unless
+the robot is in a state that may move (``IN_CONTROL``). Every node that drives the robot (the
+Slamware topics, ``/cmd_vel``, ``/move_base``, ``/navigation``, patrols, graph navigation, the
+``/cmd_string`` shell) therefore sees the same refusal with the same text, without knowing
+about locomotion at all. Stopping (``cancel_action``, a zero ``set_velocity``) is always
+allowed.
+
+States follow the seed's locomotion state values (0-9). The simulated robot starts in
+``IN_CONTROL``; ``sit_down`` stops any motion and goes to ``SITDOWN_MODE``; ``stand_up`` goes to
+``STANDING_MODE`` and, after :attr:`LocomotionBackend.stand_up_seconds`, to ``IN_CONTROL``. While
+the robot is unreachable the state reads ``COMM_DISABLED``; a reboot brings it back standing.
+
+The control mode (``set_listen``) records who claims the robot: a joystick/GUI
+(``"joy/gui<&>network_id"``), autonomy (``"vel_cmd/autonomy"``) or nobody (a release,
+``"topic<&><CLOSE>"``). It is reported in ``robot_state.joy_listen_type`` and does not gate
+motion (the bridge cannot tell a joystick's ``/cmd_vel`` from anyone else's).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import enum
+import inspect
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from .backend import BackendError, RobotBackend
+from .model import ActionDirection, ActionInfo, MoveOptions, Point2D
+
+
+class LocomotionState(enum.IntEnum):
+    COMM_DISABLED = 0
+    COMM_ENABLED = 1
+    MOTOR_READY = 2
+    MOTOR_COMMUTATION = 3
+    MOTOR_ENABLED = 4
+    IN_TEST_MODE = 5
+    STANDING_MODE = 6
+    IN_CONTROL = 7
+    SITDOWN_MODE = 8
+    MOTOR_DISABLED = 9
+
+
+class JoyListenType(enum.IntEnum):
+    JOY = 0
+    VEL_CMD = 1
+    NONE = 2
+
+
+MOTION_STATES = frozenset({LocomotionState.IN_CONTROL})
+"""States in which the robot may be driven."""
+MOTORS_ENABLED_STATES = frozenset({LocomotionState.MOTOR_ENABLED, LocomotionState.STANDING_MODE,
+                                   LocomotionState.IN_CONTROL, LocomotionState.IN_TEST_MODE})
+"""States in which the drive motors are powered (CiA402 OPERATION_ENABLED)."""
+STAND_UP_SECONDS = 1.0
+"""Simulated seconds the stand-up transition (STANDING_MODE → IN_CONTROL) takes."""
+
+_WHY = {
+    LocomotionState.SITDOWN_MODE: "the robot is sitting",
+    LocomotionState.STANDING_MODE: "the robot is still standing up",
+    LocomotionState.MOTOR_DISABLED: "the motors are disabled",
+}
+
+JOY_TOPIC = "joy/gui"
+AUTONOMY_TOPIC = "vel_cmd/autonomy"
+SEPARATOR = "<&>"
+CLOSE = "<CLOSE>"
+LISTEN_TOPICS = {JOY_TOPIC: JoyListenType.JOY, AUTONOMY_TOPIC: JoyListenType.VEL_CMD}
+LISTEN_FORMATS = ('"joy/gui<&>network_id", "vel_cmd/autonomy" or "topic_name<&><CLOSE>" '
+                  '(e.g. "joy/gui<&><CLOSE>")')
+
+
+class ListenError(ValueError):
+    """A ``set_listen`` request in none of the three formats."""
+
+
+@dataclass(frozen=True, slots=True)
+class ListenRequest:
+    """A parsed ``set_listen`` string: claim ``topic`` (with ``network_id``) or release it."""
+
+    topic: str
+    release: bool
+    network_id: str = ""
+
+
+def parse_listen(data: str) -> ListenRequest:
+    """Parse ``set_listen``'s ``data``; :class:`ListenError` says what is wrong."""
+    text = data.strip()
+    if not text:
+        raise ListenError(f"empty request; expected {LISTEN_FORMATS}")
+    topic, sep, arg = text.partition(SEPARATOR)
+    topic, arg = topic.strip(), arg.strip()
+    if topic not in LISTEN_TOPICS:
+        raise ListenError(f"unknown control source {topic!r}; expected {LISTEN_FORMATS}")
+    if sep and arg == CLOSE:
+        return ListenRequest(topic, release=True)
+    if topic == JOY_TOPIC:
+        if not arg:
+            raise ListenError("joy/gui needs a network id: \"joy/gui<&>network_id\"")
+        return ListenRequest(topic, release=False, network_id=arg)
+    if sep:
+        raise ListenError(f"vel_cmd/autonomy takes no argument other than {CLOSE}")
+    return ListenRequest(topic, release=False)
+
+
+class ControlMode:
+    """Who claims the robot (``set_listen``)."""
+
+    def __init__(self, initial: JoyListenType = JoyListenType.VEL_CMD):
+        self.listen_type = initial
+        self.network_id = ""
+
+    def apply(self, request: ListenRequest) -> str:
+        """Apply a parsed request; the user-facing result text."""
+        wanted = LISTEN_TOPICS[request.topic]
+        if request.release:
+            if self.listen_type != wanted:
+                return f"{request.topic} was not listening; nothing to release"
+            self.listen_type, self.network_id = JoyListenType.NONE, ""
+            return f"released {request.topic}"
+        self.listen_type, self.network_id = wanted, request.network_id
+        if request.network_id:
+            return f"listening to {request.topic} from {request.network_id}"
+        return f"listening to {request.topic}"
+
+
+class LocomotionBackend(RobotBackend):
+    """A backend whose motion is gated by the locomotion state (see the module text)."""
+
+    def __init__(self, inner: RobotBackend, stand_up_seconds: float = STAND_UP_SECONDS,
+                 initial: LocomotionState = LocomotionState.IN_CONTROL):
+        self.inner = inner
+        self.stand_up_seconds = stand_up_seconds
+        self._initial = initial
+        self._state = initial
+        self._transition: asyncio.Task | None = None
+        self.control = ControlMode()
+
+    def __getattr__(self, name: str):
+        # Anything the wrapper does not define (a simulator handle, reboot_delay, url, ...)
+        # is the wrapped backend's.
+        if name == "inner":
+            raise AttributeError(name)
+        return getattr(self.inner, name)
+
+    # --- locomotion ----------------------------------------------------------------------
+    @property
+    def state(self) -> LocomotionState:
+        """The locomotion state; ``COMM_DISABLED`` while the robot is unreachable."""
+        return self._state if self.inner.connected else LocomotionState.COMM_DISABLED
+
+    @property
+    def motion_allowed(self) -> bool:
+        return self.state in MOTION_STATES
+
+    @property
+    def motors_enabled(self) -> bool:
+        return self.state in MOTORS_ENABLED_STATES
+
+    def _cancel_transition(self) -> None:
+        task, self._transition = self._transition, None
+        if task is not None and task is not asyncio.current_task():
+            task.cancel()
+
+    async def sit_down(self) -> None:
+        """Stop whatever the robot is doing and sit down (motion refused from now on)."""
+        self._cancel_transition()
+        self._state = LocomotionState.SITDOWN_MODE
+        if self.inner.connected:
+            with contextlib.suppress(BackendError):
+                await self.inner.cancel_action()  # also ends /cmd_vel velocity control
+
+    async def stand_up(self) -> None:
+        """Start standing up: STANDING_MODE now, IN_CONTROL after the transition."""
+        if self._state == LocomotionState.IN_CONTROL or self._transition is not None:
+            return
+        self._state = LocomotionState.STANDING_MODE
+
+        async def finish() -> None:
+            await asyncio.sleep(self.stand_up_seconds)
+            if self._state == LocomotionState.STANDING_MODE:
+                self._state = LocomotionState.IN_CONTROL
+            self._transition = None
+
+        self._transition = asyncio.get_running_loop().create_task(finish(), name="stand-up")
+
+    def _check_motion(self) -> None:
+        if not self.inner.connected:
+            return  # the wrapped backend says "not connected" itself
+        state = self._state
+        if state not in MOTION_STATES:
+            why = _WHY.get(state, "the robot is not in control")
+            raise BackendError(f"motion refused: {why} (locomotion state {state.name})")
+
+    # --- lifecycle -----------------------------------------------------------------------
+    @property
+    def connected(self) -> bool:
+        return self.inner.connected
+
+    async def start(self) -> None:
+        await self.inner.start()
+
+    async def stop(self) -> None:
+        self._cancel_transition()
+        await self.inner.stop()
+
+    async def power_off(self) -> None:
+        await self.inner.power_off()
+
+    async def reboot(self) -> None:
+        await self.inner.reboot()
+        self._cancel_transition()
+        self._state = self._initial  # it comes back as freshly started
+
+    # --- motion (gated) ------------------------------------------------------------------
+    async def move_to(self, targets: Sequence[Point2D], options: MoveOptions | None = None,
+                      yaw: float = 0.0) -> ActionInfo:
+        self._check_motion()
+        return await self.inner.move_to(targets, options, yaw)
+
+    async def move_by_direction(self, direction: ActionDirection,
+                                options: MoveOptions | None = None,
+                                duration: float = 0.5) -> ActionInfo:
+        self._check_motion()
+        return await self.inner.move_by_direction(direction, options, duration)
+
+    async def move_by_theta(self, theta: float, options: MoveOptions | None = None,
+                            duration: float = 0.5) -> ActionInfo:
+        self._check_motion()
+        return await self.inner.move_by_theta(theta, options, duration)
+
+    async def rotate_to(self, yaw: float, options: MoveOptions | None = None) -> ActionInfo:
+        self._check_motion()
+        return await self.inner.rotate_to(yaw, options)
+
+    async def rotate(self, angle: float, options: MoveOptions | None = None) -> ActionInfo:
+        self._check_motion()
+        return await self.inner.rotate(angle, options)
+
+    async def go_home(self, options: MoveOptions | None = None) -> ActionInfo:
+        self._check_motion()
+        return await self.inner.go_home(options)
+
+    async def set_velocity(self, linear: float, angular: float) -> None:
+        if linear != 0.0 or angular != 0.0:  # a stop is always allowed
+            self._check_motion()
+        await self.inner.set_velocity(linear, angular)
+
+
+def _delegate(name: str):
+    async def method(self, *args, **kwargs):
+        return await getattr(self.inner, name)(*args, **kwargs)
+
+    method.__name__ = name
+    method.__qualname__ = f"LocomotionBackend.{name}"
+    method.__doc__ = getattr(RobotBackend, name).__doc__
+    return method
+
+
+# Every other method of the boundary (state, maps, lines, optional extras such as a path
+# query) is passed through as is, abstract or not, so the wrapper never hides a feature.
+for _name, _value in list(vars(RobotBackend).items()):
+    if (not _name.startswith("_") and inspect.iscoroutinefunction(_value)
+            and _name not in vars(LocomotionBackend)):
+        setattr(LocomotionBackend, _name, _delegate(_name))
+LocomotionBackend.__abstractmethods__ = frozenset()
+del _name, _value

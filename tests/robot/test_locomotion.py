@@ -1,0 +1,86 @@
+"""The locomotion gate in front of a backend, and the set_listen grammar (no server)."""
+
+from __future__ import annotations
+
+import asyncio
+
+import pytest
+
+from hitrobot_server.robot.backend import BackendError, NotConnectedError
+from hitrobot_server.robot.factory import build_simulator
+from hitrobot_server.robot.locomotion import (
+    ControlMode,
+    JoyListenType,
+    ListenError,
+    ListenRequest,
+    LocomotionBackend,
+    LocomotionState,
+    parse_listen,
+)
+from hitrobot_server.robot.model import ActionDirection, Point2D
+from hitrobot_server.robot.sim.backend import SimBackend
+
+
+def test_parse_listen_formats():
+    assert parse_listen("joy/gui<&>tablet-7") == ListenRequest("joy/gui", False, "tablet-7")
+    assert parse_listen("vel_cmd/autonomy") == ListenRequest("vel_cmd/autonomy", False)
+    assert parse_listen("joy/gui<&><CLOSE>") == ListenRequest("joy/gui", True)
+    assert parse_listen(" vel_cmd/autonomy<&><CLOSE> ") == ListenRequest("vel_cmd/autonomy", True)
+    for bad, needle in [("", "empty"), ("joy/gui", "network id"), ("joy/gui<&>", "network id"),
+                        ("cmd_vel", "unknown control source"),
+                        ("vel_cmd/autonomy<&>x", "no argument")]:
+        with pytest.raises(ListenError, match=needle):
+            parse_listen(bad)
+
+
+def test_control_mode_claims_and_releases():
+    mode = ControlMode()
+    assert mode.listen_type == JoyListenType.VEL_CMD
+    assert "from pad" in mode.apply(parse_listen("joy/gui<&>pad"))
+    assert mode.listen_type == JoyListenType.JOY and mode.network_id == "pad"
+    assert "nothing to release" in mode.apply(parse_listen("vel_cmd/autonomy<&><CLOSE>"))
+    assert mode.listen_type == JoyListenType.JOY
+    assert mode.apply(parse_listen("joy/gui<&><CLOSE>")) == "released joy/gui"
+    assert mode.listen_type == JoyListenType.NONE and mode.network_id == ""
+    mode.apply(parse_listen("vel_cmd/autonomy"))
+    assert mode.listen_type == JoyListenType.VEL_CMD
+
+
+async def test_sitting_refuses_every_motion_and_standing_up_allows_it():
+    inner = SimBackend(build_simulator(), time_scale=4.0)
+    robot = LocomotionBackend(inner, stand_up_seconds=0.2)
+    assert robot.state == LocomotionState.COMM_DISABLED  # not started
+    with pytest.raises(NotConnectedError):
+        await robot.move_to([Point2D(6.0, 8.0)])  # the inner backend's own refusal
+    await robot.start()
+    try:
+        assert robot.state == LocomotionState.IN_CONTROL and robot.motion_allowed
+        assert robot.simulator is inner.simulator  # everything else is the inner backend's
+        await robot.move_to([Point2D(7.0, 8.0)])
+        await robot.sit_down()
+        assert robot.state == LocomotionState.SITDOWN_MODE and not robot.motors_enabled
+        assert await robot.get_current_action() is None  # sitting down stopped the move
+        text = "motion refused: the robot is sitting (locomotion state SITDOWN_MODE)"
+        for call in (lambda: robot.move_to([Point2D(6.0, 8.0)]),
+                     lambda: robot.move_by_direction(ActionDirection.FORWARD),
+                     lambda: robot.move_by_theta(0.5), lambda: robot.rotate_to(1.0),
+                     lambda: robot.rotate(1.0), lambda: robot.go_home(),
+                     lambda: robot.set_velocity(0.2, 0.0)):
+            with pytest.raises(BackendError) as info:
+                await call()
+            assert str(info.value) == text
+        await robot.set_velocity(0.0, 0.0)  # stopping is always allowed
+        await robot.get_pose()  # so is everything that does not move the robot
+        await robot.stand_up()
+        assert robot.state == LocomotionState.STANDING_MODE
+        with pytest.raises(BackendError, match="still standing up"):
+            await robot.rotate(0.3)
+        await asyncio.sleep(0.3)
+        assert robot.state == LocomotionState.IN_CONTROL
+        info = await robot.rotate(0.3)
+        assert info.action_id > 0
+        await robot.stand_up()  # already up: nothing changes
+        assert robot.state == LocomotionState.IN_CONTROL
+    finally:
+        await robot.stop()
+    assert robot.state == LocomotionState.COMM_DISABLED
