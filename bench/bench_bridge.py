@@ -318,6 +318,8 @@ def start_ours(profile_dir: str | None, tag: str) -> ServerProc:
         HOST,
         "--log-level",
         "warning",
+        "--robot",  # the bridge alone: no simulator competing for the core
+        "none",
     ]
     if profile_dir:
         Path(profile_dir).mkdir(parents=True, exist_ok=True)
