@@ -9,6 +9,7 @@ REST API reports them. ``tick`` returns the velocity command for the tick.
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from collections.abc import Sequence
 
 from ..backend import ACTION_PREFIX
@@ -36,7 +37,7 @@ DOCK_SPEED = 0.15
 RELOCALIZE_TURN_SPEED = 0.5
 
 
-class Action:
+class Action(ABC):
     """Bookkeeping shared by all actions; subclasses implement :meth:`_run`."""
 
     name = "Action"
@@ -74,7 +75,7 @@ class Action:
             self.result = result
             self.reason = reason
 
-    def on_collision(self, bearing: float) -> None:
+    def on_collision(self, bearing: float) -> None:  # noqa: B027 - optional hook, default no-op
         """The bumper fired during this action, at ``bearing`` off the robot's heading."""
 
     def remaining_path(self, ctx: ActionContext) -> list[Point2D]:
@@ -83,9 +84,9 @@ class Action:
     def milestones(self) -> list[Point2D]:
         return []
 
+    @abstractmethod
     def _run(self, ctx: ActionContext) -> tuple[float, float]:
         """One tick of the action's own logic; returns (linear, angular)."""
-        raise NotImplementedError
 
 
 class MoveToAction(Action):
@@ -102,7 +103,7 @@ class MoveToAction(Action):
         self.name = "SeriesMoveToAction"
         self._nav.append(targets, options, yaw)
 
-    def on_collision(self, bearing: float) -> None:
+    def on_collision(self, bearing: float) -> None:  # noqa: B027 - optional hook, default no-op
         self._nav.on_collision(bearing)
 
     def remaining_path(self, ctx: ActionContext) -> list[Point2D]:
@@ -134,7 +135,7 @@ class GoHomeAction(Action):
         self._home: Pose2D | None = None
         self._docking = False
 
-    def on_collision(self, bearing: float) -> None:
+    def on_collision(self, bearing: float) -> None:  # noqa: B027 - optional hook, default no-op
         if self._nav is not None and not self._docking:
             self._nav.on_collision(bearing)
 
