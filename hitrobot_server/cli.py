@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import contextlib
 import logging
-import signal
 import sys
 
 from . import __version__
 from .config import Settings, add_arguments, load
+from .signals import until_terminated
 
 TOOLS = {
     "conformance": "hitrobot_server.conformance.runner",
@@ -45,13 +44,8 @@ async def serve(settings: Settings) -> None:
         + (f"  tcp://{settings.address}:{server.tcp_port}" if server.tcp_port else ""),
         flush=True,
     )
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        with contextlib.suppress(NotImplementedError):
-            loop.add_signal_handler(sig, stop.set)
     try:
-        await stop.wait()
+        await until_terminated()
     finally:
         await server.stop()
 

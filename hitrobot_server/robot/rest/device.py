@@ -14,10 +14,8 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import contextlib
 import logging
 import math
-import signal
 import sys
 from collections.abc import Awaitable, Callable
 from typing import Any
@@ -26,6 +24,7 @@ import orjson
 from aiohttp import web
 
 from ... import __version__
+from ...signals import until_terminated
 from ..backend import ACTION_PREFIX, BackendError, NotConnectedError, UnsupportedError
 from ..model import ActionDirection, ActionInfo, Line, Pose2D, Rect
 from ..sim.backend import SimBackend
@@ -538,13 +537,8 @@ async def serve(args: argparse.Namespace) -> None:
                        time_scale=args.sim_speed)
     await device.start()
     print(f"hitrobot-server sim-device: {device.url}", flush=True)
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        with contextlib.suppress(NotImplementedError):
-            loop.add_signal_handler(sig, stop.set)
     try:
-        await stop.wait()
+        await until_terminated()
     finally:
         await device.stop()
 
