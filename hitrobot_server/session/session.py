@@ -20,9 +20,9 @@ from ..bus.errors import BusError
 from ..bus.topics import Origin
 from ..config import Settings
 from ..protocol import auth, ops, png
-from ..protocol.errors import ProtocolError
+from ..protocol.errors import ProtocolError, status_op
 from ..protocol.fragment import Defragmenter
-from ..protocol.status import LEVELS, should_send
+from ..protocol.status import set_level, should_send
 from ..types import jsoncodec
 from ..types.convert import ConversionError
 from .actions import ActionOps
@@ -133,14 +133,8 @@ class Session:
         self.receive(text)
 
     def _op_set_level(self, msg: dict) -> None:
-        level = msg["level"]
-        if level not in LEVELS:
-            raise ProtocolError(
-                f"set_level: field 'level' must be one of {', '.join(LEVELS)}, got {level!r}",
-                msg.get("id"),
-            )
-        self.status_level = level
-        self.status("info", f"status level set to {level}", msg.get("id"))
+        self.status_level = set_level(msg)
+        self.status("info", f"status level set to {self.status_level}", msg.get("id"))
 
     def _op_auth(self, msg: dict) -> None:
         if not self.settings.authenticate:
@@ -178,10 +172,7 @@ class Session:
             log.info("client %s: %s", self.node, msg)
         if not should_send(self.status_level, level):
             return
-        out: dict[str, Any] = {"op": "status", "level": level, "msg": msg}
-        if op_id is not None:
-            out["id"] = op_id
-        self.outbox.put(json_frames(out))
+        self.outbox.put(json_frames(status_op(level, msg, op_id)))
 
     def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:
         """Run a coroutine tied to this client; it is cancelled when the client goes."""

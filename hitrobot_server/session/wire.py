@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-import itertools
-
 from ..bus.topics import Message
 from ..protocol import cbor, png, rawmsg
-from ..protocol.fragment import fragment
+from ..protocol.fragment import FragmentIds, fragment_bytes
+from ..protocol.ops import COMPRESSIONS
 from ..types import jsoncodec
 from .outbox import Frame
 
-COMPRESSIONS = ("none", "png", "cbor", "cbor-raw")
 _BINARY = {"cbor", "cbor-raw"}
-_frag_ids = itertools.count(1)
+_fragment_ids = FragmentIds()
 
 
 def strongest(compressions) -> str:
@@ -87,8 +85,8 @@ def publish_frames(
 
 def fragment_frames(data: bytes, size: int, op_id: object) -> list[Frame]:
     """Split encoded JSON into ``fragment`` ops with a fresh, non-empty string id."""
-    frag_id = f"{op_id}:{next(_frag_ids)}" if op_id is not None else f"fragment:{next(_frag_ids)}"
-    return [(jsoncodec.dumps(op), False) for op in fragment(data.decode(), size, frag_id)]
+    frag_id = _fragment_ids.next(op_id)
+    return [(frame, False) for frame in fragment_bytes(data.decode(), size, frag_id)]
 
 
 def json_frames(
