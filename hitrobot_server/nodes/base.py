@@ -5,15 +5,22 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import math
 from collections.abc import Awaitable, Callable, Coroutine
 from typing import Any
 
 from ..bus.core import Bus
 from ..bus.services import ActionHandler, ServiceHandler
-from ..bus.topics import Message
+from ..bus.topics import Message, RequestRejected
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 
 log = logging.getLogger(__name__)
+
+
+def require_finite(path: str, *values: float) -> None:
+    """Refuse a request carrying NaN or an infinity, naming the offending field."""
+    if not all(math.isfinite(v) for v in values):
+        raise RequestRejected(f"field '{path}' must be a finite number")
 
 
 class Node:

@@ -9,13 +9,12 @@ to (``geometry_msgs/Pose``, the robot in the map frame). ``/initialpose`` is rvi
 from __future__ import annotations
 
 import logging
-import math
 
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import Pose2D
-from .base import RobotNode
+from .base import RobotNode, require_finite
 from .slamware import messages as m
 
 log = logging.getLogger(__name__)
@@ -30,17 +29,11 @@ def map_frames(map_frame: str) -> frozenset[str]:
     return frozenset({"", "map", "/map", bare, f"/{bare}"})
 
 
-def finite(path: str, *values: float) -> None:
-    """Refuse NaN and infinities with the offending field's path."""
-    if not all(math.isfinite(v) for v in values):
-        raise RequestRejected(f"field '{path}' must be a finite number")
-
-
 def pose2d_of(pose: dict, path: str) -> Pose2D:
     """A validated geometry_msgs/Pose as the robot's planar pose (all-zero quaternion = yaw 0)."""
     p, q = pose["position"], pose["orientation"]
-    finite(f"{path}.position", p["x"], p["y"], p["z"])
-    finite(f"{path}.orientation", q["x"], q["y"], q["z"], q["w"])
+    require_finite(f"{path}.position", p["x"], p["y"], p["z"])
+    require_finite(f"{path}.orientation", q["x"], q["y"], q["z"], q["w"])
     return Pose2D(float(p["x"]), float(p["y"]), m.yaw_of(q))
 
 

@@ -23,7 +23,7 @@ import time
 from ..bus.core import Bus
 from ..robot.backend import ACTION_PREFIX, BackendError, NotConnectedError, RobotBackend
 from ..robot.model import HealthLevel
-from .conventional import RobotNode
+from .base import RobotNode
 from .slamware import messages as m
 
 OK, WARN, ERROR, STALE = 0, 1, 2, 3

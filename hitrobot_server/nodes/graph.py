@@ -27,7 +27,7 @@ from ..bus.core import Bus
 from ..config import Settings
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionResult, Point2D
-from .conventional import RobotNode
+from .base import RobotNode
 from .mapfiles import (
     GRAPH_FILE,
     FileError,

@@ -62,7 +62,8 @@ from ..robot.model import (
     Pose2D,
     Rect,
 )
-from .conventional import RobotNode, map_frames
+from .base import RobotNode
+from .conventional import map_frames
 from .nav2_actions import GoalRejected, drive, goal_pose, pose_stamped, rejected
 
 ACTION = "/intelligent_navigate_to_pose"

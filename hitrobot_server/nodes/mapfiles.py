@@ -28,7 +28,8 @@ from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
 from ..config import Settings
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
-from .conventional import RobotNode, pose2d_of
+from .base import RobotNode
+from .conventional import pose2d_of
 from .map_manager.node import NODE_NAME as MAP_MANAGER
 from .map_manager.store import MapStore, StoreError, validate_name, write_file
 

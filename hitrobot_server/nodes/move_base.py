@@ -33,7 +33,8 @@ from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionResult, MoveOptions, Point2D, Pose2D
-from .conventional import RobotNode, map_frames, pose2d_of
+from .base import RobotNode
+from .conventional import map_frames, pose2d_of
 from .slamware import messages as m
 from .slamware.node import GOAL_FLAGS
 

@@ -60,7 +60,8 @@ from ..robot.model import (
     Point2D,
     Pose2D,
 )
-from .conventional import RobotNode, map_frames, pose2d_of
+from .base import RobotNode
+from .conventional import map_frames, pose2d_of
 from .slamware import messages as m
 
 log = logging.getLogger(__name__)

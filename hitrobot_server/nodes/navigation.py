@@ -20,14 +20,13 @@ silently, as on the robot.
 from __future__ import annotations
 
 import asyncio
-import math
 from collections.abc import Callable
 
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionResult, ActionStatus, MoveOptionFlag, MoveOptions, Point2D, Rect
-from .base import RobotNode
+from .base import RobotNode, require_finite
 from .slamware import messages as m
 
 NODE_NAME = "/navigation"
@@ -64,11 +63,6 @@ def planning_area(start: tuple[float, float], goal: tuple[float, float],
     return Rect(x0 - margin, y0 - margin, x1 - x0 + 2 * margin, y1 - y0 + 2 * margin)
 
 
-def _finite(path: str, *values: float) -> None:
-    if not all(isinstance(v, int | float) and math.isfinite(v) for v in values):
-        raise RequestRejected(f"field '{path}' must be a finite number")
-
-
 class NavigationNode(RobotNode):
     """StartNavigation / NavigateToPOI on top of the robot's ``move_to``."""
 
@@ -96,9 +90,9 @@ class NavigationNode(RobotNode):
     def _navigate(self, message: Message, what: str, goal: dict, distance: float,
                   skip_final_turn: bool, fast_planning: bool) -> None:
         position, q = goal["position"], goal["orientation"]
-        _finite("goal.position", position["x"], position["y"])
-        _finite("goal.orientation", q["x"], q["y"], q["z"], q["w"])
-        _finite("distance_to_target", distance)
+        require_finite("goal.position", position["x"], position["y"])
+        require_finite("goal.orientation", q["x"], q["y"], q["z"], q["w"])
+        require_finite("distance_to_target", distance)
         if distance < 0:
             raise RequestRejected("field 'distance_to_target' must not be negative")
         if not self.backend.connected:

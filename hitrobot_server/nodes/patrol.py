@@ -35,7 +35,7 @@ from ..bus.core import Bus
 from ..config import Settings
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionInfo, ActionResult, Point2D
-from .conventional import RobotNode
+from .base import RobotNode
 from .mapfiles import (
     ROUTE_FILE,
     FileError,

@@ -46,7 +46,7 @@ import numpy as np
 from ..bus.core import Bus
 from ..robot.backend import RobotBackend
 from ..robot.model import LaserScan
-from .conventional import RobotNode
+from .base import RobotNode
 from .slamware import messages as m
 
 log = logging.getLogger(__name__)

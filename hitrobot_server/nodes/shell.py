@@ -35,7 +35,7 @@ from ..bus.errors import BusError
 from ..bus.topics import Message, RequestRejected
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend, UnsupportedError
 from ..types.convert import default_message
-from .conventional import RobotNode
+from .base import RobotNode
 from .move_base import MoveBaseNode
 
 log = logging.getLogger(__name__)

@@ -35,7 +35,7 @@ from ...robot.model import (
     Pose2D,
     Rect,
 )
-from ..base import RobotNode
+from ..base import RobotNode, require_finite
 from . import messages as m
 from .mapsync import MapHolder, tiles, window
 from .params import SlamwareParams
@@ -47,11 +47,6 @@ PKG = "slamware_ros_sdk"
 KNOWN_FLAGS = 0xFF | 512 | 1024 | 2048  # the ROS msg's bits plus the SDK's newer ones
 GOAL_FLAGS = MoveOptionFlag.MILESTONE | MoveOptionFlag.PRECISE | MoveOptionFlag.WITH_YAW
 ACTION_POLL = 0.1  # seconds between looks at a running action we started
-
-
-def _finite(path: str, *values: float) -> None:
-    if not all(math.isfinite(v) for v in values):
-        raise RequestRejected(f"field '{path}' must be a finite number")
 
 
 def _enum(path: str, value: int, enum_type) -> Any:
@@ -72,7 +67,7 @@ def _move_options(msg: dict, path: str = "options") -> MoveOptions:
     ratio = msg["speed_ratio"]
     speed = None
     if ratio["is_valid"]:
-        _finite(f"{path}.speed_ratio.value", ratio["value"])
+        require_finite(f"{path}.speed_ratio.value", ratio["value"])
         if not 0.0 < ratio["value"] <= 1.0:
             raise RequestRejected(f"field '{path}.speed_ratio.value' must be in (0, 1]")
         speed = float(ratio["value"])
@@ -80,12 +75,12 @@ def _move_options(msg: dict, path: str = "options") -> MoveOptions:
 
 
 def _point(msg: dict, path: str) -> Point2D:
-    _finite(path, msg["x"], msg["y"])
+    require_finite(path, msg["x"], msg["y"])
     return Point2D(float(msg["x"]), float(msg["y"]))
 
 
 def _quaternion_yaw(q: dict, path: str) -> float:
-    _finite(path, q["x"], q["y"], q["z"], q["w"])
+    require_finite(path, q["x"], q["y"], q["z"], q["w"])
     return m.yaw_of(q)
 
 
@@ -373,8 +368,8 @@ class SlamwareNode(RobotNode):
 
     def _on_cmd_vel(self, message: Message) -> None:
         t = message.msg
-        _finite("linear.x", t["linear"]["x"])
-        _finite("angular.z", t["angular"]["z"])
+        require_finite("linear.x", t["linear"]["x"])
+        require_finite("angular.z", t["angular"]["z"])
         self._run(message, "cmd_vel",
                   lambda: self.backend.set_velocity(t["linear"]["x"], t["angular"]["z"]))
 
@@ -398,7 +393,7 @@ class SlamwareNode(RobotNode):
     def _on_recover(self, message: Message) -> None:
         msg = message.msg
         a = msg["area"]
-        _finite("area", a["x"], a["y"], a["w"], a["h"])
+        require_finite("area", a["x"], a["y"], a["w"], a["h"])
         area = Rect(a["x"], a["y"], a["w"], a["h"])
         opts = msg["options"]
         max_time = opts["max_time_ms"]["value"] if opts["max_time_ms"]["is_valid"] else None
@@ -440,7 +435,7 @@ class SlamwareNode(RobotNode):
 
     def _on_move_by_theta(self, message: Message) -> None:
         msg = message.msg
-        _finite("theta", msg["theta"])
+        require_finite("theta", msg["theta"])
         opts = _move_options(msg["options"])
         self._run(message, "move_by_theta",
                   lambda: self.backend.move_by_theta(float(msg["theta"]), opts))
@@ -448,7 +443,7 @@ class SlamwareNode(RobotNode):
     def _on_move_to(self, message: Message) -> None:
         msg = message.msg
         target = _point(msg["location"], "location")
-        _finite("yaw", msg["yaw"])
+        require_finite("yaw", msg["yaw"])
         opts = _move_options(msg["options"])
         self._run(message, "move_to",
                   lambda: self.backend.move_to([target], opts, float(msg["yaw"])))
@@ -458,7 +453,7 @@ class SlamwareNode(RobotNode):
         if not msg["locations"]:
             raise RequestRejected("field 'locations' must not be empty")
         targets = [_point(p, f"locations[{i}]") for i, p in enumerate(msg["locations"])]
-        _finite("yaw", msg["yaw"])
+        require_finite("yaw", msg["yaw"])
         opts = _move_options(msg["options"])
         self._run(message, "move_to_locations",
                   lambda: self.backend.move_to(targets, opts, float(msg["yaw"])))
