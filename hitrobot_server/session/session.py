@@ -51,7 +51,6 @@ class Session:
         self.status_level = settings.status_level
         self.authenticated = not settings.authenticate
         self.auth_level: str | None = None
-        self.connected_at = time.time()
         self.closed = False
         self._defrag = Defragmenter(
             fragment_timeout=settings.fragment_timeout, max_bytes=settings.max_frame_size
@@ -86,6 +85,7 @@ class Session:
         }
         self.origin = Origin(self.node)
         bus.register_node(self.node)
+        log.info("client %s connected from %s over %s", self.node, peer or "?", transport)
 
     # ------------------------------------------------------------------ input
     def receive(self, data: str | bytes, binary: bool = False) -> None:
@@ -202,3 +202,4 @@ class Session:
         self.bus.unregister_node(self.node)
         for callback in self.on_close:
             callback(self)
+        log.info("client %s (%s) disconnected", self.node, self.peer or "?")

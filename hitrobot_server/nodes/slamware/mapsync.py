@@ -25,7 +25,6 @@ class MapHolder:
         self.cells = np.zeros((0, 0), dtype=np.uint8)
         self.col0 = 0  # global cell index of cells[:, 0]
         self.row0 = 0  # global cell index of cells[0, :]
-        self.version = 0  # bumps on every change, so publishers can tell
 
     def reset(self, resolution: float) -> None:
         self.resolution = resolution
@@ -34,7 +33,6 @@ class MapHolder:
     def clear(self) -> None:
         self.cells = np.zeros((0, 0), dtype=np.uint8)
         self.col0 = self.row0 = 0
-        self.version += 1
 
     @property
     def empty(self) -> bool:
@@ -54,7 +52,6 @@ class MapHolder:
         self._cover(col, row, col + w, row + h)
         c, r = col - self.col0, row - self.row0
         self.cells[r:r + h, c:c + w] = region.cells
-        self.version += 1
         return True
 
     def _cover(self, c0: int, r0: int, c1: int, r1: int) -> None:
