@@ -101,6 +101,7 @@ class SlamwareNode(RobotNode):
         self._sync_requested = True
         self._last_pose: Pose2D | None = None
         self._sensor_signature: tuple | None = None
+        self._sensors: list = []  # the robot's sensors, refreshed by the info worker
         self._was_connected = False
         self._seq = 0
         p = self.params
@@ -196,6 +197,7 @@ class SlamwareNode(RobotNode):
             log.info("robot connected")
             self._sync_requested = True
             self.map.resolution = None
+            self._sensors = []  # a (re)connected robot may have other sensors
             try:
                 info = await self.backend.get_device_info()
                 self.publish(self.topic_device, m.device_info(info))
@@ -287,7 +289,7 @@ class SlamwareNode(RobotNode):
         self.publish(self.topic_map_info, info)
 
     async def _publish_sensors_info(self) -> None:
-        sensors = await self.backend.get_sensors_info()
+        sensors = self._sensors = await self.backend.get_sensors_info()
         signature = tuple((s.id, int(s.sensor_type), int(s.impact_type), s.install_pose)
                           for s in sensors)
         if signature != self._sensor_signature:  # the real node publishes on change only
@@ -296,7 +298,8 @@ class SlamwareNode(RobotNode):
                          {"sensors_info": [m.sensor_info(s) for s in sensors]})
 
     async def _publish_sensor_values(self) -> None:
-        sensors = await self.backend.get_sensors_info()
+        # the sensor list comes from the info worker (every 7 s), as in the real node
+        sensors = self._sensors or await self.backend.get_sensors_info()
         values = await self.backend.get_sensor_values()
         data = [m.sensor_value(s, values[s.id]) for s in sensors if s.id in values]
         self.publish(self.topic_sensors_values, {"values_data": data})
