@@ -13,14 +13,12 @@ import time
 from collections.abc import Callable, Coroutine
 from typing import Any
 
-import cbor2
-
 from ..bus.core import Bus
 from ..bus.errors import BusError
 from ..bus.topics import Origin
 from ..config import Settings
-from ..protocol import auth, ops, png
-from ..protocol.errors import ProtocolError, status_op
+from ..protocol import auth, cbor, ops, png
+from ..protocol.errors import ProtocolError, message_id, status_op
 from ..protocol.fragment import Defragmenter
 from ..protocol.status import set_level, should_send
 from ..types import jsoncodec
@@ -91,22 +89,25 @@ class Session:
     def receive(self, data: str | bytes, binary: bool = False) -> None:
         """One WebSocket frame (text JSON, or binary CBOR) or a re-assembled text."""
         try:
-            obj = cbor2.loads(data) if binary else jsoncodec.loads(data)
-        except Exception as exc:  # orjson.JSONDecodeError, cbor2.CBORDecodeError
+            obj = cbor.decode(data) if binary else jsoncodec.loads(data)
+        except Exception as exc:  # JSONDecodeError, CBORDecodeError, jsoncodec.InvalidValue
             kind = "CBOR" if binary else "JSON"
-            self.status("error", f"invalid {kind}: {exc}", None)
+            if not self.authenticated:
+                self._reject_unauthenticated(f"invalid {kind}", None)
+                return
+            self.status("error", f"invalid {kind}: {exc}", getattr(exc, "id", None))
             return
         self.handle(obj)
 
     def handle(self, obj: object) -> None:
         """Run one decoded op; every failure becomes a status message, never an exception."""
-        op_id = obj.get("id") if isinstance(obj, dict) else None
+        op_id = message_id(obj)
+        if not self.authenticated and not (isinstance(obj, dict) and obj.get("op") == "auth"):
+            op = obj.get("op") if isinstance(obj, dict) else None
+            self._reject_unauthenticated(op if isinstance(op, str) else "message", op_id)
+            return
         try:
             msg = ops.parse_message(obj)
-            op_id = msg.get("id")
-            if not self.authenticated and msg["op"] != "auth":
-                self._reject_unauthenticated(msg)
-                return
             ops.validate_op(msg)
             self._handlers[msg["op"]](msg)
         except ProtocolError as exc:
@@ -152,8 +153,8 @@ class Session:
             self.status("error", "auth: authentication failed; closing", msg.get("id"))
             self.close_connection()
 
-    def _reject_unauthenticated(self, msg: dict) -> None:
-        self.status("error", f"{msg['op']}: not authenticated; send 'auth' first", msg.get("id"))
+    def _reject_unauthenticated(self, what: str, op_id: Any) -> None:
+        self.status("error", f"{what}: not authenticated; send 'auth' first", op_id)
         self.close_connection()
 
     # ------------------------------------------------------------------ output
@@ -172,7 +173,12 @@ class Session:
             log.info("client %s: %s", self.node, msg)
         if not should_send(self.status_level, level):
             return
-        self.outbox.put(json_frames(status_op(level, msg, op_id)))
+        try:
+            frames = json_frames(status_op(level, msg, op_id))
+        except TypeError:  # a text or id that cannot be encoded must not lose the report
+            text = msg.encode("utf-8", "backslashreplace").decode("utf-8")
+            frames = json_frames(status_op(level, text))
+        self.outbox.put(frames)
 
     def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:
         """Run a coroutine tied to this client; it is cancelled when the client goes."""
