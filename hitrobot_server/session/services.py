@@ -125,7 +125,6 @@ class ServiceOps:
         async def handler(request: dict) -> dict:
             rid = f"service_request:{name}:{next(counter)}"
             fut = asyncio.get_running_loop().create_future()
-            service = s.bus.service(name)
             self.pending[rid] = (fut, service.stype.response, name)
             s.send({"op": "call_service", "id": rid, "service": name, "args": request})
             try:
@@ -133,7 +132,7 @@ class ServiceOps:
             finally:
                 self.pending.pop(rid, None)
 
-        s.bus.advertise_service(name, msg["type"], s, s.node, handler)
+        service = s.bus.advertise_service(name, msg["type"], s, s.node, handler, client=True)
         self.provided.add(name)
         s.status("info", f"advertised service '{name}'", op_id)
 
