@@ -28,6 +28,7 @@ class Settings:
     fragment_timeout: float = 600.0
     max_message_size: int | None = None
     max_frame_size: int = 256 * 1024 * 1024
+    fragment_memory_limit: int = 512 * 1024 * 1024
     delay_between_messages: float = 0.0
     unregister_timeout: float = 10.0
     call_service_timeout: float | None = None
@@ -75,7 +76,9 @@ _HELP = {
     "auth_secret_file": "file whose first line is the 16-character rosauth secret",
     "fragment_timeout": "seconds an incomplete fragmented message is kept",
     "max_message_size": "fragment outgoing JSON ops longer than this many characters",
-    "max_frame_size": "largest incoming WebSocket frame accepted, in bytes",
+    "max_frame_size": "largest incoming WebSocket frame (and fragmented message) accepted, in "
+    "bytes",
+    "fragment_memory_limit": "bytes of incoming fragments held for all clients together",
     "delay_between_messages": "seconds to wait after each frame sent to a client",
     "unregister_timeout": "seconds an unused topic lingers before it is removed",
     "call_service_timeout": "default timeout of call_service in seconds (none = wait forever)",

@@ -12,7 +12,7 @@ from .nodes.assembly import start_nodes, stop_nodes
 from .nodes.base import Node
 from .protocol.auth import load_secret
 from .robot.factory import build_backend
-from .session.session import Session
+from .session.session import Session, Shared
 from .transport.http import StaticFiles, default_web_root
 from .transport.tcp import start_tcp
 from .transport.websocket import start_websocket
@@ -32,13 +32,16 @@ class HitrobotServer:
         self.nodes: list[Node] = []
         self.backend = None  # the robot (RobotBackend) when one is attached
         self.sessions: set[Session] = set()
+        self.shared = Shared.for_settings(self.settings)
         self._ws = None
         self._tcp: asyncio.Server | None = None
         self.port: int | None = None
         self.tcp_port: int | None = None
 
     def new_session(self, peer: str, transport: str) -> Session:
-        session = Session(self.bus, self.settings, peer=peer, transport=transport)
+        session = Session(
+            self.bus, self.settings, peer=peer, transport=transport, shared=self.shared
+        )
         self.sessions.add(session)
         session.on_close.append(self.sessions.discard)
         return session

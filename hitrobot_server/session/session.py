@@ -11,6 +11,7 @@ import itertools
 import logging
 import time
 from collections.abc import Callable, Coroutine
+from dataclasses import dataclass
 from typing import Any
 
 from ..bus.core import Bus
@@ -19,7 +20,7 @@ from ..bus.topics import Origin
 from ..config import Settings
 from ..protocol import auth, cbor, ops, png
 from ..protocol.errors import ProtocolError, message_id, status_op
-from ..protocol.fragment import Defragmenter
+from ..protocol.fragment import Defragmenter, FragmentBudget
 from ..protocol.status import set_level, should_send
 from ..types import jsoncodec
 from ..types.convert import ConversionError
@@ -34,11 +35,32 @@ log = logging.getLogger(__name__)
 _client_ids = itertools.count(1)
 
 
+@dataclass
+class Shared:
+    """What every client of one server shares, so limits hold for all of them together."""
+
+    fragments: FragmentBudget  # bytes of incoming fragments held, all clients together
+    auth_replays: auth.ReplayCache  # auth MACs already accepted (each grants access once)
+
+    @classmethod
+    def for_settings(cls, settings: Settings) -> Shared:
+        return cls(FragmentBudget(settings.fragment_memory_limit), auth.ReplayCache())
+
+
 class Session:
     """Per-client protocol state machine (transport-independent)."""
 
-    def __init__(self, bus: Bus, settings: Settings, *, peer: str = "", transport: str = "ws"):
+    def __init__(
+        self,
+        bus: Bus,
+        settings: Settings,
+        *,
+        peer: str = "",
+        transport: str = "ws",
+        shared: Shared | None = None,
+    ):
         self.bus = bus
+        self.shared = shared or Shared.for_settings(settings)
         self.settings = settings
         self.types = bus.types
         self.peer = peer
@@ -51,8 +73,11 @@ class Session:
         self.auth_level: str | None = None
         self.closed = False
         self._defrag = Defragmenter(
-            fragment_timeout=settings.fragment_timeout, max_bytes=settings.max_frame_size
+            fragment_timeout=settings.fragment_timeout,
+            max_bytes=settings.max_frame_size,
+            budget=self.shared.fragments,
         )
+        self._fragment_timer: asyncio.TimerHandle | None = None
         self._tasks: set[asyncio.Task] = set()
         self.on_close: list[Callable[[Session], None]] = []
         self.topic_names: dict[str, str] = {}  # accepted topic spellings → canonical names
@@ -120,9 +145,33 @@ class Session:
             self.status("error", f"internal error: {exc}", op_id)
 
     def _op_fragment(self, msg: dict) -> None:
-        text = self._defrag.add(msg, time.monotonic())
+        try:
+            text = self._defrag.add(msg, time.monotonic())
+        finally:
+            self._arm_fragment_timer()
         if text is not None:
             self.receive(text)
+
+    def _arm_fragment_timer(self) -> None:
+        """Evict timed-out fragments on time, not when the next fragment happens to come."""
+        due = self._defrag.next_expiry()
+        if due is None or self._fragment_timer is not None or self.closed:
+            return
+        delay = max(due - time.monotonic(), 0.0)
+        self._fragment_timer = asyncio.get_running_loop().call_later(
+            delay, self._expire_fragments
+        )
+
+    def _expire_fragments(self) -> None:
+        self._fragment_timer = None
+        for key in self._defrag.expire(time.monotonic()):
+            self.status(
+                "warning",
+                f"fragment: message '{key}' got no fragment for {self._defrag.fragment_timeout:g}"
+                " s (--fragment-timeout) and was dropped",
+                key,
+            )
+        self._arm_fragment_timer()
 
     def _op_png(self, msg: dict) -> None:
         try:
@@ -144,14 +193,18 @@ class Session:
         if self.authenticated:
             self.status("warning", "auth: already authenticated", msg.get("id"))
             return
-        if auth.verify(msg, self.settings.auth_secret or "", time.time()):
+        now = time.time()
+        if not auth.verify(msg, self.settings.auth_secret or "", now):
+            self.status("error", "auth: authentication failed; closing", msg.get("id"))
+            self.close_connection()
+        elif not self.shared.auth_replays.use(msg["mac"], msg["t"], now):
+            self.status("error", "auth: this MAC was already used; closing", msg.get("id"))
+            self.close_connection()
+        else:
             self.authenticated = True
             self.auth_level = msg.get("level")
             self.origin = Origin(self.node, self.auth_level)
             self.status("info", f"authenticated at level {self.auth_level!r}", msg.get("id"))
-        else:
-            self.status("error", "auth: authentication failed; closing", msg.get("id"))
-            self.close_connection()
 
     def _reject_unauthenticated(self, what: str, op_id: Any) -> None:
         self.status("error", f"{what}: not authenticated; send 'auth' first", op_id)
@@ -198,6 +251,9 @@ class Session:
             return
         self.closed = True
         self.outbox.close()
+        if self._fragment_timer is not None:
+            self._fragment_timer.cancel()
+        self._defrag.clear()  # its bytes go back to the server-wide budget now
         self.subscriptions.close()
         self.service_ops.close()
         self.action_ops.close()
