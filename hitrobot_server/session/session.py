@@ -175,7 +175,7 @@ class Session:
 
     def _op_png(self, msg: dict) -> None:
         try:
-            text = png.decode(msg["data"])
+            text = png.decode(msg["data"], self.settings.max_frame_size)
         except Exception as exc:
             raise ProtocolError(
                 f"png: field 'data' is not a valid PNG payload: {exc}", msg.get("id")
