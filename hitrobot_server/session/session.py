@@ -34,6 +34,9 @@ from .wire import json_frames
 log = logging.getLogger(__name__)
 _client_ids = itertools.count(1)
 
+STREAM_ERRORS_PER_SECOND = 10
+"""Most reports per second of unparseable TCP input that belongs to no op (garbage)."""
+
 
 @dataclass
 class Shared:
@@ -78,6 +81,8 @@ class Session:
             budget=self.shared.fragments,
         )
         self._fragment_timer: asyncio.TimerHandle | None = None
+        self._garbage_since = float("-inf")  # start of the current second of stream errors
+        self._garbage = 0
         self._tasks: set[asyncio.Task] = set()
         self.on_close: list[Callable[[Session], None]] = []
         self.topic_names: dict[str, str] = {}  # accepted topic spellings → canonical names
@@ -123,6 +128,26 @@ class Session:
             self.status("error", f"invalid {kind}: {exc}", getattr(exc, "id", None))
             return
         self.handle(obj)
+
+    def stream_error(self, error: ProtocolError) -> None:
+        """Report unparseable input of a byte stream (TCP). Before auth it closes, like any
+        other first op; after, errors of an op (with an id) are all reported, but garbage at
+        most :data:`STREAM_ERRORS_PER_SECOND` times a second, then once that the rest of that
+        second is not, so a stream of junk cannot flood the client or the log."""
+        if not self.authenticated:
+            self._reject_unauthenticated("invalid JSON", error.id)
+            return
+        if error.id is None:
+            now = time.monotonic()
+            if now - self._garbage_since >= 1.0:
+                self._garbage_since, self._garbage = now, 0
+            self._garbage += 1
+            if self._garbage > STREAM_ERRORS_PER_SECOND:
+                if self._garbage == STREAM_ERRORS_PER_SECOND + 1:
+                    self.status("error", "invalid JSON: more invalid input; not reported for "
+                                "the rest of this second")
+                return
+        self.status(error.level, error.msg, error.id)
 
     def handle(self, obj: object) -> None:
         """Run one decoded op; every failure becomes a status message, never an exception."""

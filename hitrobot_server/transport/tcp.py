@@ -65,7 +65,7 @@ async def _read(reader: asyncio.StreamReader, session, max_frame_size: int) -> N
                 return
             for item in decoder.feed(data):
                 if isinstance(item, ProtocolError):
-                    session.status(item.level, item.msg, item.id)
+                    session.stream_error(item)
                 else:
                     session.handle(item)
             if session.outbox.closed:

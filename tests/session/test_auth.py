@@ -114,3 +114,11 @@ async def test_invalid_json_before_auth_closes_the_connection(auth_server):
     status = await c.expect(op="status", level="error")
     assert "not authenticated" in status["msg"]
     await asyncio.wait_for(c.ws.wait_closed(), 3)
+
+
+async def test_garbage_before_auth_closes_a_tcp_connection(auth_server):
+    c = await TcpClient.open(auth_server.tcp_port)
+    await c.send_bytes(b"hello?\n")
+    status = await c.expect(op="status")
+    assert status["level"] == "error" and "not authenticated" in status["msg"]
+    assert await asyncio.wait_for(c.reader.read(), 3) == b""
