@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import ssl
 
 from .bus.core import Bus
 from .config import Settings
@@ -60,6 +61,7 @@ class HitrobotServer:
         def factory(peer: str, transport: str) -> Session:
             return self.new_session(peer, transport)
 
+        tls = _tls_context(s) if s.ssl else None
         self._ws = await start_websocket(
             factory,
             s.address,
@@ -68,6 +70,9 @@ class HitrobotServer:
             delay_between_messages=s.delay_between_messages,
             compression=s.use_compression,
             http_handler=_web_console(),
+            ssl=tls,
+            ping_interval=s.websocket_ping_interval,
+            ping_timeout=s.websocket_ping_timeout,
         )
         self.port = self._ws.sockets[0].getsockname()[1] if self._ws.sockets else s.port
         if s.tcp_port:
@@ -77,6 +82,7 @@ class HitrobotServer:
                 s.tcp_port if s.tcp_port > 0 else 0,
                 max_frame_size=s.max_frame_size,
                 delay_between_messages=s.delay_between_messages,
+                ssl=tls,
             )
             self.tcp_port = self._tcp.sockets[0].getsockname()[1]
         log.info("hitrobot-server: ws://%s:%s tcp:%s", s.address, self.port, self.tcp_port)
@@ -98,6 +104,13 @@ class HitrobotServer:
         if self.backend is not None:
             await self.backend.stop()
             self.backend = None
+
+
+def _tls_context(settings: Settings) -> ssl.SSLContext:
+    """The server side of TLS for ``--ssl``: the certificate chain and key from the files."""
+    context = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
+    context.load_cert_chain(settings.certfile or "", settings.keyfile)
+    return context
 
 
 def _web_console() -> StaticFiles | None:
