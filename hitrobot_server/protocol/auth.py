@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import hmac
+import math
 from pathlib import Path
 
 SECRET_LENGTH = 16
@@ -37,6 +38,8 @@ def verify(
     allows for clock skew), ``end`` is still in the future, and the MAC matches in constant
     time. ``t`` and ``end`` may be floats; only their whole seconds count, as in rosauth.
     """
+    if not (math.isfinite(auth_op["t"]) and math.isfinite(auth_op["end"])):
+        return False  # NaN/Infinity literals reach here through the lenient JSON reader
     t, end = int(auth_op["t"]), int(auth_op["end"])
     if abs(t - now) >= allowed_delta or end <= now:
         return False

@@ -119,3 +119,9 @@ def test_replay_cache_accepts_each_mac_once_and_forgets_it_after_the_window():
     assert len(cache) == 2
     # once t + window is past, verify() refuses the op anyway: the entry is dropped
     assert cache.use("m3", 106.0, 106.0) and len(cache) == 1
+
+
+@pytest.mark.parametrize("field", ["t", "end"])
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), float("-inf")])
+def test_non_finite_times_are_refused_not_an_exception(field, value):
+    assert not verify({**auth_op(), field: value}, SECRET, now=T + 1.0)

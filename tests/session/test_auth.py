@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import hashlib
+import json
 import time
 
 import pytest
@@ -51,7 +52,8 @@ async def test_op_before_auth_closes_connection(auth_server):
     lambda: auth_op(secret="fedcba9876543210"),
     lambda: auth_op(t=time.time() - 30),
     lambda: {**auth_op(), "mac": auth_op()["mac"].upper()},
-], ids=["wrong-secret", "expired", "uppercase-mac"])
+    lambda: json.dumps(auth_op()).replace('"end": ', '"end": NaN, "x": '),
+], ids=["wrong-secret", "expired", "uppercase-mac", "nan-end"])
 async def test_bad_auth_closes(auth_server, bad):
     c = await WsClient.open(auth_server.port)
     await c.send(bad())
