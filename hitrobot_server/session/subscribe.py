@@ -6,8 +6,10 @@ highest queue_length, strongest compression.
 
 A throttled subscription queues messages between its slots. Whatever ``queue_length`` a client
 asks for, the queue holds at most :data:`MAX_QUEUE_LENGTH` messages, and all of one client's
-queues together at most ``--send-buffer-limit`` bytes of encoded frames (the oldest go first),
-so a subscription cannot be used to make the server hold an unbounded backlog.
+queues together at most ``--send-buffer-limit`` bytes (each message counted at the size of its
+JSON publish op, encoded once and shared with JSON subscribers; the oldest go first), so a
+subscription cannot be used to make the server hold an unbounded backlog. Messages are encoded
+for the subscription's compression only when their slot comes, as before.
 """
 
 from __future__ import annotations
@@ -21,10 +23,9 @@ from typing import TYPE_CHECKING
 from ..bus.topics import Message, Topic
 from ..protocol.errors import ProtocolError
 from .publish import check_topic_name
-from .wire import is_binary, publish_frames, strongest
+from .wire import is_binary, publish_frames, publish_json, strongest
 
 if TYPE_CHECKING:
-    from .outbox import Frame
     from .session import Session
 
 MAX_QUEUE_LENGTH = 1000
@@ -56,7 +57,7 @@ class ClientSubscription:
         self.queue_length = 0
         self.fragment_size: int | None = None
         self.compression = "none"
-        self._pending: deque[tuple[list[Frame], int]] = deque()  # encoded frames, their bytes
+        self._pending: deque[tuple[Message, int]] = deque()  # waiting messages, their bytes
         self._last_sent = float("-inf")
         self._timer: asyncio.TimerHandle | None = None
 
@@ -80,13 +81,13 @@ class ClientSubscription:
             self._send(message)
             self._last_sent = now
             return
-        self._queue(publish_frames(message, self.topic_str, self.compression, self.fragment_size))
+        self._queue(message)
         self._arm(now)
 
-    def _queue(self, frames: list[Frame]) -> None:
-        """Queue encoded frames; a full queue, or this client's queues over their byte limit,
-        drop their oldest first (and, with nothing left to drop, the newest)."""
-        size = sum(len(data) for data, _binary in frames)
+    def _queue(self, message: Message) -> None:
+        """Queue a message; a full queue, or this client's queues over their byte limit, drop
+        their oldest first (and, with nothing left to drop, the newest)."""
+        size = len(publish_json(message, self.topic_str))
         ops = self.ops
         limit = self.session.settings.send_buffer_limit
         while self._pending and (
@@ -96,13 +97,13 @@ class ClientSubscription:
         if ops.queued and ops.queued + size > limit:
             self.session.outbox.dropped += 1
             return
-        self._pending.append((frames, size))
+        self._pending.append((message, size))
         ops.queued += size
 
-    def _pop(self) -> list[Frame]:
-        frames, size = self._pending.popleft()
+    def _pop(self) -> Message:
+        message, size = self._pending.popleft()
         self.ops.queued -= size
-        return frames
+        return message
 
     def _arm(self, now: float) -> None:
         if self._timer is None:
@@ -113,7 +114,7 @@ class ClientSubscription:
         """Throttle slot reached: send the head of the queue (so a burst's last one arrives)."""
         self._timer = None
         if self._pending:
-            self.session.send_frames(self._pop(), droppable=True)
+            self._send(self._pop())
             self._last_sent = time.monotonic()
         if self._pending:
             self._arm(time.monotonic())
