@@ -39,9 +39,10 @@ async def serve(settings: Settings) -> None:
 
     server = HitrobotServer(settings)
     await server.start()
+    ws, tcp = ("wss", "tcp+tls") if settings.ssl else ("ws", "tcp")
     print(
-        f"hitrobot-server {__version__}: ws://{settings.address}:{server.port}"
-        + (f"  tcp://{settings.address}:{server.tcp_port}" if server.tcp_port else ""),
+        f"hitrobot-server {__version__}: {ws}://{settings.address}:{server.port}"
+        + (f"  {tcp}://{settings.address}:{server.tcp_port}" if server.tcp_port else ""),
         flush=True,
     )
     try:

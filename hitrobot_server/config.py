@@ -28,6 +28,7 @@ class Settings:
     fragment_timeout: float = 600.0
     max_message_size: int | None = None
     max_frame_size: int = 256 * 1024 * 1024
+    fragment_memory_limit: int = 512 * 1024 * 1024
     delay_between_messages: float = 0.0
     unregister_timeout: float = 10.0
     call_service_timeout: float | None = None
@@ -37,6 +38,11 @@ class Settings:
     status_level: str = "error"
     send_buffer_limit: int = 10_000_000
     use_compression: bool = False
+    websocket_ping_interval: float = 0.0
+    websocket_ping_timeout: float = 30.0
+    ssl: bool = False
+    certfile: str | None = None
+    keyfile: str | None = None
     log_level: str = "info"
     robot: str = "sim"
     world: str | None = None
@@ -75,7 +81,9 @@ _HELP = {
     "auth_secret_file": "file whose first line is the 16-character rosauth secret",
     "fragment_timeout": "seconds an incomplete fragmented message is kept",
     "max_message_size": "fragment outgoing JSON ops longer than this many characters",
-    "max_frame_size": "largest incoming WebSocket frame accepted, in bytes",
+    "max_frame_size": "largest incoming WebSocket frame (and fragmented message) accepted, in "
+    "bytes",
+    "fragment_memory_limit": "bytes of incoming fragments held for all clients together",
     "delay_between_messages": "seconds to wait after each frame sent to a client",
     "unregister_timeout": "seconds an unused topic lingers before it is removed",
     "call_service_timeout": "default timeout of call_service in seconds (none = wait forever)",
@@ -85,6 +93,11 @@ _HELP = {
     "status_level": "initial status level of each client: info, warning, error or none",
     "send_buffer_limit": "bytes queued per client before its oldest topic messages are dropped",
     "use_compression": "offer WebSocket permessage-deflate",
+    "websocket_ping_interval": "seconds between WebSocket pings to each client (0 = none)",
+    "websocket_ping_timeout": "seconds a client has to answer a ping before it is disconnected",
+    "ssl": "serve wss:// and TLS on the TCP port (needs --certfile)",
+    "certfile": "PEM certificate chain for --ssl (may also hold the key)",
+    "keyfile": "PEM private key for --ssl (if not in --certfile)",
     "log_level": "logging level: debug, info, warning, error",
     "robot": "the robot behind the bus: 'sim' (built-in simulated Slamware robot), 'none', or "
     "a Slamware REST URL such as http://192.168.11.1:1448",
@@ -99,25 +112,39 @@ _SKIP = {"auth_secret", "topics_filter", "services_filter", "params_filter", "sl
 ROBOTS = ("sim", "none")
 
 
+# rosbridge_websocket's own names where they differ from ours (beyond '_' for '-').
+_ROSBRIDGE_NAMES = {"call_service_timeout": "default_call_service_timeout"}
+
+
+def flag_spellings(name: str) -> list[str]:
+    """``--fragment-timeout`` and rosbridge's parameter spelling ``--fragment_timeout`` (and
+    its own name where it differs), so a rosbridge user's command line works as it is."""
+    spellings = ["--" + name.replace("_", "-"), "--" + name]
+    if name in _ROSBRIDGE_NAMES:
+        spellings.append("--" + _ROSBRIDGE_NAMES[name])
+    return list(dict.fromkeys(spellings))
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """One flag per Settings field, documented; defaults stay None so TOML can fill them."""
     parser.add_argument("--config", metavar="FILE", help="TOML file with the same settings")
     for f in fields(Settings):
         if f.name in _SKIP:
             continue
-        flag = "--" + f.name.replace("_", "-")
+        flags = flag_spellings(f.name)
         default = f.default
         text = f"{_HELP[f.name]} (default: {default})"
         if f.type in ("bool", bool):
             parser.add_argument(
-                flag, action=argparse.BooleanOptionalAction, default=None, help=text
+                *flags, dest=f.name, action=argparse.BooleanOptionalAction, default=None,
+                help=text,
             )
             continue
         kind = _kind(f.type)
-        kwargs: dict[str, Any] = {"type": kind, "default": None, "help": text}
+        kwargs: dict[str, Any] = {"type": kind, "default": None, "help": text, "dest": f.name}
         if f.name == "status_level":
             kwargs["choices"] = STATUS_LEVELS
-        parser.add_argument(flag, **kwargs)
+        parser.add_argument(*flags, **kwargs)
 
 
 def _kind(annotation: Any):
@@ -156,4 +183,11 @@ def load(args: argparse.Namespace) -> Settings:
         raise ValueError(f"robot must be {', '.join(ROBOTS)} or an http(s):// URL")
     if settings.sim_speed <= 0:
         raise ValueError("sim_speed must be positive")
+    if settings.ssl and not settings.certfile:
+        raise ValueError("--ssl needs --certfile (and --keyfile unless the key is in it)")
+    if settings.websocket_ping_interval < 0 or settings.websocket_ping_timeout <= 0:
+        raise ValueError("websocket_ping_interval must be 0 or more and "
+                         "websocket_ping_timeout positive")
+    if settings.fragment_memory_limit < 1:
+        raise ValueError("fragment_memory_limit must be positive")
     return settings

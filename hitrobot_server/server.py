@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import ssl
 
 from .bus.core import Bus
 from .config import Settings
@@ -12,7 +13,7 @@ from .nodes.assembly import start_nodes, stop_nodes
 from .nodes.base import Node
 from .protocol.auth import load_secret
 from .robot.factory import build_backend
-from .session.session import Session
+from .session.session import Session, Shared
 from .transport.http import StaticFiles, default_web_root
 from .transport.tcp import start_tcp
 from .transport.websocket import start_websocket
@@ -32,13 +33,16 @@ class HitrobotServer:
         self.nodes: list[Node] = []
         self.backend = None  # the robot (RobotBackend) when one is attached
         self.sessions: set[Session] = set()
+        self.shared = Shared.for_settings(self.settings)
         self._ws = None
         self._tcp: asyncio.Server | None = None
         self.port: int | None = None
         self.tcp_port: int | None = None
 
     def new_session(self, peer: str, transport: str) -> Session:
-        session = Session(self.bus, self.settings, peer=peer, transport=transport)
+        session = Session(
+            self.bus, self.settings, peer=peer, transport=transport, shared=self.shared
+        )
         self.sessions.add(session)
         session.on_close.append(self.sessions.discard)
         return session
@@ -57,6 +61,7 @@ class HitrobotServer:
         def factory(peer: str, transport: str) -> Session:
             return self.new_session(peer, transport)
 
+        tls = _tls_context(s) if s.ssl else None
         self._ws = await start_websocket(
             factory,
             s.address,
@@ -65,6 +70,9 @@ class HitrobotServer:
             delay_between_messages=s.delay_between_messages,
             compression=s.use_compression,
             http_handler=_web_console(),
+            ssl=tls,
+            ping_interval=s.websocket_ping_interval,
+            ping_timeout=s.websocket_ping_timeout,
         )
         self.port = self._ws.sockets[0].getsockname()[1] if self._ws.sockets else s.port
         if s.tcp_port:
@@ -74,6 +82,7 @@ class HitrobotServer:
                 s.tcp_port if s.tcp_port > 0 else 0,
                 max_frame_size=s.max_frame_size,
                 delay_between_messages=s.delay_between_messages,
+                ssl=tls,
             )
             self.tcp_port = self._tcp.sockets[0].getsockname()[1]
         log.info("hitrobot-server: ws://%s:%s tcp:%s", s.address, self.port, self.tcp_port)
@@ -95,6 +104,13 @@ class HitrobotServer:
         if self.backend is not None:
             await self.backend.stop()
             self.backend = None
+
+
+def _tls_context(settings: Settings) -> ssl.SSLContext:
+    """The server side of TLS for ``--ssl``: the certificate chain and key from the files."""
+    context = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
+    context.load_cert_chain(settings.certfile or "", settings.keyfile)
+    return context
 
 
 def _web_console() -> StaticFiles | None:

@@ -44,6 +44,7 @@ class Bus:
         self.unregister_timeout = unregister_timeout
         self.topics: dict[str, Topic] = {}
         self.services: dict[str, Service] = {}
+        self._replaced: dict[str, list[Service]] = {}  # providers replaced, the latest last
         self.actions: dict[str, Action] = {}
         self.params = ParamStore()
         self.nodes: dict[str, int] = {}  # node name -> registration count (for rosapi)
@@ -158,23 +159,54 @@ class Bus:
 
     # ---------------------------------------------------------------- services
     def advertise_service(
-        self, name: str, type_name: str, owner: Hashable, node: str, handler: ServiceHandler
+        self,
+        name: str,
+        type_name: str,
+        owner: Hashable,
+        node: str,
+        handler: ServiceHandler,
+        *,
+        client: bool = False,
     ) -> Service:
-        """Register a provider; a later advertiser replaces an earlier one (as rosbridge does)."""
+        """Register a provider. A bridge client (``client``) may replace another client's
+        provider, as rosbridge lets it, but never a node's: the server's own services are not
+        for a client to take over. The replaced provider is kept and comes back when the one
+        that replaced it goes (:meth:`unadvertise_service`)."""
         name = canonical(name)
+        current = self.services.get(name)
+        if client and current is not None and not current.client:
+            raise BusError(
+                f"service '{name}' is provided by the server ({current.node}) and cannot be "
+                "advertised by a client"
+            )
         try:
             stype = self.types.srv(type_name)
         except UnknownType as exc:
             raise BusError(str(exc.args[0] if exc.args else exc)) from None
-        service = self.services[name] = Service(name, stype, owner, node, handler)
+        service = Service(name, stype, owner, node, handler, client)
+        if current is not None and current.owner != owner:
+            self._replaced.setdefault(name, []).append(current)
+        self.services[name] = service
         return service
 
     def unadvertise_service(self, name: str, owner: Hashable) -> bool:
+        """Withdraw ``owner``'s provider: the current one (the provider it replaced comes
+        back) or one waiting under a later replacement."""
         name = canonical(name)
         service = self.services.get(name)
-        if service is None or service.owner != owner:
-            return False
-        del self.services[name]
+        stack = self._replaced.get(name, [])
+        if service is not None and service.owner == owner:
+            if stack:
+                self.services[name] = stack.pop()
+            else:
+                del self.services[name]
+        else:
+            waiting = [s for s in stack if s.owner == owner]
+            if not waiting:
+                return False
+            stack[:] = [s for s in stack if s.owner != owner]
+        if not stack:
+            self._replaced.pop(name, None)
         return True
 
     def service(self, name: str) -> Service | None:
@@ -201,18 +233,31 @@ class Bus:
 
     # ---------------------------------------------------------------- actions
     def advertise_action(
-        self, name: str, type_name: str, owner: Hashable, node: str, handler: ActionHandler
+        self,
+        name: str,
+        type_name: str,
+        owner: Hashable,
+        node: str,
+        handler: ActionHandler,
+        *,
+        client: bool = False,
     ) -> Action:
+        """Register a provider; a client may replace a client's action, never a node's."""
         name = canonical(name)
+        old = self.actions.get(name)
+        if client and old is not None and not old.client:
+            raise BusError(
+                f"action '{name}' is provided by the server ({old.node}) and cannot be "
+                "advertised by a client"
+            )
         try:
             atype = self.types.action(type_name)
         except UnknownType as exc:
             raise BusError(str(exc.args[0] if exc.args else exc)) from None
-        old = self.actions.get(name)
         if old is not None:
             for goal in list(old.goals.values()):
                 goal.cancel()
-        action = self.actions[name] = Action(name, atype, owner, node, handler)
+        action = self.actions[name] = Action(name, atype, owner, node, handler, client=client)
         return action
 
     def unadvertise_action(self, name: str, owner: Hashable) -> bool:
@@ -271,9 +316,9 @@ class Bus:
             for topic in list(self.topics.values()):
                 if topic.subscribers.pop(key, None) is not None:
                     self._maybe_expire(topic)
-        for name, service in list(self.services.items()):
-            if service.owner == owner:
-                del self.services[name]
+        for name in list(self.services) + list(self._replaced):
+            while self.unadvertise_service(name, owner):
+                pass
         for name, action in list(self.actions.items()):
             if action.owner == owner:
                 self.unadvertise_action(name, owner)

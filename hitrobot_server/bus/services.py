@@ -23,6 +23,7 @@ class Service:
     owner: Hashable
     node: str
     handler: ServiceHandler
+    client: bool = False  # provided by a bridge client, not an in-process node
 
     @property
     def type_name(self) -> str:
@@ -81,6 +82,7 @@ class Action:
     node: str
     handler: ActionHandler
     goals: dict[str, GoalHandle] = field(default_factory=dict)
+    client: bool = False  # provided by a bridge client, not an in-process node
 
     @property
     def type_name(self) -> str:

@@ -13,6 +13,7 @@ from typing import Any
 import cbor2
 import numpy as np
 
+from hitrobot_server.types import jsoncodec
 from hitrobot_server.types.registry import MsgType, TypeRegistry
 
 Encoder = Callable[[Any], Any]
@@ -146,5 +147,12 @@ def decode_typed_arrays(obj: Any) -> Any:
 
 
 def decode(data: bytes) -> Any:
-    """Decode a CBOR frame with typed arrays turned into lists."""
-    return decode_typed_arrays(cbor2.loads(data))
+    """Decode a CBOR frame with typed arrays turned into lists.
+
+    Raises ``cbor2.CBORDecodeError`` when malformed (cbor2 bounds nesting itself) and
+    :class:`~hitrobot_server.types.jsoncodec.InvalidValue` for values the server cannot carry
+    (integers beyond 64 bits, other tags, undefined, non-string keys).
+    """
+    obj = decode_typed_arrays(cbor2.loads(data))
+    jsoncodec.check_value(obj, allow_bytes=True)
+    return obj

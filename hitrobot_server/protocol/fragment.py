@@ -55,6 +55,15 @@ FRAGMENT_OVERHEAD = 64
 so that a flood of tiny fragments is bounded as well as a few huge ones."""
 
 
+class FragmentBudget:
+    """Bytes of fragment reassembly held by all clients together, against one limit, so many
+    connections cannot each fill their own buffer."""
+
+    def __init__(self, limit: int) -> None:
+        self.limit = limit
+        self.used = 0
+
+
 @dataclass
 class _Partial:
     total: int
@@ -67,10 +76,12 @@ class Defragmenter:
     """Reassembles one client's incoming fragments.
 
     Bounds: ``max_bytes`` over all buffered messages (characters plus
-    :data:`FRAGMENT_OVERHEAD` per fragment), ``max_messages`` messages in progress, and
-    ``max_total`` fragments per message. A message that would exceed a bound is dropped with a
-    :class:`ProtocolError`. A message with no new fragment for more than ``fragment_timeout``
-    seconds is evicted; a later fragment with its id starts a fresh message.
+    :data:`FRAGMENT_OVERHEAD` per fragment), the server-wide ``budget`` shared with every
+    other client, ``max_messages`` messages in progress, and ``max_total`` fragments per
+    message. A message that would exceed a bound is dropped with a :class:`ProtocolError`. A
+    message with no new fragment for more than ``fragment_timeout`` seconds is evicted
+    (:meth:`expire`, which the owner calls when :meth:`next_expiry` is due); a later fragment
+    with its id starts a fresh message. :meth:`clear` frees everything when the client goes.
     """
 
     def __init__(
@@ -80,8 +91,10 @@ class Defragmenter:
         max_messages: int = 1000,
         max_total: int = 100_000,
         fragment_timeout: float = 600.0,
+        budget: FragmentBudget | None = None,
     ) -> None:
         self.max_bytes = max_bytes
+        self.budget = budget
         self.max_messages = max_messages
         self.max_total = max_total
         self.fragment_timeout = fragment_timeout
@@ -97,6 +110,17 @@ class Defragmenter:
     def buffered(self) -> int:
         """Bytes currently charged against ``max_bytes``."""
         return self._buffered
+
+    def next_expiry(self) -> float | None:
+        """When the least recently fed message times out (None when nothing is pending)."""
+        for partial in self._partials.values():
+            return partial.last + self.fragment_timeout
+        return None
+
+    def clear(self) -> None:
+        """Drop every message in progress and return its bytes to the budget."""
+        for key in list(self._partials):
+            self._drop(key)
 
     def expire(self, now: float) -> list[str | int]:
         """Evict messages with no new fragment for more than ``fragment_timeout`` seconds;
@@ -155,10 +179,20 @@ class Defragmenter:
                 f"{self.max_bytes} bytes and was dropped",
                 key,
             )
+        budget = self.budget
+        if budget is not None and budget.used + cost > budget.limit:
+            self._drop(key)
+            raise ProtocolError(
+                f"fragment: message '{key}' was dropped: the server's fragment memory of "
+                f"{budget.limit} bytes (all clients together) is full",
+                key,
+            )
         partial.parts[num] = data
         partial.cost += cost
         partial.last = now
         self._buffered += cost
+        if budget is not None:
+            budget.used += cost
         self._partials.move_to_end(key)
         if len(partial.parts) < partial.total:
             return None
@@ -169,6 +203,8 @@ class Defragmenter:
         partial = self._partials.pop(key, None)
         if partial is not None:
             self._buffered -= partial.cost
+            if self.budget is not None:
+                self.budget.used -= partial.cost
 
 
 def _checked(op: dict) -> tuple[str | int, str, int, int]:

@@ -24,8 +24,6 @@ from __future__ import annotations
 
 import re
 
-import orjson
-
 from ..types import jsoncodec
 from .errors import ProtocolError
 
@@ -156,8 +154,8 @@ class JsonStreamDecoder:
             return
         try:
             out.append(jsoncodec.loads(self._buf[self._start : end]))
-        except orjson.JSONDecodeError as exc:
-            out.append(ProtocolError(f"invalid JSON: {exc}"))
+        except ValueError as exc:  # malformed, or a value jsoncodec.check_value refuses
+            out.append(ProtocolError(f"invalid JSON: {exc}", getattr(exc, "id", None)))
 
     def _broken(self, i: int, reason: str, out: list) -> None:
         """Report the object in progress as broken at ``i`` and return to the top level."""

@@ -153,7 +153,7 @@ class ActionOps:
             finally:
                 self.serving.pop(gid, None)
 
-        s.bus.advertise_action(name, type_name, s, s.node, handler)
+        s.bus.advertise_action(name, type_name, s, s.node, handler, client=True)
         self.provided.add(name)
         s.status("info", f"advertised action '{name}'", msg.get("id"))
 

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import asyncio
 import itertools
+import math
 from typing import TYPE_CHECKING, Any
 
 from ..bus.errors import ServiceError
 from ..bus.names import canonical, valid_name
 from ..protocol.errors import ProtocolError
+from ..protocol.ops import COMPRESSIONS
 from ..types.convert import ConversionError, from_json
 from ..types.registry import MsgType
 
@@ -67,12 +69,21 @@ class ServiceOps:
             reply["id"] = op_id
         frag = msg.get("fragment_size")
         compression = msg.get("compression") or "none"
-        if compression not in ("none", "png"):
-            compression = "none"  # binary service replies would break JSON-only clients
 
         def fail(text: str) -> None:
             s.send({**reply, "values": text, "result": False}, fragment_size=frag)
             s.status("error", f"call_service: {text}", op_id)
+
+        if compression not in COMPRESSIONS:
+            fail(f"field 'compression' must be one of {', '.join(COMPRESSIONS)}, "
+                 f"got {compression!r}")
+            return
+        if compression not in ("none", "png"):
+            compression = "none"  # binary service replies would break JSON-only clients
+        timeout = msg.get("timeout")
+        if timeout is not None and not (math.isfinite(timeout) and timeout >= 0):
+            fail(f"field 'timeout' must be a finite number of seconds, 0 or more, got {timeout}")
+            return
 
         if not s.settings.services_filter.allows(name):
             fail(f"service '{name}' is not allowed by --services-glob")
@@ -88,7 +99,6 @@ class ServiceOps:
         except ProtocolError as exc:
             fail(exc.msg.removeprefix("call_service: "))
             return
-        timeout = msg.get("timeout")
         if timeout is None:
             timeout = s.settings.call_service_timeout
 
@@ -125,7 +135,6 @@ class ServiceOps:
         async def handler(request: dict) -> dict:
             rid = f"service_request:{name}:{next(counter)}"
             fut = asyncio.get_running_loop().create_future()
-            service = s.bus.service(name)
             self.pending[rid] = (fut, service.stype.response, name)
             s.send({"op": "call_service", "id": rid, "service": name, "args": request})
             try:
@@ -133,7 +142,7 @@ class ServiceOps:
             finally:
                 self.pending.pop(rid, None)
 
-        s.bus.advertise_service(name, msg["type"], s, s.node, handler)
+        service = s.bus.advertise_service(name, msg["type"], s, s.node, handler, client=True)
         self.provided.add(name)
         s.status("info", f"advertised service '{name}'", op_id)
 

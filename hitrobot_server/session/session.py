@@ -11,17 +11,16 @@ import itertools
 import logging
 import time
 from collections.abc import Callable, Coroutine
+from dataclasses import dataclass
 from typing import Any
-
-import cbor2
 
 from ..bus.core import Bus
 from ..bus.errors import BusError
 from ..bus.topics import Origin
 from ..config import Settings
-from ..protocol import auth, ops, png
-from ..protocol.errors import ProtocolError, status_op
-from ..protocol.fragment import Defragmenter
+from ..protocol import auth, cbor, ops, png
+from ..protocol.errors import ProtocolError, message_id, status_op
+from ..protocol.fragment import Defragmenter, FragmentBudget
 from ..protocol.status import set_level, should_send
 from ..types import jsoncodec
 from ..types.convert import ConversionError
@@ -35,12 +34,36 @@ from .wire import json_frames
 log = logging.getLogger(__name__)
 _client_ids = itertools.count(1)
 
+STREAM_ERRORS_PER_SECOND = 10
+"""Most reports per second of unparseable TCP input that belongs to no op (garbage)."""
+
+
+@dataclass
+class Shared:
+    """What every client of one server shares, so limits hold for all of them together."""
+
+    fragments: FragmentBudget  # bytes of incoming fragments held, all clients together
+    auth_replays: auth.ReplayCache  # auth MACs already accepted (each grants access once)
+
+    @classmethod
+    def for_settings(cls, settings: Settings) -> Shared:
+        return cls(FragmentBudget(settings.fragment_memory_limit), auth.ReplayCache())
+
 
 class Session:
     """Per-client protocol state machine (transport-independent)."""
 
-    def __init__(self, bus: Bus, settings: Settings, *, peer: str = "", transport: str = "ws"):
+    def __init__(
+        self,
+        bus: Bus,
+        settings: Settings,
+        *,
+        peer: str = "",
+        transport: str = "ws",
+        shared: Shared | None = None,
+    ):
         self.bus = bus
+        self.shared = shared or Shared.for_settings(settings)
         self.settings = settings
         self.types = bus.types
         self.peer = peer
@@ -53,8 +76,13 @@ class Session:
         self.auth_level: str | None = None
         self.closed = False
         self._defrag = Defragmenter(
-            fragment_timeout=settings.fragment_timeout, max_bytes=settings.max_frame_size
+            fragment_timeout=settings.fragment_timeout,
+            max_bytes=settings.max_frame_size,
+            budget=self.shared.fragments,
         )
+        self._fragment_timer: asyncio.TimerHandle | None = None
+        self._garbage_since = float("-inf")  # start of the current second of stream errors
+        self._garbage = 0
         self._tasks: set[asyncio.Task] = set()
         self.on_close: list[Callable[[Session], None]] = []
         self.topic_names: dict[str, str] = {}  # accepted topic spellings → canonical names
@@ -91,22 +119,45 @@ class Session:
     def receive(self, data: str | bytes, binary: bool = False) -> None:
         """One WebSocket frame (text JSON, or binary CBOR) or a re-assembled text."""
         try:
-            obj = cbor2.loads(data) if binary else jsoncodec.loads(data)
-        except Exception as exc:  # orjson.JSONDecodeError, cbor2.CBORDecodeError
+            obj = cbor.decode(data) if binary else jsoncodec.loads(data)
+        except Exception as exc:  # JSONDecodeError, CBORDecodeError, jsoncodec.InvalidValue
             kind = "CBOR" if binary else "JSON"
-            self.status("error", f"invalid {kind}: {exc}", None)
+            if not self.authenticated:
+                self._reject_unauthenticated(f"invalid {kind}", None)
+                return
+            self.status("error", f"invalid {kind}: {exc}", getattr(exc, "id", None))
             return
         self.handle(obj)
 
+    def stream_error(self, error: ProtocolError) -> None:
+        """Report unparseable input of a byte stream (TCP). Before auth it closes, like any
+        other first op; after, errors of an op (with an id) are all reported, but garbage at
+        most :data:`STREAM_ERRORS_PER_SECOND` times a second, then once that the rest of that
+        second is not, so a stream of junk cannot flood the client or the log."""
+        if not self.authenticated:
+            self._reject_unauthenticated("invalid JSON", error.id)
+            return
+        if error.id is None:
+            now = time.monotonic()
+            if now - self._garbage_since >= 1.0:
+                self._garbage_since, self._garbage = now, 0
+            self._garbage += 1
+            if self._garbage > STREAM_ERRORS_PER_SECOND:
+                if self._garbage == STREAM_ERRORS_PER_SECOND + 1:
+                    self.status("error", "invalid JSON: more invalid input; not reported for "
+                                "the rest of this second")
+                return
+        self.status(error.level, error.msg, error.id)
+
     def handle(self, obj: object) -> None:
         """Run one decoded op; every failure becomes a status message, never an exception."""
-        op_id = obj.get("id") if isinstance(obj, dict) else None
+        op_id = message_id(obj)
+        if not self.authenticated and not (isinstance(obj, dict) and obj.get("op") == "auth"):
+            op = obj.get("op") if isinstance(obj, dict) else None
+            self._reject_unauthenticated(op if isinstance(op, str) else "message", op_id)
+            return
         try:
             msg = ops.parse_message(obj)
-            op_id = msg.get("id")
-            if not self.authenticated and msg["op"] != "auth":
-                self._reject_unauthenticated(msg)
-                return
             ops.validate_op(msg)
             self._handlers[msg["op"]](msg)
         except ProtocolError as exc:
@@ -119,13 +170,37 @@ class Session:
             self.status("error", f"internal error: {exc}", op_id)
 
     def _op_fragment(self, msg: dict) -> None:
-        text = self._defrag.add(msg, time.monotonic())
+        try:
+            text = self._defrag.add(msg, time.monotonic())
+        finally:
+            self._arm_fragment_timer()
         if text is not None:
             self.receive(text)
 
+    def _arm_fragment_timer(self) -> None:
+        """Evict timed-out fragments on time, not when the next fragment happens to come."""
+        due = self._defrag.next_expiry()
+        if due is None or self._fragment_timer is not None or self.closed:
+            return
+        delay = max(due - time.monotonic(), 0.0)
+        self._fragment_timer = asyncio.get_running_loop().call_later(
+            delay, self._expire_fragments
+        )
+
+    def _expire_fragments(self) -> None:
+        self._fragment_timer = None
+        for key in self._defrag.expire(time.monotonic()):
+            self.status(
+                "warning",
+                f"fragment: message '{key}' got no fragment for {self._defrag.fragment_timeout:g}"
+                " s (--fragment-timeout) and was dropped",
+                key,
+            )
+        self._arm_fragment_timer()
+
     def _op_png(self, msg: dict) -> None:
         try:
-            text = png.decode(msg["data"])
+            text = png.decode(msg["data"], self.settings.max_frame_size)
         except Exception as exc:
             raise ProtocolError(
                 f"png: field 'data' is not a valid PNG payload: {exc}", msg.get("id")
@@ -143,17 +218,21 @@ class Session:
         if self.authenticated:
             self.status("warning", "auth: already authenticated", msg.get("id"))
             return
-        if auth.verify(msg, self.settings.auth_secret or "", time.time()):
+        now = time.time()
+        if not auth.verify(msg, self.settings.auth_secret or "", now):
+            self.status("error", "auth: authentication failed; closing", msg.get("id"))
+            self.close_connection()
+        elif not self.shared.auth_replays.use(msg["mac"], msg["t"], now):
+            self.status("error", "auth: this MAC was already used; closing", msg.get("id"))
+            self.close_connection()
+        else:
             self.authenticated = True
             self.auth_level = msg.get("level")
             self.origin = Origin(self.node, self.auth_level)
             self.status("info", f"authenticated at level {self.auth_level!r}", msg.get("id"))
-        else:
-            self.status("error", "auth: authentication failed; closing", msg.get("id"))
-            self.close_connection()
 
-    def _reject_unauthenticated(self, msg: dict) -> None:
-        self.status("error", f"{msg['op']}: not authenticated; send 'auth' first", msg.get("id"))
+    def _reject_unauthenticated(self, what: str, op_id: Any) -> None:
+        self.status("error", f"{what}: not authenticated; send 'auth' first", op_id)
         self.close_connection()
 
     # ------------------------------------------------------------------ output
@@ -172,7 +251,12 @@ class Session:
             log.info("client %s: %s", self.node, msg)
         if not should_send(self.status_level, level):
             return
-        self.outbox.put(json_frames(status_op(level, msg, op_id)))
+        try:
+            frames = json_frames(status_op(level, msg, op_id))
+        except TypeError:  # a text or id that cannot be encoded must not lose the report
+            text = msg.encode("utf-8", "backslashreplace").decode("utf-8")
+            frames = json_frames(status_op(level, text))
+        self.outbox.put(frames)
 
     def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:
         """Run a coroutine tied to this client; it is cancelled when the client goes."""
@@ -192,6 +276,9 @@ class Session:
             return
         self.closed = True
         self.outbox.close()
+        if self._fragment_timer is not None:
+            self._fragment_timer.cancel()
+        self._defrag.clear()  # its bytes go back to the server-wide budget now
         self.subscriptions.close()
         self.service_ops.close()
         self.action_ops.close()

@@ -3,6 +3,13 @@
 A client may subscribe to one topic several times (one per component, each with an id).
 The effective parameters follow the seed: lowest throttle_rate, lowest fragment_size,
 highest queue_length, strongest compression.
+
+A throttled subscription queues messages between its slots. Whatever ``queue_length`` a client
+asks for, the queue holds at most :data:`MAX_QUEUE_LENGTH` messages, and all of one client's
+queues together at most ``--send-buffer-limit`` bytes (each message counted at the size of its
+JSON publish op, encoded once and shared with JSON subscribers; the oldest go first), so a
+subscription cannot be used to make the server hold an unbounded backlog. Messages are encoded
+for the subscription's compression only when their slot comes, as before.
 """
 
 from __future__ import annotations
@@ -16,10 +23,13 @@ from typing import TYPE_CHECKING
 from ..bus.topics import Message, Topic
 from ..protocol.errors import ProtocolError
 from .publish import check_topic_name
-from .wire import is_binary, publish_frames, strongest
+from .wire import is_binary, publish_frames, publish_json, strongest
 
 if TYPE_CHECKING:
     from .session import Session
+
+MAX_QUEUE_LENGTH = 1000
+"""Most messages one throttled subscription queues, whatever ``queue_length`` asks for."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -37,8 +47,9 @@ class ClientSubscription:
     ``publish`` must echo that string (roslibjs dispatches on it).
     """
 
-    def __init__(self, session: Session, topic_str: str):
+    def __init__(self, session: Session, topic_str: str, ops: SubscribeOps):
         self.session = session
+        self.ops = ops  # holds the byte count of all this client's queues
         self.topic_str = topic_str
         self.topic: Topic | None = None
         self.params: dict[object, SubParams] = {}
@@ -46,7 +57,7 @@ class ClientSubscription:
         self.queue_length = 0
         self.fragment_size: int | None = None
         self.compression = "none"
-        self._pending: deque[Message] = deque(maxlen=1)
+        self._pending: deque[tuple[Message, int]] = deque()  # waiting messages, their bytes
         self._last_sent = float("-inf")
         self._timer: asyncio.TimerHandle | None = None
 
@@ -57,9 +68,8 @@ class ClientSubscription:
         sizes = [p.fragment_size for p in ps if p.fragment_size]
         self.fragment_size = min(sizes) if sizes else self.session.settings.max_message_size
         self.compression = strongest(p.compression for p in ps)
-        keep = max(self.queue_length, 1)
-        if self._pending.maxlen != keep:
-            self._pending = deque(self._pending, maxlen=keep)
+        while len(self._pending) > max(self.queue_length, 1):
+            self._pop()
 
     # The bus calls this synchronously for every message; it must never block.
     def __call__(self, message: Message) -> None:
@@ -71,8 +81,29 @@ class ClientSubscription:
             self._send(message)
             self._last_sent = now
             return
-        self._pending.append(message)  # a full queue drops its oldest
+        self._queue(message)
         self._arm(now)
+
+    def _queue(self, message: Message) -> None:
+        """Queue a message; a full queue, or this client's queues over their byte limit, drop
+        their oldest first (and, with nothing left to drop, the newest)."""
+        size = len(publish_json(message, self.topic_str))
+        ops = self.ops
+        limit = self.session.settings.send_buffer_limit
+        while self._pending and (
+            len(self._pending) >= max(self.queue_length, 1) or ops.queued + size > limit
+        ):
+            self._pop()
+        if ops.queued and ops.queued + size > limit:
+            self.session.outbox.dropped += 1
+            return
+        self._pending.append((message, size))
+        ops.queued += size
+
+    def _pop(self) -> Message:
+        message, size = self._pending.popleft()
+        self.ops.queued -= size
+        return message
 
     def _arm(self, now: float) -> None:
         if self._timer is None:
@@ -83,7 +114,7 @@ class ClientSubscription:
         """Throttle slot reached: send the head of the queue (so a burst's last one arrives)."""
         self._timer = None
         if self._pending:
-            self._send(self._pending.popleft())
+            self._send(self._pop())
             self._last_sent = time.monotonic()
         if self._pending:
             self._arm(time.monotonic())
@@ -96,13 +127,15 @@ class ClientSubscription:
         if self._timer is not None:
             self._timer.cancel()
             self._timer = None
-        self._pending.clear()
+        while self._pending:
+            self._pop()
 
 
 class SubscribeOps:
     def __init__(self, session: Session):
         self.session = session
         self.subs: dict[str, ClientSubscription] = {}
+        self.queued = 0  # bytes in all throttle queues of this client
 
     def subscribe(self, msg: dict) -> None:
         s = self.session
@@ -118,16 +151,26 @@ class SubscribeOps:
                 op_id,
             )
             compression = "none"
+        queue_length = int(msg.get("queue_length") or 0)
+        if queue_length > MAX_QUEUE_LENGTH:
+            s.status(
+                "warning",
+                f"subscribe: queue_length {queue_length} clamped to {MAX_QUEUE_LENGTH}; a "
+                f"client's throttle queues also hold at most {s.settings.send_buffer_limit} "
+                "bytes (--send-buffer-limit), oldest dropped first",
+                op_id,
+            )
+            queue_length = MAX_QUEUE_LENGTH
         params = SubParams(
             int(msg.get("throttle_rate") or 0),
-            int(msg.get("queue_length") or 0),
+            queue_length,
             msg.get("fragment_size"),
             compression,
         )
         type_name = msg.get("type") or None
         sub = self.subs.get(topic_str)
         if sub is None:
-            sub = ClientSubscription(s, topic_str)
+            sub = ClientSubscription(s, topic_str, self)
             sub.params[op_id] = params
             sub.update()
             try:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+from ssl import SSLContext
 
 from ..protocol.errors import ProtocolError
 from ..protocol.jsonstream import JsonStreamDecoder
@@ -20,6 +21,7 @@ async def start_tcp(
     *,
     max_frame_size: int,
     delay_between_messages: float = 0.0,
+    ssl: SSLContext | None = None,
 ) -> asyncio.Server:
     async def handler(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         peer = writer.get_extra_info("peername")
@@ -53,7 +55,7 @@ async def start_tcp(
             with contextlib.suppress(ConnectionError, OSError):
                 await writer.wait_closed()
 
-    return await asyncio.start_server(handler, host, port, reuse_address=True)
+    return await asyncio.start_server(handler, host, port, reuse_address=True, ssl=ssl)
 
 
 async def _read(reader: asyncio.StreamReader, session, max_frame_size: int) -> None:
@@ -65,7 +67,7 @@ async def _read(reader: asyncio.StreamReader, session, max_frame_size: int) -> N
                 return
             for item in decoder.feed(data):
                 if isinstance(item, ProtocolError):
-                    session.status(item.level, item.msg, item.id)
+                    session.stream_error(item)
                 else:
                     session.handle(item)
             if session.outbox.closed:

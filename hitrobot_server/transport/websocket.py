@@ -9,6 +9,7 @@ from __future__ import annotations
 import asyncio
 import logging
 from collections.abc import Callable
+from ssl import SSLContext
 
 from websockets.asyncio.server import Server, ServerConnection, broadcast, serve
 from websockets.exceptions import ConnectionClosed
@@ -71,7 +72,13 @@ async def start_websocket(
     delay_between_messages: float = 0.0,
     compression: bool = False,
     http_handler: HttpHandler | None = None,
+    ssl: SSLContext | None = None,
+    ping_interval: float = 0.0,
+    ping_timeout: float = 30.0,
 ) -> Server:
+    """Serve WebSocket (``wss://`` with ``ssl``); with ``ping_interval`` > 0 each client is
+    pinged that often and dropped when it does not answer within ``ping_timeout``."""
+
     async def handler(ws: ServerConnection) -> None:
         peer = ws.remote_address[0] if ws.remote_address else ""
         session = new_session(peer, "ws")
@@ -108,8 +115,10 @@ async def start_websocket(
         max_size=max_frame_size,
         compression="deflate" if compression else None,
         process_request=process_request,
-        ping_interval=None,
+        ping_interval=ping_interval or None,
+        ping_timeout=ping_timeout,
         max_queue=64,
+        ssl=ssl,
     )
 
 

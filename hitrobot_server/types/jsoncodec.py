@@ -2,6 +2,11 @@
 
 ``bytes`` (canonical ``uint8[]``/``char[]``) become standard base64 strings, NaN/Inf become
 ``null`` (orjson's behaviour, and what rosbridge sends), numpy arrays and scalars are accepted.
+
+Every decoded value (JSON here, CBOR in :mod:`hitrobot_server.protocol.cbor`) passes
+:func:`check_value` unless orjson produced it: a string that is not valid Unicode (a lone
+surrogate), an integer wider than 64 bits or a container nested too deep would otherwise be
+stored and then fail every later attempt to send it, to anyone.
 """
 
 from __future__ import annotations
@@ -56,12 +61,116 @@ def dumps_ascii(obj: Any) -> bytes:
     return _NON_ASCII.sub(_escape, data.decode("utf-8")).encode("ascii")
 
 
+MAX_DEPTH = 1000
+"""Deepest nesting of arrays and objects accepted (orjson's own limit is 1024)."""
+_INT_MIN, _INT_MAX = -(2**63), 2**64 - 1  # int64 to uint64: the widest ROS integers
+
+
+class InvalidValue(ValueError):
+    """A decoded value the server cannot carry; the text names where, never the value.
+
+    ``id`` is the top-level object's ``id`` when that one is valid, so the error can be
+    reported against the op it belongs to.
+    """
+
+    def __init__(self, text: str, id: str | int | None = None) -> None:
+        super().__init__(text)
+        self.id = id
+
+
+def _top_id(obj: Any) -> str | int | None:
+    if isinstance(obj, dict):
+        value = obj.get("id")
+        if (type(value) is str and _utf8(value)) or (
+            type(value) is int and _INT_MIN <= value <= _INT_MAX
+        ):
+            return value
+    return None
+
+
+def _utf8(text: str) -> bool:
+    if text.isascii():
+        return True
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+def _field(path: str) -> str:
+    return f"field '{path}'" if path else "the message"
+
+
+def _bad_scalar(value: Any, path: str, allow_bytes: bool) -> str | None:
+    """Why a non-container value cannot be carried, or None when it can."""
+    kind = type(value)
+    if kind is str:
+        return None if _utf8(value) else f"{_field(path)} is not valid Unicode (lone surrogate)"
+    if kind is int:
+        if _INT_MIN <= value <= _INT_MAX:
+            return None
+        return f"{_field(path)} is an integer outside the 64-bit range"
+    if kind is float or kind is bool or value is None:
+        return None
+    if allow_bytes and kind is bytes:
+        return None
+    return f"{_field(path)} has an unsupported type ({kind.__name__})"
+
+
+def check_value(obj: Any, *, allow_bytes: bool = False, max_depth: int = MAX_DEPTH) -> None:
+    """Raise :class:`InvalidValue` unless ``obj`` holds only JSON values the server can encode
+    again: UTF-8-encodable strings (keys too), integers within int64..uint64, floats (NaN and
+    infinities included), booleans, null, lists and string-keyed objects (and ``bytes`` when
+    ``allow_bytes``, for CBOR), nested at most ``max_depth`` deep. Iterative, so depth cannot
+    exhaust the stack.
+    """
+    problem = _problem(obj, allow_bytes, max_depth)
+    if problem is not None:
+        raise InvalidValue(problem, _top_id(obj))
+
+
+def _problem(obj: Any, allow_bytes: bool, max_depth: int) -> str | None:
+    stack: list[tuple[Any, str, int]] = [(obj, "", 0)]
+    while stack:
+        value, path, depth = stack.pop()
+        kind = type(value)
+        if kind is dict:
+            if depth >= max_depth:
+                return f"{_field(path)} is nested deeper than {max_depth} levels"
+            prefix = f"{path}." if path else ""
+            for key, item in value.items():
+                if type(key) is not str or not _utf8(key):
+                    return f"{_field(path)} has a key that is not a valid Unicode string"
+                if type(item) is dict or type(item) is list:
+                    stack.append((item, prefix + key, depth + 1))
+                elif (problem := _bad_scalar(item, prefix + key, allow_bytes)) is not None:
+                    return problem
+        elif kind is list:
+            if depth >= max_depth:
+                return f"{_field(path)} is nested deeper than {max_depth} levels"
+            for i, item in enumerate(value):
+                if type(item) is dict or type(item) is list:
+                    stack.append((item, f"{path}[{i}]", depth + 1))
+                elif type(item) is not float and (
+                    problem := _bad_scalar(item, f"{path}[{i}]", allow_bytes)
+                ) is not None:
+                    return problem
+        elif (problem := _bad_scalar(value, path, allow_bytes)) is not None:
+            return problem
+    return None
+
+
 def loads(data: bytes | bytearray | memoryview | str) -> Any:
-    """Parse JSON text; raises ``orjson.JSONDecodeError`` (a ``ValueError``) when malformed.
+    """Parse JSON text; raises a ``ValueError`` (``orjson.JSONDecodeError`` when malformed,
+    :class:`InvalidValue` when it holds a value the server cannot carry).
 
     Python's ``json.dumps`` (so roslibpy) writes ``NaN``/``Infinity`` literals, which
     rosbridge accepts but strict JSON and orjson do not; only when orjson refuses is the
-    text re-read by the standard library, so the fast path stays fast.
+    text re-read by the standard library, so the fast path stays fast. That parser also
+    accepts lone surrogates, integers of any size and unbounded nesting, so what it returns
+    goes through :func:`check_value` (orjson refuses all three itself, and reads integers
+    beyond 64 bits as floats).
     """
     try:
         return orjson.loads(data)
@@ -71,6 +180,8 @@ def loads(data: bytes | bytearray | memoryview | str) -> Any:
         if not any(lit in text for lit in literals):
             raise  # no NaN/Infinity literal could be the reason
         try:
-            return json.loads(text)
-        except ValueError:
+            obj = json.loads(text)
+        except (ValueError, RecursionError):
             raise exc from None
+    check_value(obj)
+    return obj

@@ -148,3 +148,32 @@ def test_subscriber_can_reject_a_message_back_to_its_publisher(bus):
     bus.publish("/cmd", {"data": "good"}, reply=lambda level, text: replies.append((level, text)))
     later[1].reject("found out later")  # e.g. after awaiting the robot
     assert replies == [("error", "field 'data' must not be 'bad'"), ("error", "found out later")]
+
+
+async def test_node_services_cannot_be_taken_over_and_client_providers_stack(bus):
+    async def answer(tag):
+        async def handler(request):
+            return {"message": tag, "success": True}
+        return handler
+
+    bus.advertise_service("/node_svc", "std_srvs/Trigger", "node", "/node", await answer("n"))
+    with pytest.raises(BusError, match=r"provided by the server \(/node\)"):
+        bus.advertise_service("/node_svc", "std_srvs/Trigger", "c1", "/c1", await answer("c1"),
+                              client=True)
+    bus.advertise_action("/node_act", "nav2_msgs/FollowPath", "node", "/node", None)
+    with pytest.raises(BusError, match="cannot be advertised by a client"):
+        bus.advertise_action("/node_act", "nav2_msgs/FollowPath", "c1", "/c1", None,
+                             client=True)
+    assert bus.action("/node_act").owner == "node"
+    assert (await bus.call_service("/node_svc", {}))["message"] == "n"
+    for tag in ("c1", "c2", "c3"):
+        bus.advertise_service("/shared", "std_srvs/Trigger", tag, f"/{tag}", await answer(tag),
+                              client=True)
+    assert (await bus.call_service("/shared", {}))["message"] == "c3"
+    assert bus.unadvertise_service("/shared", "c2")  # a waiting provider leaves quietly
+    assert (await bus.call_service("/shared", {}))["message"] == "c3"
+    bus.remove_owner("c3")
+    assert (await bus.call_service("/shared", {}))["message"] == "c1"
+    assert not bus.unadvertise_service("/shared", "c2")
+    assert bus.unadvertise_service("/shared", "c1")
+    assert bus.service("/shared") is None and bus._replaced == {}

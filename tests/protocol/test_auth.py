@@ -107,3 +107,21 @@ def test_load_secret_requires_sixteen_characters(tmp_path, content):
     path.write_text(content)
     with pytest.raises(ValueError, match="exactly 16 characters"):
         load_secret(path)
+
+
+def test_replay_cache_accepts_each_mac_once_and_forgets_it_after_the_window():
+    from hitrobot_server.protocol.auth import ReplayCache
+
+    cache = ReplayCache(allowed_delta=5.0)
+    assert cache.use("m1", 100.0, 100.2)
+    assert not cache.use("m1", 100.0, 101.0)
+    assert cache.use("m2", 101.0, 101.0)
+    assert len(cache) == 2
+    # once t + window is past, verify() refuses the op anyway: the entry is dropped
+    assert cache.use("m3", 106.0, 106.0) and len(cache) == 1
+
+
+@pytest.mark.parametrize("field", ["t", "end"])
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), float("-inf")])
+def test_non_finite_times_are_refused_not_an_exception(field, value):
+    assert not verify({**auth_op(), field: value}, SECRET, now=T + 1.0)

@@ -16,6 +16,7 @@ from hitrobot_server.protocol.cbor import (
     to_cbor_value,
 )
 from hitrobot_server.types.convert import default_message, from_json
+from hitrobot_server.types.jsoncodec import InvalidValue
 from hitrobot_server.types.registry import TypeRegistry
 
 NOW = (1700000000, 5)
@@ -212,3 +213,23 @@ def test_decode_typed_arrays_other_tags() -> None:
         "c": 1,
     }
     assert decode_typed_arrays(cbor2.CBORTag(64, b"\x01\x02")) == [1, 2]
+
+
+@pytest.mark.parametrize(
+    ("value", "needle"),
+    [
+        ({"id": "c", "msg": {"a": 2**64}}, "field 'msg.a' is an integer outside the 64-bit range"),
+        ({"id": "c", "msg": {"a": cbor2.CBORTag(4242, 1)}}, "unsupported type (CBORTag)"),
+        ({"id": "c", "msg": {"a": cbor2.undefined}}, "unsupported type"),
+        ({"id": "c", "msg": {5: 1}}, "has a key"),
+    ],
+)
+def test_decode_refuses_values_json_cannot_carry(value, needle):
+    with pytest.raises(InvalidValue) as info:
+        decode(cbor2.dumps(value))
+    assert needle in str(info.value) and info.value.id == "c"
+
+
+def test_decode_keeps_bytes_and_typed_arrays():
+    got = decode(cbor2.dumps({"raw": b"\x01\x02", "big": 2**64 - 1}))
+    assert got == {"raw": b"\x01\x02", "big": 2**64 - 1}

@@ -7,6 +7,7 @@ from hitrobot_server.protocol.errors import ProtocolError
 from hitrobot_server.protocol.fragment import (
     FRAGMENT_OVERHEAD,
     Defragmenter,
+    FragmentBudget,
     FragmentIds,
     fragment,
     fragment_bytes,
@@ -222,3 +223,30 @@ def test_expire_reports_evicted_ids_and_activity_refreshes():
     assert defrag.expire(11.5) == ["b"]
     assert defrag.expire(18.5) == ["a"]
     assert defrag.pending == 0 and defrag.buffered == 0
+
+
+def test_budget_is_shared_by_all_clients_and_returned_on_clear():
+    budget = FragmentBudget(3 * (100 + FRAGMENT_OVERHEAD))
+    a, b = Defragmenter(budget=budget), Defragmenter(budget=budget)
+    a.add(frag(id="a", data="x" * 100), 0.0)
+    a.add(frag(id="a2", data="x" * 100), 0.0)
+    b.add(frag(id="b", data="y" * 100), 0.0)
+    assert budget.used == 3 * (100 + FRAGMENT_OVERHEAD)
+    with pytest.raises(ProtocolError, match="all clients together") as info:
+        b.add(frag(id="b2", data="y" * 100), 0.0)
+    assert info.value.id == "b2" and b.pending == 1
+    a.clear()  # the client went away: its bytes are free for the others at once
+    assert a.pending == 0 and budget.used == 100 + FRAGMENT_OVERHEAD
+    b.add(frag(id="b2", data="y" * 100), 0.0)
+    assert b.add(frag(id="b", data="Y", num=1), 0.0) == "y" * 100 + "Y"
+    assert budget.used == b.buffered == 100 + FRAGMENT_OVERHEAD
+
+
+def test_next_expiry_is_the_least_recently_fed_message():
+    defrag = Defragmenter(fragment_timeout=10.0)
+    assert defrag.next_expiry() is None
+    defrag.add(frag(id="a", num=0, total=3), 1.0)
+    defrag.add(frag(id="b", num=0, total=3), 2.0)
+    assert defrag.next_expiry() == 11.0
+    defrag.add(frag(id="a", num=1, total=3), 5.0)
+    assert defrag.next_expiry() == 12.0

@@ -112,3 +112,29 @@ def test_large_occupancy_grid_round_trips():
     encode_seconds = time.perf_counter() - started
     print(f"png.encode of {len(payload)} bytes took {encode_seconds:.3f} s")
     assert png.decode(encoded) == payload
+
+
+def _png_bytes(size: tuple[int, int], mode: str = "RGB") -> bytes:
+    out = io.BytesIO()
+    Image.new(mode, size).save(out, format="PNG")
+    return out.getvalue()
+
+
+def test_declared_size_reads_the_header_without_decoding():
+    assert png.declared_size(_png_bytes((7, 5))) == (7, 5, 3)
+    assert png.declared_size(_png_bytes((7, 5), "RGBA")) == (7, 5, 4)
+    assert png.declared_size(_png_bytes((7, 5), "L")) == (7, 5, 3)  # decoded as RGB
+    # a header declaring 13000 x 13000 pixels: the bytes after it are never looked at
+    bomb = _png_bytes((1, 1))[:16] + struct.pack(">II", 13000, 13000) + b"\x08\x02" + b"junk"
+    assert png.declared_size(bomb) == (13000, 13000, 3)
+    with pytest.raises(ValueError, match="13000x13000 pixels, 507000000 bytes"):
+        png.check_size(bomb, 256 * 1024 * 1024)
+    with pytest.raises(ValueError, match="not a PNG"):
+        png.declared_size(b"GIF89a" + bytes(30))
+
+
+def test_decode_refuses_an_image_over_the_limit_and_accepts_one_under_it():
+    data = base64.b64encode(_png_bytes((100, 100))).decode()
+    with pytest.raises(ValueError, match="more than the limit of 29999 bytes"):
+        png.decode(data, max_bytes=29_999)
+    assert len(png.decode(data, max_bytes=30_000).rstrip(b"\0")) == 0

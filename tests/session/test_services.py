@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import asyncio
 
+import pytest
+
 from ..helpers import WsClient
 
 
@@ -100,3 +102,22 @@ async def test_rosapi_params_and_types(client):
     assert topics["types"][topics["topics"].index("/x")] == "std_msgs/String"
     assert (await client.call("/rosapi/topic_type", {"topic": "x"}))["values"]["type"] == \
         "std_msgs/String"
+
+
+@pytest.mark.parametrize(("extra", "needle"), [
+    ('"compression": "bogus"', "field 'compression' must be one of"),
+    ('"timeout": NaN', "field 'timeout' must be a finite number"),
+    ('"timeout": -1', "field 'timeout' must be a finite number"),
+    ('"timeout": Infinity', "field 'timeout' must be a finite number"),
+])
+async def test_call_service_with_bad_compression_or_timeout_is_refused(client, extra, needle):
+    await client.send('{"op": "call_service", "id": "bad", "service": "/rosapi/get_time", '
+                      + extra + "}")
+    reply = await client.expect(op="service_response", id="bad")
+    assert reply["result"] is False and needle in reply["values"]
+    status = await client.expect(op="status", id="bad")
+    assert status["level"] == "error" and needle in status["msg"]
+    await client.send({"op": "call_service", "id": "zero", "service": "/rosapi/get_time",
+                       "timeout": 0})
+    reply = await client.expect(op="service_response", id="zero")
+    assert reply["result"] is True  # 0 still means "no timeout"

@@ -60,3 +60,34 @@ async def test_tcp_and_websocket_clients_share_the_bus(server):
     assert (await tcp.expect(op="publish"))["msg"]["data"] == "from ws"
     await tcp.close()
     await ws.close()
+
+
+async def test_a_flood_of_garbage_is_reported_a_few_times_a_second(server):
+    """5000 broken objects used to be 5000 status lines (and log lines); now at most
+    STREAM_ERRORS_PER_SECOND per second plus one notice, while errors of ops with an id are
+    all reported and the witness sees nothing of it."""
+    from hitrobot_server.session.session import STREAM_ERRORS_PER_SECOND
+
+    from ..witness import Witness
+
+    witness = await Witness.open(server.port)
+    c = await TcpClient.open(server.tcp_port)
+    started = asyncio.get_running_loop().time()
+    await c.send_bytes(b"{]}" * 5000)
+    await c.send_bytes(b'{"op": "publish", "id": "op-error", "topic": "/nope", "msg": {}}')
+    await c.send({"op": "call_service", "id": "after", "service": "/rosapi/get_time"})
+    statuses = []
+    while True:
+        msg = await c.recv()
+        if msg.get("op") == "service_response":
+            break
+        statuses.append(msg)
+    seconds = asyncio.get_running_loop().time() - started
+    garbage = [s for s in statuses if "id" not in s]
+    assert len(garbage) <= (STREAM_ERRORS_PER_SECOND + 1) * (int(seconds) + 1) < 5000
+    assert any("not reported for the rest of this second" in s["msg"] for s in garbage)
+    assert [s["id"] for s in statuses if "id" in s] == ["op-error"]
+    assert msg["id"] == "after" and msg["result"] is True
+    await witness.check()
+    await c.close()
+    await witness.close()

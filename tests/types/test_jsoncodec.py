@@ -10,6 +10,7 @@ import numpy as np
 import orjson
 import pytest
 
+from hitrobot_server.types import jsoncodec
 from hitrobot_server.types.jsoncodec import dumps, dumps_ascii, loads
 
 
@@ -78,3 +79,54 @@ def test_loads_accepts_python_nan_and_infinity_literals():
     assert math.isnan(value["a"]) and value["b"] == -math.inf and value["c"] == [math.inf]
     with pytest.raises(ValueError):
         jsoncodec.loads(b'{"a": nope}')
+
+
+# --- values the server cannot carry --------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("value", "needle"),
+    [
+        ({"id": "a", "msg": {"name": "x\ud800"}}, "field 'msg.name' is not valid Unicode"),
+        ({"id": "a", "k": [1, 2**64]}, "field 'k[1]' is an integer outside the 64-bit range"),
+        ({"id": "a", "k": -(2**63) - 1}, "field 'k'"),
+        ({"id": "a", "k\udfff": 1}, "has a key that is not a valid Unicode string"),
+        ({"id": "a", "k": {1: 2}}, "has a key"),
+        ({"id": "a", "k": b"raw"}, "unsupported type (bytes)"),
+        ({"id": "a", "k": {1, 2}}, "unsupported type (set)"),
+    ],
+)
+def test_check_value_refuses_and_names_the_field_not_the_value(value, needle):
+    with pytest.raises(jsoncodec.InvalidValue) as info:
+        jsoncodec.check_value(value)
+    assert needle in str(info.value)
+    assert info.value.id == "a"
+    assert "\ud800" not in str(info.value) and str(2**64) not in str(info.value)
+
+
+def test_check_value_accepts_the_widest_ros_values_and_bounds_depth():
+    ok = {"u64": 2**64 - 1, "i64": -(2**63), "f": [math.nan, math.inf], "s": "ok😀",
+          "n": None, "b": True}
+    jsoncodec.check_value(ok)
+    jsoncodec.check_value({"raw": b"\x00\xff"}, allow_bytes=True)
+    deep: list = []
+    for _ in range(50):
+        deep = [deep]
+    jsoncodec.check_value(deep, max_depth=51)
+    with pytest.raises(jsoncodec.InvalidValue, match="deeper than 20"):
+        jsoncodec.check_value({"id": 7, "d": deep}, max_depth=20)
+    # iterative: far deeper than Python's recursion limit costs no stack
+    for _ in range(5000):
+        deep = [deep]
+    with pytest.raises(jsoncodec.InvalidValue):
+        jsoncodec.check_value(deep)
+
+
+def test_loads_fallback_checks_values_and_tags_the_op_id():
+    with pytest.raises(jsoncodec.InvalidValue) as info:
+        jsoncodec.loads('{"id": 5, "x": NaN, "s": "a\\ud800"}')
+    assert info.value.id == 5
+    with pytest.raises(jsoncodec.InvalidValue) as info:
+        jsoncodec.loads('{"id": 123456789012345678901234, "x": NaN}')
+    assert info.value.id is None and "'id'" in str(info.value)
+    assert math.isnan(jsoncodec.loads('{"x": NaN}')["x"])

@@ -184,6 +184,9 @@ class MapManager(RobotNode):
 
     # ------------------------------------------------------------------ lifecycle
     async def start(self) -> None:
+        removed = self.store.clean_leftovers()  # at start-up, before anything can save
+        if removed:
+            log.info("map store: removed leftovers of interrupted saves: %s", ", ".join(removed))
         self._dirty = asyncio.Event()
         self.spawn(self._publisher())
         self.spawn(self._watch_connection())

@@ -129,12 +129,44 @@ class MapStore:
             shutil.rmtree(old, ignore_errors=True)
         return final
 
+    def clean_leftovers(self) -> list[str]:
+        """Remove what an interrupted save left behind (``.tmp-*`` and ``.old-*`` folders and
+        files in the store and in its map folders); returns the names removed. An ``.old-``
+        folder whose map is missing (the crash fell between the two renames of :meth:`save`)
+        is the only copy: it is renamed back instead. Run at start-up, when no save can be in
+        progress."""
+        removed: list[str] = []
+        if not self.root.is_dir():
+            return removed
+        for path in self.root.glob(f"{_OLD_PREFIX}*"):
+            name = path.name[len(_OLD_PREFIX):].rpartition(".")[0]
+            with contextlib.suppress(StoreError, OSError):
+                if path.is_dir() and not self.folder(name).exists():
+                    os.replace(path, self.folder(name))
+        folders = [self.root] + [p for p in self.root.iterdir()
+                                 if p.is_dir() and not p.is_symlink()
+                                 and not p.name.startswith(".")]
+        for folder in folders:
+            for path in folder.iterdir():
+                if not path.name.startswith((_TEMP_PREFIX, _OLD_PREFIX)):
+                    continue
+                if path.is_dir() and not path.is_symlink():
+                    shutil.rmtree(path, ignore_errors=True)
+                else:
+                    with contextlib.suppress(OSError):
+                        path.unlink()
+                removed.append(str(path.relative_to(self.root)))
+        return removed
+
     def read(self, name: str, filename: str) -> bytes:
         path = self.folder(name)
         if not path.is_dir():
             raise StoreError(f"there is no saved map named {name!r}")
+        target = (path / filename).resolve()
+        if not target.is_relative_to(self.root.resolve()):
+            raise StoreError(f"map {name!r}: file {filename!r} is a link to outside the map store")
         try:
-            return (path / filename).read_bytes()
+            return target.read_bytes()
         except FileNotFoundError:
             raise StoreError(f"map {name!r} has no file {filename!r}") from None
         except OSError as exc:

@@ -279,3 +279,24 @@ async def test_blocked_areas_are_handed_over_again_after_a_reconnect(make_server
     await server.backend.start()
     await w.until(lambda: len(sim._blocked) == 1, 5, "the blocked areas handed over again")
     await w.close()
+
+
+async def test_start_up_cleans_leftovers_and_load_refuses_a_link_outside(make_server, tmp_path):
+    maps = tmp_path / "maps"
+    (maps / ".tmp-navigation.0a0b").mkdir(parents=True)
+    (maps / ".old-navigation.0c0d").mkdir()
+    evil = maps / "evil"
+    evil.mkdir()
+    (evil / "map.yaml").write_text("image: map.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n"
+                                   "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    outside = tmp_path / "outside.pgm"
+    outside.write_bytes(b"P5\n1 1\n255\n\x00")
+    (evil / "map.pgm").symlink_to(outside)
+    _server, w = await start(make_server, maps)
+    # the leftovers are gone before any client could see them
+    assert sorted(p.name for p in maps.iterdir()) == ["evil", "navigation"]
+    refused = await request(w, f"{MM}/load_map", SAVE_T, {"filename": "evil"}, "evil")
+    assert refused["level"] == "error" and "outside the map store" in refused["msg"]
+    got = await w.call(f"{MM}/get_pois")
+    assert got["result"] is True
+    await w.close()

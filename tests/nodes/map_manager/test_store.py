@@ -101,3 +101,32 @@ def test_write_file_is_atomic(tmp_path):
     write_file(target, b"2")
     assert target.read_bytes() == b"2"
     assert os.listdir(tmp_path) == ["f"]
+
+
+def test_clean_leftovers_removes_interrupted_saves_and_restores_a_lone_old_copy(tmp_path):
+    store = MapStore(tmp_path)
+    store.save("kept", {"map.yaml": b"k"})
+    store.save("lost", {"map.yaml": b"only copy"})
+    (tmp_path / ".tmp-kept.1a2b").mkdir()
+    (tmp_path / ".tmp-kept.1a2b" / "map.pgm").write_bytes(b"half")
+    (tmp_path / ".old-kept.3c4d").mkdir()
+    os.replace(tmp_path / "lost", tmp_path / ".old-lost.5e6f")  # crash between the renames
+    (tmp_path / "kept" / ".tmp-map.yaml.0000").write_bytes(b"partial")
+    removed = store.clean_leftovers()
+    assert sorted(removed) == [".old-kept.3c4d", ".tmp-kept.1a2b", "kept/.tmp-map.yaml.0000"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["kept", "lost"]
+    assert store.read("lost", "map.yaml") == b"only copy"
+    assert os.listdir(tmp_path / "kept") == ["map.yaml"]
+
+
+def test_a_file_linked_to_outside_the_store_is_refused(tmp_path):
+    outside = tmp_path / "secret.pgm"
+    outside.write_bytes(b"P5 not yours")
+    store = MapStore(tmp_path / "maps")
+    store.save("m", {"map.yaml": b"y"})
+    (tmp_path / "maps" / "m" / "map.pgm").symlink_to(outside)
+    with pytest.raises(StoreError, match="link to outside the map store"):
+        store.read("m", "map.pgm")
+    # a link that stays inside the store is fine
+    (tmp_path / "maps" / "m" / "alias.yaml").symlink_to(tmp_path / "maps" / "m" / "map.yaml")
+    assert store.read("m", "alias.yaml") == b"y"

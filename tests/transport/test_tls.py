@@ -1,0 +1,102 @@
+"""--ssl: wss:// and TLS on the TCP port with a real certificate; WebSocket pings drop a peer
+that does not answer; rosbridge's parameter spellings on the command line."""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import datetime
+import ipaddress
+import os
+import ssl
+
+import pytest
+from cryptography import x509
+from cryptography.hazmat.primitives import hashes, serialization
+from cryptography.hazmat.primitives.asymmetric import ec
+from cryptography.x509.oid import NameOID
+from websockets.asyncio.client import connect
+
+from hitrobot_server.cli import build_parser
+from hitrobot_server.config import load
+
+from ..helpers import TcpClient, WsClient
+
+
+@pytest.fixture(scope="module")
+def cert(tmp_path_factory) -> tuple[str, str]:
+    """A self-signed certificate for 127.0.0.1 and its key, as PEM files."""
+    key = ec.generate_private_key(ec.SECP256R1())
+    name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "127.0.0.1")])
+    now = datetime.datetime.now(datetime.UTC)
+    certificate = (
+        x509.CertificateBuilder()
+        .subject_name(name).issuer_name(name).public_key(key.public_key())
+        .serial_number(x509.random_serial_number())
+        .not_valid_before(now - datetime.timedelta(minutes=5))
+        .not_valid_after(now + datetime.timedelta(days=1))
+        .add_extension(x509.SubjectAlternativeName([x509.IPAddress(ipaddress.ip_address(
+            "127.0.0.1"))]), critical=False)
+        .add_extension(x509.BasicConstraints(ca=True, path_length=None), critical=True)
+        .sign(key, hashes.SHA256())
+    )
+    folder = tmp_path_factory.mktemp("tls")
+    certfile, keyfile = folder / "cert.pem", folder / "key.pem"
+    certfile.write_bytes(certificate.public_bytes(serialization.Encoding.PEM))
+    keyfile.write_bytes(key.private_bytes(serialization.Encoding.PEM,
+                                          serialization.PrivateFormat.PKCS8,
+                                          serialization.NoEncryption()))
+    return str(certfile), str(keyfile)
+
+
+async def test_wss_and_tls_tcp(make_server, cert):
+    certfile, keyfile = cert
+    server = await make_server(ssl=True, certfile=certfile, keyfile=keyfile)
+    client_ctx = ssl.create_default_context(cafile=certfile)
+    ws = WsClient(await connect(f"wss://127.0.0.1:{server.port}", ssl=client_ctx))
+    assert (await ws.call("/rosapi/get_time"))["result"] is True
+    reader, writer = await asyncio.open_connection("127.0.0.1", server.tcp_port, ssl=client_ctx)
+    tcp = TcpClient(reader, writer)
+    await tcp.send({"op": "call_service", "id": "tls", "service": "/rosapi/get_time"})
+    assert (await tcp.expect(op="service_response", id="tls"))["result"] is True
+    # plain text to a TLS port gets nowhere
+    with pytest.raises(Exception):  # noqa: B017 - the handshake fails in a version-specific way
+        async with asyncio.timeout(5):
+            await WsClient.open(server.port)
+    await ws.close()
+    await tcp.close()
+
+
+async def test_a_client_that_does_not_answer_pings_is_dropped(make_server):
+    server = await make_server(websocket_ping_interval=0.2, websocket_ping_timeout=0.3)
+    witness = await WsClient.open(server.port)  # answers pings (the websockets client does)
+    reader, writer = await asyncio.open_connection("127.0.0.1", server.port)
+    key = base64.b64encode(os.urandom(16)).decode()
+    writer.write((f"GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\n"
+                  f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
+                  "Sec-WebSocket-Version: 13\r\n\r\n").encode())
+    head = await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 5)
+    assert head.startswith(b"HTTP/1.1 101")
+    first = await asyncio.wait_for(reader.readexactly(2), 5)
+    assert first[0] & 0x0F == 0x9  # the server pings ...
+    rest = await asyncio.wait_for(reader.read(), 10)  # ... and, unanswered, closes
+    assert rest is not None and reader.at_eof()
+    assert (await witness.call("/rosapi/get_time"))["result"] is True
+    await witness.close()
+    writer.close()
+
+
+def test_rosbridge_parameter_spellings_are_accepted():
+    args = build_parser().parse_args([
+        "--fragment_timeout", "5", "--max_message_size", "100", "--delay_between_messages",
+        "0.1", "--default_call_service_timeout", "3", "--websocket_ping_interval", "2",
+        "--websocket-ping-timeout", "4", "--unregister_timeout", "1", "--topics_glob", "/a/*",
+        "--use_compression", "--send_buffer_limit", "1000", "--fragment_memory_limit", "9"])
+    s = load(args)
+    assert (s.fragment_timeout, s.max_message_size, s.delay_between_messages) == (5, 100, 0.1)
+    assert (s.call_service_timeout, s.websocket_ping_interval, s.websocket_ping_timeout) == \
+        (3, 2, 4)
+    assert (s.unregister_timeout, s.topics_glob, s.use_compression) == (1, "/a/*", True)
+    assert (s.send_buffer_limit, s.fragment_memory_limit) == (1000, 9)
+    with pytest.raises(ValueError, match="--certfile"):
+        load(build_parser().parse_args(["--ssl"]))
