@@ -176,12 +176,13 @@ def _ros2_action_interfaces(typs: _Typesdict, srvs: set[str], actions: set[str])
     """
     for action in actions:
         pkg, _, name = action.partition("/action/")
+        uuid = "unique_identifier_msgs/UUID goal_id"
         parts = {
-            "SendGoal_Request": f"unique_identifier_msgs/UUID goal_id\n{pkg}/{name}Goal goal",
+            "SendGoal_Request": f"{uuid}\n{pkg}/{name}Goal goal",
             "SendGoal_Response": "bool accepted\ntime stamp",
-            "GetResult_Request": "unique_identifier_msgs/UUID goal_id",
+            "GetResult_Request": uuid,
             "GetResult_Response": f"int8 status\n{pkg}/{name}Result result",
-            "FeedbackMessage": f"unique_identifier_msgs/UUID goal_id\n{pkg}/{name}Feedback feedback",
+            "FeedbackMessage": f"{uuid}\n{pkg}/{name}Feedback feedback",
         }
         for suffix, text in parts.items():
             typs[f"{action}_{suffix}"] = _parse(text, pkg, f"{name}_{suffix}")
