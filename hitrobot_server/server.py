@@ -7,6 +7,7 @@ import contextlib
 import logging
 
 from .bus.core import Bus
+from .bus.rosout import RosoutHandler
 from .config import Settings
 from .nodes.assembly import start_nodes, stop_nodes
 from .nodes.base import Node
@@ -19,6 +20,7 @@ from .transport.websocket import start_websocket
 from .types.registry import TypeRegistry
 
 log = logging.getLogger(__name__)
+PACKAGE_LOGGER = "hitrobot_server"  # every record of ours goes to /rosout too
 
 
 class HitrobotServer:
@@ -36,6 +38,7 @@ class HitrobotServer:
         self._tcp: asyncio.Server | None = None
         self.port: int | None = None
         self.tcp_port: int | None = None
+        self._rosout: RosoutHandler | None = None
 
     def new_session(self, peer: str, transport: str) -> Session:
         session = Session(self.bus, self.settings, peer=peer, transport=transport)
@@ -49,6 +52,8 @@ class HitrobotServer:
             if not s.auth_secret_file:
                 raise ValueError("--authenticate needs --auth-secret-file")
             s.auth_secret = load_secret(s.auth_secret_file)
+        self._rosout = RosoutHandler(self.bus, s.log_level.upper())
+        logging.getLogger(PACKAGE_LOGGER).addHandler(self._rosout)
         self.backend = build_backend(s)
         if self.backend is not None:
             await self.backend.start()
@@ -95,6 +100,10 @@ class HitrobotServer:
         if self.backend is not None:
             await self.backend.stop()
             self.backend = None
+        if self._rosout is not None:
+            logging.getLogger(PACKAGE_LOGGER).removeHandler(self._rosout)
+            self._rosout.close()
+            self._rosout = None
 
 
 def _web_console() -> StaticFiles | None:

@@ -50,6 +50,7 @@ class Bus:
         self._action_interfaces: dict[str, ActionInterfaces] = {}
         self.params = ParamStore()
         self.nodes: dict[str, int] = {}  # node name -> registration count (for rosapi)
+        self.log_names: dict[str, str] = {}  # logger (module) name -> node name (for /rosout)
 
     # ---------------------------------------------------------------- topics
     def topic(self, name: str) -> Topic | None:

@@ -31,6 +31,7 @@ class Node:
         self.name = name
         self._subs: list[tuple[str, object]] = []
         bus.register_node(name)
+        bus.log_names[type(self).__module__] = name  # its module's records name it on /rosout
 
     def advertise(self, topic: str, type_name: str, latch: bool = False) -> None:
         self.bus.advertise(topic, type_name, self, self.name, latch=latch)

@@ -213,7 +213,7 @@ class SlamwareNode(RobotNode):
         odo = await self.backend.get_odometry()
         p = self.params
         self._last_pose = odo.pose
-        now = time.time()
+        now = self.bus.clock()
         self.publish(self.topic_odom, {
             "header": m.header(p.odom_frame, now),
             "child_frame_id": p.robot_frame,
@@ -229,15 +229,16 @@ class SlamwareNode(RobotNode):
 
     async def _publish_scan(self) -> None:
         began = time.monotonic()
+        now = self.bus.clock()  # like the real node: the time the scan request started
         scan = await self.backend.get_laser_scan()
         scan_time = time.monotonic() - began
         msg = m.laser_scan(scan, self.params.laser_frame, self.params.angle_compensate,
-                           scan_time)
+                           scan_time, now)
         if msg is None:
             return
         self.publish(self.topic_scan, msg)
         self.publish("/tf", {"transforms": [
-            m.transform(self.params.map_frame, self.params.laser_frame, scan.pose, scan.stamp)
+            m.transform(self.params.map_frame, self.params.laser_frame, scan.pose, now)
         ]})
 
     async def _update_map(self) -> None:
@@ -276,7 +277,7 @@ class SlamwareNode(RobotNode):
             return
         data, ox, oy = self.map.occupancy()
         h, w = self.map.cells.shape
-        now = time.time()
+        now = self.bus.clock()
         info = {
             "map_load_time": m.stamp(now),
             "resolution": self.map.resolution,
