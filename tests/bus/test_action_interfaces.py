@@ -18,6 +18,8 @@ from hitrobot_server.bus.services import (
 from hitrobot_server.types.convert import from_json
 from hitrobot_server.types.registry import TypeRegistry
 
+from ..helpers import until
+
 ACTION = "/drive"
 UUID_A, UUID_B = bytes(range(16)), bytes(range(16, 32))
 
@@ -63,14 +65,6 @@ async def call(bus: Bus, suffix: str, request: dict) -> dict:
 async def send(bus: Bus, uuid: bytes) -> dict:
     return await call(bus, "send_goal", {"goal_id": {"uuid": list(uuid)},
                                          "goal": {"controller_id": "x"}})
-
-
-async def until(predicate, what: str) -> None:
-    for _ in range(200):
-        if predicate():
-            return
-        await asyncio.sleep(0.01)
-    raise AssertionError(f"never saw {what}")
 
 
 async def test_send_goal_feedback_status_and_get_result(bus, served):

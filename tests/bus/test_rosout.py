@@ -13,6 +13,8 @@ from hitrobot_server.bus.rosout import RosoutHandler
 from hitrobot_server.nodes.base import Node
 from hitrobot_server.types.registry import TypeRegistry
 
+from ..helpers import until
+
 log = logging.getLogger(__name__)
 
 
@@ -32,14 +34,6 @@ async def bus_and_log():
     yield bus, got
     log.removeHandler(handler)
     handler.close()
-
-
-async def until(predicate, what: str) -> None:
-    for _ in range(200):
-        if predicate():
-            return
-        await asyncio.sleep(0.01)
-    raise AssertionError(f"never saw {what}")
 
 
 async def test_records_name_their_node_level_and_topics(bus_and_log):

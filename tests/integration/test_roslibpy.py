@@ -10,7 +10,7 @@ import pytest
 import roslibpy
 import roslibpy.tf
 
-from ..helpers import ServerProcess
+from ..helpers import ServerProcess, connect_roslibpy
 
 
 @pytest.fixture
@@ -18,11 +18,8 @@ def ros(server_process):
     clients = []
 
     def connect() -> roslibpy.Ros:
-        r = roslibpy.Ros(host="127.0.0.1", port=server_process.port)
-        r.run(timeout=10)
-        assert r.is_connected
-        clients.append(r)
-        return r
+        clients.append(connect_roslibpy(server_process.port))
+        return clients[-1]
 
     yield connect
     for r in clients:
@@ -38,9 +35,7 @@ def sim_process():
 
 @pytest.fixture
 def sim_ros(sim_process):
-    r = roslibpy.Ros(host="127.0.0.1", port=sim_process.port)
-    r.run(timeout=10)
-    assert r.is_connected
+    r = connect_roslibpy(sim_process.port)
     yield r
     r.close()
 
@@ -118,6 +113,17 @@ def test_failed_call_reaches_errback(ros):
     assert errors and "does not exist" in str(errors[0])
 
 
+def failed_call(caller: roslibpy.Ros, name: str, type_name: str, a: int, b: int) -> list:
+    """Call an AddTwoInts service expecting failure; what reached the errback."""
+    done = threading.Event()
+    errors: list = []
+    client = roslibpy.Service(caller, name, type_name)
+    client.call(roslibpy.ServiceRequest({"a": a, "b": b}), callback=lambda _r: done.set(),
+                errback=lambda e: (errors.append(e), done.set()))
+    assert done.wait(5)
+    return errors
+
+
 def test_provider_result_false_values_reach_the_caller(ros):
     """roslibpy's own AddTwoInts test: a handler returning False still hands over its values."""
     provider, caller = ros(), ros()
@@ -129,12 +135,7 @@ def test_provider_result_false_values_reach_the_caller(ros):
     service = roslibpy.Service(provider, "/rlp/add_two_ints", "rospy_tutorials/AddTwoInts")
     service.advertise(add)
     assert wait_for(lambda: "/rlp/add_two_ints" in caller.get_services())
-    done = threading.Event()
-    errors: list = []
-    client = roslibpy.Service(caller, "/rlp/add_two_ints", "rospy_tutorials/AddTwoInts")
-    client.call(roslibpy.ServiceRequest({"a": 2, "b": 40}), callback=lambda _r: done.set(),
-                errback=lambda e: (errors.append(e), done.set()))
-    assert done.wait(5)
+    errors = failed_call(caller, "/rlp/add_two_ints", "rospy_tutorials/AddTwoInts", 2, 40)
     assert errors == [{"sum": 42}]
     service.unadvertise()
 
@@ -145,12 +146,7 @@ def test_provider_returning_none_still_answers_the_caller(ros):
     service = roslibpy.Service(provider, "/rlp/add_none", "example_interfaces/AddTwoInts")
     service.advertise(lambda request, response: None)
     assert wait_for(lambda: "/rlp/add_none" in caller.get_services())
-    done = threading.Event()
-    errors: list = []
-    client = roslibpy.Service(caller, "/rlp/add_none", "example_interfaces/AddTwoInts")
-    client.call(roslibpy.ServiceRequest({"a": 1, "b": 1}), callback=lambda _r: done.set(),
-                errback=lambda e: (errors.append(e), done.set()))
-    assert done.wait(5)
+    errors = failed_call(caller, "/rlp/add_none", "example_interfaces/AddTwoInts", 1, 1)
     assert errors and "invalid response" in str(errors[0])
     service.unadvertise()
 
@@ -170,8 +166,7 @@ def test_rosout_is_found_like_foxglove_finds_it(sim_ros, sim_process):
     other = None
     while time.monotonic() < deadline and not any("connected" in r["msg"] for r in records):
         if other is None and wait_for(lambda: listener.is_subscribed, 1):
-            other = roslibpy.Ros(host="127.0.0.1", port=sim_process.port)
-            other.run(timeout=10)  # the server logs this connection
+            other = connect_roslibpy(sim_process.port)  # the server logs this connection
         time.sleep(0.05)
     connected = [r for r in records if "connected" in r["msg"]]
     assert connected and connected[0]["name"] == "/hitrobot_server"

@@ -5,51 +5,13 @@
 // Every wait is bounded; the script ends by itself.
 import * as ROSLIB from 'roslib';
 import ROSLIB1 from 'roslib1';
+import { assert, check, connect as open, finish, results, until, within } from './harness.mjs';
 
 const url = process.argv[2];
-const results = [];
 
-function within(ms, what, executor) {
-  return new Promise((resolve, reject) => {
-    const timer = setTimeout(() => reject(new Error(`timeout waiting for ${what}`)), ms);
-    executor((v) => { clearTimeout(timer); resolve(v); }, (e) => { clearTimeout(timer); reject(e); });
-  });
-}
-
-async function until(ms, what, predicate) {
-  const deadline = Date.now() + ms;
-  while (Date.now() < deadline) {
-    if (predicate()) return;
-    await new Promise((r) => setTimeout(r, 50));
-  }
-  throw new Error(`timeout waiting for ${what}`);
-}
-
-async function check(name, fn) {
-  try {
-    await fn();
-    results.push(`ok ${name}`);
-  } catch (err) {
-    results.push(`fail ${name}: ${err && err.message ? err.message : err}`);
-  }
-}
-
-function assert(cond, text) {
-  if (!cond) throw new Error(text);
-}
-
-async function connect(lib, options = {}) {
-  const ros = new lib.Ros({ url, ...options });
-  await within(5000, 'connection', (ok, bad) => {
-    ros.on('connection', () => ok());
-    ros.on('error', (e) => bad(new Error(`connection error ${e}`)));
-  });
-  return ros;
-}
-
-const ros2x = await connect(ROSLIB);
-const ros1x = await connect(ROSLIB1);
-const ros1xService = await connect(ROSLIB1, { groovyCompatibility: false });
+const ros2x = await open(ROSLIB, url);
+const ros1x = await open(ROSLIB1, url);
+const ros1xService = await open(ROSLIB1, url, { groovyCompatibility: false });
 
 // Four TF clients, one per form a client library uses, all following base_link in map.
 const options = { fixedFrame: 'map', angularThres: 0.01, transThres: 0.01, rate: 10.0 };
@@ -140,6 +102,4 @@ await check('cancel_all_goals_stops_follow_path', async () => {
   assert(q.x < p.x + 2.9, `the robot drove the whole path (x ${q.x.toFixed(2)})`);
 });
 
-for (const line of results) console.log(line);
-for (const ros of [ros2x, ros1x, ros1xService]) ros.close();
-process.exit(results.length > 0 && results.every((l) => l.startsWith('ok ')) ? 0 : 1);
+finish([ros2x, ros1x, ros1xService]);
