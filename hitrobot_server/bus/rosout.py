@@ -2,8 +2,9 @@
 
 Operators see the robot's log in rqt_console-like views, Foxglove's log panel or their own
 page, and clients that detect the ROS flavour from ``/rosout``'s type (Foxglove, Lichtblick)
-find ROS 1. Each record names the node that logged it (its module's node, as registered in
-:attr:`Bus.log_names`; the bridge itself otherwise) and the topics that node publishes.
+find ROS 1. Each record names the node that logged it (a record's ``ros_node`` extra, else its
+module's node as registered in :attr:`Bus.log_names`, else the bridge itself) and the topics
+that node publishes.
 
 Two guards keep logging from hurting the server: records logged while a batch is being
 published (by a subscriber, an encoder, a send buffer) are not published again, so ``/rosout``
@@ -78,6 +79,7 @@ class RosoutHandler(logging.Handler):
             "stamp": record.created,
             "level": ros_level(record.levelno),
             "logger": record.name,
+            "node": getattr(record, "ros_node", None),  # shared code names its node this way
             "msg": text[:MAX_TEXT],
             "file": record.filename,
             "function": record.funcName or "",
@@ -130,7 +132,7 @@ class RosoutHandler(logging.Handler):
             self._flushing = False
 
     def _publish(self, rec: dict) -> None:
-        node = self._node_of(rec["logger"])
+        node = rec.get("node") or self._node_of(rec["logger"])
         self.bus.publish(TOPIC, {
             "header": {"seq": 0, "stamp": ros_time(rec["stamp"]), "frame_id": ""},
             "level": rec["level"],

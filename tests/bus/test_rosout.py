@@ -10,7 +10,7 @@ import pytest
 from hitrobot_server.bus import rosout
 from hitrobot_server.bus.core import Bus
 from hitrobot_server.bus.rosout import RosoutHandler
-from hitrobot_server.nodes.base import Node
+from hitrobot_server.nodes.base import Node, RobotNode
 from hitrobot_server.types.registry import TypeRegistry
 
 from ..helpers import until
@@ -88,3 +88,23 @@ async def test_a_flood_is_bounded_and_reported(bus_and_log):
     assert len(got) < rosout.BURST + 50
     reports = [r for r in got if "not published" in r["msg"]]
     assert reports and reports[0]["level"] == 4
+
+
+async def test_shared_node_code_names_the_node_it_runs_for(bus_and_log):
+    """A worker failing inside the nodes' shared base is reported as that node's record."""
+    bus, got = bus_and_log
+    base_log = logging.getLogger("hitrobot_server.nodes.base")
+    handler = next(h for h in log.handlers if isinstance(h, RosoutHandler))
+    base_log.addHandler(handler)
+    try:
+        worker = RobotNode(bus, "/worker", None)
+
+        async def failing() -> None:
+            raise RuntimeError("sensor gone")
+
+        worker.every(0.01, failing, needs_robot=False)
+        await until(lambda: got, "the worker's error")
+        await worker.stop()
+    finally:
+        base_log.removeHandler(handler)
+    assert got[0]["name"] == "/worker" and "sensor gone" in got[0]["msg"]
