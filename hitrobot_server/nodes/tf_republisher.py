@@ -132,12 +132,11 @@ class TFRepublisherNode(RobotNode):
         return Subscription(goal)
 
     def _stream(self, sub: Subscription, send: Callable[[list[dict]], None]) -> asyncio.Task:
-        """Send ``sub``'s changed frames every period until the returned task is cancelled."""
+        """Hand ``sub``'s changed frames (maybe none) to ``send`` every period until the
+        returned task is cancelled."""
 
         async def tick() -> None:
-            transforms = sub.changed(self.buffer, self.bus.clock())
-            if transforms:
-                send(transforms)
+            send(sub.changed(self.buffer, self.bus.clock()))
 
         return self._counted(sub.period, tick)
 
@@ -168,12 +167,17 @@ class TFRepublisherNode(RobotNode):
         if old is not None:
             old.task.cancel()
 
+        sender = message.origin.node if message.origin is not None else None
+
         def send(transforms: list[dict]) -> None:
-            self.publish(f"{NODE_NAME}/feedback", {
-                "header": self._header(),
-                "status": {"goal_id": goal_id, "status": AL_ACTIVE, "text": ""},
-                "feedback": {"transforms": transforms},
-            })
+            if sender is not None and sender not in self.bus.nodes:
+                self._end_ros1(goal_id["id"], "the client that sent the goal is gone")
+            elif transforms:
+                self.publish(f"{NODE_NAME}/feedback", {
+                    "header": self._header(),
+                    "status": {"goal_id": goal_id, "status": AL_ACTIVE, "text": ""},
+                    "feedback": {"transforms": transforms},
+                })
 
         self._ros1[goal_id["id"]] = _Ros1Goal(goal_id, self._stream(sub, send))
         self._publish_status_now()
@@ -190,11 +194,17 @@ class TFRepublisherNode(RobotNode):
                   or (before != (0, 0) and (g.goal_id["stamp"]["secs"],
                                             g.goal_id["stamp"]["nsecs"]) <= before)]
         for goal in chosen:
-            goal.task.cancel()
-            del self._ros1[goal.goal_id["id"]]
-            self._publish_result(goal.goal_id, AL_PREEMPTED, "cancelled")
-        if chosen:
-            self._publish_status_now()
+            self._end_ros1(goal.goal_id["id"], "cancelled")
+
+    def _end_ros1(self, goal_id: str, text: str) -> None:
+        """Stop a goal (cancelled, or its client disconnected without cancelling: a reloaded
+        page never does) and report it PREEMPTED."""
+        goal = self._ros1.pop(goal_id, None)
+        if goal is None:
+            return
+        goal.task.cancel()
+        self._publish_result(goal.goal_id, AL_PREEMPTED, text)
+        self._publish_status_now()
 
     def _publish_result(self, goal_id: dict, status: int, text: str) -> None:
         self.publish(f"{NODE_NAME}/result", {
@@ -219,7 +229,8 @@ class TFRepublisherNode(RobotNode):
             sub = self._subscription(handle.goal)
         except ValueError as exc:
             return GoalOutcome(STATUS_ABORTED, f"tf2_web_republisher: {exc}", False)
-        task = self._stream(sub, lambda transforms: handle.feedback({"transforms": transforms}))
+        task = self._stream(sub, lambda transforms: transforms and handle.feedback(
+            {"transforms": transforms}))
         try:
             await handle.cancelled.wait()
         finally:

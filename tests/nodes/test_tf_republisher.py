@@ -124,3 +124,19 @@ async def test_republish_tfs_topic_and_its_timeout(client):
         raise AssertionError(f"{name} still exists")
     bad = await client.call("/republish_tfs", {**goal(target_frame=""), "timeout": {}})
     assert bad["result"] is False and "target_frame" in bad["values"]
+
+
+async def test_goal_of_a_client_that_left_without_cancelling_ends(client):
+    """A reloaded page never cancels its TFClient goal; the goal must not run forever."""
+    await client.send({"op": "subscribe", "topic": "/tf2_web_republisher/result"})
+    await client.call("/rosapi/get_time")  # the subscription is in place
+    leaving = await WsClient.open(int(client.ws.remote_address[1]))
+    await leaving.send({"op": "advertise", "topic": "/tf2_web_republisher/goal",
+                        "type": GOAL_TYPE})
+    await leaving.send({"op": "publish", "topic": "/tf2_web_republisher/goal",
+                        "msg": {"goal_id": {"id": "left"}, "goal": goal()}})
+    await leaving.call("/rosapi/get_time")  # the goal was taken
+    await leaving.close()
+    result = await client.expect(op="publish", topic="/tf2_web_republisher/result")
+    assert result["msg"]["status"]["goal_id"]["id"] == "left"
+    assert result["msg"]["status"]["status"] == 2 and "gone" in result["msg"]["status"]["text"]
