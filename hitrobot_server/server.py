@@ -8,6 +8,7 @@ import logging
 import ssl
 
 from .bus.core import Bus
+from .bus.rosout import RosoutHandler
 from .config import Settings
 from .nodes.assembly import start_nodes, stop_nodes
 from .nodes.base import Node
@@ -20,6 +21,7 @@ from .transport.websocket import start_websocket
 from .types.registry import TypeRegistry
 
 log = logging.getLogger(__name__)
+PACKAGE_LOGGER = "hitrobot_server"  # every record of ours goes to /rosout too
 
 
 class HitrobotServer:
@@ -38,6 +40,7 @@ class HitrobotServer:
         self._tcp: asyncio.Server | None = None
         self.port: int | None = None
         self.tcp_port: int | None = None
+        self._rosout: RosoutHandler | None = None
 
     def new_session(self, peer: str, transport: str) -> Session:
         session = Session(
@@ -53,6 +56,8 @@ class HitrobotServer:
             if not s.auth_secret_file:
                 raise ValueError("--authenticate needs --auth-secret-file")
             s.auth_secret = load_secret(s.auth_secret_file)
+        self._rosout = RosoutHandler(self.bus, s.log_level.upper())
+        logging.getLogger(PACKAGE_LOGGER).addHandler(self._rosout)
         self.backend = build_backend(s)
         if self.backend is not None:
             await self.backend.start()
@@ -104,6 +109,10 @@ class HitrobotServer:
         if self.backend is not None:
             await self.backend.stop()
             self.backend = None
+        if self._rosout is not None:
+            logging.getLogger(PACKAGE_LOGGER).removeHandler(self._rosout)
+            self._rosout.close()
+            self._rosout = None
 
 
 def _tls_context(settings: Settings) -> ssl.SSLContext:

@@ -13,7 +13,25 @@ from collections.abc import Callable
 
 import cbor2
 import orjson
+import roslibpy
 from websockets.asyncio.client import connect
+
+
+def connect_roslibpy(port: int) -> roslibpy.Ros:
+    """A connected roslibpy client (Twisted transport) of a server on loopback."""
+    r = roslibpy.Ros(host="127.0.0.1", port=port)
+    r.run(timeout=10)
+    assert r.is_connected
+    return r
+
+
+async def until(predicate: Callable[[], object], what: str, timeout: float = 2.0) -> None:
+    """Wait (polling, bounded) for an in-process condition."""
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"never saw {what} within {timeout}s")
+        await asyncio.sleep(0.01)
 
 
 def matches(msg: dict, **fields) -> bool:

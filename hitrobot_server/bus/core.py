@@ -9,16 +9,18 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import time
 from collections.abc import Callable, Hashable, Iterable
 
 from ..types.registry import TypeRegistry, UnknownType
+from .action_interfaces import ActionInterfaces
+from .clock import wall_clock
 from .errors import ActionError, BusError, ServiceError
 from .names import canonical
 from .params import ParamStore
 from .services import (
     STATUS_ABORTED,
     STATUS_CANCELED,
+    STATUS_EXECUTING,
     Action,
     ActionHandler,
     GoalHandle,
@@ -37,7 +39,7 @@ class Bus:
         types: TypeRegistry,
         *,
         unregister_timeout: float = 10.0,
-        clock: Callable[[], float] = time.time,
+        clock: Callable[[], float] = wall_clock,
     ):
         self.types = types
         self.clock = clock
@@ -46,8 +48,10 @@ class Bus:
         self.services: dict[str, Service] = {}
         self._replaced: dict[str, list[Service]] = {}  # providers replaced, the latest last
         self.actions: dict[str, Action] = {}
+        self._action_interfaces: dict[str, ActionInterfaces] = {}
         self.params = ParamStore()
         self.nodes: dict[str, int] = {}  # node name -> registration count (for rosapi)
+        self.log_names: dict[str, str] = {}  # logger (module) name -> node name (for /rosout)
 
     # ---------------------------------------------------------------- topics
     def topic(self, name: str) -> Topic | None:
@@ -255,10 +259,17 @@ class Bus:
         except UnknownType as exc:
             raise BusError(str(exc.args[0] if exc.args else exc)) from None
         if old is not None:
+            self._drop_interfaces(name)
             for goal in list(old.goals.values()):
                 goal.cancel()
         action = self.actions[name] = Action(name, atype, owner, node, handler, client=client)
+        self._action_interfaces[name] = ActionInterfaces(self, action)
         return action
+
+    def _drop_interfaces(self, name: str) -> None:
+        interfaces = self._action_interfaces.pop(name, None)
+        if interfaces is not None:
+            interfaces.close()
 
     def unadvertise_action(self, name: str, owner: Hashable) -> bool:
         name = canonical(name)
@@ -268,31 +279,46 @@ class Bus:
         del self.actions[name]
         for goal in list(action.goals.values()):
             goal.cancel()
+        self._drop_interfaces(name)
         return True
 
     def action(self, name: str) -> Action | None:
         return self.actions.get(canonical(name))
 
     def start_goal(
-        self, name: str, goal: dict, on_feedback: Callable[[dict], None] | None = None
+        self,
+        name: str,
+        goal: dict,
+        on_feedback: Callable[[dict], None] | None = None,
+        goal_uuid: bytes | None = None,
     ) -> tuple[GoalHandle, asyncio.Task[GoalOutcome]]:
         """Hand a goal to the provider; the task resolves to its outcome, never raises."""
         action = self.action(name)
         if action is None:
             raise ActionError(f"action '{canonical(name)}' does not exist")
-        handle = GoalHandle(action, action.new_goal_id(), goal, on_feedback)
+        handle = GoalHandle(action, action.new_goal_id(), goal, on_feedback,
+                            accepted_at=self.clock())
+        if goal_uuid is not None:
+            handle.uuid = goal_uuid
         action.goals[handle.goal_id] = handle
+        handle.set_status(STATUS_EXECUTING)
 
         async def run() -> GoalOutcome:
+            outcome = GoalOutcome(STATUS_ABORTED, f"action '{action.name}' gave no outcome", False)
             try:
-                return await action.handler(handle)
+                outcome = await action.handler(handle)
             except asyncio.CancelledError:
-                return GoalOutcome(STATUS_CANCELED, "goal cancelled", False)
+                outcome = GoalOutcome(STATUS_CANCELED, "goal cancelled", False)
             except Exception as exc:
                 log.exception("action %s failed", action.name)
-                return GoalOutcome(STATUS_ABORTED, f"action '{action.name}' failed: {exc}", False)
+                outcome = GoalOutcome(STATUS_ABORTED, f"action '{action.name}' failed: {exc}",
+                                      False)
             finally:
                 action.goals.pop(handle.goal_id, None)
+                handle.status = outcome.status
+                for watcher in list(action.watchers):
+                    watcher.goal_finished(handle, outcome)
+            return outcome
 
         return handle, asyncio.ensure_future(run())
 

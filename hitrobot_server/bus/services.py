@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import asyncio
 import itertools
+import uuid
 from collections.abc import Awaitable, Callable, Hashable
 from dataclasses import dataclass, field
+from typing import Protocol
 
 from ..types.registry import ActionType, SrvType
 
@@ -38,6 +40,7 @@ STATUS_CANCELING = 3
 STATUS_SUCCEEDED = 4
 STATUS_CANCELED = 5
 STATUS_ABORTED = 6
+ACTIVE_STATUSES = frozenset({STATUS_ACCEPTED, STATUS_EXECUTING, STATUS_CANCELING})
 
 
 @dataclass(eq=False)
@@ -50,16 +53,28 @@ class GoalHandle:
     on_feedback: Callable[[dict], None] | None = None
     cancelled: asyncio.Event = field(default_factory=asyncio.Event)
     on_cancel: list[Callable[[], None]] = field(default_factory=list)
+    uuid: bytes = field(default_factory=lambda: uuid.uuid4().bytes)  # the ROS 2 goal id
+    accepted_at: float = 0.0  # bus clock seconds
+    status: int = STATUS_EXECUTING
 
     def feedback(self, values: dict) -> None:
         if self.on_feedback is not None:
             self.on_feedback(values)
+        for watcher in list(self.action.watchers):
+            watcher.goal_feedback(self, values)
 
     def cancel(self) -> None:
         if not self.cancelled.is_set():
             self.cancelled.set()
+            if self.status in ACTIVE_STATUSES:
+                self.set_status(STATUS_CANCELING)
             for cb in list(self.on_cancel):
                 cb()
+
+    def set_status(self, status: int) -> None:
+        self.status = status
+        for watcher in list(self.action.watchers):
+            watcher.goal_status(self)
 
 
 @dataclass(frozen=True)
@@ -70,6 +85,16 @@ class GoalOutcome:
 
 
 ActionHandler = Callable[[GoalHandle], Awaitable[GoalOutcome]]
+
+
+class ActionWatcher(Protocol):
+    """Sees every goal of an action, whoever sent it (the ROS 2 hidden interfaces do)."""
+
+    def goal_status(self, handle: GoalHandle) -> None: ...
+
+    def goal_feedback(self, handle: GoalHandle, values: dict) -> None: ...
+
+    def goal_finished(self, handle: GoalHandle, outcome: GoalOutcome) -> None: ...
 
 _goal_ids = itertools.count(1)
 
@@ -83,6 +108,7 @@ class Action:
     handler: ActionHandler
     goals: dict[str, GoalHandle] = field(default_factory=dict)
     client: bool = False  # provided by a bridge client, not an in-process node
+    watchers: list[ActionWatcher] = field(default_factory=list)
 
     @property
     def type_name(self) -> str:

@@ -22,11 +22,12 @@ from .pointclouds import PointCloudNode
 from .rosapi import Rosapi
 from .shell import ShellNode
 from .slamware import SlamwareNode
+from .tf_republisher import TFRepublisherNode
 
 
 async def start_nodes(bus: Bus, settings: Settings, backend: RobotBackend | None) -> list[Node]:
     """Create and start every node; robot-facing nodes only when a robot is attached."""
-    nodes: list[Node] = [Rosapi(bus, settings)]
+    nodes: list[Node] = [Rosapi(bus, settings), TFRepublisherNode(bus)]
     if backend is not None:
         nodes += robot_nodes(bus, settings, backend)
     nodes.append(DiagnosticsNode(bus, backend))  # runs without a robot too (the bridge part)

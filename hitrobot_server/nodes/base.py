@@ -31,6 +31,8 @@ class Node:
         self.name = name
         self._subs: list[tuple[str, object]] = []
         bus.register_node(name)
+        if type(self).__module__ != __name__:  # its module's records name it on /rosout
+            bus.log_names[type(self).__module__] = name
 
     def advertise(self, topic: str, type_name: str, latch: bool = False) -> None:
         self.bus.advertise(topic, type_name, self, self.name, latch=latch)
@@ -89,9 +91,10 @@ class RobotNode(Node):
                     except NotConnectedError:
                         pass
                     except BackendError as exc:
-                        log.warning("%s: %s", self.name, exc)
+                        log.warning("%s: %s", self.name, exc, extra={"ros_node": self.name})
                     except Exception:
-                        log.exception("%s: worker failed", self.name)
+                        log.exception("%s: worker failed", self.name,
+                                      extra={"ros_node": self.name})
                 due += period
                 delay = due - clock.time()
                 if delay < 0:

@@ -18,8 +18,6 @@ item is ERROR and the other robot items are STALE.
 
 from __future__ import annotations
 
-import time
-
 from ..bus.core import Bus
 from ..robot.backend import ACTION_PREFIX, BackendError, NotConnectedError, RobotBackend
 from ..robot.model import HealthLevel
@@ -75,7 +73,7 @@ class DiagnosticsNode(RobotNode):
             statuses += [summary("/Robot", robot), *robot]
         bridge = self.bridge_items()
         statuses += [summary("/Bridge", bridge), *bridge]
-        self.publish(TOPIC, {"header": m.header("", time.time()), "status": statuses})
+        self.publish(TOPIC, {"header": m.header("", self.bus.clock()), "status": statuses})
 
     def bridge_items(self) -> list[dict]:
         bus = self.bus

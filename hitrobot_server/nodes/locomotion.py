@@ -224,7 +224,7 @@ class LocomotionNode(RobotNode):
     def _odometry(self, odo: Odometry, frame: str) -> dict:
         t = odo.twist
         return {
-            "header": m.header(frame, time.time()),
+            "header": m.header(frame, self.bus.clock()),
             "child_frame_id": self.params.robot_frame,
             "pose": {"pose": m.pose(odo.pose), "covariance": [0.0] * 36},
             "twist": {"twist": {"linear": {"x": t.vx, "y": t.vy, "z": 0.0},

@@ -117,7 +117,7 @@ class MoveBaseNode(RobotNode):
     def _header(self, topic: str, frame: str = "") -> dict:
         """A header numbered per topic, as a ROS publisher numbers its messages."""
         seq = self._seqs.setdefault(topic, itertools.count(1))
-        return m.header(frame, time.time(), next(seq))
+        return m.header(frame, self.bus.clock(), next(seq))
 
     @staticmethod
     def _goal_status(goal: Goal) -> dict:
@@ -156,7 +156,7 @@ class MoveBaseNode(RobotNode):
     def _on_goal(self, message: Message) -> None:
         msg = message.msg
         goal_id = {"stamp": dict(msg["goal_id"]["stamp"]), "id": msg["goal_id"]["id"]}
-        now = time.time()
+        now = self.bus.clock()
         if not goal_id["id"]:  # actionlib's GoalIDGenerator: name-count-stamp
             goal_id["id"] = f"{self.server}-{next(self._ids)}-{now:.6f}"
         if goal_id["stamp"]["secs"] == 0 and goal_id["stamp"]["nsecs"] == 0:

@@ -316,7 +316,7 @@ class Nav2ActionsNode(RobotNode):
         return GoalOutcome(STATUS_SUCCEEDED, self._path_result(points, target.yaw, spent), True)
 
     def _path_result(self, points: list[Point2D], yaw: float, spent: float) -> dict:
-        now = time.time()
+        now = self.bus.clock()
         poses = path_poses(resample(points), yaw)
         return {
             "path": {"header": m.header(self.map_frame, now),

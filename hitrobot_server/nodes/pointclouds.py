@@ -194,7 +194,7 @@ class PointCloudNode(RobotNode):
                 bus.params.set(key, value)
         for topic in (CLOUD_TOPIC, MERGED_TOPIC, DOWNSAMPLED_TOPIC):
             self.advertise(topic, "sensor_msgs/PointCloud2")
-        self._scans: deque[LaserScan] = deque(maxlen=64)
+        self._scans: deque[tuple[LaserScan, float]] = deque(maxlen=64)  # with the bus time
         self._last_stamp: float | None = None
         self._next_cloud = 0.0
         self._next_merged = 0.0
@@ -223,16 +223,17 @@ class PointCloudNode(RobotNode):
         if not (cloud or merged):
             self._scans.clear()
             return
+        taken = self.bus.clock()  # the backend's own stamp orders frames, never goes out
         scan = await self.backend.get_laser_scan()
         fresh = scan.stamp != self._last_stamp
         if fresh:
             self._last_stamp = scan.stamp
-            self._scans.append(scan)
+            self._scans.append((scan, taken))
         now = time.monotonic()
         if cloud and fresh and now >= self._next_cloud:
             self._next_cloud = now + self.param("cloud_period", 0.0, 60.0) - 1e-3
             self.publish(CLOUD_TOPIC, point_cloud2(scan_to_map(scan), self.map_frame,
-                                                   scan.stamp))
+                                                   self._scans[-1][1]))
         if merged and now >= self._next_merged:
             self._next_merged = now + self.param("merged_period", 0.05, 60.0) - 1e-3
             self._publish_merged()
@@ -242,8 +243,8 @@ class PointCloudNode(RobotNode):
         scans = list(self._scans)[-count:]
         if not scans:
             return
-        points = extrude(np.concatenate([scan_to_map(s) for s in scans]))
-        stamp = scans[-1].stamp
+        points = extrude(np.concatenate([scan_to_map(s) for s, _ in scans]))
+        stamp = scans[-1][1]
         self.publish(MERGED_TOPIC, point_cloud2(points, self.map_frame, stamp))
         leaf = self.param("leaf_size", 0.005, 10.0)
         self.publish(DOWNSAMPLED_TOPIC,

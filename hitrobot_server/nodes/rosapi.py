@@ -6,7 +6,6 @@ relative ``rosapi/<name>`` reaches the same service.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Awaitable, Callable
 
 import orjson
@@ -221,6 +220,6 @@ class Rosapi(Node):
         return {"names": [n for n in self.bus.params.names() if allow(n)]}
 
     async def get_time(self, req: dict) -> dict:
-        now = time.time()
+        now = self.bus.clock()
         secs = int(now)
         return {"time": {"secs": secs, "nsecs": int((now - secs) * 1e9)}}

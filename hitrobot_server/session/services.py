@@ -106,7 +106,10 @@ class ServiceOps:
             try:
                 values = await s.bus.call_service(name, request, timeout)
             except ServiceError as exc:
-                fail(str(exc))
+                if exc.values is not None:  # the provider's own failure values, as rosbridge
+                    s.send({**reply, "values": exc.values, "result": False}, fragment_size=frag)
+                else:
+                    fail(str(exc))
                 return
             s.send(
                 {**reply, "values": values, "result": True},
@@ -167,8 +170,8 @@ class ServiceOps:
         fut, mtype, name = entry
         if fut.done():
             return
-        if msg["result"] is False:
-            values = msg.get("values")
+        values = msg.get("values")
+        if msg["result"] is False and not isinstance(values, dict):
             text = (
                 values
                 if isinstance(values, str) and values
@@ -177,11 +180,25 @@ class ServiceOps:
             fut.set_exception(ServiceError(text))
             return
         try:
-            value, _missing = from_json(mtype, msg.get("values") or {}, s.types)
+            value, _missing = from_json(mtype, values or {}, s.types)
         except ConversionError as exc:
             fut.set_exception(ServiceError(f"service '{name}' sent an invalid response: {exc}"))
             raise ProtocolError(f"service_response: field 'values': {exc}", rid) from None
-        fut.set_result(value)
+        if msg["result"] is False:
+            fut.set_exception(ServiceError(f"service '{name}' answered result:false", value))
+        else:
+            fut.set_result(value)
+
+    def invalid_response(self, obj: object, text: str) -> None:
+        """A ``service_response`` too malformed to run (``result: null``, no ``result``) still
+        answers the call it names: the caller gets a failed response, never silence."""
+        if not isinstance(obj, dict) or obj.get("op") != "service_response":
+            return
+        rid = obj.get("id")
+        entry = self.pending.get(rid) if isinstance(rid, str) else None
+        if entry is not None and not entry[0].done():
+            entry[0].set_exception(
+                ServiceError(f"service '{entry[2]}' sent an invalid response: {text}"))
 
     def _fail_pending(self, name: str | None, text: str) -> None:
         for _rid, (fut, _mtype, svc) in list(self.pending.items()):

@@ -161,6 +161,7 @@ class Session:
             ops.validate_op(msg)
             self._handlers[msg["op"]](msg)
         except ProtocolError as exc:
+            self.service_ops.invalid_response(obj, exc.msg)
             self.status(exc.level, exc.msg, exc.id if exc.id is not None else op_id)
         except (BusError, ConversionError) as exc:
             op = obj.get("op") if isinstance(obj, dict) else "?"

@@ -168,6 +168,27 @@ def _store_actions(store: Typestore, typs: _Typesdict, actions: set[str]) -> Non
             actions.add(f"{pkg}/action/{base}")
 
 
+def _ros2_action_interfaces(typs: _Typesdict, srvs: set[str], actions: set[str]) -> None:
+    """The types of every action's hidden ROS 2 services and feedback topic.
+
+    ROS 2 serves an action as ``_action/send_goal`` (``X_SendGoal``), ``_action/get_result``
+    (``X_GetResult``) and the ``_action/feedback`` topic (``X_FeedbackMessage``).
+    """
+    for action in actions:
+        pkg, _, name = action.partition("/action/")
+        uuid = "unique_identifier_msgs/UUID goal_id"
+        parts = {
+            "SendGoal_Request": f"{uuid}\n{pkg}/{name}Goal goal",
+            "SendGoal_Response": "bool accepted\ntime stamp",
+            "GetResult_Request": uuid,
+            "GetResult_Response": f"int8 status\n{pkg}/{name}Result result",
+            "FeedbackMessage": f"{uuid}\n{pkg}/{name}Feedback feedback",
+        }
+        for suffix, text in parts.items():
+            typs[f"{action}_{suffix}"] = _parse(text, pkg, f"{name}_{suffix}")
+        srvs.update((f"{action}_SendGoal", f"{action}_GetResult"))
+
+
 def _check_references(store: Typestore) -> None:
     """Fail at load time, not at first use, when a definition names a type nobody defines."""
     for name, (_, fields) in store.fielddefs.items():
@@ -204,6 +225,7 @@ class TypeRegistry:
             for pkg_dir in sorted(p for p in root.iterdir() if p.is_dir()):
                 _load_package(pkg_dir, typs, srvs, actions)
         _store_actions(self.typestore, typs, actions)
+        _ros2_action_interfaces(typs, srvs, actions)
         if typs:
             self.typestore.register(typs)
         _check_references(self.typestore)

@@ -36,14 +36,32 @@ async def test_roslibjs_client_suite(make_server, node_modules):
         return GoalOutcome(STATUS_SUCCEEDED, {}, True)
 
     node.action("/js/count", "nav2_msgs/FollowPath", count)
+    await run_checks(node_modules / "roslibjs_client.mjs", server.port, CHECKS, 90)
+
+
+async def run_checks(script: Path, port: int, checks: list[str], timeout: float) -> None:
+    """Run a Node script of checks against the server; every named check must say ok."""
     proc = await asyncio.create_subprocess_exec(
-        "node", str(node_modules / "roslibjs_client.mjs"), f"ws://127.0.0.1:{server.port}",
-        stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.STDOUT, cwd=node_modules,
+        "node", str(script), f"ws://127.0.0.1:{port}",
+        stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.STDOUT, cwd=script.parent,
     )
-    out, _ = await asyncio.wait_for(proc.communicate(), 90)
+    out, _ = await asyncio.wait_for(proc.communicate(), timeout)
     lines = out.decode().splitlines()
     report = {line.split(":")[0].split(" ", 1)[1]: line for line in lines
               if line.startswith(("ok ", "fail "))}
-    for name in CHECKS:
+    for name in checks:
         assert report.get(name, "").startswith("ok "), f"{name}: {report.get(name)}\n{out.decode()}"
     assert proc.returncode == 0
+
+
+TF_CHECKS = ["tfclient_2x_actionlib", "ros2tfclient_2x_action", "tfclient_1x_actionlib",
+             "tfclient_1x_republish_service", "rosout_type", "cancel_all_goals_stops_follow_path"]
+
+
+async def test_roslibjs_tf_clients_and_cancel_all_goals(make_server, node_modules):
+    """roslibjs 2.x TFClient and ROS2TFClient, roslibjs 1.4.1 TFClient (actionlib and
+    /republish_tfs forms) follow the driving robot; cancelAllGoals stops /follow_path."""
+    if not (node_modules / "node_modules" / "roslib1").is_dir():
+        raise RuntimeError("roslib 1.4.1 is not installed: run `npm ci --prefix tests/js`")
+    server = await make_server(robot="sim")
+    await run_checks(node_modules / "roslibjs_tf.mjs", server.port, TF_CHECKS, 120)

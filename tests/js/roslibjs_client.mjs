@@ -3,41 +3,12 @@
 // Prints one line per check: "ok <name>" or "fail <name>: <reason>"; exits 1 if any failed.
 // Every wait is bounded; the script ends by itself.
 import * as ROSLIB from 'roslib';
+import { assert, check, connect, finish, within } from './harness.mjs';
 
 const url = process.argv[2];
-const results = [];
 
-function within(ms, what, executor) {
-  return new Promise((resolve, reject) => {
-    const timer = setTimeout(() => reject(new Error(`timeout waiting for ${what}`)), ms);
-    executor((v) => { clearTimeout(timer); resolve(v); }, (e) => { clearTimeout(timer); reject(e); });
-  });
-}
-
-async function check(name, fn) {
-  try {
-    await fn();
-    results.push(`ok ${name}`);
-  } catch (err) {
-    results.push(`fail ${name}: ${err && err.message ? err.message : err}`);
-  }
-}
-
-function assert(cond, text) {
-  if (!cond) throw new Error(text);
-}
-
-async function connect() {
-  const ros = new ROSLIB.Ros({ url });
-  await within(5000, 'connection', (ok, bad) => {
-    ros.on('connection', () => ok());
-    ros.on('error', (e) => bad(new Error(`connection error ${e}`)));
-  });
-  return ros;
-}
-
-const a = await connect();
-const b = await connect();
+const a = await connect(ROSLIB, url);
+const b = await connect(ROSLIB, url);
 
 await check('pubsub', async () => {
   const sub = new ROSLIB.Topic({ ros: b, name: '/js/chatter', messageType: 'std_msgs/String' });
@@ -134,7 +105,4 @@ await check('status_errors_reach_client', async () => {
   assert(s.level === 'error' && s.msg.includes('nope_msgs/Nothing'), JSON.stringify(s));
 });
 
-for (const line of results) console.log(line);
-a.close();
-b.close();
-process.exit(results.every((l) => l.startsWith('ok ')) ? 0 : 1);
+finish([a, b]);

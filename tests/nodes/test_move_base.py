@@ -16,7 +16,7 @@ try:  # roslibpy 1.x
 except ImportError:  # roslibpy 2.x
     from roslibpy.ros1.actionlib import ActionClient, Goal, GoalStatus
 
-from ..helpers import ServerProcess, Watcher
+from ..helpers import ServerProcess, Watcher, connect_roslibpy
 
 SPEED = "4"  # simulated seconds per wall second
 ACTION = "move_base_msgs/MoveBaseAction"
@@ -33,9 +33,7 @@ def sim_process():
 
 @pytest.fixture
 def ros(sim_process):
-    r = roslibpy.Ros(host="127.0.0.1", port=sim_process.port)
-    r.run(timeout=10)
-    assert r.is_connected
+    r = connect_roslibpy(sim_process.port)
     yield r
     r.close()
 

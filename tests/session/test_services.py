@@ -121,3 +121,51 @@ async def test_call_service_with_bad_compression_or_timeout_is_refused(client, e
                        "timeout": 0})
     reply = await client.expect(op="service_response", id="zero")
     assert reply["result"] is True  # 0 still means "no timeout"
+
+
+async def _provider_and_call(server, service: str, type_name: str) -> tuple[WsClient, WsClient,
+                                                                           dict]:
+    """A client serving ``service`` (advertise acknowledged) and a call it has received."""
+    provider = await WsClient.open(server.port)
+    caller = await WsClient.open(server.port)
+    await provider.send({"op": "set_level", "level": "info"})
+    await provider.send({"op": "advertise_service", "id": "adv", "service": service,
+                         "type": type_name})
+    await provider.expect(op="status", id="adv")
+    await caller.send({"op": "call_service", "id": "c", "service": service,
+                       "args": {"a": 2, "b": 3}})
+    return provider, caller, await provider.expect(op="call_service")
+
+
+async def test_provider_result_false_values_reach_the_caller(server):
+    """rosbridge passes a provider's values with result:false; roslibpy's AddTwoInts test
+    relies on it."""
+    provider, caller, req = await _provider_and_call(server, "/sum", "rospy_tutorials/AddTwoInts")
+    await provider.send({"op": "service_response", "id": req["id"], "service": "/sum",
+                         "values": {"sum": 5}, "result": False})
+    reply = await caller.expect(op="service_response", id="c")
+    assert reply["result"] is False and reply["values"] == {"sum": 5}
+
+
+async def test_provider_result_null_still_answers_the_caller(server):
+    """roslibpy sends result:null when a handler returns None: the caller gets a failed
+    response with the reason and the provider a status error."""
+    provider, caller, req = await _provider_and_call(server, "/sum2",
+                                                     "example_interfaces/AddTwoInts")
+    await provider.send({"op": "service_response", "id": req["id"], "service": "/sum2",
+                         "values": {"sum": 5}, "result": None})
+    reply = await caller.expect(op="service_response", id="c")
+    assert reply["result"] is False and "invalid response" in reply["values"]
+    assert "result" in reply["values"]
+    status = await provider.expect(op="status", id=req["id"])
+    assert status["level"] == "error" and "result" in status["msg"]
+
+
+async def test_provider_result_false_with_bad_values_answers_both(server):
+    provider, caller, req = await _provider_and_call(server, "/sum3", "rospy_tutorials/AddTwoInts")
+    await provider.send({"op": "service_response", "id": req["id"], "service": "/sum3",
+                         "values": {"total": 5}, "result": False})
+    reply = await caller.expect(op="service_response", id="c")
+    assert reply["result"] is False and "total" in reply["values"]
+    status = await provider.expect(op="status", id=req["id"])
+    assert status["level"] == "error" and "total" in status["msg"]

@@ -17,7 +17,6 @@ import asyncio
 import contextlib
 import logging
 import math
-import time
 from collections.abc import Awaitable, Callable
 
 import numpy as np
@@ -226,7 +225,7 @@ class MapManager(RobotNode):
         grid = self.compose()
         if grid is None or (not force and grid.same_as(self.published)):
             return
-        now = time.time()
+        now = self.bus.clock()
         self.publish(MAP_TOPIC, occupancy_message(grid, MAP_FRAME, now))
         self.published = grid
         self._last_publish = asyncio.get_running_loop().time()

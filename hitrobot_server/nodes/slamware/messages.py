@@ -7,10 +7,10 @@ the same numbers from us as from the real node.
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 
+from ...bus.clock import ros_time, wall_clock
 from ...robot.model import (
     BasicSensorInfo,
     BasicSensorValue,
@@ -30,9 +30,8 @@ OCCUPANCY_LUT = np.array([-1] + [0] * 127 + [100] * 128, dtype=np.int8)
 
 
 def stamp(t: float | None = None) -> dict:
-    t = time.time() if t is None else t
-    secs = int(t)
-    return {"secs": secs, "nsecs": min(int((t - secs) * 1e9), 999_999_999)}
+    """A ROS time of ``t`` (bus-clock seconds), or of now on the server's one clock."""
+    return ros_time(wall_clock() if t is None else t)
 
 
 def header(frame_id: str, t: float | None = None, seq: int = 0) -> dict:
@@ -71,8 +70,10 @@ def transform(parent: str, child: str, p: Pose2D, t: float) -> dict:
     }
 
 
-def laser_scan(scan: LaserScan, frame_id: str, compensate: bool, scan_time: float) -> dict | None:
-    """sensor_msgs/LaserScan the way the node builds it; None for fewer than two returns."""
+def laser_scan(scan: LaserScan, frame_id: str, compensate: bool, scan_time: float,
+               t: float) -> dict | None:
+    """sensor_msgs/LaserScan the way the node builds it, stamped ``t`` (bus clock, not the
+    backend's own stamp); None for fewer than two returns."""
     angles = np.asarray(scan.angles, dtype=np.float64)
     ranges = np.asarray(scan.ranges, dtype=np.float64)
     valid = np.isfinite(ranges) & (ranges > 0)
@@ -99,7 +100,7 @@ def laser_scan(scan: LaserScan, frame_id: str, compensate: bool, scan_time: floa
         count = len(out)
         increment = (angle_max - angle_min) / (count - 1)
     return {
-        "header": header(frame_id, scan.stamp),
+        "header": header(frame_id, t),
         "angle_min": float(angle_min),
         "angle_max": float(angle_max),
         "angle_increment": float(increment),

@@ -110,6 +110,8 @@ class SlamwareNode(RobotNode):
 
         self.topic_scan = self._resolve(p.scan_topic)
         self.topic_odom = self._resolve(p.odom_topic)
+        self.scan_topics = self._with_alias(self.topic_scan, p.conventional_scan_topic)
+        self.odom_topics = self._with_alias(self.topic_odom, p.conventional_odom_topic)
         self.topic_map = self._resolve(p.map_topic)
         self.topic_map_info = self._resolve(p.map_info_topic)
         self.topic_sensors_info = self._resolve(p.basic_sensors_info_topic)
@@ -120,8 +122,8 @@ class SlamwareNode(RobotNode):
         self.topic_tracks = self._resolve("virtual_tracks")
         self.topic_device = self._resolve("robot_device_info")
         for topic, type_name, latch in (
-            (self.topic_scan, "sensor_msgs/LaserScan", False),
-            (self.topic_odom, "nav_msgs/Odometry", False),
+            *((t, "sensor_msgs/LaserScan", False) for t in self.scan_topics),
+            *((t, "nav_msgs/Odometry", False) for t in self.odom_topics),
             (self.topic_map, "nav_msgs/OccupancyGrid", True),
             (self.topic_map_info, "nav_msgs/MapMetaData", True),
             (self.topic_sensors_info, f"{PKG}/BasicSensorInfoArray", True),
@@ -164,6 +166,12 @@ class SlamwareNode(RobotNode):
 
         self.service(self._resolve("sync_get_stcm"), f"{PKG}/SyncGetStcm", self._sync_get_stcm)
         self.service(self._resolve("sync_set_stcm"), f"{PKG}/SyncSetStcm", self._sync_set_stcm)
+
+    @classmethod
+    def _with_alias(cls, topic: str, alias: str) -> tuple[str, ...]:
+        """The node's own topic, plus its conventional name when set and different."""
+        alias = cls._resolve(alias) if alias else ""
+        return (topic, alias) if alias and alias != topic else (topic,)
 
     @staticmethod
     def _resolve(name: str) -> str:
@@ -213,15 +221,17 @@ class SlamwareNode(RobotNode):
         odo = await self.backend.get_odometry()
         p = self.params
         self._last_pose = odo.pose
-        now = time.time()
-        self.publish(self.topic_odom, {
+        now = self.bus.clock()
+        odom = {
             "header": m.header(p.odom_frame, now),
             "child_frame_id": p.robot_frame,
             "pose": {"pose": m.pose(odo.pose), "covariance": [0.0] * 36},
             "twist": {"twist": {"linear": {"x": odo.twist.vx, "y": odo.twist.vy, "z": 0.0},
                                 "angular": {"x": 0.0, "y": 0.0, "z": odo.twist.omega}},
                       "covariance": [0.0] * 36},
-        })
+        }
+        for topic in self.odom_topics:
+            self.publish(topic, odom)
         transforms = [m.transform(p.odom_frame, p.robot_frame, odo.pose, now)]
         if p.fixed_odom_map_tf:
             transforms.insert(0, m.transform(p.map_frame, p.odom_frame, Pose2D(0, 0, 0), now))
@@ -229,15 +239,17 @@ class SlamwareNode(RobotNode):
 
     async def _publish_scan(self) -> None:
         began = time.monotonic()
+        now = self.bus.clock()  # like the real node: the time the scan request started
         scan = await self.backend.get_laser_scan()
         scan_time = time.monotonic() - began
         msg = m.laser_scan(scan, self.params.laser_frame, self.params.angle_compensate,
-                           scan_time)
+                           scan_time, now)
         if msg is None:
             return
-        self.publish(self.topic_scan, msg)
+        for topic in self.scan_topics:
+            self.publish(topic, msg)
         self.publish("/tf", {"transforms": [
-            m.transform(self.params.map_frame, self.params.laser_frame, scan.pose, scan.stamp)
+            m.transform(self.params.map_frame, self.params.laser_frame, scan.pose, now)
         ]})
 
     async def _update_map(self) -> None:
@@ -276,7 +288,7 @@ class SlamwareNode(RobotNode):
             return
         data, ox, oy = self.map.occupancy()
         h, w = self.map.cells.shape
-        now = time.time()
+        now = self.bus.clock()
         info = {
             "map_load_time": m.stamp(now),
             "resolution": self.map.resolution,

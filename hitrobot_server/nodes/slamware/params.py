@@ -42,6 +42,10 @@ class SlamwareParams:
     path_topic: str = "global_plan_path"
     vel_control_topic: str = "/cmd_vel"
     goal_topic: str = "/move_base_simple/goal"
+    # ours: the same scan and odometry also on the conventional names generic ROS tools
+    # (rviz, Foxglove, ros3djs examples) look for; "" turns an alias off
+    conventional_scan_topic: str = "/scan"
+    conventional_odom_topic: str = "/odom"
 
     @classmethod
     def from_mapping(cls, values: dict[str, Any]) -> SlamwareParams:

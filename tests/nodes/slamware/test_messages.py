@@ -27,7 +27,8 @@ def test_compensated_scan_has_360_bins_from_minus_pi_and_closest_angle_wins():
     inc = 2 * math.pi / 360
     # two points fall into bin 180 (angle 0): the one nearer the bin centre must win
     msg = m.laser_scan(scan([0.004, -0.0001, 1.0, math.pi - 0.001], [5.0, 3.0, 2.0, 7.0]),
-                       "/laser", True, 0.1)
+                       "/laser", True, 0.1, 1.8e9 + 0.25)
+    assert msg["header"]["stamp"] == {"secs": 1_800_000_000, "nsecs": 250_000_000}
     assert len(msg["ranges"]) == 360
     assert msg["angle_min"] == pytest.approx(-math.pi)
     assert msg["angle_max"] == pytest.approx(math.pi - inc)
@@ -40,20 +41,20 @@ def test_compensated_scan_has_360_bins_from_minus_pi_and_closest_angle_wins():
 
 
 def test_descending_source_angles_reverse_the_compensated_scan():
-    msg = m.laser_scan(scan([1.0, 0.0, -1.0], [1.0, 2.0, 3.0]), "/laser", True, 0.1)
+    msg = m.laser_scan(scan([1.0, 0.0, -1.0], [1.0, 2.0, 3.0]), "/laser", True, 0.1, 0.0)
     assert msg["angle_min"] == pytest.approx(math.pi)
     assert msg["angle_increment"] < 0
     assert msg["ranges"][180] == 2.0  # angle 0 is still the middle bin
 
 
 def test_uncompensated_scan_keeps_points_and_marks_invalid_as_inf():
-    msg = m.laser_scan(scan([-0.5, 0.0, 0.5], [1.0, math.inf, 3.0]), "/laser", False, 0.2)
+    msg = m.laser_scan(scan([-0.5, 0.0, 0.5], [1.0, math.inf, 3.0]), "/laser", False, 0.2, 0.0)
     assert list(msg["ranges"][[0, 2]]) == [1.0, 3.0] and np.isinf(msg["ranges"][1])
     assert msg["angle_min"] == -0.5 and msg["angle_increment"] == pytest.approx(0.5)
 
 
 def test_fewer_than_two_returns_publish_nothing():
-    assert m.laser_scan(scan([0.0, 0.1], [1.0, math.inf]), "/laser", True, 0.1) is None
+    assert m.laser_scan(scan([0.0, 0.1], [1.0, math.inf]), "/laser", True, 0.1, 0.0) is None
 
 
 def test_occupancy_lut_and_quaternions():
