@@ -16,6 +16,7 @@ from websockets.http11 import Request, Response
 from websockets.protocol import State
 
 from ..session.session import Session
+from .http import QuietHttpLog
 
 log = logging.getLogger(__name__)
 
@@ -108,6 +109,7 @@ async def start_websocket(
         max_size=max_frame_size,
         compression="deflate" if compression else None,
         process_request=process_request,
+        logger=QuietHttpLog(logging.getLogger("websockets.server")),
         ping_interval=None,
         max_queue=64,
     )
