@@ -7,7 +7,7 @@ import { log } from './log.js';
 const NODE = '/slamware_ros_sdk_server_node';
 const LEVELS = ['ok', 'warn', 'error', 'stale'];
 const STALE_MS = 5000;
-export const QUALITY_LOW = 30; // the simulator's and /diagnostics_agg's "localization lost"
+export const QUALITY_LOW = 50; // where /diagnostics_agg's Localization turns WARN
 
 function meter(id, percent, text, state) {
   const box = document.getElementById(id);

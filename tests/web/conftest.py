@@ -64,6 +64,11 @@ class Console:
             "([sel, key, value]) => document.querySelector(sel).dataset[key] === value",
             arg=[selector, key, value], timeout=timeout * 1000)
 
+    async def tab(self, name: str) -> None:
+        """Show a tab of the side panel (Operate, Map, Status, Inspect)."""
+        await self.page.click(f".tabs [data-tab={name}]")
+        await self.page.locator(f"[data-tab-panel={name}]").wait_for(state="visible")
+
     async def drag(self, start: tuple[float, float], end: tuple[float, float]) -> None:
         await self.page.mouse.move(*start)
         await self.page.mouse.down()

@@ -161,6 +161,9 @@ async def test_cancel_stops_the_goal(console: Console, watcher):
     await console.wait_data("#goal-status", "status", "active")
     await page.click("#cancel-goal")
     await console.wait_data("#goal-status", "status", "preempted")
+    # roslibjs 1.4.1 cancels with a GoalID without stamp: that is normal, no warning about it
+    assert await page.locator("#log li.warning, #log li.error").count() == 0
+    assert await page.locator(".toast").count() == 0
     await watcher.subscribe(ODOM, "nav_msgs/Odometry")
     await asyncio.sleep(0.5)
     twist = (await watcher.next(ODOM))["twist"]["twist"]
@@ -257,6 +260,7 @@ async def test_go_to_poi_button_navigates(console: Console, watcher):
 async def test_mode_buttons_change_the_indicator(console: Console, watcher):
     page = console.page
     await watcher.subscribe("/system_shell/system_mode", "std_msgs/String")
+    await console.tab("status")
     await page.click("[data-cmd=gmapping]")
     await console.wait_data("#mode", "mode", "gmapping", timeout=15)
     assert await page.text_content("#mode .value") == "mapping"
@@ -273,6 +277,7 @@ async def test_mode_buttons_change_the_indicator(console: Console, watcher):
 async def test_reboot_asks_first_and_version_answers(console: Console, watcher):
     page = console.page
     await watcher.subscribe("/system_shell/cmd_string", "std_msgs/String")
+    await console.tab("status")
     await page.click("[data-cmd=reboot]")
     dialog = page.locator("#confirm-dialog")
     await dialog.wait_for()
@@ -332,7 +337,7 @@ async def test_status_errors_are_shown(console: Console):
     entry = page.locator("#log li.error").first
     await entry.wait_for(timeout=5_000)
     assert "/cmd_vel" in await entry.text_content()
-    assert await page.locator(".toast.error").count() >= 1
+    assert await page.locator(".toast.error").count() == 1  # one failure, one toast
 
 
 async def test_page_comes_back_after_the_server_restarts(console: Console, make_server, tmp_path):
