@@ -90,7 +90,7 @@ async def test_save_as_then_load_a_saved_map_from_the_list(console: Console, wat
     await dialog.locator("input[name=name]").fill("ground_floor")
     await dialog.locator("#name-ok").click()
     confirm = page.locator("#confirm-dialog")
-    assert "ground_floor" in await confirm.text_content()
+    await confirm.locator(".question", has_text="Save the current map as “ground_floor”").wait_for()
     await page.click("#confirm-ok")
     item = page.locator('#map-list li[data-name="ground_floor"]')
     await item.wait_for(timeout=15_000)
@@ -105,7 +105,7 @@ async def test_save_as_then_load_a_saved_map_from_the_list(console: Console, wat
     await watcher.until(lambda: (m := watcher.latest(f"{NODE}/virtual_walls")) and m["lines"], 10,
                         "the added wall")
     await item.locator("button.load").click()
-    assert "ground_floor" in await confirm.text_content()
+    await confirm.locator(".question", has_text="Load the map “ground_floor”").wait_for()
     await page.click("#confirm-ok")
     loaded = page.locator("#log li", has_text="map “ground_floor”: Map loaded.")
     await loaded.wait_for(timeout=15_000)
