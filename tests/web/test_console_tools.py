@@ -4,8 +4,12 @@ patrols, diagnostics, the offline state and the topic inspector, against the sim
 from __future__ import annotations
 
 import math
+import shutil
 
-from .conftest import Console, grid_map
+import numpy as np
+
+from ..helpers import Watcher
+from .conftest import REPO, Console, GridMap, grid_map
 
 NODE = "/slamware_ros_sdk_server_node"
 ODOM = f"{NODE}/odom"
@@ -322,3 +326,102 @@ async def test_top_bar_fits_on_one_line_at_1280_px(console: Console):
     assert (await page.locator(".topbar").bounding_box())["height"] < 50
     scale = await page.get_attribute("#scalebar", "data-metres")
     assert float(scale) > 0
+
+
+async def test_no_go_area_and_erase_change_the_map(console: Console, watcher):
+    page = console.page
+    grid = await grid_map(watcher)
+    x0, y0 = grid.nearest_clear(3.0, 12.5, radius=0.8)
+    corner_a, corner_b = (x0 - 0.5, y0 - 0.5), (x0 + 0.5, y0 + 0.5)
+    await console.tab("map")
+    await page.click("[data-tool=area]")
+    await console.drag(await console.to_client(*corner_a), await console.to_client(*corner_b))
+    centre = grid.cell(x0, y0)
+
+    def cell_value() -> int | None:
+        msg = watcher.latest("/map")
+        return None if msg is None else GridMap(msg).cells[centre]
+
+    await watcher.until(lambda: cell_value() == 100, 10, "the no-go area on /map")
+    await page.click("[data-tool=erase]")
+    await console.drag(await console.to_client(*corner_a), await console.to_client(*corner_b))
+    await watcher.until(lambda: cell_value() == 0, 10, "the area erased from /map")
+    assert console.errors == []
+
+
+async def test_graph_and_costmap_overlays_are_drawn(console: Console, watcher):
+    page = console.page
+    nodes = [{"id": 1, "x": 5.0, "y": 8.0, "z": 0.0}, {"id": 2, "x": 12.0, "y": 8.0, "z": 0.0},
+             {"id": 3, "x": 12.0, "y": 12.0, "z": 0.0}]
+    edges = [{"from_node": 1, "to_node": 2, "cost": 0.0},
+             {"from_node": 2, "to_node": 3, "cost": 0.0}]
+    reply = await watcher.call("/save_graph_file", {"name": "demo", "nodes": nodes, "edges": edges})
+    assert reply["values"]["success"], reply
+    await page.wait_for_function(
+        "() => (window.hitrobot.layers.graph.graph || {nodes: []}).nodes.length === 3")
+    await console.frame()
+    img = await console.screenshot_array()
+    x, y = await console.to_client(12.0, 10.0)  # on the edge 2–3
+    patch = img[int(y) - 3:int(y) + 4, int(x) - 3:int(x) + 4]
+    assert (np.linalg.norm(patch - np.array([0xB3, 0x88, 0xFF]), axis=2) < 60).any()
+
+    # the costmap, computed in the page from /map: a wall cell is lethal, open floor is not
+    await console.tab("map")
+    await page.check("[data-layer=costmap]")
+    await page.wait_for_function("() => Boolean(window.hitrobot.layers.costmap.cells)")
+    grid = await grid_map(watcher)
+    wall = grid.interior(100, 1)[0]
+    fx, fy = grid.nearest_clear(5.0, 8.0, radius=0.7)
+    free = grid.cell(fx, fy)
+    dist = await page.evaluate("""([a, b]) => { const c = window.hitrobot.layers.costmap.cells;
+        return [c.dist[a[0] * c.w + a[1]], c.dist[b[0] * c.w + b[1]], c.lethal]; }""",
+                               [[int(wall[0]), int(wall[1])], [free[0], free[1]]])
+    assert dist[0] == 0 and dist[1] > dist[2]
+    assert console.errors == []
+
+
+async def test_missing_libraries_show_in_the_bridge_pill(make_server, browser, tmp_path,
+                                                         monkeypatch):
+    """A pip install without `npm ci --prefix web`: the page, none of its libraries."""
+    root = tmp_path / "web"
+    root.mkdir()
+    for pattern in ("*.html", "*.js", "*.css", "*.svg"):
+        for f in (REPO / "web").glob(pattern):
+            shutil.copy(f, root / f.name)
+    monkeypatch.setattr("hitrobot_server.server.default_web_root", lambda: root)
+    server = await make_server()
+    page = browser.pages[0] if browser.pages else await browser.new_page()
+    await page.goto(f"http://127.0.0.1:{server.port}/")
+    await page.wait_for_function(
+        "() => document.getElementById('bridge-state').dataset.state === 'broken'", timeout=10_000)
+    text = await page.text_content("#bridge-state .value")
+    assert "libraries missing" in text and "npm ci --prefix web" in text
+    assert "npm ci --prefix web" in await page.text_content("#hint")
+
+
+async def test_mapping_view_refits_as_the_map_grows(make_server, browser, tmp_path):
+    server = await make_server(robot="sim", sim_speed=4, sim_mapping=True,
+                               map_dir=str(tmp_path / "maps"))
+    page = browser.pages[0] if browser.pages else await browser.new_page()
+    await page.goto(f"http://127.0.0.1:{server.port}/")
+    await page.wait_for_function("() => window.hitrobot && window.hitrobot.view.mapBounds",
+                                 timeout=30_000)
+    first = await page.evaluate("({...window.hitrobot.view.mapBounds})")
+    watcher = await Watcher.open(server.port)
+    try:
+        # drive down the corridor: the robot maps as it goes
+        await watcher.publish("/move_base_simple/goal", {
+            "header": {"frame_id": "map"},
+            "pose": {"position": {"x": 16.0, "y": 8.0, "z": 0.0},
+                     "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}},
+            "geometry_msgs/PoseStamped")
+        await page.wait_for_function("""(b) => { const m = window.hitrobot.view.mapBounds;
+            return m.x + m.w > b.x + b.w + 2; }  // metres""", arg=first, timeout=60_000)
+    finally:
+        await watcher.close()
+    # the whole grown map is in view, not just the part seen at the start
+    await page.wait_for_function("""(b) => { const v = window.hitrobot.view, m = v.mapBounds;
+        const r = v.canvas.getBoundingClientRect();
+        const a = v.rosToClient(m.x, m.y), c = v.rosToClient(m.x + m.w, m.y + m.h);
+        return [a, c].every(p => p.x >= r.left - 1 && p.x <= r.right + 1 && p.y >= r.top - 1
+                                 && p.y <= r.bottom + 1); }""", arg=first, timeout=5_000)
