@@ -52,9 +52,11 @@ export class Patrol {
     this.stateBox.dataset.target = String(state.target_index);
     this.stateBox.dataset.laps = String(state.laps);
     const route = state.route ? `route “${state.route}” · ` : '';
+    // the server counts waypoints from 0, the list from 1: its "heading to …" is said here
+    const event = state.message && !/^heading to/.test(state.message) ? ` · ${state.message}` : '';
     this.stateBox.textContent = state.active
-      ? `${route}patrolling → waypoint ${state.target_index + 1} · lap ${state.laps + 1}${state.message ? ` · ${state.message}` : ''}`
-      : `${route}${this.waypoints.length ? 'stopped' : 'no route'}${state.message ? ` · ${state.message}` : ''}`;
+      ? `${route}patrolling → waypoint ${state.target_index + 1} of ${this.waypoints.length} · lap ${state.laps + 1}${event}`
+      : `${route}${this.waypoints.length ? 'stopped' : 'no route'}${event}`;
     this.list.replaceChildren(...this.waypoints.map((w, i) => el('li', {
       class: state.active && i === state.target_index ? 'target' : '',
     }, `${w.x.toFixed(2)}, ${w.y.toFixed(2)} m`)));

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -63,6 +64,15 @@ class Console:
         await self.page.wait_for_function(
             "([sel, key, value]) => document.querySelector(sel).dataset[key] === value",
             arg=[selector, key, value], timeout=timeout * 1000)
+
+    async def snapshot(self, name: str) -> None:
+        """Save the page as test-artifacts/<name>.png; with UPDATE_SCREENSHOT=1 also as the
+        README's web/<name>.png."""
+        await self.frame()
+        ARTIFACTS.mkdir(exist_ok=True)
+        png = await self.page.screenshot(path=str(ARTIFACTS / f"{name}.png"))
+        if os.environ.get("UPDATE_SCREENSHOT") == "1":
+            (REPO / "web" / f"{name}.png").write_bytes(png)
 
     async def tab(self, name: str) -> None:
         """Show a tab of the side panel (Operate, Map, Status, Inspect)."""

@@ -78,6 +78,9 @@ async def test_a_wall_drawn_in_the_page_makes_the_planned_path_detour(console: C
                              and abs(pts[-1][0] - goal[0]) < 0.3, "a plan around the wall")
     at_wall = min(detour, key=lambda p: abs(p[0] - 12.0))
     assert at_wall[1] > 8.4, f"the plan passes x = 12 at y = {at_wall[1]:.2f}, not through the gap"
+    await page.check("[data-layer=costmap]")
+    await page.wait_for_function("() => Boolean(window.hitrobot.layers.costmap.cells)")
+    await console.snapshot("console-map-editing")
     assert console.errors == []
 
 
@@ -189,6 +192,7 @@ async def test_patrol_of_three_clicked_waypoints_visits_them_in_order(console: C
         w = state["waypoints"][before]
         assert math.hypot(p["x"] - w["x"], p["y"] - w["y"]) < 0.6, (before, p)
     await page.locator("#waypoint-list li.target").wait_for()
+    await console.snapshot("console-patrol")
     await page.click("#patrol-stop")
     await console.wait_data("#patrol-state", "active", "false")
 
@@ -216,6 +220,7 @@ async def test_diagnostics_panel_shows_an_injected_localization_fault(console: C
     assert "quality" in await item.text_content()
     assert await page.get_attribute("#diag-summary", "data-level") in ("WARN", "ERROR")
     await page.locator('#sensors li[data-id]').first.wait_for()
+    await console.snapshot("console-diagnostics")
 
 
 async def test_offline_disables_tools_and_goals_and_sends_nothing(console: Console):
@@ -300,8 +305,14 @@ async def test_topic_inspector_publishes_what_another_client_receives(console: C
     assert msg == {"data": "hello from the inspector"}
     # the page's own subscription saw it too: count and last message
     await page.locator("#topic-last", has_text="hello from the inspector").wait_for()
+    await page.click("#publish-box summary")  # fold the form away again
 
-    # a numeric field of a live topic, plotted
+    # a numeric field of a live topic, plotted while the robot drives
+    await watcher.publish("/move_base_simple/goal", {
+        "header": {"frame_id": "map"},
+        "pose": {"position": {"x": 14.0, "y": 8.0, "z": 0.0},
+                 "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}},
+        "geometry_msgs/PoseStamped")
     await page.fill("#topic-filter", "odom")
     await page.click(f'#topic-list li[data-topic="{ODOM}"]')
     pick = page.locator("#topic-detail select.plot-pick")
@@ -309,9 +320,10 @@ async def test_topic_inspector_publishes_what_another_client_receives(console: C
         "() => document.querySelectorAll('select.plot-pick option').length > 3")
     await pick.select_option("pose.pose.position.x")
     await page.wait_for_function(
-        "() => Number(document.getElementById('plot-range').dataset.samples) >= 5", timeout=10_000)
+        "() => Number(document.getElementById('plot-range').dataset.samples) >= 40", timeout=10_000)
     rate = await page.text_content("#topic-rate")
     assert "Hz" in rate and not rate.startswith("0.0")
+    await console.snapshot("console-inspector")
 
 
 async def test_top_bar_fits_on_one_line_at_1280_px(console: Console):
