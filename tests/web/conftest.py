@@ -191,6 +191,15 @@ class GridMap:
         raise AssertionError(f"no free point near ({x}, {y})")
 
 
+async def add_poi(watcher: Watcher, name: str, x: float, y: float) -> None:
+    """A POI facing +x, added by another client (as an operator elsewhere would)."""
+    await watcher.publish("/map_manager/add_poi", {
+        "type": 100, "name": name, "remarks": "",
+        "pose": {"position": {"x": x, "y": y, "z": 0.0},
+                 "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}},
+    }, "map_messages/PointOfInterest")
+
+
 async def grid_map(watcher: Watcher) -> GridMap:
     await watcher.subscribe("/map", "nav_msgs/OccupancyGrid")
     await watcher.until(lambda: watcher.latest("/map"), 15, "/map")

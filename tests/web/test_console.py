@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-from .conftest import ARTIFACTS, REPO, Console, grid_map, yaw_of
+from .conftest import ARTIFACTS, REPO, Console, add_poi, grid_map, yaw_of
 
 ODOM = "/slamware_ros_sdk_server_node/odom"
 ROBOT_BLUE = np.array([0x21, 0x96, 0xF3])
@@ -108,11 +108,7 @@ async def decorate(watcher) -> None:
         "line": {"id": 0, "start": {"x": 18.0, "y": 1.6}, "end": {"x": 22.5, "y": 1.6}},
     }, "slamware_ros_sdk/AddLineRequest")
     for name, x, y in (("reception", 2.0, 8.0), ("kitchen", 13.5, 3.0)):
-        await watcher.publish("/map_manager/add_poi", {
-            "type": 100, "name": name, "remarks": "",
-            "pose": {"position": {"x": x, "y": y, "z": 0.0},
-                     "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}},
-        }, "map_messages/PointOfInterest")
+        await add_poi(watcher, name, x, y)
 
 
 async def test_goal_dragged_on_the_map_takes_the_robot_there(console: Console, watcher):
@@ -239,11 +235,7 @@ async def test_go_to_poi_button_navigates(console: Console, watcher):
     page = console.page
     grid = await grid_map(watcher)
     px, py = grid.nearest_clear(9.0, 8.0)
-    await watcher.publish("/map_manager/add_poi", {
-        "type": 100, "name": "corridor", "remarks": "",
-        "pose": {"position": {"x": px, "y": py, "z": 0.0},
-                 "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}},
-    }, "map_messages/PointOfInterest")
+    await add_poi(watcher, "corridor", px, py)
     await watcher.subscribe(ODOM, "nav_msgs/Odometry")
     item = page.locator('#poi-list li[data-name="corridor"]')
     await item.wait_for()

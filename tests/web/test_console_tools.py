@@ -9,7 +9,7 @@ import shutil
 import numpy as np
 
 from ..helpers import Watcher
-from .conftest import REPO, Console, GridMap, grid_map
+from .conftest import REPO, Console, GridMap, add_poi, grid_map
 
 NODE = "/slamware_ros_sdk_server_node"
 ODOM = f"{NODE}/odom"
@@ -32,6 +32,15 @@ def crosses(path: list[Point], a: Point, b: Point) -> bool:
 
 def plan_points(msg: dict) -> list[tuple[float, float]]:
     return [(p["pose"]["position"]["x"], p["pose"]["position"]["y"]) for p in msg["poses"]]
+
+
+async def simple_goal(watcher, x: float, y: float) -> None:
+    """Send the robot to (x, y) from another client (/move_base_simple/goal)."""
+    await watcher.publish("/move_base_simple/goal", {
+        "header": {"frame_id": "map"},
+        "pose": {"position": {"x": x, "y": y, "z": 0.0},
+                 "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}},
+        "geometry_msgs/PoseStamped")
 
 
 async def click_map(console: Console, x: float, y: float) -> None:
@@ -248,11 +257,7 @@ async def test_offline_disables_tools_and_goals_and_sends_nothing(console: Conso
 
 async def test_duplicate_poi_name_keeps_the_dialog_and_input(console: Console, watcher):
     page = console.page
-    await watcher.publish("/map_manager/add_poi", {
-        "type": 100, "name": "lobby", "remarks": "",
-        "pose": {"position": {"x": 6.0, "y": 8.0, "z": 0.0},
-                 "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}},
-        "map_messages/PointOfInterest")
+    await add_poi(watcher, "lobby", 6.0, 8.0)
     await page.locator('#poi-list li[data-name="lobby"]').wait_for()
     await page.click("[data-tool=poi]")
     await click_map(console, 8.0, 8.0)
@@ -273,11 +278,7 @@ async def test_poi_go_is_followed_and_can_be_cancelled(console: Console, watcher
     page = console.page
     grid = await grid_map(watcher)
     px, py = grid.nearest_clear(20.0, 8.0)
-    await watcher.publish("/map_manager/add_poi", {
-        "type": 100, "name": "far end", "remarks": "",
-        "pose": {"position": {"x": px, "y": py, "z": 0.0},
-                 "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}},
-        "map_messages/PointOfInterest")
+    await add_poi(watcher, "far end", px, py)
     item = page.locator('#poi-list li[data-name="far end"]')
     await item.wait_for()
     await item.locator("button.go").click()
@@ -308,11 +309,7 @@ async def test_topic_inspector_publishes_what_another_client_receives(console: C
     await page.click("#publish-box summary")  # fold the form away again
 
     # a numeric field of a live topic, plotted while the robot drives
-    await watcher.publish("/move_base_simple/goal", {
-        "header": {"frame_id": "map"},
-        "pose": {"position": {"x": 14.0, "y": 8.0, "z": 0.0},
-                 "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}},
-        "geometry_msgs/PoseStamped")
+    await simple_goal(watcher, 14.0, 8.0)
     await page.fill("#topic-filter", "odom")
     await page.click(f'#topic-list li[data-topic="{ODOM}"]')
     pick = page.locator("#topic-detail select.plot-pick")
@@ -422,11 +419,7 @@ async def test_mapping_view_refits_as_the_map_grows(make_server, browser, tmp_pa
     watcher = await Watcher.open(server.port)
     try:
         # drive down the corridor: the robot maps as it goes
-        await watcher.publish("/move_base_simple/goal", {
-            "header": {"frame_id": "map"},
-            "pose": {"position": {"x": 16.0, "y": 8.0, "z": 0.0},
-                     "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}},
-            "geometry_msgs/PoseStamped")
+        await simple_goal(watcher, 16.0, 8.0)
         await page.wait_for_function("""(b) => { const m = window.hitrobot.view.mapBounds;
             return m.x + m.w > b.x + b.w + 2; }  // metres""", arg=first, timeout=60_000)
     finally:
