@@ -335,14 +335,16 @@ export function niceStep(min) {
 }
 
 /**
- * The planner's view of the map, computed in the page from /map: cells within the robot's
- * radius of an obstacle (lethal: the centre cannot go there) and a fading inflation band
- * beyond, as the simulator's A* inflates its costmap. A chamfer distance transform, O(cells).
+ * The planner's view of the map, computed in the page from /map with the simulator planner's
+ * defaults: lethal cells (the robot's centre cannot go there: closer than radius + half a cell
+ * + safety margin to an obstacle) and a fading inflation band out to `inflation`. A chamfer
+ * distance transform, O(cells). Virtual walls are not in /map, so they are not inflated here.
  */
 export class CostmapLayer extends Layer {
-  constructor(view, { robotRadius = 0.2, inflation = 0.55 } = {}) {
+  constructor(view, { robotRadius = 0.2, safetyMargin = 0.05, inflation = 0.6 } = {}) {
     super(view);
     this.robotRadius = robotRadius;
+    this.safetyMargin = safetyMargin;
     this.inflation = inflation;
     this.bitmap = null;
     this.pending = null;
@@ -378,14 +380,14 @@ export class CostmapLayer extends Layer {
     canvas.height = h;
     const ctx = canvas.getContext('2d');
     const img = ctx.createImageData(w, h);
-    const lethal = this.robotRadius / res;
+    const lethal = (this.robotRadius + 0.5 * res + this.safetyMargin) / res;
     const band = this.inflation / res;
     for (let row = 0; row < h; row++) {
       for (let col = 0; col < w; col++) {
         const d = dist[row * w + col];
-        if (d === 0 || d > band) continue;
+        if (d === 0 || d >= band) continue;
         const o = ((h - 1 - row) * w + col) * 4; // image rows go down, map rows go up
-        if (d <= lethal) {
+        if (d < lethal) {
           img.data[o] = 255; img.data[o + 1] = 0; img.data[o + 2] = 200; img.data[o + 3] = 200;
         } else {
           img.data[o] = 0; img.data[o + 1] = 150; img.data[o + 2] = 255;

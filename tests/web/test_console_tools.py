@@ -430,3 +430,20 @@ async def test_mapping_view_refits_as_the_map_grows(make_server, browser, tmp_pa
         const a = v.rosToClient(m.x, m.y), c = v.rosToClient(m.x + m.w, m.y + m.h);
         return [a, c].every(p => p.x >= r.left - 1 && p.x <= r.right + 1 && p.y >= r.top - 1
                                  && p.y <= r.bottom + 1); }""", arg=first, timeout=5_000)
+
+
+async def test_a_failed_goal_gives_one_toast(console: Console, watcher):
+    """A goal inside a piece of furniture: the robot cannot get there. The failure is reported
+    once, however many messages describe it."""
+    page = console.page
+    grid = await grid_map(watcher)
+    row, col = grid.interior(100, 3)[0]
+    x, y = grid.centre(row, col)
+    await page.click("[data-tool=goal]")
+    await click_map(console, x, y)
+    await page.wait_for_function("""() => ['aborted', 'rejected'].includes(
+        document.getElementById('goal-status').dataset.status)""", timeout=20_000)
+    await page.locator("#log li.error").first.wait_for()
+    await console.frame()
+    assert await page.locator(".toast").count() == 1
+    assert "no path" in await page.text_content(".toast")
