@@ -250,6 +250,9 @@ async def test_offline_disables_tools_and_goals_and_sends_nothing(console: Conso
     await page.locator("#map").focus()
     await page.keyboard.press("g")
     assert await page.get_attribute("#tools [data-tool=move]", "class") == "active"
+    await page.keyboard.down("ArrowUp")
+    assert await page.get_attribute("#drive-state", "data-state") == "offline"
+    await page.keyboard.up("ArrowUp")
     assert await page.evaluate("window.hitrobot.navigator.sendGoal(10, 8, 0)") is None
     await page.locator("#log li.error", has_text="goal not sent: the bridge is offline").wait_for()
     assert await page.locator("#log li", has_text="goal sent").count() == 0
