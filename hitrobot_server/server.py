@@ -15,7 +15,7 @@ from .nodes.base import Node
 from .protocol.auth import load_secret
 from .robot.factory import build_backend
 from .session.session import Session, Shared
-from .transport.http import StaticFiles, default_web_root
+from .transport.http import StaticFiles, default_web_root, missing_libraries
 from .transport.tcp import start_tcp
 from .transport.websocket import start_websocket
 from .types.registry import TypeRegistry
@@ -38,6 +38,7 @@ class HitrobotServer:
         self.shared = Shared.for_settings(self.settings)
         self._ws = None
         self._tcp: asyncio.Server | None = None
+        self._ws_console = False
         self.port: int | None = None
         self.tcp_port: int | None = None
         self._rosout: RosoutHandler | None = None
@@ -67,6 +68,8 @@ class HitrobotServer:
             return self.new_session(peer, transport)
 
         tls = _tls_context(s) if s.ssl else None
+        console = _web_console()
+        self._ws_console = console is not None
         self._ws = await start_websocket(
             factory,
             s.address,
@@ -74,7 +77,7 @@ class HitrobotServer:
             max_frame_size=s.max_frame_size,
             delay_between_messages=s.delay_between_messages,
             compression=s.use_compression,
-            http_handler=_web_console(),
+            http_handler=console,
             ssl=tls,
             ping_interval=s.websocket_ping_interval,
             ping_timeout=s.websocket_ping_timeout,
@@ -91,6 +94,8 @@ class HitrobotServer:
             )
             self.tcp_port = self._tcp.sockets[0].getsockname()[1]
         log.info("hitrobot-server: ws://%s:%s tcp:%s", s.address, self.port, self.tcp_port)
+        if self._ws_console:
+            log.info("web console: %s", console_url(s.address, self.port, tls=s.ssl))
 
     async def stop(self) -> None:
         if self._tcp is not None:
@@ -128,4 +133,15 @@ def _web_console() -> StaticFiles | None:
     if root is None:
         log.warning("web console files not found; HTTP GET answers 426")
         return None
+    if missing := missing_libraries(root):
+        log.warning("the web console's libraries are missing (%s): the page cannot work; "
+                    "run `npm ci --prefix web` in the checkout, then reinstall",
+                    ", ".join(name.split("/")[1] for name in missing))
     return StaticFiles(root)
+
+
+def console_url(address: str, port: int, *, tls: bool = False) -> str:
+    """The console's address for the log: a wildcard bind is reachable on loopback too."""
+    host = {"0.0.0.0": "127.0.0.1", "::": "::1", "": "127.0.0.1"}.get(address, address)
+    scheme = "https" if tls else "http"
+    return f"{scheme}://[{host}]:{port}/" if ":" in host else f"{scheme}://{host}:{port}/"

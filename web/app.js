@@ -1,13 +1,23 @@
 // The hitrobot operator console: wires the connection, the map view and its layers, the tools,
-// navigation, POIs, system commands, driving and the robot's state together.
+// navigation, POIs, map editing and saved maps, patrols, the robot's actions and state,
+// diagnostics and sensors, system commands, driving and the topic inspector together.
 /* global ROSLIB, ROS2D, createjs */
-import { connect } from './connection.js';
+import { connect, showBroken } from './connection.js';
+import { Diagnostics } from './diagnostics.js';
 import { dialogOpen } from './dialogs.js';
+import { MapEditor } from './editor.js';
+import { Inspector } from './inspector.js';
 import { log } from './log.js';
+import { SavedMaps } from './maps.js';
 import { MapView } from './mapview.js';
 import { Navigator } from './navigator.js';
-import { COLORS, LinesLayer, PathLayer, PoiLayer, RobotMarker, ScanLayer } from './overlays.js';
+import {
+  COLORS, CostmapLayer, GraphLayer, GridLayer, LinesLayer, PathLayer, PoiLayer, RobotMarker,
+  ScanLayer, SensorLayer, WaypointLayer, niceStep,
+} from './overlays.js';
+import { Patrol } from './patrol.js';
 import { Pois } from './pois.js';
+import { RobotActions } from './robotpanel.js';
 import { RobotState } from './robotstate.js';
 import { Shell } from './shell.js';
 import { Teleop } from './teleop.js';
@@ -24,6 +34,7 @@ function librariesMissing() {
     'run `npm ci --prefix web` in the hitrobot-server checkout.';
   document.getElementById('hint').textContent = text;
   document.body.classList.add('broken');
+  showBroken('console libraries missing (npm ci --prefix web)');
   console.error(text);
   return true;
 }
@@ -37,19 +48,29 @@ function main() {
 
   // ---- layers, bottom to top ---------------------------------------------------------------
   const layers = {
+    grid: new GridLayer(view),
+    costmap: new CostmapLayer(view),
+    graph: new GraphLayer(view),
     tracks: new LinesLayer(view, { color: COLORS.track, width: 3, dash: [8, 5] }),
     walls: new LinesLayer(view, { color: COLORS.wall, width: 3 }),
     path: new PathLayer(view),
     scan: new ScanLayer(view),
+    waypoints: new WaypointLayer(view),
     pois: new PoiLayer(view),
+    sensors: new SensorLayer(view),
   };
   const navigator = new Navigator({ ros, view });
   const robot = new RobotMarker(view);
+  const editor = new MapEditor({ ros, view, walls: layers.walls, tracks: layers.tracks });
 
-  topic(`${NODE}/virtual_walls`, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 1000 })
-    .subscribe((m) => layers.walls.set(m));
-  topic(`${NODE}/virtual_tracks`, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 1000 })
-    .subscribe((m) => layers.tracks.set(m));
+  topic(`${NODE}/virtual_walls`, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 500 })
+    .subscribe((m) => { layers.walls.set(m); editor.showCounts(); });
+  topic(`${NODE}/virtual_tracks`, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 500 })
+    .subscribe((m) => { layers.tracks.set(m); editor.showCounts(); });
+  topic('/graph/current', 'hitrobot_msgs/Graph').subscribe((g) => layers.graph.set(g));
+  // the costmap overlay is computed from the very /map messages ros2d receives (no second
+  // subscription): roslib emits each topic's messages on the Ros object under the topic name
+  ros.on('/map', (grid) => layers.costmap.set(grid));
   topic(`${NODE}/global_plan_path`, 'nav_msgs/Path', { throttle_rate: 200, queue_length: 1 })
     .subscribe((m) => layers.path.set(m));
 
@@ -62,6 +83,7 @@ function main() {
       state.pose = { x: pose.position.x, y: pose.position.y, yaw };
       robot.setPose(state.pose.x, state.pose.y, yaw);
       navigator.robot = state.pose;
+      layers.sensors.setPose(state.pose);
       poseText.textContent = `robot at ${formatPose(state.pose.x, state.pose.y, yaw)}`;
       if (state.follow) view.keepInView(state.pose.x, state.pose.y);
     });
@@ -107,6 +129,15 @@ function main() {
   const shell = new Shell({ ros });
   const teleop = new Teleop({ ros });
   const robotState = new RobotState({ ros });
+  const robotActions = new RobotActions({ ros });
+  const patrol = new Patrol({ ros, layer: layers.waypoints });
+  const maps = new SavedMaps({ ros });
+  const diagnostics = new Diagnostics({ ros, sensorLayer: layers.sensors });
+  const inspector = new Inspector({ ros });
+  pois.onGo = (poi) => {
+    navigator.goToPoi(poi);
+    return false; // the navigator publishes it and follows it
+  };
 
   const tools = new MapTools(view, (tool, pick) => {
     const facing = () => (state.pose
@@ -114,7 +145,48 @@ function main() {
     if (tool === 'goal') navigator.sendGoal(pick.x, pick.y, pick.yaw ?? facing());
     else if (tool === 'pose') navigator.setInitialPose(pick.x, pick.y, pick.yaw ?? (state.pose ? state.pose.yaw : 0));
     else if (tool === 'poi') pois.addAt(pick.x, pick.y, pick.yaw ?? 0);
+    else if (tool === 'waypoint') patrol.add(pick.x, pick.y);
+    else editor.pick(tool, pick);
   });
+
+  // ---- on and off line: nothing that sends works while the bridge is down -----------------
+  const sending = () => [...document.querySelectorAll('.side button:not([data-tab]):not([data-tool]), .side input, .side select')];
+  const setOnline = (on) => {
+    tools.setEnabled(on);
+    navigator.setOnline(on);
+    for (const control of sending()) {
+      if (!on) {
+        control.dataset.offlineDisabled = String(!control.disabled);
+        control.disabled = true;
+      } else if (control.dataset.offlineDisabled === 'true') {
+        control.disabled = false;
+      }
+    }
+  };
+  window.addEventListener('bridge', (e) => setOnline(e.detail.online));
+  if (!ros.isConnected) setOnline(false);
+
+  // ---- side panel tabs ---------------------------------------------------------------------
+  const tabs = [...document.querySelectorAll('.tabs [data-tab]')];
+  const showTab = (name) => {
+    for (const t of tabs) t.classList.toggle('active', t.dataset.tab === name);
+    for (const panel of document.querySelectorAll('[data-tab-panel]')) panel.hidden = panel.dataset.tabPanel !== name;
+    if (name === 'map' && !maps.listed) { maps.listed = true; maps.refresh(); }
+    if (name === 'inspect' && !inspector.topics.length) inspector.refresh();
+  };
+  for (const t of tabs) t.addEventListener('click', () => showTab(t.dataset.tab));
+
+  // ---- scale bar ---------------------------------------------------------------------------
+  const scalebar = document.getElementById('scalebar');
+  const showScale = () => {
+    const mpp = view.metresPerPixel;
+    const metres = niceStep(mpp * 90);
+    scalebar.querySelector('.bar').style.width = `${metres / mpp}px`;
+    scalebar.querySelector('.label').textContent = metres >= 1 ? `${metres} m` : `${Math.round(metres * 100)} cm`;
+    scalebar.dataset.metres = String(metres);
+  };
+  view.addEventListener('view', showScale);
+  view.addEventListener('map', showScale);
 
   // ---- toolbar -----------------------------------------------------------------------------
   const followButton = document.getElementById('follow');
@@ -133,6 +205,8 @@ function main() {
       const names = box.dataset.layer === 'lines' ? ['walls', 'tracks'] : [box.dataset.layer];
       for (const name of names) layers[name].visible = box.checked;
     });
+    const names = box.dataset.layer === 'lines' ? ['walls', 'tracks'] : [box.dataset.layer];
+    for (const name of names) layers[name].visible = box.checked;
   }
   view.addEventListener('map', (e) => {
     if (e.detail.first) {
@@ -150,6 +224,7 @@ function main() {
     if (e.ctrlKey || e.metaKey || e.altKey || dialogOpen() ||
         (t && /^(INPUT|TEXTAREA|SELECT)$/.test(t.tagName))) return;
     const shortcuts = { m: 'move', g: 'goal', p: 'pose', i: 'poi' };
+    if (!tools.enabled && shortcuts[e.key]) return;
     if (shortcuts[e.key]) tools.setTool(shortcuts[e.key]);
     else if (e.key === 'f') view.fit();
     else if (e.key === '+' || e.key === '=') view.zoomCentre(1.25);
@@ -158,8 +233,8 @@ function main() {
   });
 
   // For debugging from the browser console, and for the tests: the page's own objects.
-  window.hitrobot = { ros, view, navigator, pois, shell, teleop, robotState, tools, layers,
-    robot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
+  window.hitrobot = { ros, view, navigator, pois, shell, teleop, robotState, robotActions, tools,
+    layers, editor, patrol, maps, diagnostics, inspector, showTab, robot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
       easeljs: createjs.EaselJS && createjs.EaselJS.version } };
 }
 

@@ -11,8 +11,34 @@ export function bridgeUrl() {
   return `${scheme}://${location.host}`;
 }
 
+// Statuses that a caller of publishTracked() reports itself (so they are not shown twice).
+const tracked = new Map();
+
+/**
+ * Publish and hear what the server answers to this very publish (its `status` ops, e.g. the
+ * map manager's and navigation's replies): `onStatus(message)` until `done()` is called.
+ */
+export function publishTracked(topic, message, onStatus) {
+  topic.publish(message);
+  const id = `publish:${topic.name}:${topic.ros.idCounter}`; // the id roslib 1.x gave it
+  const listener = (status) => onStatus(status);
+  tracked.set(id, listener);
+  topic.ros.on(`status:${id}`, listener);
+  return () => {
+    topic.ros.off(`status:${id}`, listener);
+    tracked.delete(id);
+  };
+}
+
+let online = null;
+
+/** Set the bridge pill; going on or off line fires a `bridge` event ({online}) on window. */
 function setPill(state, text) {
-  document.body.classList.toggle('offline', state === 'down');
+  document.body.classList.toggle('offline', state === 'down' || state === 'broken');
+  if (online !== (state === 'up')) {
+    online = state === 'up';
+    window.dispatchEvent(new CustomEvent('bridge', { detail: { online } }));
+  }
   const pill = document.getElementById('bridge-state');
   pill.dataset.state = state;
   pill.querySelector('.value').textContent = text;
@@ -45,15 +71,24 @@ export function connect(url = bridgeUrl()) {
   });
 
   // roslib 1.4 emits a status without an id as 'status' and one with an id (our publishes,
-  // subscribes, goals…) as 'status:<id>': listen to both. Ask for warnings too.
+  // subscribes, goals…) as 'status:<id>': listen to both. Ask for info too, for the replies to
+  // publishes (map saved, arrived…); the info about subscribing and advertising is noise.
   ros.onAny((event, message) => {
     if (typeof event !== 'string' || !(event === 'status' || event.startsWith('status:'))) return;
     const level = message && message.level ? message.level : 'error';
-    const where = message && message.id ? ` (${message.id})` : '';
-    log(level === 'info' ? 'info' : level, `${message && message.msg ? message.msg : 'status'}${where}`);
+    const id = (message && message.id) || '';
+    if (tracked.has(id)) return;
+    if (level === 'info' && !id.startsWith('publish:')) return;
+    const where = id ? ` (${id})` : '';
+    log(level, `${message && message.msg ? message.msg : 'status'}${where}`);
   });
-  ros.setStatusLevel('warning');
+  ros.setStatusLevel('info');
   return ros;
+}
+
+/** The page cannot work (its libraries are missing): say why in the bridge pill. */
+export function showBroken(text) {
+  setPill('broken', text);
 }
 
 function probe(url) {

@@ -12,25 +12,51 @@ export function confirmAction(question, okLabel = 'OK') {
   });
 }
 
-/** The POI form; resolves {name, remarks} or null when cancelled. */
-export function poiForm({ title, name = '', remarks = '', where = '' }) {
-  const dialog = document.getElementById('poi-dialog');
+/**
+ * Show a form dialog. `validate(name)` returns '' when the name is fine, else the reason: the
+ * dialog then stays open with the reason under the field and the operator's input kept.
+ */
+function formDialog(id, { title, where = '', values = {}, validate = () => '' }) {
+  const dialog = document.getElementById(id);
   const form = dialog.querySelector('form');
+  const error = dialog.querySelector('.form-error');
   dialog.querySelector('.title').textContent = title;
   dialog.querySelector('.where').textContent = where;
-  form.elements.name.value = name;
-  form.elements.remarks.value = remarks;
+  for (const [key, value] of Object.entries(values)) form.elements[key].value = value;
+  error.textContent = '';
   dialog.returnValue = '';
+  const check = (e) => {
+    if (e.submitter && e.submitter.value !== 'ok') return;
+    const problem = validate(form.elements.name.value.trim());
+    if (problem) {
+      e.preventDefault();
+      error.textContent = problem;
+      form.elements.name.focus();
+    }
+  };
+  form.addEventListener('submit', check);
   dialog.showModal();
   form.elements.name.focus();
   form.elements.name.select();
   return new Promise((resolve) => {
     dialog.addEventListener('close', () => {
-      const newName = form.elements.name.value.trim();
-      resolve(dialog.returnValue === 'ok' && newName
-        ? { name: newName, remarks: form.elements.remarks.value.trim() } : null);
+      form.removeEventListener('submit', check);
+      const name = form.elements.name.value.trim();
+      resolve(dialog.returnValue === 'ok' && name ? form : null);
     }, { once: true });
   });
+}
+
+/** The POI form; resolves {name, remarks} or null when cancelled. */
+export async function poiForm({ title, name = '', remarks = '', where = '', validate }) {
+  const form = await formDialog('poi-dialog', { title, where, values: { name, remarks }, validate });
+  return form && { name: form.elements.name.value.trim(), remarks: form.elements.remarks.value.trim() };
+}
+
+/** Ask for a name; resolves it, or null when cancelled. */
+export async function nameForm({ title, name = '', where = '', validate }) {
+  const form = await formDialog('name-dialog', { title, where, values: { name }, validate });
+  return form && form.elements.name.value.trim();
 }
 
 export const dialogOpen = () => Boolean(document.querySelector('dialog[open]'));

@@ -19,10 +19,22 @@ export function log(level, text) {
   console[method](`[${level}] ${text}`);
 }
 
+// Reports of one failure arrive together (a status error, then the outcome it caused): they
+// share one toast, each new line added to the toast shown within the last MERGE_MS.
+const MERGE_MS = 1500;
+let lastToast = null;
+
 export function toast(level, text, ms = 6000) {
   const box = document.getElementById('toasts');
   if (!box) return;
+  const now = Date.now();
+  if (lastToast && lastToast.node.isConnected && now - lastToast.at < MERGE_MS) {
+    if (!lastToast.node.textContent.includes(text)) lastToast.node.append(el('div', {}, text));
+    if (level === 'error') lastToast.node.className = 'toast error';
+    return;
+  }
   const node = el('div', { class: `toast ${level}`, role: 'status' }, text);
+  lastToast = { node, at: now };
   node.addEventListener('click', () => node.remove());
   box.append(node);
   while (box.children.length > 4) box.firstChild.remove();

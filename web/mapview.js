@@ -50,6 +50,7 @@ export class MapView extends EventTarget {
     }
     this.mapBounds = null;
     this.fitted = false;
+    this.autoFit = true;
     this.grid.on('change', () => this.onMap());
 
     this.panView = new ROS2D.PanView({ rootObject: this.stage });
@@ -105,8 +106,12 @@ export class MapView extends EventTarget {
   onMap() {
     const g = this.grid.currentGrid;
     const first = this.mapBounds === null;
+    const old = this.mapBounds;
     this.mapBounds = { x: g.pose.position.x, y: g.pose.position.y, w: g.width, h: g.height };
-    if (!this.fitted) {
+    const grew = old && (old.x !== this.mapBounds.x || old.y !== this.mapBounds.y ||
+      old.w !== this.mapBounds.w || old.h !== this.mapBounds.h);
+    // refit the first map, and a map that grows (mapping) until the operator pans or zooms
+    if (!this.fitted || (grew && this.autoFit)) {
       this.fit();
       this.fitted = true;
     }
@@ -167,6 +172,7 @@ export class MapView extends EventTarget {
     this.stage.scaleX = this.stage.scaleY = s;
     this.stage.x = width / 2 - (b.x + b.w / 2) * s;
     this.stage.y = top + height / 2 + (b.y + b.h / 2) * s;
+    this.autoFit = true;
     this.changed();
   }
 
@@ -181,6 +187,7 @@ export class MapView extends EventTarget {
   zoomAt(px, py, factor) {
     const s = this.stage.scaleX;
     const clamped = Math.min(MAX_SCALE, Math.max(MIN_SCALE, s * factor)) / s;
+    this.autoFit = false;
     this.zoomView.startZoom(px, py);
     this.zoomView.zoom(clamped);
     this.changed();
@@ -191,6 +198,7 @@ export class MapView extends EventTarget {
   }
 
   startPan(px, py) {
+    this.autoFit = false;
     this.panView.startPan(px, py);
   }
 

@@ -1,10 +1,13 @@
 // Navigation, doing what nav2d's OccupancyGridClientNav does (nav2d is not on npm): a roslib
 // ActionClient on /move_base (move_base_msgs/MoveBaseAction) sends goals with an orientation,
-// the goal is drawn on the map and its status shown; /initialpose sets the robot's pose.
+// the goal is drawn on the map and its status shown; /initialpose sets the robot's pose. A
+// "Go" to a POI is followed the same way (distance to go, Cancel), from navigation's replies.
+// While the bridge is down nothing is sent and the panel says the state is unknown.
 /* global ROSLIB */
+import { publishTracked } from './connection.js';
 import { ArrowMarker, COLORS } from './overlays.js';
 import { log } from './log.js';
-import { formatPose, quatOfYaw } from './util.js';
+import { formatPose, quatOfYaw, yawOf } from './util.js';
 
 // actionlib_msgs/GoalStatus
 export const GOAL_STATUS = ['PENDING', 'ACTIVE', 'PREEMPTED', 'SUCCEEDED', 'ABORTED', 'REJECTED',
@@ -16,7 +19,13 @@ export class Navigator {
     frameId = 'map' }) {
     this.view = view;
     this.frameId = frameId;
+    this.ros = ros;
+    this.online = true;
     this.client = new ROSLIB.ActionClient({ ros, serverName, actionName });
+    this.poiTopic = new ROSLIB.Topic({ ros, name: '/navigation/navigate_to_poi', messageType: 'map_messages/NavigateToPOI' });
+    this.cancelTopic = new ROSLIB.Topic({ ros, name: '/slamware_ros_sdk_server_node/cancel_action',
+      messageType: 'slamware_ros_sdk/CancelActionRequest' });
+    this.poi = null; // {name, x, y, done()} while a POI navigation runs
     this.initialPoseTopic = new ROSLIB.Topic({
       ros, name: '/initialpose', messageType: 'geometry_msgs/PoseWithCovarianceStamped',
     });
@@ -26,7 +35,7 @@ export class Navigator {
     this.statusBox = document.getElementById('goal-status');
     this.cancelButton = document.getElementById('cancel-goal');
     this.cancelButton.addEventListener('click', () => this.cancel());
-    this.robot = null;
+    this.robotPose = null;
   }
 
   pose(x, y, yaw) {
@@ -34,8 +43,30 @@ export class Navigator {
       orientation: new ROSLIB.Quaternion(quatOfYaw(yaw)) });
   }
 
+  /** Going off line: nothing can be sent, and what the robot does is unknown from here. */
+  setOnline(on) {
+    this.online = on;
+    if (on && this.statusBox.dataset.status === 'offline') this.show('idle', 'No goal');
+    if (!on) {
+      const last = this.statusBox.dataset.status;
+      if (last === 'active' || last === 'pending') this.show('offline', `OFFLINE — the goal's state is unknown (was ${last.toUpperCase()})`);
+      else this.show('offline', 'OFFLINE — no goals can be sent');
+      this.cancelButton.disabled = true;
+      this.marker.hide();
+      this.endPoi();
+    }
+  }
+
+  refuse(what) {
+    if (this.online) return false;
+    log('error', `${what} not sent: the bridge is offline`);
+    return true;
+  }
+
   /** Send the robot to (x, y) facing `yaw` (rad); a new goal replaces the previous one. */
   sendGoal(x, y, yaw) {
+    if (this.refuse('goal')) return null;
+    this.endPoi();
     const goal = new ROSLIB.Goal({
       actionClient: this.client,
       goalMessage: {
@@ -66,9 +97,66 @@ export class Navigator {
     if (TERMINAL.has(code)) {
       this.cancelButton.disabled = true;
       this.marker.hide();
-      const level = code === 3 ? 'info' : code === 2 || code === 8 ? 'warning' : 'error';
+      // a cancel the operator asked for is news, not a warning
+      const level = code === 3 || code === 2 || code === 8 ? 'info' : 'error';
       log(level, `goal ${name.toLowerCase()}${text}`);
     }
+  }
+
+  /** Navigate to a POI through /navigation/navigate_to_poi and follow it in the panel. */
+  goToPoi(poi) {
+    if (this.refuse('POI navigation')) return;
+    this.endPoi();
+    this.goal = null;
+    const p = poi.pose.position;
+    this.target = { x: p.x, y: p.y, yaw: 0 };
+    this.marker.setPose(p.x, p.y, yawOf(poi.pose.orientation));
+    const label = `POI “${poi.name}”`;
+    this.poi = { name: poi.name, x: p.x, y: p.y, label };
+    this.show('active', `ACTIVE → ${label}`);
+    this.cancelButton.disabled = false;
+    const mine = this.poi;
+    mine.done = publishTracked(this.poiTopic, new ROSLIB.Message({
+      poi_name: poi.name, distance_to_target: 0.0, skip_final_turn: false,
+    }), (status) => {
+      if (this.poi !== mine) return;
+      const text = status.msg || '';
+      if (status.level === 'info' && /arrived/.test(text)) {
+        this.show('succeeded', `SUCCEEDED → ${label}`);
+        log('info', `arrived at ${label}`);
+      } else if (status.level === 'warning') {
+        this.show('preempted', `PREEMPTED → ${label} — ${text}`);
+        log('warning', text);
+      } else if (status.level === 'error') {
+        this.show('aborted', `ABORTED → ${label} — ${text}`);
+        log('error', text);
+      } else {
+        return;
+      }
+      this.endPoi();
+    });
+    log('info', `navigating to ${label}`);
+  }
+
+  endPoi() {
+    if (!this.poi) return;
+    if (this.poi.done) this.poi.done();
+    this.poi = null;
+    this.cancelButton.disabled = true;
+    this.marker.hide();
+  }
+
+  /** The robot moved: the distance left to a POI being navigated to. */
+  set robot(pose) {
+    this.robotPose = pose;
+    if (this.poi && pose && this.statusBox.dataset.status === 'active') {
+      const left = Math.hypot(this.poi.x - pose.x, this.poi.y - pose.y);
+      this.show('active', `ACTIVE → ${this.poi.label} · ${left.toFixed(1)} m to go`);
+    }
+  }
+
+  get robot() {
+    return this.robotPose;
   }
 
   onFeedback(goal, feedback) {
@@ -85,7 +173,11 @@ export class Navigator {
   }
 
   cancel() {
-    if (this.goal) {
+    if (this.refuse('cancel')) return;
+    if (this.poi) {
+      this.cancelTopic.publish(new ROSLIB.Message({}));
+      log('info', `navigation to ${this.poi.label} cancel requested`);
+    } else if (this.goal) {
       this.goal.cancel();
       log('info', 'goal cancel requested');
     } else {
@@ -95,6 +187,7 @@ export class Navigator {
 
   /** Publish /initialpose (the covariance rviz's "2D Pose Estimate" uses). */
   setInitialPose(x, y, yaw) {
+    if (this.refuse('initial pose')) return;
     const covariance = new Array(36).fill(0);
     covariance[0] = covariance[7] = 0.25;
     covariance[35] = 0.06853891945200942;

@@ -13,6 +13,12 @@ export const COLORS = {
   goal: '#d500f9',
   preview: '#ffab00',
   poi: '#ffc400',
+  waypoint: '#76ff03',
+  graph: '#b388ff',
+  grid: 'rgba(120, 144, 156, 0.35)',
+  sensorOk: 'rgba(0, 230, 118, 0.55)',
+  sensorHit: '#ff1744',
+  area: 'rgba(255, 23, 68, 0.25)',
 };
 
 class Layer {
@@ -54,6 +60,16 @@ export class LinesLayer extends Layer {
   set(message) {
     this.lines = (message && message.lines) || [];
     this.changed();
+  }
+
+  /** The line within `tolerance` metres of (x, y), nearest first, or null. */
+  nearest(x, y, tolerance) {
+    let best = null;
+    for (const line of this.lines) {
+      const d = segmentDistance(x, y, line.start, line.end);
+      if (d <= tolerance && (!best || d < best.d)) best = { line, d };
+    }
+    return best;
   }
 
   render(view) {
@@ -244,6 +260,335 @@ export class PoiLayer extends Layer {
         .drawRoundRect(label.x - 5, label.y - 9, label.getMeasuredWidth() + 10, 18, 4);
       marker.addChild(shape, tag, label);
       this.node.addChild(marker);
+    }
+  }
+}
+
+/** Distance from (x, y) to the segment a–b. */
+export function segmentDistance(x, y, a, b) {
+  const dx = b.x - a.x;
+  const dy = b.y - a.y;
+  const len2 = dx * dx + dy * dy;
+  const t = len2 ? Math.max(0, Math.min(1, ((x - a.x) * dx + (y - a.y) * dy) / len2)) : 0;
+  return Math.hypot(x - (a.x + t * dx), y - (a.y + t * dy));
+}
+
+/** The line or rectangle being dragged with an editing tool. */
+export class ShapePreview extends Layer {
+  constructor(view) {
+    super(view);
+    this.shape = new createjs.Shape();
+    this.node.addChild(this.shape);
+    this.what = null;
+  }
+
+  set(kind, a, b) {
+    this.what = kind ? { kind, a, b } : null;
+    this.changed();
+  }
+
+  render(view) {
+    const u = view.metresPerPixel;
+    const g = this.shape.graphics.clear();
+    if (!this.what) return;
+    const { kind, a, b } = this.what;
+    g.setStrokeStyle(2 * u).setStrokeDash([6 * u, 4 * u], 0).beginStroke(COLORS.preview);
+    if (kind === 'line') {
+      g.moveTo(a.x, -a.y).lineTo(b.x, -b.y);
+    } else {
+      g.beginFill(kind === 'erase' ? 'rgba(255, 171, 0, 0.15)' : COLORS.area);
+      g.drawRect(Math.min(a.x, b.x), -Math.max(a.y, b.y), Math.abs(b.x - a.x), Math.abs(b.y - a.y));
+    }
+    g.endStroke().endFill();
+  }
+}
+
+/** A metric grid over the map, spaced so lines are at least ~48 CSS px apart. */
+export class GridLayer extends Layer {
+  constructor(view) {
+    super(view);
+    this.shape = new createjs.Shape();
+    this.node.addChild(this.shape);
+    view.addEventListener('map', () => this.changed());
+  }
+
+  render(view) {
+    const u = view.metresPerPixel;
+    const g = this.shape.graphics.clear();
+    const b = view.mapBounds;
+    if (!b) return;
+    const step = niceStep(48 * u);
+    const x0 = Math.ceil(b.x / step) * step;
+    const y0 = Math.ceil(b.y / step) * step;
+    g.setStrokeStyle(u).beginStroke(COLORS.grid);
+    for (let x = x0; x <= b.x + b.w; x += step) g.moveTo(x, -b.y).lineTo(x, -(b.y + b.h));
+    for (let y = y0; y <= b.y + b.h; y += step) g.moveTo(b.x, -y).lineTo(b.x + b.w, -y);
+    g.endStroke();
+  }
+}
+
+/** The smallest 1-2-5 × 10ⁿ length at least `min` metres. */
+export function niceStep(min) {
+  const p = 10 ** Math.floor(Math.log10(min));
+  for (const m of [1, 2, 5, 10]) if (m * p >= min) return m * p;
+  return 10 * p;
+}
+
+/**
+ * The planner's view of the map, computed in the page from /map with the simulator planner's
+ * defaults: lethal cells (the robot's centre cannot go there: closer than radius + half a cell
+ * + safety margin to an obstacle) and a fading inflation band out to `inflation`. A chamfer
+ * distance transform, O(cells). Virtual walls are not in /map, so they are not inflated here.
+ */
+export class CostmapLayer extends Layer {
+  constructor(view, { robotRadius = 0.2, safetyMargin = 0.05, inflation = 0.6 } = {}) {
+    super(view);
+    this.robotRadius = robotRadius;
+    this.safetyMargin = safetyMargin;
+    this.inflation = inflation;
+    this.bitmap = null;
+    this.pending = null;
+    this.timer = null;
+    this.node.alpha = 0.55;
+    this.node.visible = false;
+  }
+
+  set(grid) {
+    this.pending = grid;
+    if (this.node.visible && !this.timer) {
+      this.timer = setTimeout(() => { this.timer = null; this.compute(); }, 300);
+    }
+  }
+
+  set visible(on) {
+    this.node.visible = on;
+    if (on && this.pending) this.compute();
+    this.view.requestRender();
+  }
+
+  get visible() {
+    return this.node.visible;
+  }
+
+  compute() {
+    const msg = this.pending;
+    if (!msg) return;
+    const { width: w, height: h, resolution: res } = msg.info;
+    const dist = chamferDistance(msg.data, w, h);
+    const canvas = document.createElement('canvas');
+    canvas.width = w;
+    canvas.height = h;
+    const ctx = canvas.getContext('2d');
+    const img = ctx.createImageData(w, h);
+    const lethal = (this.robotRadius + 0.5 * res + this.safetyMargin) / res;
+    const band = this.inflation / res;
+    for (let row = 0; row < h; row++) {
+      for (let col = 0; col < w; col++) {
+        const d = dist[row * w + col];
+        if (d === 0 || d >= band) continue;
+        const o = ((h - 1 - row) * w + col) * 4; // image rows go down, map rows go up
+        if (d < lethal) {
+          img.data[o] = 255; img.data[o + 1] = 0; img.data[o + 2] = 200; img.data[o + 3] = 200;
+        } else {
+          img.data[o] = 0; img.data[o + 1] = 150; img.data[o + 2] = 255;
+          img.data[o + 3] = Math.round(170 * (1 - (d - lethal) / (band - lethal)));
+        }
+      }
+    }
+    ctx.putImageData(img, 0, 0);
+    this.node.removeAllChildren();
+    this.bitmap = new createjs.Bitmap(canvas);
+    this.bitmap.scaleX = this.bitmap.scaleY = res;
+    this.bitmap.x = msg.info.origin.position.x;
+    this.bitmap.y = -(msg.info.origin.position.y + h * res);
+    this.node.addChild(this.bitmap);
+    this.cells = { dist, w, h, res, lethal, band };
+    this.view.requestRender();
+  }
+}
+
+/** Distance (in cells) of every cell to the nearest occupied one (> 50); 0 on obstacles. */
+export function chamferDistance(data, w, h) {
+  const INF = 1e9;
+  const d = new Float32Array(w * h);
+  for (let i = 0; i < w * h; i++) d[i] = data[i] > 50 ? 0 : INF;
+  const D = Math.SQRT2;
+  for (let r = 0; r < h; r++) {
+    for (let c = 0; c < w; c++) {
+      const i = r * w + c;
+      if (d[i] === 0) continue;
+      let v = d[i];
+      if (c > 0) v = Math.min(v, d[i - 1] + 1);
+      if (r > 0) {
+        v = Math.min(v, d[i - w] + 1);
+        if (c > 0) v = Math.min(v, d[i - w - 1] + D);
+        if (c < w - 1) v = Math.min(v, d[i - w + 1] + D);
+      }
+      d[i] = v;
+    }
+  }
+  for (let r = h - 1; r >= 0; r--) {
+    for (let c = w - 1; c >= 0; c--) {
+      const i = r * w + c;
+      let v = d[i];
+      if (c < w - 1) v = Math.min(v, d[i + 1] + 1);
+      if (r < h - 1) {
+        v = Math.min(v, d[i + w] + 1);
+        if (c < w - 1) v = Math.min(v, d[i + w + 1] + D);
+        if (c > 0) v = Math.min(v, d[i + w - 1] + D);
+      }
+      d[i] = v;
+    }
+  }
+  return d;
+}
+
+/** Patrol waypoints: numbered dots joined in visiting order, the current target ringed. */
+export class WaypointLayer extends Layer {
+  constructor(view) {
+    super(view);
+    this.points = [];
+    this.target = -1;
+  }
+
+  set(points, target = -1) {
+    this.points = points;
+    this.target = target;
+    this.changed();
+  }
+
+  render(view) {
+    const u = view.metresPerPixel;
+    this.node.removeAllChildren();
+    if (!this.points.length) return;
+    const lines = new createjs.Shape();
+    const g = lines.graphics.setStrokeStyle(2 * u).setStrokeDash([6 * u, 4 * u], 0)
+      .beginStroke(COLORS.waypoint);
+    this.points.forEach((p, i) => (i ? g.lineTo(p.x, -p.y) : g.moveTo(p.x, -p.y)));
+    if (this.points.length > 2) g.lineTo(this.points[0].x, -this.points[0].y);
+    g.endStroke();
+    this.node.addChild(lines);
+    this.points.forEach((p, i) => {
+      const m = new createjs.Container();
+      m.x = p.x;
+      m.y = -p.y;
+      m.scaleX = m.scaleY = u;
+      const dot = new createjs.Shape();
+      dot.graphics.setStrokeStyle(2).beginStroke('#1b5e20').beginFill(COLORS.waypoint).drawCircle(0, 0, 9);
+      if (i === this.target) dot.graphics.endFill().setStrokeStyle(3).beginStroke('#ffffff').drawCircle(0, 0, 14);
+      const label = new createjs.Text(String(i + 1), 'bold 11px system-ui, sans-serif', '#102010');
+      label.textAlign = 'center';
+      label.textBaseline = 'middle';
+      m.addChild(dot, label);
+      this.node.addChild(m);
+    });
+  }
+}
+
+/** hitrobot_msgs/Graph (graph/current): edges and numbered nodes. */
+export class GraphLayer extends Layer {
+  constructor(view) {
+    super(view);
+    this.graph = null;
+  }
+
+  set(graph) {
+    this.graph = graph;
+    this.changed();
+  }
+
+  render(view) {
+    const u = view.metresPerPixel;
+    this.node.removeAllChildren();
+    const graph = this.graph;
+    if (!graph || !graph.nodes || !graph.nodes.length) return;
+    const byId = new Map(graph.nodes.map((n) => [n.id, n]));
+    const edges = new createjs.Shape();
+    const g = edges.graphics.setStrokeStyle(2 * u).beginStroke(COLORS.graph);
+    for (const e of graph.edges || []) {
+      const a = byId.get(e.from_node);
+      const b = byId.get(e.to_node);
+      if (a && b) g.moveTo(a.x, -a.y).lineTo(b.x, -b.y);
+    }
+    g.endStroke();
+    this.node.addChild(edges);
+    for (const n of graph.nodes) {
+      const m = new createjs.Container();
+      m.x = n.x;
+      m.y = -n.y;
+      m.scaleX = m.scaleY = u;
+      const dot = new createjs.Shape();
+      dot.graphics.beginFill(COLORS.graph).drawRect(-5, -5, 10, 10);
+      const label = new createjs.Text(String(n.id), '11px system-ui, sans-serif', '#ede7f6');
+      label.x = 8;
+      label.y = 4;
+      m.addChild(dot, label);
+      this.node.addChild(m);
+    }
+  }
+}
+
+/**
+ * Bumpers, cliff sensors and sonars (basic_sensors_info + basic_sensors_values), drawn where
+ * they sit on the robot: green when quiet, red when triggered; sonars as a cone to their range.
+ */
+export class SensorLayer extends Layer {
+  constructor(view) {
+    super(view);
+    this.info = new Map();
+    this.values = new Map();
+    this.pose = null;
+    this.shape = new createjs.Shape();
+    this.node.addChild(this.shape);
+  }
+
+  setInfo(infos) {
+    this.info = new Map((infos || []).map((s) => [s.id, s]));
+    this.changed();
+  }
+
+  setValues(values) {
+    this.values = new Map((values || []).map((v) => [v.info.id, v]));
+    for (const v of values || []) if (!this.info.has(v.info.id)) this.info.set(v.info.id, v.info);
+    this.changed();
+  }
+
+  setPose(pose) {
+    this.pose = pose;
+    this.changed();
+  }
+
+  render(view) {
+    const u = view.metresPerPixel;
+    const g = this.shape.graphics.clear();
+    if (!this.pose) return;
+    const { x: rx, y: ry, yaw } = this.pose;
+    const cos = Math.cos(yaw);
+    const sin = Math.sin(yaw);
+    for (const [id, s] of this.info) {
+      const v = this.values.get(id);
+      const hit = Boolean(v && v.value && v.value.is_in_impact);
+      const p = s.install_pose.position;
+      const a = yaw + yawOf(s.install_pose.orientation);
+      const x = rx + p.x * cos - p.y * sin;
+      const y = ry + p.x * sin + p.y * cos;
+      const type = s.sensor_type.type;
+      const colour = hit ? COLORS.sensorHit : COLORS.sensorOk;
+      if (type === 2) { // sonar: a 15° cone to the measured range (capped at 1.5 m)
+        const range = Math.min(1.5, v && Number.isFinite(v.value.value) && v.value.value > 0 ? v.value.value : 1.5);
+        const half = (7.5 * Math.PI) / 180;
+        g.beginFill(hit ? 'rgba(255, 23, 68, 0.35)' : 'rgba(0, 230, 118, 0.12)')
+          .moveTo(x, -y)
+          .lineTo(x + range * Math.cos(a - half), -(y + range * Math.sin(a - half)))
+          .lineTo(x + range * Math.cos(a + half), -(y + range * Math.sin(a + half)))
+          .closePath().endFill();
+      } else if (type === 0) { // bumper: a thick arc segment on the rim
+        g.setStrokeStyle(5 * u, 'round').beginStroke(colour)
+          .moveTo(x - 0.06 * Math.sin(a), -(y + 0.06 * Math.cos(a)))
+          .lineTo(x + 0.06 * Math.sin(a), -(y - 0.06 * Math.cos(a))).endStroke();
+      } else { // cliff and the rest: a small square
+        g.beginFill(colour).drawRect(x - 3 * u, -y - 3 * u, 6 * u, 6 * u).endFill();
+      }
     }
   }
 }

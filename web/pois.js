@@ -43,16 +43,17 @@ export class Pois {
         el('button', { type: 'button', class: 'delete danger', title: 'Delete', onclick: () => this.remove(poi) }, '✕')));
   }
 
+  /** Why `name` cannot be a new POI's name ('' when it can). */
+  taken(name) {
+    return this.pois.some((p) => p.name === name) ? `a POI named “${name}” exists already` : '';
+  }
+
   /** Ask for a name and add a POI at (x, y, yaw). */
   async addAt(x, y, yaw) {
     const n = this.pois.length + 1;
     const answer = await poiForm({ title: 'Add point of interest', name: `poi ${n}`,
-      where: `at ${formatPose(x, y, yaw)}` });
+      where: `at ${formatPose(x, y, yaw)}`, validate: (name) => this.taken(name) });
     if (!answer) return;
-    if (this.pois.some((p) => p.name === answer.name)) {
-      log('warning', `a POI named “${answer.name}” exists already`);
-      return;
-    }
     this.addTopic.publish(new ROSLIB.Message({
       type: POI_DEFAULT,
       name: answer.name,
@@ -64,7 +65,7 @@ export class Pois {
 
   async rename(poi) {
     const answer = await poiForm({ title: `Rename “${poi.name}”`, name: poi.name,
-      remarks: poi.remarks || '' });
+      remarks: poi.remarks || '', validate: (name) => (name === poi.name ? '' : this.taken(name)) });
     if (!answer || (answer.name === poi.name && answer.remarks === (poi.remarks || ''))) return;
     this.modifyTopic.publish(new ROSLIB.Message({
       poi: { ...poi, name: answer.name, remarks: answer.remarks },
@@ -80,6 +81,7 @@ export class Pois {
   }
 
   go(poi) {
+    if (this.onGo && this.onGo(poi) === false) return;
     this.goTopic.publish(new ROSLIB.Message({
       poi_name: poi.name, distance_to_target: 0.0, skip_final_turn: false,
     }));

@@ -2,10 +2,12 @@
 // robot_basic_state, and whether the robot is connected, from /diagnostics_agg (the status
 // whose name mentions "connection").
 /* global ROSLIB */
+import { log } from './log.js';
 
 const NODE = '/slamware_ros_sdk_server_node';
 const LEVELS = ['ok', 'warn', 'error', 'stale'];
 const STALE_MS = 5000;
+export const QUALITY_LOW = 50; // where /diagnostics_agg's Localization turns WARN
 
 function meter(id, percent, text, state) {
   const box = document.getElementById(id);
@@ -36,7 +38,20 @@ export class RobotState {
     meter('battery', b, `${b}%${charge}`, b < 15 ? 'low' : s.is_charging ? 'charging' : 'ok');
     const q = s.localization_quality;
     const mapping = s.is_map_building_enabled ? ' · mapping' : '';
-    meter('localization', q, `${q}${mapping}`, q < 30 ? 'low' : q < 60 ? 'fair' : 'ok');
+    meter('localization', q, `${q}${mapping}`, q < QUALITY_LOW ? 'low' : q < 60 ? 'fair' : 'ok');
+    // the Robot panel
+    const chargeBox = document.getElementById('charge-state');
+    const chargeState = s.is_charging ? 'charging' : s.is_dc_in ? 'docked' : 'discharging';
+    chargeBox.dataset.state = chargeState;
+    chargeBox.textContent = { charging: `⚡ charging · ${b}%`, docked: `on the dock · ${b}%`,
+      discharging: `on battery · ${b}%` }[chargeState];
+    const loc = document.getElementById('loc-state');
+    const low = s.is_localization_enabled && q < QUALITY_LOW;
+    loc.dataset.state = low ? 'low' : 'ok';
+    loc.textContent = s.is_localization_enabled ? `localization ${q}` : 'localization off';
+    const warning = document.getElementById('loc-warning');
+    if (low && warning.hidden) log('warning', `localization quality is low (${q}): relocalize the robot`);
+    warning.hidden = !low;
   }
 
   diagnostics(array) {

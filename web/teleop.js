@@ -92,6 +92,14 @@ export class Teleop {
 
   update(forceStop = false) {
     const c = this.command();
+    if (c.active && document.body.classList.contains('offline')) {
+      // the bridge is down: nothing would arrive (roslib would queue it for later)
+      this.keys.clear();
+      this.pad = null;
+      this.state.textContent = 'offline — not driving';
+      this.state.dataset.state = 'offline';
+      return;
+    }
     if (c.active) {
       this.publish(c.linear, c.angular);
       if (!this.timer) this.timer = setInterval(() => this.tick(), PERIOD_MS);
@@ -117,6 +125,7 @@ export class Teleop {
   }
 
   publish(linear, angular) {
+    if (document.body.classList.contains('offline')) return;
     this.topic.publish(new ROSLIB.Message({
       linear: { x: linear, y: 0, z: 0 }, angular: { x: 0, y: 0, z: angular },
     }));

@@ -1,7 +1,9 @@
 // Pointer and keyboard interaction with the map: the tool buttons (Move, Goal, Set pose,
-// Add POI), drag-to-orient like nav2d (press at the position, drag towards the heading,
-// release), pan with the Move tool or the middle/right button, zoom with the wheel.
-import { ArrowMarker, COLORS } from './overlays.js';
+// Add POI, and the editing tools: walls and tracks dragged as lines, no-go and erase areas
+// dragged as rectangles, Remove line, patrol waypoints), drag-to-orient like nav2d (press at
+// the position, drag towards the heading, release), pan with the Move tool or the
+// middle/right button, zoom with the wheel. While the bridge is down only Move works.
+import { ArrowMarker, COLORS, ShapePreview } from './overlays.js';
 import { formatPose } from './util.js';
 
 const DRAG_PX = 6; // a press that moved less than this many CSS pixels is a click
@@ -10,7 +12,16 @@ const HINTS = {
   goal: 'Goal: click a destination, or press and drag towards the heading you want.',
   pose: 'Set pose: press where the robot is and drag towards where it faces.',
   poi: 'Add POI: click the spot, or press and drag to give it a heading.',
+  wall: 'Virtual wall: press at one end and drag to the other.',
+  track: 'Virtual track: press at one end and drag to the other.',
+  area: 'No-go area: drag a rectangle the robot must stay out of.',
+  erase: 'Erase masks: drag a rectangle to clear the masks in it.',
+  unline: 'Remove line: click a wall or a track.',
+  waypoint: 'Waypoints: click each in visiting order; Esc or Move when done.',
 };
+const LINE_TOOLS = new Set(['wall', 'track']);
+const RECT_TOOLS = new Set(['area', 'erase']);
+const STAYING_TOOLS = new Set(['goal', 'waypoint', 'wall', 'track', 'area', 'erase', 'unline']);
 
 export class MapTools {
   /** `onPick(tool, {x, y, yaw})`: yaw is null for a plain click (no heading dragged). */
@@ -20,7 +31,9 @@ export class MapTools {
     this.tool = 'move';
     this.drag = null;
     this.preview = new ArrowMarker(view, COLORS.preview, { dashed: true });
-    this.buttons = [...document.querySelectorAll('#tools [data-tool]')];
+    this.shapePreview = new ShapePreview(view);
+    this.enabled = true;
+    this.buttons = [...document.querySelectorAll('[data-tool]')];
     this.hint = document.getElementById('hint');
     this.cursor = document.getElementById('cursor');
     for (const b of this.buttons) b.addEventListener('click', () => this.setTool(b.dataset.tool));
@@ -40,11 +53,19 @@ export class MapTools {
     this.setTool('move');
   }
 
+  /** Offline: every tool but Move is disabled (nothing can be sent). */
+  setEnabled(on) {
+    this.enabled = on;
+    for (const b of this.buttons) b.disabled = !on && b.dataset.tool !== 'move';
+    if (!on) this.setTool('move');
+  }
+
   setTool(tool) {
     this.abort();
+    if (!this.enabled) tool = 'move';
     this.tool = tool;
     for (const b of this.buttons) b.classList.toggle('active', b.dataset.tool === tool);
-    this.view.canvas.dataset.cursor = tool;
+    this.view.canvas.dataset.cursor = tool === 'move' ? 'move' : 'goal';
     this.setHint(HINTS[tool] || '');
   }
 
@@ -61,9 +82,12 @@ export class MapTools {
       this.view.canvas.classList.add('panning');
       return;
     }
+    if (!this.enabled) return;
     const at = this.view.clientToRos(e.clientX, e.clientY);
-    this.drag = { kind: 'pick', at, cx: e.clientX, cy: e.clientY, yaw: null };
-    this.preview.setPose(at.x, at.y, 0);
+    this.drag = { kind: 'pick', at, end: at, cx: e.clientX, cy: e.clientY, yaw: null };
+    if (LINE_TOOLS.has(this.tool)) this.shapePreview.set('line', at, at);
+    else if (RECT_TOOLS.has(this.tool)) this.shapePreview.set(this.tool, at, at);
+    else if (this.tool !== 'unline' && this.tool !== 'waypoint') this.preview.setPose(at.x, at.y, 0);
   }
 
   move(e) {
@@ -76,6 +100,14 @@ export class MapTools {
       return;
     }
     const d = this.drag;
+    d.end = r;
+    if (LINE_TOOLS.has(this.tool) || RECT_TOOLS.has(this.tool)) {
+      this.shapePreview.set(LINE_TOOLS.has(this.tool) ? 'line' : this.tool, d.at, r);
+      const size = LINE_TOOLS.has(this.tool) ? `${Math.hypot(r.x - d.at.x, r.y - d.at.y).toFixed(2)} m`
+        : `${Math.abs(r.x - d.at.x).toFixed(2)} × ${Math.abs(r.y - d.at.y).toFixed(2)} m`;
+      this.setHint(`${this.tool}: ${size}`);
+      return;
+    }
     if (Math.hypot(e.clientX - d.cx, e.clientY - d.cy) >= DRAG_PX) {
       d.yaw = Math.atan2(r.y - d.at.y, r.x - d.at.x);
       this.preview.setPose(d.at.x, d.at.y, d.yaw);
@@ -90,15 +122,19 @@ export class MapTools {
     if (this.view.canvas.hasPointerCapture(e.pointerId)) this.view.canvas.releasePointerCapture(e.pointerId);
     if (!d || d.kind !== 'pick') return;
     this.preview.hide();
+    this.shapePreview.set(null);
     const tool = this.tool;
-    if (tool !== 'goal') this.setTool('move'); // setting a pose or a POI is a one-off
-    else this.setHint(HINTS.goal);
-    this.onPick(tool, { x: d.at.x, y: d.at.y, yaw: d.yaw });
+    if (!STAYING_TOOLS.has(tool)) this.setTool('move'); // setting a pose or a POI is a one-off
+    else this.setHint(HINTS[tool]);
+    const dragged = Math.hypot(e.clientX - d.cx, e.clientY - d.cy) >= DRAG_PX;
+    if ((LINE_TOOLS.has(tool) || RECT_TOOLS.has(tool)) && !dragged) return; // a click draws nothing
+    this.onPick(tool, { x: d.at.x, y: d.at.y, yaw: d.yaw, end: d.end });
   }
 
   abort() {
     if (this.drag && this.drag.kind === 'pick') {
       this.preview.hide();
+      this.shapePreview.set(null);
       this.setHint(HINTS[this.tool] || '');
     }
     this.drag = null;

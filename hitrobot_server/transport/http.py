@@ -42,6 +42,20 @@ CSP = (
 )
 
 
+# The npm libraries' browser builds the page loads (``npm ci --prefix web``); setup.py ships them.
+LIBRARY_FILES = (
+    "node_modules/eventemitter2/lib/eventemitter2.js",
+    "node_modules/easeljs/lib/easeljs.min.js",
+    "node_modules/roslib/build/roslib.min.js",
+    "node_modules/ros2d/build/ros2d.min.js",
+)
+
+
+def missing_libraries(root: Path) -> list[str]:
+    """The library builds absent under ``root`` (all of them after a pip install without npm)."""
+    return [name for name in LIBRARY_FILES if not (root / name).is_file()]
+
+
 def default_web_root() -> Path | None:
     """The checkout's ``web/`` when running from one, else the copy shipped in the wheel."""
     package = Path(__file__).resolve().parents[1]
@@ -49,6 +63,21 @@ def default_web_root() -> Path | None:
         if (root / "index.html").is_file():
             return root
     return None
+
+
+ROUTINE_HTTP_LOGS = ("HTTP response sent", "connection rejected")
+
+
+class QuietHttpLog(logging.LoggerAdapter):
+    """websockets logs every plain HTTP response at INFO; a console file served (< 400) is
+    routine, so it goes to DEBUG. Refusals and errors keep their level."""
+
+    def log(self, level, msg, *args, **kwargs):
+        routine = isinstance(msg, str) and msg.startswith(ROUTINE_HTTP_LOGS)
+        if level == logging.INFO and routine and args and isinstance(args[0], int) \
+                and args[0] < 400:
+            level = logging.DEBUG
+        super().log(level, msg, *args, **kwargs)
 
 
 class StaticFiles:

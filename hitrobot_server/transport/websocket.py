@@ -17,6 +17,7 @@ from websockets.http11 import Request, Response
 from websockets.protocol import State
 
 from ..session.session import Session
+from .http import QuietHttpLog
 
 log = logging.getLogger(__name__)
 
@@ -115,6 +116,7 @@ async def start_websocket(
         max_size=max_frame_size,
         compression="deflate" if compression else None,
         process_request=process_request,
+        logger=QuietHttpLog(logging.getLogger("websockets.server")),
         ping_interval=ping_interval or None,
         ping_timeout=ping_timeout,
         max_queue=64,

@@ -20,6 +20,9 @@ Rules (rosbridge's ROS 1 conventions plus the choices below):
 * Header auto-fill, applied to every ``std_msgs/Header`` value at any depth: an omitted ``stamp``
   becomes now, an omitted header becomes ``{seq: 0, stamp: now, frame_id: ""}``. Neither is
   reported as missing, nor is an omitted ``seq`` (publishers number messages themselves).
+* Any other omitted ``time`` field named ``stamp`` (``actionlib_msgs/GoalID.stamp``: roslibjs 1.x
+  cancels with ``{id}`` only) gets the default 0 and is not reported either: filling a stamp
+  is what clients expect, not a mistake to warn about.
 
 Converters are compiled once per type and cached on the registry, so steady-state cost is one
 closure call per field plus C-level type checks for numeric arrays.
@@ -384,6 +387,8 @@ def _build(mtype: MsgType, reg: TypeRegistry) -> tuple[Conv, Fill]:
     for field in mtype.fields:
         conv, fill = _field_plan(field, reg)
         report = not (field.type == HEADER and field.array is None)
+        if field.name == "stamp" and field.type == "time" and field.array is None:
+            report = False
         if is_header and field.name in ("seq", "stamp"):
             report = False
             if field.name == "stamp":

@@ -5,12 +5,18 @@ from __future__ import annotations
 import ast
 import asyncio
 import fnmatch
+import logging
 import re
 from pathlib import Path
 
 import pytest
 
-from hitrobot_server.transport.http import StaticFiles, default_web_root
+from hitrobot_server.transport.http import (
+    LIBRARY_FILES,
+    StaticFiles,
+    default_web_root,
+    missing_libraries,
+)
 
 from ..helpers import WsClient
 
@@ -149,3 +155,38 @@ def test_lockfile_names_no_registry_host():
     lock = (WEB / "package-lock.json").read_text()
     assert '"resolved"' not in lock
     assert "registry" not in lock
+
+
+async def test_served_files_log_at_debug_not_info(server, caplog):
+    caplog.set_level(logging.DEBUG, logger="websockets")
+    status, _, _ = await http(server.port, "GET", "/index.html")
+    assert status == 200
+    status, _, _ = await http(server.port, "GET", "/nope.html")
+    assert status == 404
+    sent = [r for r in caplog.records if "HTTP response sent" in r.getMessage()
+            or "connection rejected" in r.getMessage()]
+    assert [(r.levelno, r.args[0]) for r in sent] == [(logging.DEBUG, 200), (logging.INFO, 404)]
+
+
+async def test_start_logs_the_console_url(make_server, caplog):
+    caplog.set_level(logging.INFO, logger="hitrobot_server")
+    server = await make_server()
+    assert f"web console: http://127.0.0.1:{server.port}/" in caplog.text
+    assert "libraries are missing" not in caplog.text
+
+
+async def test_a_web_root_without_npm_libraries_warns_once_at_start(make_server, caplog,
+                                                                    tmp_path, monkeypatch):
+    """What a `pip install .` without `npm ci --prefix web` ships: the page, no libraries."""
+    (tmp_path / "index.html").write_text("<!doctype html><title>console</title>")
+    assert missing_libraries(tmp_path) == list(LIBRARY_FILES)
+    assert missing_libraries(WEB) == []
+    monkeypatch.setattr("hitrobot_server.server.default_web_root", lambda: tmp_path)
+    caplog.set_level(logging.INFO, logger="hitrobot_server")
+    server = await make_server()
+    warnings = [r for r in caplog.records if r.levelno == logging.WARNING]
+    assert len(warnings) == 1
+    text = warnings[0].getMessage()
+    assert "npm ci --prefix web" in text and "roslib" in text
+    status, _, body = await http(server.port, "GET", "/")
+    assert status == 200 and b"console" in body

@@ -235,8 +235,15 @@ def test_nested_headers_are_filled_too(reg: TypeRegistry) -> None:
     assert msg["header"]["stamp"] == NOW_DICT
     assert msg["goal"]["target_pose"]["header"] == {"seq": 0, "stamp": NOW_DICT, "frame_id": "map"}
     assert msg["goal_id"]["stamp"] == {"secs": 0, "nsecs": 0}
-    assert "goal_id.stamp" in missing
+    assert "goal_id.stamp" not in missing  # a default-filled stamp is normal
     assert "goal.target_pose.pose" in missing
+
+
+def test_goal_id_without_stamp_is_not_missing(reg: TypeRegistry) -> None:
+    """roslibjs 1.4.1's Goal.cancel() publishes {id} alone: stamp 0 cancels just that goal."""
+    msg, missing = convert(reg, "actionlib_msgs/GoalID", {"id": "g1"})
+    assert msg == {"stamp": {"secs": 0, "nsecs": 0}, "id": "g1"}
+    assert missing == []
 
 
 def test_now_is_read_once_per_call(reg: TypeRegistry) -> None:

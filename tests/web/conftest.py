@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -63,6 +64,20 @@ class Console:
         await self.page.wait_for_function(
             "([sel, key, value]) => document.querySelector(sel).dataset[key] === value",
             arg=[selector, key, value], timeout=timeout * 1000)
+
+    async def snapshot(self, name: str) -> None:
+        """Save the page as test-artifacts/<name>.png; with UPDATE_SCREENSHOT=1 also as the
+        README's web/<name>.png."""
+        await self.frame()
+        ARTIFACTS.mkdir(exist_ok=True)
+        png = await self.page.screenshot(path=str(ARTIFACTS / f"{name}.png"))
+        if os.environ.get("UPDATE_SCREENSHOT") == "1":
+            (REPO / "web" / f"{name}.png").write_bytes(png)
+
+    async def tab(self, name: str) -> None:
+        """Show a tab of the side panel (Operate, Map, Status, Inspect)."""
+        await self.page.click(f".tabs [data-tab={name}]")
+        await self.page.locator(f"[data-tab-panel={name}]").wait_for(state="visible")
 
     async def drag(self, start: tuple[float, float], end: tuple[float, float]) -> None:
         await self.page.mouse.move(*start)
@@ -174,6 +189,15 @@ class GridMap:
                     if self.clear(px, py, radius):
                         return px, py
         raise AssertionError(f"no free point near ({x}, {y})")
+
+
+async def add_poi(watcher: Watcher, name: str, x: float, y: float) -> None:
+    """A POI facing +x, added by another client (as an operator elsewhere would)."""
+    await watcher.publish("/map_manager/add_poi", {
+        "type": 100, "name": name, "remarks": "",
+        "pose": {"position": {"x": x, "y": y, "z": 0.0},
+                 "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}},
+    }, "map_messages/PointOfInterest")
 
 
 async def grid_map(watcher: Watcher) -> GridMap:

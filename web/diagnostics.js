@@ -1,0 +1,56 @@
+// The Status tab: /diagnostics_agg as a list (group summaries and their items, worst first in
+// the header), and the robot's bumpers, cliff sensors and sonars (basic_sensors_info/values)
+// listed and drawn on the map.
+/* global ROSLIB */
+import { el } from './util.js';
+
+const NODE = '/slamware_ros_sdk_server_node';
+const LEVELS = ['OK', 'WARN', 'ERROR', 'STALE'];
+const SENSOR_TYPES = { 0: 'bumper', 1: 'cliff', 2: 'sonar', 3: 'depth camera', 4: 'wall sensor', 5: 'magnetic tape' };
+
+export class Diagnostics {
+  constructor({ ros, sensorLayer }) {
+    this.list = document.getElementById('diagnostics');
+    this.summary = document.getElementById('diag-summary');
+    this.sensorList = document.getElementById('sensors');
+    this.sensorLayer = sensorLayer;
+    this.info = [];
+    new ROSLIB.Topic({ ros, name: '/diagnostics_agg', messageType: 'diagnostic_msgs/DiagnosticArray', throttle_rate: 500 })
+      .subscribe((array) => this.show(array.status || []));
+    new ROSLIB.Topic({ ros, name: `${NODE}/basic_sensors_info`, messageType: 'slamware_ros_sdk/BasicSensorInfoArray' })
+      .subscribe((msg) => {
+        this.info = msg.sensors_info || [];
+        sensorLayer.setInfo(this.info);
+      });
+    new ROSLIB.Topic({ ros, name: `${NODE}/basic_sensors_values`, messageType: 'slamware_ros_sdk/BasicSensorValueDataArray',
+      throttle_rate: 200, queue_length: 1 }).subscribe((msg) => this.sensors(msg.values_data || []));
+  }
+
+  show(statuses) {
+    const worst = Math.max(0, ...statuses.map((s) => s.level));
+    this.summary.textContent = statuses.length ? LEVELS[worst] || '' : '';
+    this.summary.dataset.level = LEVELS[worst] || '';
+    this.list.replaceChildren(...statuses.map((s) => {
+      const group = (s.name.match(/\//g) || []).length <= 1;
+      const values = (s.values || []).map((kv) => `${kv.key}: ${kv.value}`).join(' · ');
+      return el('li', { class: group ? 'group' : 'item', dataset: { name: s.name, level: LEVELS[s.level] || String(s.level) } },
+        el('span', { class: 'diag-level' }, LEVELS[s.level] || String(s.level)),
+        el('span', { class: 'diag-name' }, s.name),
+        el('span', { class: 'diag-message' }, s.message || ''),
+        values && !group ? el('span', { class: 'diag-values' }, values) : null);
+    }));
+  }
+
+  sensors(values) {
+    this.sensorLayer.setValues(values);
+    if (!values.length) return;
+    this.sensorList.replaceChildren(...values.map((v) => {
+      const type = SENSOR_TYPES[v.info.sensor_type.type] || 'sensor';
+      const hit = v.value.is_in_impact;
+      const range = Number.isFinite(v.value.value) ? `${v.value.value.toFixed(2)} m` : 'no echo';
+      const reading = type === 'sonar' ? range : hit ? 'triggered' : 'clear';
+      return el('li', { dataset: { id: String(v.info.id), impact: String(hit) } },
+        el('span', {}, `${type} ${v.info.id}`), el('span', { class: hit ? 'hit' : '' }, reading));
+    }));
+  }
+}

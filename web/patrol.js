@@ -1,0 +1,64 @@
+// Patrol routes (planning/*): waypoints clicked on the map with the "Add waypoints" tool are the
+// route (planning/set_waypoints after each click), drawn numbered; Run (start_patrol), Stop
+// (stop_patrol), Resume (resume_patrol, from the waypoint nearest the robot), Clear. The
+// latched planning/patrol_state says what the patrol does: its target, laps and last event.
+/* global ROSLIB */
+import { log } from './log.js';
+import { el } from './util.js';
+
+export class Patrol {
+  constructor({ ros, layer }) {
+    this.layer = layer;
+    this.waypoints = [];
+    this.frame = 'map';
+    const service = (name, serviceType) => new ROSLIB.Service({ ros, name: `/planning/${name}`, serviceType });
+    this.services = {
+      set: service('set_waypoints', 'hitrobot_msgs/SetWaypoints'),
+      clear: service('clear_waypoints', 'std_srvs/Trigger'),
+      start: service('start_patrol', 'std_srvs/Trigger'),
+      stop: service('stop_patrol', 'std_srvs/Trigger'),
+      resume: service('resume_patrol', 'hitrobot_msgs/ResumePatrol'),
+    };
+    this.stateBox = document.getElementById('patrol-state');
+    this.list = document.getElementById('waypoint-list');
+    this.count = document.getElementById('patrol-count');
+    document.getElementById('patrol-clear').addEventListener('click', () => this.call('clear', {}, 'route cleared'));
+    document.getElementById('patrol-start').addEventListener('click', () => this.call('start', {}));
+    document.getElementById('patrol-stop').addEventListener('click', () => this.call('stop', {}));
+    document.getElementById('patrol-resume').addEventListener('click', () => this.call('resume', {}));
+    new ROSLIB.Topic({ ros, name: '/planning/patrol_state', messageType: 'hitrobot_msgs/PatrolState' })
+      .subscribe((state) => this.show(state));
+  }
+
+  call(what, request, okText = '') {
+    this.services[what].callService(new ROSLIB.ServiceRequest(request), (reply) => {
+      if (reply.success) log('info', okText || `patrol ${what}: ${reply.message}`);
+      else log('error', `patrol ${what}: ${reply.message}`);
+    }, (error) => log('error', `patrol ${what} failed: ${error}`));
+  }
+
+  /** A click with the waypoint tool: the route gets one more waypoint. */
+  add(x, y) {
+    const next = [...this.waypoints, { frame: this.frame, x, y, z: 0, use_z: false }];
+    this.call('set', { waypoints: next }, `waypoint ${next.length} at ${x.toFixed(2)}, ${y.toFixed(2)} m`);
+  }
+
+  show(state) {
+    this.waypoints = state.waypoints || [];
+    if (this.waypoints.length) this.frame = this.waypoints[0].frame || 'map';
+    this.layer.set(this.waypoints, state.active ? state.target_index : -1);
+    this.count.textContent = this.waypoints.length ? `(${this.waypoints.length})` : '';
+    this.stateBox.dataset.active = String(state.active);
+    this.stateBox.dataset.target = String(state.target_index);
+    this.stateBox.dataset.laps = String(state.laps);
+    const route = state.route ? `route “${state.route}” · ` : '';
+    // the server counts waypoints from 0, the list from 1: its "heading to …" is said here
+    const event = state.message && !/^heading to/.test(state.message) ? ` · ${state.message}` : '';
+    this.stateBox.textContent = state.active
+      ? `${route}patrolling → waypoint ${state.target_index + 1} of ${this.waypoints.length} · lap ${state.laps + 1}${event}`
+      : `${route}${this.waypoints.length ? 'stopped' : 'no route'}${event}`;
+    this.list.replaceChildren(...this.waypoints.map((w, i) => el('li', {
+      class: state.active && i === state.target_index ? 'target' : '',
+    }, `${w.x.toFixed(2)}, ${w.y.toFixed(2)} m`)));
+  }
+}

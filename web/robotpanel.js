@@ -1,0 +1,46 @@
+// The Robot panel's actions and the speed/odometry readout: Relocalize (recover_localization
+// over the whole map), Go home (go_home: to the dock, where it charges), Stop (cancel_action),
+// and from odom the speed and the distance driven since the page opened.
+/* global ROSLIB */
+import { log } from './log.js';
+
+const NODE = '/slamware_ros_sdk_server_node';
+
+export class RobotActions {
+  constructor({ ros }) {
+    const topic = (name, messageType, options = {}) => new ROSLIB.Topic({ ros, name, messageType, ...options });
+    this.recover = topic(`${NODE}/recover_localization`, 'slamware_ros_sdk/RecoverLocalizationRequest');
+    this.home = topic(`${NODE}/go_home`, 'slamware_ros_sdk/GoHomeRequest');
+    this.cancel = topic(`${NODE}/cancel_action`, 'slamware_ros_sdk/CancelActionRequest');
+    this.buttons = ['relocalize', 'go-home', 'stop-motion'].map((id) => document.getElementById(id));
+    document.getElementById('relocalize').addEventListener('click', () => {
+      this.recover.publish(new ROSLIB.Message({ area: { x: 0, y: 0, w: 0, h: 0 }, options: {} }));
+      log('info', 'relocalization requested (whole map)');
+    });
+    document.getElementById('go-home').addEventListener('click', () => {
+      this.home.publish(new ROSLIB.Message({}));
+      log('info', 'going home to the dock');
+    });
+    document.getElementById('stop-motion').addEventListener('click', () => {
+      this.cancel.publish(new ROSLIB.Message({}));
+      log('info', 'stop: the current action cancelled');
+    });
+
+    this.readout = document.getElementById('odometry');
+    this.last = null;
+    this.distance = 0;
+    topic(`${NODE}/odom`, 'nav_msgs/Odometry', { throttle_rate: 200, queue_length: 1 })
+      .subscribe((odom) => this.odometry(odom));
+  }
+
+  odometry(odom) {
+    const p = odom.pose.pose.position;
+    if (this.last) this.distance += Math.hypot(p.x - this.last.x, p.y - this.last.y);
+    this.last = { x: p.x, y: p.y };
+    const t = odom.twist.twist;
+    const speed = Math.hypot(t.linear.x, t.linear.y);
+    this.readout.textContent = `speed ${speed.toFixed(2)} m/s · turn ${t.angular.z.toFixed(2)} rad/s · ` +
+      `odometer ${this.distance.toFixed(1)} m`;
+    this.readout.dataset.speed = speed.toFixed(3);
+  }
+}
