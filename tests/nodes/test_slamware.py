@@ -16,8 +16,6 @@ import numpy as np
 import pytest
 
 from hitrobot_server.nodes.slamware.messages import yaw_of
-from hitrobot_server.robot.factory import build_simulator
-from hitrobot_server.robot.rest.device import SimDevice
 from hitrobot_server.robot.sim.world import load_world
 
 from ..helpers import Watcher
@@ -35,38 +33,6 @@ def options(flags: int = 0) -> dict:
 @pytest.fixture(scope="module")
 def world():
     return load_world()
-
-
-@pytest.fixture(params=["sim", "rest"])
-def backend(request) -> str:
-    return request.param
-
-
-@pytest.fixture
-async def start_robot(make_server, backend):
-    """``await start_robot(**settings)``: a server with the simulated robot, in process or
-    behind a sim-device over HTTP (the simulator settings then go to the device)."""
-    servers, devices = [], []
-
-    async def start(**overrides):
-        if backend == "sim":
-            return await make_server(robot="sim", **overrides)
-        world = overrides.pop("world", None)
-        seed = overrides.pop("sim_seed", 0)
-        mapping = overrides.pop("sim_mapping", False)
-        speed = overrides.pop("sim_speed", 1.0)
-        device = SimDevice(build_simulator(world, seed, mapping), port=0, time_scale=speed)
-        await device.start()
-        devices.append(device)
-        server = await make_server(robot=device.url, **overrides)
-        servers.append(server)
-        return server
-
-    yield start
-    for server in servers:  # the server first, so it never sees its robot go away
-        await server.stop()
-    for device in devices:
-        await device.stop()
 
 
 @pytest.fixture

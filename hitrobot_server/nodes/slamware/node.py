@@ -35,6 +35,7 @@ from ...robot.model import (
     Pose2D,
     Rect,
 )
+from ...robot.relocalization import GOOD_QUALITY, settled_quality
 from ..base import RobotNode, require_finite
 from . import messages as m
 from .mapsync import MapHolder, tiles, window
@@ -391,7 +392,19 @@ class SlamwareNode(RobotNode):
         _point(msg["position"], "position")
         pose = Pose2D(msg["position"]["x"], msg["position"]["y"],
                       _quaternion_yaw(msg["orientation"], "orientation"))
-        self._run(message, "set_pose", lambda: self.backend.set_pose(pose))
+
+        async def set_pose() -> None:
+            """Forced as the SDK does, but the publisher learns whether the robot agrees."""
+            await self.backend.set_pose(pose)
+            quality = await settled_quality(self.backend)
+            if quality >= GOOD_QUALITY:
+                message.reject(f"set_pose: localized (quality {quality})", level="info")
+            else:
+                message.reject(f"set_pose: the pose was set but localization has not converged "
+                               f"(quality {quality} < {GOOD_QUALITY}); use /set_initialpose or "
+                               "recover_localization", level="warning")
+
+        self._run(message, "set_pose", set_pose)
 
     def _on_recover(self, message: Message) -> None:
         msg = message.msg

@@ -62,7 +62,7 @@ from .actions import (
 )
 from .artifacts import LineStore
 from .costmap import Costmap, CostmapConfig, build_costmap
-from .geometry import wrap_angle
+from .geometry import compose, inverse, wrap_angle
 from .grid import distance_field
 from .kinematics import DiffDrive, DriveLimits
 from .lidar import Lidar, LidarConfig, RayCaster
@@ -206,6 +206,7 @@ class Simulator:
         believed = self._localizer.believed(true_pose)
         angles = self._lidar.angles
         self._scan = LaserScan(believed, angles, ranges, self.time)
+        self._scan_odometry = true_pose
         self._sensors.update_sonars(true_pose)
         points = scan_points(angles, ranges, self.config.localization.match_points)
         self._localizer.update(self.config.scan_period, true_pose, points)
@@ -283,8 +284,15 @@ class Simulator:
             self._field, points, area, self._standable, self.config.localization
         )
 
-    def apply_correction(self, correction: Pose2D) -> None:
-        self._localizer.correct(correction)
+    @property
+    def scan_odometry(self) -> Pose2D:
+        return self._scan_odometry
+
+    def relocalize(self, match: Pose2D, at: Pose2D) -> None:
+        """Believe ``match`` at odometry pose ``at``: the pose is the match plus the odometry
+        motion since, whatever was believed (or forced with ``set_pose``) meanwhile."""
+        now = self._drive.pose
+        self._localizer.set_pose(compose(match, compose(inverse(at), now)), now)
 
     def report_relocalization(self, success: bool) -> None:
         self._relocalization_failed = not success
