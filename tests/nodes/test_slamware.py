@@ -10,6 +10,7 @@ sim-device on an ephemeral loopback port that the server drives over the Slamwar
 from __future__ import annotations
 
 import asyncio
+import base64
 import math
 
 import numpy as np
@@ -248,6 +249,56 @@ async def test_stcm_round_trip_restores_the_map(robot):
     assert again["data"] == original["data"]
 
 
+def pose_msg(x: float, y: float, yaw: float) -> dict:
+    return {"position": {"x": x, "y": y, "z": 0.0},
+            "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}
+
+
+async def test_refused_stcm_changes_nothing(robot):
+    """A composite map that is too short, or whose checksum is wrong, is refused before the
+    robot's map, localization or mapping are touched (the seed's int8[] spelling too)."""
+    _server, w = robot
+    state = f"{NS}/robot_basic_state"
+    await w.until(lambda: (w.latest(state) or {}).get("localization_quality", 0) > 60, 10,
+                  "good localization")
+    saved = (await w.call(f"{NS}/sync_get_stcm"))["values"]["raw_stcm"]
+    raw = base64.b64decode(saved)
+    corrupt = bytearray(raw)
+    corrupt[len(corrupt) // 2] ^= 0xFF
+    pose = pose_msg(*current(w))
+    for bad, why in (([1, 2, 3], "too short"), ([-1, -2, 3, 4] * 10, "magic"),
+                     (base64.b64encode(bytes(corrupt)).decode(), "checksum")):
+        reply = await w.call(f"{NS}/sync_set_stcm", {"raw_stcm": bad, "robot_pose": pose})
+        assert reply["result"] is False and why in reply["values"], reply
+    after = await w.call(f"{NS}/sync_get_stcm")
+    assert base64.b64decode(after["values"]["raw_stcm"]) == raw
+    fresh = await w.next(state)
+    assert fresh["is_localization_enabled"] is True
+    assert fresh["localization_quality"] > 60
+
+
+async def test_clear_map_publishes_the_cleared_map_to_late_subscribers(robot):
+    """After clear_map the node's map (and the composed /map) hold no known cell any more,
+    also for a client that subscribes only afterwards (the latched copy)."""
+    server, w = robot
+    for topic in (f"{NS}/map", "/map"):
+        await w.subscribe(topic, "nav_msgs/OccupancyGrid")
+        full = await w.until(lambda t=topic: w.latest(t), 10, topic)
+        assert any(v != -1 for v in full["data"])
+    await w.publish(f"{NS}/clear_map", {"kind": {"kind": 0}})
+    for topic in (f"{NS}/map", "/map"):
+        await w.until(lambda t=topic: all(v == -1 for v in w.latest(t)["data"]), 10,
+                      f"an all-unknown {topic}")
+    late = await Watcher.open(server.port)
+    try:
+        for topic in (f"{NS}/map", "/map"):
+            await late.subscribe(topic, "nav_msgs/OccupancyGrid")
+            first = await late.until(lambda t=topic: late.latest(t), 10, f"latched {topic}")
+            assert all(v == -1 for v in first["data"]), topic
+    finally:
+        await late.close()
+
+
 async def test_set_pose_far_away_drops_quality_and_recovery_restores_it(robot):
     _server, w = robot
     state = f"{NS}/robot_basic_state"
@@ -343,3 +394,43 @@ async def test_parameters_tf_and_device_info(start_robot):
     await asyncio.sleep(1.0)
     assert f"{NS}/scan" not in w.messages  # a period of 0 disables the publisher
     await w.close()
+
+
+def line(x0: float, y0: float, x1: float, y1: float, line_id: int = 0) -> dict:
+    return {"id": line_id, "start": {"x": x0, "y": y0}, "end": {"x": x1, "y": y1}}
+
+
+async def test_the_seeds_spellings_are_accepted(robot):
+    """rotate with ``orientation``, add_lines / move_lines with ``line`` and a subscription
+    typed ``BasicSensorValuedataArray`` work as their SDK spellings do; both spellings of one
+    field at once are refused, naming both."""
+    _server, w = robot
+    await w.subscribe(f"{NS}/basic_sensors_values", "slamware_ros_sdk/BasicSensorValuedataArray")
+    await w.subscribe(f"{NS}/virtual_walls")
+    walls = f"{NS}/virtual_walls"
+    await w.publish(f"{NS}/add_lines", {"usage": {"usage": 0},
+                                        "line": [line(1.0, 1.0, 2.0, 1.0)]},
+                    "slamware_ros_sdk/AddLinesRequest", op_id="seed-add")
+    got = await w.until(lambda: (w.latest(walls) or {}).get("lines"), 10, "the seed's wall")
+    wall_id = got[0]["id"]
+    await w.publish(f"{NS}/move_lines", {"usage": {"usage": 0},
+                                         "line": [line(1.0, 2.0, 2.0, 2.0, wall_id)]},
+                    "slamware_ros_sdk/MoveLinesRequest")
+    await w.until(lambda: w.latest(walls)["lines"][0]["start"]["y"] == 2.0, 10, "moved wall")
+    start_yaw = current(w)[2]
+    half = math.pi / 4  # a quarter turn: quaternion of pi/2
+    await w.publish(f"{NS}/rotate", {"orientation": {"x": 0.0, "y": 0.0, "z": math.sin(half),
+                                                     "w": math.cos(half)},
+                                     "options": options()}, "slamware_ros_sdk/RotateRequest")
+    await w.until(lambda: abs(math.remainder(current(w)[2] - start_yaw - math.pi / 2, math.tau))
+                  < 0.05 and still(w), 20, "a quarter turn")
+    values = await w.until(lambda: w.latest(f"{NS}/basic_sensors_values"), 5, "sensor values")
+    assert "values_data" in values
+    await w.publish(f"{NS}/rotate", {"orientation": {"x": 0, "y": 0, "z": 0, "w": 1},
+                                     "rotation": {"x": 0, "y": 0, "z": 0, "w": 1},
+                                     "options": options()}, op_id="both")
+    status = await w.until(lambda: next((s for s in w.statuses if s.get("id") == "both"),
+                                        None), 5, "a refusal")
+    assert status["level"] == "error"
+    assert "'orientation'" in status["msg"] and "'rotation'" in status["msg"]
+    assert not any(s.get("id") == "seed-add" for s in w.statuses)

@@ -249,9 +249,10 @@ class SlamwareNode(RobotNode):
             self._sync_requested = True
         known = await b.get_known_area(MapKind.EXPLORERMAP)
         if self._sync_requested:
-            self.map.clear()
-            if known.is_empty:
+            if known.is_empty:  # cleared: publish unknown cells instead of the old map
+                self.map.forget()
                 return
+            self.map.clear()
             size = max(16.0, self.params.map_sync_once_get_max_wh)
             for tile in tiles(known, size):
                 region = await b.get_map(tile, MapKind.EXPLORERMAP)
@@ -542,19 +543,29 @@ class SlamwareNode(RobotNode):
             raise ServiceError(f"sync_get_stcm: {exc}") from None
 
     async def _sync_set_stcm(self, request: dict) -> dict:
-        """The real node's order: clear, cancel, stop localization and mapping, load the
-        composite map at the given pose, localize again, then resync the map copy."""
+        """The real node's steps, made safe: the map is checked completely first (a refused
+        map changes nothing); then cancel, stop localization and mapping, load the composite
+        map at the given pose (it replaces the old one, so no separate clear), localize again,
+        resync the map copy. If the robot refuses the load, localization and mapping are put
+        back as they were."""
         b = self.backend
-        data = request["raw_stcm"]
+        data = bytes(request["raw_stcm"])
         if not data:
             raise ServiceError("sync_set_stcm: field 'raw_stcm' is empty")
         pose = m.pose2d(request["robot_pose"])
         try:
-            await b.clear_map(MapKind.EXPLORERMAP)
+            await b.check_composite_map(data)
+            localizing = await b.get_localization_enabled()
+            mapping = await b.get_map_update(MapKind.EXPLORERMAP)
             await b.cancel_action()
             await b.set_localization_enabled(False)
             await b.set_map_update(False, MapKind.EXPLORERMAP)
-            await b.set_composite_map(bytes(data), pose)
+            try:
+                await b.set_composite_map(data, pose)
+            except BackendError:
+                await b.set_map_update(mapping, MapKind.EXPLORERMAP)
+                await b.set_localization_enabled(localizing)
+                raise
             await b.set_localization_enabled(True)
         except BackendError as exc:
             raise ServiceError(f"sync_set_stcm: {exc}") from None

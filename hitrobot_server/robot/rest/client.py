@@ -38,6 +38,7 @@ from urllib.parse import urlsplit
 import numpy as np
 
 from ... import __version__
+from .. import composite_map
 from ..backend import BackendError, NotConnectedError, RobotBackend, UnsupportedError
 from ..model import (
     ActionDirection,
@@ -623,6 +624,19 @@ class SlamwareRestBackend(RobotBackend):
         if not reply.ok:
             raise self._failed("GET", paths.STCM, reply)
         return reply.body
+
+    async def check_composite_map(self, data: bytes) -> None:
+        """Our own container (what the simulator and sim-device serve) is checked completely;
+        SLAMTEC's ``.stcm`` is proprietary and only the robot can judge it (its ``PUT`` refuses
+        a bad file without touching the map)."""
+        self._require_connection()
+        if data[:len(composite_map.MAGIC)] == composite_map.MAGIC:
+            try:
+                composite_map.decode(data)
+            except composite_map.CompositeMapError as exc:
+                raise BackendError(f"invalid composite map: {exc}") from None
+        elif not data:
+            raise BackendError("the composite map is empty")
 
     async def set_composite_map(self, data: bytes, pose: Pose2D) -> None:
         """PUT the file unchanged (the robot then sits at the origin), then set the pose."""

@@ -327,5 +327,8 @@ class SimBackend(RobotBackend):
     async def get_composite_map(self) -> bytes:
         return self._call(self.simulator.composite_map)
 
+    async def check_composite_map(self, data: bytes) -> None:
+        self._call(self.simulator.check_composite_map, data)
+
     async def set_composite_map(self, data: bytes, pose: Pose2D) -> None:
         self._call(self.simulator.load_composite_map, data, pose)

@@ -539,10 +539,20 @@ class Simulator:
         )
         return composite_map.encode(cmap)
 
-    def load_composite_map(self, data: bytes, pose: Pose2D) -> None:
-        """Install a composite map and set the believed pose; ``ValueError`` if invalid."""
-        pose = _checked_pose(pose)
+    def check_composite_map(self, data: bytes) -> composite_map.CompositeMap:
+        """The decoded map if :meth:`load_composite_map` would take it; ``ValueError`` if
+        not (checked completely, so loading cannot fail half-way)."""
         cmap = composite_map.decode(data)
+        res = self.world.spec.resolution
+        if cmap.explore is not None and abs(cmap.explore.resolution - res) > 1e-6:
+            raise ValueError(f"map resolution {cmap.explore.resolution} differs from {res}")
+        return cmap
+
+    def load_composite_map(self, data: bytes, pose: Pose2D) -> None:
+        """Install a composite map and set the believed pose; ``ValueError`` (and nothing
+        changed) if either is invalid."""
+        pose = _checked_pose(pose)
+        cmap = self.check_composite_map(data)
         if cmap.explore is None:
             self._mapper.clear()
         else:
