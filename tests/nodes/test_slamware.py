@@ -434,3 +434,31 @@ async def test_the_seeds_spellings_are_accepted(robot):
     assert status["level"] == "error"
     assert "'orientation'" in status["msg"] and "'rotation'" in status["msg"]
     assert not any(s.get("id") == "seed-add" for s in w.statuses)
+
+
+async def test_teleop_and_cancel_are_not_errors(robot):
+    """move_by_direction at 10 Hz, as a joystick drives: every command but the last is
+    superseded by the next, and that is reported at info level, never as an error; so is an
+    ordinary cancel of a move."""
+    _server, w = robot
+    await w.client.send({"op": "set_level", "level": "info"})
+    ids = [f"joy-{i}" for i in range(10)]
+    for op_id in ids:  # the joystick's own 10 Hz pace
+        await w.publish(f"{NS}/move_by_direction", {"direction": {"direction": 2},
+                                                    "options": options()}, op_id=op_id)
+        await asyncio.sleep(0.1)
+    finals = {}
+    for op_id in ids:
+        finals[op_id] = await w.until(
+            lambda i=op_id: next((s for s in w.statuses if s.get("id") == i), None), 10, op_id)
+    assert all(s["level"] == "info" for s in finals.values()), finals
+    assert sum("superseded" in s["msg"] for s in finals.values()) >= 5
+    await move_to(w, 20.0, 8.2, op_id="long-move")
+    await w.until(lambda: w.latest(f"{NS}/odom")["twist"]["twist"]["linear"]["x"] > 0.1, 20,
+                  "the robot moving")
+    await w.publish(f"{NS}/cancel_action", {}, op_id="cancel")
+    for op_id, needle in (("cancel", "cancelled MoveToAction"), ("long-move", "cancelled")):
+        status = await w.until(
+            lambda i=op_id: next((s for s in w.statuses if s.get("id") == i), None), 10, op_id)
+        assert status["level"] == "info" and needle in status["msg"], status
+    assert not [s for s in w.statuses if s["level"] == "error"], w.statuses

@@ -19,7 +19,7 @@ from ...bus.core import Bus
 from ...bus.errors import ServiceError
 from ...bus.names import canonical
 from ...bus.topics import Message, RequestRejected
-from ...robot.backend import BackendError, NotConnectedError, RobotBackend
+from ...robot.backend import ACTION_PREFIX, BackendError, NotConnectedError, RobotBackend
 from ...robot.model import (
     ActionDirection,
     ActionInfo,
@@ -367,6 +367,8 @@ class SlamwareNode(RobotNode):
             action = current
         if action.result == ActionResult.SUCCESS:
             message.reject(f"{what}: done", level="info")
+        elif action.result == ActionResult.ABORTED:  # cancelled or superseded: not an error
+            message.reject(f"{what}: {action.reason or 'cancelled'}", level="info")
         else:
             why = action.reason or action.result.name.lower()
             message.reject(f"{what} failed: {why}")
@@ -491,7 +493,13 @@ class SlamwareNode(RobotNode):
         self._run(message, "go_home", self.backend.go_home)
 
     def _on_cancel(self, message: Message) -> None:
-        self._run(message, "cancel_action", self.backend.cancel_action)
+        async def cancel() -> None:
+            stopped = await self.backend.cancel_action()
+            what = "nothing to cancel" if stopped is None else \
+                f"cancelled {stopped.action_name.removeprefix(ACTION_PREFIX)}"
+            message.reject(f"cancel_action: {what}", level="info")
+
+        self._run(message, "cancel_action", cancel)
 
     @staticmethod
     def _usage(msg: dict) -> ArtifactUsage:

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import logging
 import math
 import time
@@ -489,11 +490,14 @@ class SlamwareRestBackend(RobotBackend):
             return None
         reply = await self._request("DELETE", paths.CURRENT_ACTION,
                                     timeout=self._control_timeout)
-        if reply.status == 404:  # it finished meanwhile
-            return await self.get_action(current.action_id) or current
-        if not reply.ok:
+        if not reply.ok and reply.status != 404:  # 404: it finished meanwhile
             raise self._failed("DELETE", paths.CURRENT_ACTION, reply)
-        return await self.get_action(current.action_id) or current
+        after = await self.get_action(current.action_id)
+        if after is None:
+            return current
+        # a finished action reads back as a gravestone: keep the name and stage we know
+        return dataclasses.replace(after, action_name=after.action_name or current.action_name,
+                                   stage=after.stage or current.stage)
 
     async def get_current_action(self) -> ActionInfo | None:
         action = await self._get(paths.CURRENT_ACTION, shapes.action_from, missing_ok=True)

@@ -500,7 +500,7 @@ class Simulator:
     def _start(self, action: Action) -> ActionInfo:
         current = self._current
         if current is not None and not current.done:
-            current.finish(ActionResult.ABORTED, "replaced by a new action")
+            current.finish(ActionResult.ABORTED, "superseded by a new action")
         self._current = action
         self._history[action.action_id] = action
         while len(self._history) > ACTION_HISTORY:
