@@ -462,3 +462,20 @@ async def test_teleop_and_cancel_are_not_errors(robot):
             lambda i=op_id: next((s for s in w.statuses if s.get("id") == i), None), 10, op_id)
         assert status["level"] == "info" and needle in status["msg"], status
     assert not [s for s in w.statuses if s["level"] == "error"], w.statuses
+
+
+async def test_cmd_vel_honours_the_turn_and_stops_soon_after_the_last_command(robot):
+    """/cmd_vel at 10 Hz, driving forward while turning: the robot turns as it drives (the
+    REST emulation steers too), and it stops within a short distance of the last command."""
+    _server, w = robot
+    x0, y0, yaw0 = current(w)
+    twist = {"linear": {"x": 0.3, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": 0.4}}
+    for _ in range(15):  # a joystick's 10 Hz
+        await w.publish("/cmd_vel", twist, "geometry_msgs/Twist")
+        await asyncio.sleep(0.1)
+    last = current(w)
+    await w.until(lambda: still(w), 10, "the robot stopped")
+    x, y, yaw = current(w)
+    assert math.hypot(last[0] - x0, last[1] - y0) > 0.3
+    assert math.remainder(yaw - yaw0, math.tau) > 0.3
+    assert math.hypot(x - last[0], y - last[1]) < 0.2

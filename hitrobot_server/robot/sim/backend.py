@@ -31,7 +31,6 @@ from ..model import (
     LocalizationMovement,
     MapKind,
     MapRegion,
-    MoveOptionFlag,
     MoveOptions,
     Odometry,
     Point2D,
@@ -39,8 +38,8 @@ from ..model import (
     PowerStatus,
     Rect,
 )
-from .navigation import track_mode
-from .planner import PathSearch
+from .navigation import path_search
+from .planner import run_in_slices
 from .simulator import Simulator
 
 log = logging.getLogger(__name__)
@@ -241,19 +240,13 @@ class SimBackend(RobotBackend):
                 raise BackendError("compute_path needs finite poses")
         sim = self._call(lambda: self.simulator)
         origin = sim.pose if start is None else start
-        search = PathSearch(
-            sim.costmap(),
-            (origin.x, origin.y),
-            (goal.x, goal.y),
-            smooth=not options.flags & MoveOptionFlag.NO_SMOOTH,
-            substitute_goal=not options.flags & MoveOptionFlag.RETURN_UNREACHABLE_DIRECTLY,
-            track_mode=track_mode(options),
-            bbox=options.planning_area,
-        )
-        while (result := search.advance(PLAN_SLICE)) is None:
-            await asyncio.sleep(0)
+        search = path_search(sim.costmap(), (origin.x, origin.y), (goal.x, goal.y), options)
+
+        def alive() -> None:
             if not self.connected:
                 raise NotConnectedError("simulator is not running")
+
+        result = await run_in_slices(search, PLAN_SLICE, alive)
         if not result.ok:
             raise BackendError(f"no path: {result.reason}")
         return [Point2D(x, y) for x, y in result.path]

@@ -183,8 +183,10 @@ async def test_velocity_is_emulated_with_move_by_and_zero_stops():
         assert sim.true_pose.x > x0 + 0.05
         await client.set_velocity(0.0, 0.0)
         assert await client.get_current_action() is None
-        await client.set_velocity(0.0, -0.8)  # mostly turning: turn right
-        await asyncio.sleep(0.3)
+        yaw0 = sim.true_pose.yaw
+        for _ in range(6):
+            await client.set_velocity(0.0, -1.8)  # turning in place: turn right, full speed
+            await asyncio.sleep(0.05)
         assert math.remainder(sim.true_pose.yaw - yaw0, math.tau) < -0.05
         await client.set_velocity(0.0, 0.0)
         with pytest.raises(BackendError):
