@@ -97,8 +97,6 @@ ACTION_HISTORY = 20
 ARRIVAL_SLACK = 0.05
 """Metres of localization jitter allowed beyond a move's tolerance before its success is
 called a failure."""
-PLAN_SLICE = 20_000
-"""A* expansions ``compute_path`` runs between yields to the event loop."""
 
 
 class SlamwareRestBackend(RobotBackend):
@@ -478,7 +476,7 @@ class SlamwareRestBackend(RobotBackend):
         origin = await self.get_pose() if start is None else start
         costmap = await self._costmap()
         search = path_search(costmap, (origin.x, origin.y), (goal.x, goal.y), options)
-        result = await run_in_slices(search, PLAN_SLICE, self._require_connection)
+        result = await run_in_slices(search, self._require_connection)
         if not result.ok:
             raise BackendError(f"no path: {result.reason}")
         return [Point2D(x, y) for x, y in result.path]

@@ -50,8 +50,6 @@ SLOW_STEP = 0.05
 """A step slower than this (s) is logged: it delays every other task on the loop."""
 MAX_CATCH_UP = 5
 """Steps run back to back at most when the loop fell behind; older backlog is dropped."""
-PLAN_SLICE = 20_000
-"""A* expansions ``compute_path`` runs between yields to the event loop."""
 
 
 class SimBackend(RobotBackend):
@@ -233,7 +231,7 @@ class SimBackend(RobotBackend):
         self, start: Pose2D | None, goal: Pose2D, options: MoveOptions | None = None
     ) -> list[Point2D]:
         """A* on the current planning costmap with ``move_to``'s options, run in slices of
-        :data:`PLAN_SLICE` expansions so a long search never stalls the loop."""
+        :data:`~.planner.PLAN_SLICE` expansions so a long search never stalls the loop."""
         options = options or MoveOptions()
         for value in (goal.x, goal.y) + (() if start is None else (start.x, start.y)):
             if not math.isfinite(value):
@@ -246,7 +244,7 @@ class SimBackend(RobotBackend):
             if not self.connected:
                 raise NotConnectedError("simulator is not running")
 
-        result = await run_in_slices(search, PLAN_SLICE, alive)
+        result = await run_in_slices(search, alive)
         if not result.ok:
             raise BackendError(f"no path: {result.reason}")
         return [Point2D(x, y) for x, y in result.path]

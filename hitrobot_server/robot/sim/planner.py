@@ -283,8 +283,12 @@ def _nearest(
     return int(cols[best]), int(rows[best])
 
 
-async def run_in_slices(search: PathSearch, budget: int,
-                        alive: Callable[[], None]) -> PlanResult:
+PLAN_SLICE = 20_000
+"""A* expansions an off-robot search (``compute_path``) runs between yields to the loop."""
+
+
+async def run_in_slices(search: PathSearch, alive: Callable[[], None],
+                        budget: int = PLAN_SLICE) -> PlanResult:
     """Run ``search`` to completion ``budget`` expansions at a time, yielding to the event loop
     between slices; ``alive`` raises to abandon it (e.g. the robot went away)."""
     while (result := search.advance(budget)) is None:

@@ -129,6 +129,29 @@ async def test_an_action_is_followed_to_its_end_and_idle_is_none(client):
     assert await client.get_action(10_000) is None
 
 
+async def test_a_success_out_of_tolerance_is_a_failure_and_plans_are_local(device, client):
+    """A move the robot calls a success but whose robot stands out of tolerance of its target
+    reads as FAILED (the robot believes itself elsewhere: a relocalization after arrival);
+    compute_path plans on the robot's map without moving it."""
+    action = await client.move_to([Point2D(6.0, 8.0)], MoveOptions(acceptable_precision=0.2))
+
+    async def finished():
+        info = await client.get_action(action.action_id)
+        return info if info.done else None
+
+    assert (await until(finished, 30)).result is ActionResult.SUCCESS
+    await client.set_pose(Pose2D(6.6, 8.0, 0.0))
+    moved = await client.get_action(action.action_id)
+    assert moved.result is ActionResult.FAILED and "0.60 m" in moved.reason
+    before = device.simulator.true_pose
+    path = await client.compute_path(None, Pose2D(10.0, 12.5, 0.0))
+    assert math.dist((path[-1].x, path[-1].y), (10.0, 12.5)) < 0.01 and len(path) > 2
+    assert device.simulator.true_pose == before
+    with pytest.raises(BackendError, match="occupied"):
+        await client.move_to([Point2D(9.75, 2.2)],
+                             MoveOptions(flags=MoveOptionFlag.RETURN_UNREACHABLE_DIRECTLY))
+
+
 async def test_cancel_returns_the_final_state(client):
     await client.move_to([Point2D(20.0, 8.2)])
     assert await until(client.get_remaining_path)
