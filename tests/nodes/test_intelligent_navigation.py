@@ -213,8 +213,8 @@ async def lost_robot(start_robot):
     w = await Watcher.open(server.port)
     await w.subscribe(ODOM, "nav_msgs/Odometry")
     await w.subscribe(STATE)
-    await w.until(lambda: (w.latest(STATE) or {}).get("localization_quality", 0) > 60, 15,
-                  "good localization")
+    await w.until(lambda: (w.latest(STATE) or {}).get("localization_quality", 0) > 60
+                  and w.latest(ODOM), 15, "good localization and odometry")
     truth = pose_of(w)
     yield w, truth
     await w.close()
