@@ -2,8 +2,9 @@
 
 ``/intelligent_navigate_to_pose`` (``daystar_navigation_msgs/action/IntelligentNavitateToPose``,
 the vendor's spelling; also served as ``/nav/intelligent_navigate_to_pose``, the name the
-vendor's test command uses) drives the robot to ``pose`` (map frame) with its travel parameters
-applied where a wheeled robot can:
+vendor's test command uses, and ``/intelligent_navigat_to_pose``, the seed table's) drives
+the robot to ``pose`` (map frame) with its travel parameters applied where a wheeled robot
+can:
 
 * ``speed_mode.value`` → the move's speed ratio: 2 low (0.3), 1 medium (0.6), 3 high (1.0);
   0 = the robot's default;
@@ -70,7 +71,8 @@ from .nav2_actions import GoalRejected, drive, goal_pose, pose_stamped, rejected
 log = logging.getLogger(__name__)
 
 ACTION = "/intelligent_navigate_to_pose"
-ACTION_ALIASES = ("/nav/intelligent_navigate_to_pose",)
+ACTION_ALIASES = ("/nav/intelligent_navigate_to_pose", "/intelligent_navigat_to_pose")
+"""The vendor's test command's name, and the seed table's own spelling of the action name."""
 ACTION_TYPE = "daystar_navigation_msgs/action/IntelligentNavitateToPose"
 SERVICE = "/set_initialpose"
 SERVICE_TYPE = "daystar_navigation_msgs/srv/SetInitialPose"

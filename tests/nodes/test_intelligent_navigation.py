@@ -167,6 +167,9 @@ async def test_should_stop_cancels_the_running_goal(robot):
     res = await c.expect(op="action_result", id="run", timeout=5)
     assert res["status"] == 5
     await w.until(lambda: speed(w) < 1e-3, 5, "the robot to stop")
+    await send(c, "seed-name", {"should_stop": True}, action="/intelligent_navigat_to_pose")
+    res = await c.expect(op="action_result", id="seed-name", timeout=5)
+    assert res["status"] == 4 and res["values"]["message"] == "stopped"
 
 
 async def test_set_initialpose_refines_a_slightly_off_pose(robot):

@@ -304,11 +304,15 @@ async def test_set_pose_far_away_drops_quality_and_recovery_restores_it(robot):
     state = f"{NS}/robot_basic_state"
     await w.until(lambda: (w.latest(state) or {}).get("localization_quality", 0) > 60, 10,
                   "good localization")
-    true_x, true_y, _ = current(w)
+    true_x, true_y, true_yaw = current(w)
+    await w.client.send({"op": "set_level", "level": "warning"})
     await w.publish(f"{NS}/set_pose", {"position": {"x": 15.0, "y": 12.0, "z": 0.0},
                                        "orientation": {"x": 0.0, "y": 0.0, "z": 0.5,
-                                                       "w": math.sqrt(0.75)}})
+                                                       "w": math.sqrt(0.75)}}, op_id="far")
     await w.until(lambda: w.latest(state)["localization_quality"] < 30, 15, "quality to drop")
+    warned = await w.until(lambda: next((s for s in w.statuses if s.get("id") == "far"), None),
+                           15, "set_pose's verdict")
+    assert warned["level"] == "warning" and "not converged" in warned["msg"], warned
     await w.publish(f"{NS}/recover_localization", {
         "area": {"x": 0.0, "y": 0.0, "w": 0.0, "h": 0.0},
         "options": {"max_time_ms": {"is_valid": True, "value": 20000},
@@ -316,6 +320,11 @@ async def test_set_pose_far_away_drops_quality_and_recovery_restores_it(robot):
     await w.until(lambda: w.latest(state)["localization_quality"] > 60, 30, "recovery")
     x, y, _ = current(w)
     assert math.hypot(x - true_x, y - true_y) < 0.3
+    await w.client.send({"op": "set_level", "level": "info"})
+    await w.publish(f"{NS}/set_pose", pose_msg(x, y, true_yaw), op_id="near")
+    fine = await w.until(lambda: next((s for s in w.statuses if s.get("id") == "near"), None),
+                         15, "set_pose's verdict")
+    assert fine["level"] == "info" and "localized" in fine["msg"], fine
 
 
 async def test_publish_rates_follow_their_periods(robot):
