@@ -130,7 +130,7 @@ class SlamwareRestBackend(RobotBackend):
         self._blocked_lock = asyncio.Lock()
         self._manual: tuple[int, tuple, float] | None = None
         self._blocked: tuple[tuple[Point2D, ...], ...] = ()
-        self._moves: dict[int, tuple[Point2D, float]] = {}
+        self._moves: dict[int, tuple[Point2D, float] | ActionInfo] = {}  # target or verdict
 
     # --- connection --------------------------------------------------------------------------
 
@@ -566,14 +566,17 @@ class SlamwareRestBackend(RobotBackend):
         move = self._moves.get(int(action_id))
         if action is None or move is None or not action.succeeded:
             return action
+        if isinstance(move, ActionInfo):  # judged when it finished
+            return move
         target, tolerance = move
         pose = await self.get_pose()
         off = math.hypot(pose.x - target.x, pose.y - target.y)
-        if off <= tolerance + ARRIVAL_SLACK:
-            return action
-        return dataclasses.replace(action, result=ActionResult.FAILED, reason=(
-            f"target unreachable: the robot stopped {off:.2f} m from ({target.x:.2f}, "
-            f"{target.y:.2f}) (tolerance {tolerance:.2f} m)"))
+        if off > tolerance + ARRIVAL_SLACK:
+            action = dataclasses.replace(action, result=ActionResult.FAILED, reason=(
+                f"target unreachable: the robot stopped {off:.2f} m from ({target.x:.2f}, "
+                f"{target.y:.2f}) (tolerance {tolerance:.2f} m)"))
+        self._moves[int(action_id)] = action
+        return action
 
     async def get_remaining_path(self) -> list[Point2D]:
         return await self._get(paths.PATH, shapes.path_from, missing_ok=True) or []
