@@ -2,8 +2,9 @@
 
 ``/intelligent_navigate_to_pose`` (``daystar_navigation_msgs/action/IntelligentNavitateToPose``,
 the vendor's spelling; also served as ``/nav/intelligent_navigate_to_pose``, the name the
-vendor's test command uses) drives the robot to ``pose`` (map frame) with its travel parameters
-applied where a wheeled robot can:
+vendor's test command uses, and ``/intelligent_navigat_to_pose``, the seed table's) drives
+the robot to ``pose`` (map frame) with its travel parameters applied where a wheeled robot
+can:
 
 * ``speed_mode.value`` → the move's speed ratio: 2 low (0.3), 1 medium (0.6), 3 high (1.0);
   0 = the robot's default;
@@ -27,17 +28,20 @@ Feedback every 0.1 s: ``current_pose`` (the localized pose) and ``current_state`
 every running goal of this action, stops the robot's current action and succeeds with
 ``"stopped"`` (no pose needed). A new goal replaces a running one, which ends ABORTED.
 
-``/set_initialpose`` (``daystar_navigation_msgs/srv/SetInitialPose``): the robot's pose is set
-to ``init_pose``, then a local relocalization searches :data:`SEARCH_HALF_SIZE` m around it;
-``result_pose`` is the refined pose, ``result`` true when the relocalization succeeded and the
-localization quality then reaches :data:`GOOD_QUALITY`. The covariance is not estimated by the
-robot: we report a diagonal with σ = 0.05 m / 0.05 rad when the result is good and 1 m / π
-otherwise.
+``/set_initialpose`` (``daystar_navigation_msgs/srv/SetInitialPose``): validate first, then
+commit (:func:`~hitrobot_server.robot.relocalization.localize_near`). The robot's latest lidar
+frame is matched against its map within ``SEARCH_HALF_SIZE`` m and ``SEARCH_YAW`` of
+``init_pose``; only a match scoring at least ``MATCH_SCORE`` is committed as the robot's pose,
+and ``result`` is true only when the robot's own localization quality then reaches
+``GOOD_QUALITY`` (50). Otherwise ``result`` is false and the pose is what it was before the
+call (a failed commit is rolled back). ``result_pose`` is the pose the robot believes after the
+call. The covariance is not estimated by the robot: we report a diagonal with σ = 0.05 m /
+0.05 rad when localized and 1 m / π otherwise.
 """
 
 from __future__ import annotations
 
-import asyncio
+import logging
 import math
 
 from ..bus.core import Bus
@@ -52,22 +56,23 @@ from ..bus.services import (
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import (
     ActionInfo,
-    ActionResult,
-    LocalizationMovement,
     MoveOptionFlag,
     MoveOptions,
     NavigationMode,
     Odometry,
     Point2D,
     Pose2D,
-    Rect,
 )
+from ..robot.relocalization import localize_near
 from .base import RobotNode
 from .conventional import map_frames
 from .nav2_actions import GoalRejected, drive, goal_pose, pose_stamped, rejected
 
+log = logging.getLogger(__name__)
+
 ACTION = "/intelligent_navigate_to_pose"
-ACTION_ALIASES = ("/nav/intelligent_navigate_to_pose",)
+ACTION_ALIASES = ("/nav/intelligent_navigate_to_pose", "/intelligent_navigat_to_pose")
+"""The vendor's test command's name, and the seed table's own spelling of the action name."""
 ACTION_TYPE = "daystar_navigation_msgs/action/IntelligentNavitateToPose"
 SERVICE = "/set_initialpose"
 SERVICE_TYPE = "daystar_navigation_msgs/srv/SetInitialPose"
@@ -81,17 +86,6 @@ FREE, INTELLIGENT = 2, 3
 FORWARD, REVERSE = 3, 4
 IDLE, PLANNING, MOVING, ARRIVED, FAILED, CANCELED, RECOVERING = range(7)
 
-SEARCH_HALF_SIZE = 1.0
-"""Half the side (m) of the square searched around the initial pose."""
-RELOCALIZATION_TIME_MS = 10_000
-"""Simulated/robot time the local relocalization may take."""
-RELOCALIZATION_WALL_LIMIT = 30.0
-"""Wall-clock seconds the service waits for the relocalization at most."""
-GOOD_QUALITY = 50
-"""Localization quality (0-100) that counts as localized."""
-QUALITY_WAIT = 3.0
-"""Seconds to wait for the quality to settle after a relocalization."""
-POLL = 0.1
 
 
 def _options(goal: dict) -> tuple[MoveOptions, str]:
@@ -220,35 +214,13 @@ class IntelligentNavigationNode(RobotNode):
                              "init_pose")
         except GoalRejected as exc:
             raise ServiceError(f"set_initialpose: {exc}") from None
-        b = self.backend
         try:
-            await b.set_pose(pose)
-            info = await b.recover_localization(
-                Rect(pose.x - SEARCH_HALF_SIZE, pose.y - SEARCH_HALF_SIZE,
-                     2 * SEARCH_HALF_SIZE, 2 * SEARCH_HALF_SIZE),
-                RELOCALIZATION_TIME_MS, LocalizationMovement.NO_MOVE)
-            action = info
-            loop = asyncio.get_running_loop()
-            give_up = loop.time() + RELOCALIZATION_WALL_LIMIT
-            while not action.done and loop.time() < give_up:
-                await asyncio.sleep(POLL)
-                found = await b.get_action(info.action_id)
-                if found is None:
-                    break
-                action = found
-            ok = action.done and action.result == ActionResult.SUCCESS
-            quality = await b.get_localization_quality()
-            if ok:
-                deadline = loop.time() + QUALITY_WAIT
-                while quality < GOOD_QUALITY and loop.time() < deadline:
-                    await asyncio.sleep(POLL)
-                    quality = await b.get_localization_quality()
-            refined = await b.get_pose()
+            good, refined, why = await localize_near(self.backend, pose)
         except NotConnectedError:
             raise ServiceError("set_initialpose: the robot is not connected") from None
         except BackendError as exc:
             raise ServiceError(f"set_initialpose: {exc}") from None
-        good = ok and quality >= GOOD_QUALITY
+        log.info("set_initialpose (%.2f, %.2f, %.2f): %s", pose.x, pose.y, pose.yaw, why)
         sigma_xy, sigma_yaw = (0.05, 0.05) if good else (1.0, math.pi)
         covariance = [0.0] * 36
         covariance[0] = covariance[7] = sigma_xy ** 2

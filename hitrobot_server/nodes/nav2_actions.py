@@ -9,9 +9,10 @@ planner without moving (:meth:`RobotBackend.compute_path`): from ``start`` when 
 else from the robot's pose, to ``goal``. The result ``path`` (``nav_msgs/Path`` in the map
 frame) is the planned polyline resampled every :data:`PATH_SPACING` m, each pose facing along
 the path, the last one with the goal's orientation; ``planning_time`` is the wall time the
-planner took. An unusable goal is replaced by the nearest free spot within 2 m, as ``move_to``
-does. ``planner_id`` is accepted and ignored (there is one planner). No path → ABORTED with the
-reason.
+planner took. ``planner_id`` is accepted and ignored (there is one planner). No path → ABORTED
+with the reason; so is a goal inside an obstacle whose nearest free spot is farther than
+:data:`GOAL_TOLERANCE` (the path would not lead to the goal). Over REST the server plans
+itself, on the robot's map, lines and blocked areas (:meth:`RobotBackend.compute_path`).
 
 ``/follow_path`` (``nav2_msgs/action/FollowPath``) drives the given path: it is reduced to its
 corners (Douglas-Peucker, :data:`SIMPLIFY_TOLERANCE`) and handed to the robot as one
@@ -74,6 +75,10 @@ PATH_SPACING = 0.05
 """Spacing (m) of the poses of a computed path (the map resolution, as nav2's planners give)."""
 SIMPLIFY_TOLERANCE = 0.05
 """How far (m) the corners handed to the robot may cut a followed path."""
+GOAL_TOLERANCE = 0.15
+"""A planned path must end this close (m) to the goal (the robot's default arrival tolerance);
+a goal inside an obstacle is otherwise replaced by a free spot farther away, and that is a
+failure, not a path to the goal."""
 START_SKIP = 0.15
 """A followed path's first point this close (m) to the robot is where it already is."""
 
@@ -313,6 +318,13 @@ class Nav2ActionsNode(RobotNode):
             points = planning.result()
         except BackendError as exc:
             return GoalOutcome(STATUS_ABORTED, f"compute_path_to_pose: {exc}", False)
+        end = points[-1] if points else None
+        off = math.inf if end is None else math.hypot(end.x - target.x, end.y - target.y)
+        if off > GOAL_TOLERANCE:
+            return GoalOutcome(STATUS_ABORTED, (
+                f"compute_path_to_pose: target unreachable: ({target.x:.2f}, {target.y:.2f}) "
+                f"is inside an obstacle; the nearest free spot is {off:.2f} m away "
+                f"(tolerance {GOAL_TOLERANCE:.2f} m)"), False)
         return GoalOutcome(STATUS_SUCCEEDED, self._path_result(points, target.yaw, spent), True)
 
     def _path_result(self, points: list[Point2D], yaw: float, spent: float) -> dict:

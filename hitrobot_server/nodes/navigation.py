@@ -130,7 +130,7 @@ class NavigationNode(RobotNode):
                 why = action.reason or "unknown"
                 self.publish(UNREACHABLE_TOPIC, {"reason": unreachable_reason(why)})
                 message.reject(f"{what}: target unreachable: {why}")
-            else:
-                message.reject(f"{what}: {action.reason or 'aborted'}", level="warning")
+            else:  # cancelled or superseded by another motion: not an error
+                message.reject(f"{what}: {action.reason or 'cancelled'}", level="info")
 
         self.spawn(go())

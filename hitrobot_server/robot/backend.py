@@ -292,6 +292,11 @@ class RobotBackend(ABC):
         """The robot's whole map as bytes (``sync_get_stcm``). A real robot returns its own
         format; the simulator returns :mod:`hitrobot_server.robot.composite_map` bytes."""
 
+    async def check_composite_map(self, data: bytes) -> None:  # noqa: B027 - optional hook
+        """Raise :class:`BackendError` when :meth:`set_composite_map` would refuse ``data``;
+        callers check before anything destructive. By default nothing can be checked locally
+        (the robot judges its own format when it gets it)."""
+
     @abstractmethod
     async def set_composite_map(self, data: bytes, pose: Pose2D) -> None:
         """Replace map, lines and home with ``data`` and set the robot's pose

@@ -14,10 +14,21 @@ States follow the seed's locomotion state values (0-9). The simulated robot star
 ``STANDING_MODE`` and, after :attr:`LocomotionBackend.stand_up_seconds`, to ``IN_CONTROL``. While
 the robot is unreachable the state reads ``COMM_DISABLED``; a reboot brings it back standing.
 
-The control mode (``set_listen``) records who claims the robot: a joystick/GUI
-(``"joy/gui<&>network_id"``), autonomy (``"vel_cmd/autonomy"``) or nobody (a release,
-``"topic<&><CLOSE>"``). It is reported in ``robot_state.joy_listen_type`` and does not gate
-motion (the bridge cannot tell a joystick's ``/cmd_vel`` from anyone else's).
+The control mode (``set_listen``) says who may drive, reported in
+``robot_state.joy_listen_type`` and enforced by the same gate:
+
+* ``"vel_cmd/autonomy"`` (VEL_CMD, the start-up mode): the app and autonomy -- every motion
+  command (goals, patrols, ``/cmd_vel``, MoveBy);
+* ``"joy/gui<&>network_id"`` (JOY): the joystick -- manual commands only (``/cmd_vel``,
+  ``move_by_direction``, ``move_by_theta``); autonomous motion (``move_to``, navigation,
+  ``/move_base``, patrols, ``rotate``/``rotate_to``, ``go_home``) is refused, saying who has
+  control and how to release it;
+* ``"topic<&><CLOSE>"`` releasing the active source (NONE): nothing drives until a source is
+  claimed again.
+
+Stopping is always allowed. The bridge cannot tell which client is the joystick (the network
+id is recorded and reported, not matched against connections): the mode selects the kind of
+command, not the sender.
 """
 
 from __future__ import annotations
@@ -115,6 +126,21 @@ class ControlMode:
         self.listen_type = initial
         self.network_id = ""
 
+    def check(self, manual: bool) -> None:
+        """Raise :class:`BackendError` when the current source may not give this command:
+        with the joystick listening only manual commands drive; with nobody listening
+        nothing does (stopping is never checked)."""
+        if self.listen_type == JoyListenType.NONE:
+            raise BackendError(
+                "motion refused: no control source is listening (set_listen released it); "
+                f'claim one with "{AUTONOMY_TOPIC}" or "{JOY_TOPIC}{SEPARATOR}network_id"')
+        if self.listen_type == JoyListenType.JOY and not manual:
+            who = f" from {self.network_id}" if self.network_id else ""
+            raise BackendError(
+                f"motion refused: the joystick{who} has control (set_listen {JOY_TOPIC}); only "
+                f'manual commands drive until "{JOY_TOPIC}{SEPARATOR}{CLOSE}" or '
+                f'"{AUTONOMY_TOPIC}"')
+
     def apply(self, request: ListenRequest) -> str:
         """Apply a parsed request; the user-facing result text."""
         wanted = LISTEN_TOPICS[request.topic]
@@ -189,13 +215,16 @@ class LocomotionBackend(RobotBackend):
 
         self._transition = asyncio.get_running_loop().create_task(finish(), name="stand-up")
 
-    def _check_motion(self) -> None:
+    def _check_motion(self, manual: bool = False) -> None:
+        """Refuse motion the locomotion state or the control mode does not allow; ``manual``
+        is teleoperation (velocity and MoveBy commands) as opposed to autonomous motion."""
         if not self.inner.connected:
             return  # the wrapped backend says "not connected" itself
         state = self._state
         if state not in MOTION_STATES:
             why = _WHY.get(state, "the robot is not in control")
             raise BackendError(f"motion refused: {why} (locomotion state {state.name})")
+        self.control.check(manual)
 
     # --- lifecycle -----------------------------------------------------------------------
     @property
@@ -226,12 +255,12 @@ class LocomotionBackend(RobotBackend):
     async def move_by_direction(self, direction: ActionDirection,
                                 options: MoveOptions | None = None,
                                 duration: float = 0.5) -> ActionInfo:
-        self._check_motion()
+        self._check_motion(manual=True)
         return await self.inner.move_by_direction(direction, options, duration)
 
     async def move_by_theta(self, theta: float, options: MoveOptions | None = None,
                             duration: float = 0.5) -> ActionInfo:
-        self._check_motion()
+        self._check_motion(manual=True)
         return await self.inner.move_by_theta(theta, options, duration)
 
     async def rotate_to(self, yaw: float, options: MoveOptions | None = None) -> ActionInfo:
@@ -248,7 +277,7 @@ class LocomotionBackend(RobotBackend):
 
     async def set_velocity(self, linear: float, angular: float) -> None:
         if linear != 0.0 or angular != 0.0:  # a stop is always allowed
-            self._check_motion()
+            self._check_motion(manual=True)
         await self.inner.set_velocity(linear, angular)
 
 

@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from hitrobot_server.types.aliases import FIELD_ALIASES, SIGNED_BYTES
 from hitrobot_server.types.registry import HEADER, Field, MsgType, TypeRegistry
 
 NowFn = Callable[[], tuple[int, int]]
@@ -296,8 +297,18 @@ def _list_array(elem: Conv, length: int) -> Conv:
     return conv
 
 
-def _bytes_array(typ: str, length: int) -> Conv:
-    elem = _int_conv(typ)
+def _signed_byte(value: Any, path: str, ctx: _Ctx) -> int:
+    number = value if type(value) is int else _to_int(value, path)
+    if -128 <= number <= 255:
+        return number & 0xFF
+    raise ConversionError(f"{_where(path)} value {number} is out of range for int8 or uint8 "
+                          "[-128, 255]")
+
+
+def _bytes_array(typ: str, length: int, signed: bool = False) -> Conv:
+    """``signed``: integers -128..127 are accepted too, as the bytes they encode (the seed's
+    ``int8[]`` spelling, :data:`.aliases.SIGNED_BYTES`)."""
+    elem = _signed_byte if signed else _int_conv(typ)
 
     def conv(value: Any, path: str, ctx: _Ctx) -> bytes:
         kind = type(value)
@@ -346,7 +357,7 @@ def _const_fill(default: object) -> Fill:
     return lambda ctx: default
 
 
-def _field_plan(field: Field, reg: TypeRegistry) -> tuple[Conv, Fill]:
+def _field_plan(field: Field, reg: TypeRegistry, owner: str = "") -> tuple[Conv, Fill]:
     length = field.array
     if field.is_msg or field.type in _SECS_RANGE:
         if field.is_msg:
@@ -362,7 +373,8 @@ def _field_plan(field: Field, reg: TypeRegistry) -> tuple[Conv, Fill]:
         conv, default = _scalar_plan(field.type)
         return conv, _const_fill(default)
     if field.type in _BYTE_ARRAYS:
-        return _bytes_array(field.type, length), _const_fill(bytes(length))
+        signed = (owner, field.name) in SIGNED_BYTES
+        return _bytes_array(field.type, length, signed), _const_fill(bytes(length))
     elem, default = _scalar_plan(field.type)
     if field.type in _FLOATS:
         conv = _float_array(length)
@@ -381,11 +393,23 @@ def _plan(mtype: MsgType, reg: TypeRegistry) -> tuple[Conv, Fill]:
     return plan
 
 
+def _unalias(value: dict, aliases: dict[str, str], prefix: str) -> dict:
+    """``value`` with the seed's field names replaced by the SDK's (:mod:`.aliases`)."""
+    out = dict(value)
+    for seed, sdk in aliases.items():
+        if seed in out:
+            if sdk in out:
+                raise ConversionError(f"fields '{prefix}{seed}' and '{prefix}{sdk}' are two "
+                                      "spellings of one field; send one")
+            out[sdk] = out.pop(seed)
+    return out
+
+
 def _build(mtype: MsgType, reg: TypeRegistry) -> tuple[Conv, Fill]:
     is_header = mtype.name == HEADER
     entries: list[tuple[str, Conv, Fill, bool]] = []
     for field in mtype.fields:
-        conv, fill = _field_plan(field, reg)
+        conv, fill = _field_plan(field, reg, mtype.name)
         report = not (field.type == HEADER and field.array is None)
         if field.name == "stamp" and field.type == "time" and field.array is None:
             report = False
@@ -398,10 +422,14 @@ def _build(mtype: MsgType, reg: TypeRegistry) -> tuple[Conv, Fill]:
     short = TypeRegistry.short(mtype.name)
     expected = f"an object ({short})"
 
+    aliases = FIELD_ALIASES.get(mtype.name)
+
     def conv(value: Any, path: str, ctx: _Ctx) -> dict[str, Any]:
         if type(value) is not dict:
             raise _wrong(path, expected, value)
         prefix = f"{path}." if path else ""
+        if aliases and not aliases.keys().isdisjoint(value):
+            value = _unalias(value, aliases, prefix)
         out: dict[str, Any] = {}
         seen = 0
         for name, fconv, ffill, report in entries:

@@ -21,6 +21,8 @@ from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
+from .aliases import TYPE_ALIASES
+
 HEADER = "std_msgs/msg/Header"
 # rosbags models ROS 1 time/duration as builtin_interfaces messages; we treat them as base types.
 ROSBAGS_TIME_TYPES = {
@@ -248,6 +250,7 @@ class TypeRegistry:
         if found is not None:
             return found
         canonical = _canonical(name, "msg")
+        canonical = TYPE_ALIASES.get(canonical, canonical)  # type: ignore[arg-type]
         if (
             canonical is None
             or canonical in _TIME_TYPES

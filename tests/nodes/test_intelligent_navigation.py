@@ -167,6 +167,9 @@ async def test_should_stop_cancels_the_running_goal(robot):
     res = await c.expect(op="action_result", id="run", timeout=5)
     assert res["status"] == 5
     await w.until(lambda: speed(w) < 1e-3, 5, "the robot to stop")
+    await send(c, "seed-name", {"should_stop": True}, action="/intelligent_navigat_to_pose")
+    res = await c.expect(op="action_result", id="seed-name", timeout=5)
+    assert res["status"] == 4 and res["values"]["message"] == "stopped"
 
 
 async def test_set_initialpose_refines_a_slightly_off_pose(robot):
@@ -188,3 +191,65 @@ async def test_set_initialpose_refines_a_slightly_off_pose(robot):
 
     bad = await c.call("/set_initialpose", {"init_pose": {"header": {"frame_id": "odom"}}})
     assert bad["result"] is False and "map frame" in bad["values"]
+
+
+NS = "/slamware_ros_sdk_server_node"
+STATE = f"{NS}/robot_basic_state"
+
+
+def pose_msg(x: float, y: float, yaw: float) -> dict:
+    return {"position": {"x": x, "y": y, "z": 0.0},
+            "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}
+
+
+def initialpose(x: float, y: float, yaw: float) -> dict:
+    off = pose_stamped(x, y, yaw)
+    return {"init_pose": {"header": off["header"],
+                          "pose": {"pose": off["pose"], "covariance": [0.0] * 36}}}
+
+
+@pytest.fixture
+async def lost_robot(start_robot):
+    """A robot (sim or through sim-device) that knows where it truly is: (watcher, true
+    pose), localization good to start with."""
+    server = await start_robot(sim_speed=4.0)
+    w = await Watcher.open(server.port)
+    await w.subscribe(ODOM, "nav_msgs/Odometry")
+    await w.subscribe(STATE)
+    await w.until(lambda: (w.latest(STATE) or {}).get("localization_quality", 0) > 60
+                  and w.latest(ODOM), 15, "good localization and odometry")
+    truth = pose_of(w)
+    yield w, truth
+    await w.close()
+
+
+async def test_set_initialpose_localizes_a_lost_robot_from_an_off_guess(lost_robot):
+    """The robot is lost (its pose forced 0.8 m off); a guess 0.6 m / 0.4 rad off the truth
+    is refined to the truth, and the reply says so only once quality is good."""
+    w, (tx, ty, tyaw) = lost_robot
+    await w.publish(f"{NS}/set_pose", pose_msg(tx + 0.8, ty + 0.3, tyaw - 0.3))
+    await w.until(lambda: w.latest(STATE)["localization_quality"] < 40, 15, "quality to drop")
+    reply = await w.call("/set_initialpose", initialpose(tx + 0.45, ty - 0.4, tyaw + 0.4),
+                         timeout=30)
+    assert reply["result"] is True and reply["values"]["result"] is True, reply
+    p = reply["values"]["result_pose"]["pose"]["pose"]
+    assert math.hypot(p["position"]["x"] - tx, p["position"]["y"] - ty) < 0.1
+    assert abs(yaw_of(p["orientation"]) - tyaw) < 0.05
+    await w.until(lambda: math.hypot(pose_of(w)[0] - tx, pose_of(w)[1] - ty) < 0.1, 5,
+                  "odometry at the true pose")
+    await w.until(lambda: w.latest(STATE)["localization_quality"] >= 50, 5, "good quality")
+
+
+async def test_set_initialpose_refuses_a_wrong_guess_and_leaves_the_pose(lost_robot):
+    """A guess 3 m away with the heading turned round: result false, pose unchanged."""
+    w, (tx, ty, tyaw) = lost_robot
+    before = await w.next(ODOM)
+    reply = await w.call("/set_initialpose", initialpose(tx + 3.0, ty, tyaw + math.pi),
+                         timeout=30)
+    assert reply["result"] is True and reply["values"]["result"] is False, reply
+    p = reply["values"]["result_pose"]["pose"]["pose"]
+    assert math.hypot(p["position"]["x"] - tx, p["position"]["y"] - ty) < 0.05
+    after = pose_of(w)
+    b = before["pose"]["pose"]["position"]
+    assert math.hypot(after[0] - b["x"], after[1] - b["y"]) < 0.05
+    assert math.hypot(after[0] - tx, after[1] - ty) < 0.05

@@ -152,3 +152,53 @@ async def test_robot_state_fields_rate_and_odometry(make_server, tmp_path):
     await w.subscribe("/map/scout/Odometry", "nav_msgs/Odometry")
     await w.until(lambda: w.latest("/map/scout/Odometry"), 5, "/map/scout/Odometry")
     await w.close()
+
+
+NS = "/slamware_ros_sdk_server_node"
+
+
+async def test_set_listen_decides_who_may_drive(start_robot):
+    """joy/gui: the joystick's manual commands drive, a goal is refused saying who has
+    control; released: nothing drives, /cmd_vel included; vel_cmd/autonomy: goals again."""
+    server = await start_robot(sim_speed=SPEED)
+    w = await Watcher.open(server.port)
+    await w.client.send({"op": "set_level", "level": "info"})
+    await w.subscribe(f"{NS}/odom", "nav_msgs/Odometry")
+    await w.until(lambda: w.latest(f"{NS}/odom"), 10, "odometry")
+
+    def xy() -> tuple[float, float]:
+        p = w.latest(f"{NS}/odom")["pose"]["pose"]["position"]
+        return p["x"], p["y"]
+
+    def status(op_id: str):
+        return next((s for s in w.statuses if s.get("id") == op_id), None)
+
+    move = {"location": {"x": 7.0, "y": 8.0, "z": 0.0}, "yaw": 0.0,
+            "options": {"opt_flags": {"flags": 0}, "speed_ratio": {"is_valid": False,
+                                                                   "value": 0.0}}}
+    twist = {"linear": {"x": 0.3, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": 0.0}}
+    reply = await w.call("/set_listen", {"data": "joy/gui<&>pad-7"})
+    assert reply["values"]["success"], reply
+    await w.publish(f"{NS}/move_to", move, "slamware_ros_sdk/MoveToRequest", op_id="goal")
+    refused = await w.until(lambda: status("goal"), 10, "the goal refused")
+    assert refused["level"] == "error" and "joystick from pad-7 has control" in refused["msg"]
+    start = xy()
+    for i in range(5):
+        await w.publish("/cmd_vel", twist, "geometry_msgs/Twist", op_id=f"joy-{i}")
+    await w.until(lambda: math.dist(xy(), start) > 0.05, 10, "the joystick driving")
+    assert not any(s["level"] == "error" and s.get("id", "").startswith("joy-")
+                   for s in w.statuses)
+
+    reply = await w.call("/set_listen", {"data": "joy/gui<&><CLOSE>"})
+    assert reply["values"]["success"], reply
+    await w.publish("/cmd_vel", twist, "geometry_msgs/Twist", op_id="nobody")
+    refused = await w.until(lambda: status("nobody"), 10, "cmd_vel refused")
+    assert refused["level"] == "error" and "no control source" in refused["msg"]
+
+    reply = await w.call("/set_listen", {"data": "vel_cmd/autonomy"})
+    assert reply["values"]["success"], reply
+    await w.publish(f"{NS}/move_to", move, "slamware_ros_sdk/MoveToRequest", op_id="again")
+    done = await w.until(lambda: status("again"), 60, "the goal reached")
+    assert done["level"] == "info" and "done" in done["msg"], done
+    assert math.dist(xy(), (7.0, 8.0)) < 0.25
+    await w.close()

@@ -14,6 +14,7 @@ from hitrobot_server.nodes.navigation import (
     unreachable_reason,
 )
 
+from ..helpers import Watcher, WsClient
 from .map_manager.util import (
     BLOCKED,
     MM,
@@ -175,3 +176,73 @@ async def test_goal_closed_off_by_a_mask_is_unreachable(make_server, tmp_path):
     await w.publish(f"{NAV}/start", start_msg(10.0, 12.5))
     await w.until(lambda: path_points(w), 20, "a plan into office B")
     await w.close()
+
+
+DESK = (9.75, 2.2)
+"""A goal inside a desk: the nearest spot the robot can park on is about 1 m away."""
+
+
+async def test_a_goal_inside_furniture_is_unreachable_on_every_interface(start_robot):
+    """No interface reports an arrival 1 m off: map_messages gets TargetUnreachable with a
+    reason, the Slamware move_to and /move_base fail with the distance, compute_path_to_pose
+    fails, RETURN_UNREACHABLE_DIRECTLY fails without moving; the robot parks clear of the
+    obstacle and can drive on (it is not wedged)."""
+    server = await start_robot(sim_speed=4.0)
+    w = await Watcher.open(server.port)
+    await w.client.send({"op": "set_level", "level": "info"})
+    await w.subscribe(f"{NS}/odom", "nav_msgs/Odometry")
+    await w.subscribe(UNREACHABLE)
+    await w.subscribe("/move_base/result")
+    await w.until(lambda: w.latest(f"{NS}/odom"), 10, "odometry")
+    c = await WsClient.open(server.port)
+    try:
+        await c.send({"op": "send_action_goal", "id": "plan", "action": "/compute_path_to_pose",
+                      "action_type": "nav2_msgs/action/ComputePathToPose",
+                      "args": {"goal": {"header": {"frame_id": "map"}, "pose": pose(*DESK)},
+                               "use_start": False}})
+        res = await c.expect(op="action_result", id="plan", timeout=20)
+        assert res["status"] == 6 and res["result"] is False, res
+        assert "inside an obstacle" in res["values"]
+
+        start_xy = current(w)[:2]
+        await w.publish(f"{NS}/move_to", {"location": {"x": DESK[0], "y": DESK[1], "z": 0.0},
+                                          "options": {"opt_flags": {"flags": 64},
+                                                      "speed_ratio": {"is_valid": False,
+                                                                      "value": 0.0}},
+                                          "yaw": 0.0}, "slamware_ros_sdk/MoveToRequest",
+                        op_id="direct")
+        status = await w.until(lambda: next((s for s in w.statuses if s.get("id") == "direct"),
+                                            None), 20, "RETURN_UNREACHABLE_DIRECTLY refused")
+        assert status["level"] == "error" and "occupied" in status["msg"], status
+        assert math.dist(current(w)[:2], start_xy) < 0.05
+
+        await w.publish(f"{NAV}/start", start_msg(*DESK, distance=0.2), START_T, op_id="nav")
+        got = await w.until(lambda: w.latest(UNREACHABLE), 60, "TargetUnreachable")
+        assert got["reason"] == LASER_OBSTACLE
+        status = await w.until(lambda: next((s for s in w.statuses if s.get("id") == "nav"),
+                                            None), 10, "the navigation's status")
+        assert status["level"] == "error" and "unreachable" in status["msg"], status
+        await w.until(lambda: still(w), 10, "the robot stopped")
+        parked = current(w)
+        assert math.dist(parked[:2], DESK) > 0.5
+
+        await w.publish("/move_base/goal", {
+            "goal_id": {"id": "desk"},
+            "goal": {"target_pose": {"header": {"frame_id": "map"}, "pose": pose(*DESK)}}},
+            "move_base_msgs/MoveBaseActionGoal")
+
+        def result():
+            return next((m["status"] for _t, m in w.messages.get("/move_base/result", [])
+                         if m["status"]["goal_id"]["id"] == "desk"), None)
+        done = await w.until(result, 60, "the move_base result")
+        assert done["status"] == 4 and "inside an obstacle" in done["text"], done  # ABORTED
+
+        await w.publish(f"{NAV}/start", start_msg(7.0, 8.0, distance=0.2), START_T,
+                        op_id="away")
+        status = await w.until(lambda: next((s for s in w.statuses if s.get("id") == "away"),
+                                            None), 60, "driving away")
+        assert status["level"] == "info" and "arrived" in status["msg"], status
+        assert math.dist(current(w)[:2], (7.0, 8.0)) < 0.25
+    finally:
+        await c.close()
+        await w.close()

@@ -10,14 +10,13 @@ sim-device on an ephemeral loopback port that the server drives over the Slamwar
 from __future__ import annotations
 
 import asyncio
+import base64
 import math
 
 import numpy as np
 import pytest
 
 from hitrobot_server.nodes.slamware.messages import yaw_of
-from hitrobot_server.robot.factory import build_simulator
-from hitrobot_server.robot.rest.device import SimDevice
 from hitrobot_server.robot.sim.world import load_world
 
 from ..helpers import Watcher
@@ -35,38 +34,6 @@ def options(flags: int = 0) -> dict:
 @pytest.fixture(scope="module")
 def world():
     return load_world()
-
-
-@pytest.fixture(params=["sim", "rest"])
-def backend(request) -> str:
-    return request.param
-
-
-@pytest.fixture
-async def start_robot(make_server, backend):
-    """``await start_robot(**settings)``: a server with the simulated robot, in process or
-    behind a sim-device over HTTP (the simulator settings then go to the device)."""
-    servers, devices = [], []
-
-    async def start(**overrides):
-        if backend == "sim":
-            return await make_server(robot="sim", **overrides)
-        world = overrides.pop("world", None)
-        seed = overrides.pop("sim_seed", 0)
-        mapping = overrides.pop("sim_mapping", False)
-        speed = overrides.pop("sim_speed", 1.0)
-        device = SimDevice(build_simulator(world, seed, mapping), port=0, time_scale=speed)
-        await device.start()
-        devices.append(device)
-        server = await make_server(robot=device.url, **overrides)
-        servers.append(server)
-        return server
-
-    yield start
-    for server in servers:  # the server first, so it never sees its robot go away
-        await server.stop()
-    for device in devices:
-        await device.stop()
 
 
 @pytest.fixture
@@ -282,16 +249,70 @@ async def test_stcm_round_trip_restores_the_map(robot):
     assert again["data"] == original["data"]
 
 
+def pose_msg(x: float, y: float, yaw: float) -> dict:
+    return {"position": {"x": x, "y": y, "z": 0.0},
+            "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}
+
+
+async def test_refused_stcm_changes_nothing(robot):
+    """A composite map that is too short, or whose checksum is wrong, is refused before the
+    robot's map, localization or mapping are touched (the seed's int8[] spelling too)."""
+    _server, w = robot
+    state = f"{NS}/robot_basic_state"
+    await w.until(lambda: (w.latest(state) or {}).get("localization_quality", 0) > 60, 10,
+                  "good localization")
+    saved = (await w.call(f"{NS}/sync_get_stcm"))["values"]["raw_stcm"]
+    raw = base64.b64decode(saved)
+    corrupt = bytearray(raw)
+    corrupt[len(corrupt) // 2] ^= 0xFF
+    pose = pose_msg(*current(w))
+    for bad, why in (([1, 2, 3], "too short"), ([-1, -2, 3, 4] * 10, "magic"),
+                     (base64.b64encode(bytes(corrupt)).decode(), "checksum")):
+        reply = await w.call(f"{NS}/sync_set_stcm", {"raw_stcm": bad, "robot_pose": pose})
+        assert reply["result"] is False and why in reply["values"], reply
+    after = await w.call(f"{NS}/sync_get_stcm")
+    assert base64.b64decode(after["values"]["raw_stcm"]) == raw
+    fresh = await w.next(state)
+    assert fresh["is_localization_enabled"] is True
+    assert fresh["localization_quality"] > 60
+
+
+async def test_clear_map_publishes_the_cleared_map_to_late_subscribers(robot):
+    """After clear_map the node's map (and the composed /map) hold no known cell any more,
+    also for a client that subscribes only afterwards (the latched copy)."""
+    server, w = robot
+    for topic in (f"{NS}/map", "/map"):
+        await w.subscribe(topic, "nav_msgs/OccupancyGrid")
+        full = await w.until(lambda t=topic: w.latest(t), 10, topic)
+        assert any(v != -1 for v in full["data"])
+    await w.publish(f"{NS}/clear_map", {"kind": {"kind": 0}})
+    for topic in (f"{NS}/map", "/map"):
+        await w.until(lambda t=topic: all(v == -1 for v in w.latest(t)["data"]), 10,
+                      f"an all-unknown {topic}")
+    late = await Watcher.open(server.port)
+    try:
+        for topic in (f"{NS}/map", "/map"):
+            await late.subscribe(topic, "nav_msgs/OccupancyGrid")
+            first = await late.until(lambda t=topic: late.latest(t), 10, f"latched {topic}")
+            assert all(v == -1 for v in first["data"]), topic
+    finally:
+        await late.close()
+
+
 async def test_set_pose_far_away_drops_quality_and_recovery_restores_it(robot):
     _server, w = robot
     state = f"{NS}/robot_basic_state"
     await w.until(lambda: (w.latest(state) or {}).get("localization_quality", 0) > 60, 10,
                   "good localization")
-    true_x, true_y, _ = current(w)
+    true_x, true_y, true_yaw = current(w)
+    await w.client.send({"op": "set_level", "level": "warning"})
     await w.publish(f"{NS}/set_pose", {"position": {"x": 15.0, "y": 12.0, "z": 0.0},
                                        "orientation": {"x": 0.0, "y": 0.0, "z": 0.5,
-                                                       "w": math.sqrt(0.75)}})
+                                                       "w": math.sqrt(0.75)}}, op_id="far")
     await w.until(lambda: w.latest(state)["localization_quality"] < 30, 15, "quality to drop")
+    warned = await w.until(lambda: next((s for s in w.statuses if s.get("id") == "far"), None),
+                           15, "set_pose's verdict")
+    assert warned["level"] == "warning" and "not converged" in warned["msg"], warned
     await w.publish(f"{NS}/recover_localization", {
         "area": {"x": 0.0, "y": 0.0, "w": 0.0, "h": 0.0},
         "options": {"max_time_ms": {"is_valid": True, "value": 20000},
@@ -299,6 +320,11 @@ async def test_set_pose_far_away_drops_quality_and_recovery_restores_it(robot):
     await w.until(lambda: w.latest(state)["localization_quality"] > 60, 30, "recovery")
     x, y, _ = current(w)
     assert math.hypot(x - true_x, y - true_y) < 0.3
+    await w.client.send({"op": "set_level", "level": "info"})
+    await w.publish(f"{NS}/set_pose", pose_msg(x, y, true_yaw), op_id="near")
+    fine = await w.until(lambda: next((s for s in w.statuses if s.get("id") == "near"), None),
+                         15, "set_pose's verdict")
+    assert fine["level"] == "info" and "localized" in fine["msg"], fine
 
 
 async def test_publish_rates_follow_their_periods(robot):
@@ -377,3 +403,88 @@ async def test_parameters_tf_and_device_info(start_robot):
     await asyncio.sleep(1.0)
     assert f"{NS}/scan" not in w.messages  # a period of 0 disables the publisher
     await w.close()
+
+
+def line(x0: float, y0: float, x1: float, y1: float, line_id: int = 0) -> dict:
+    return {"id": line_id, "start": {"x": x0, "y": y0}, "end": {"x": x1, "y": y1}}
+
+
+async def test_the_seeds_spellings_are_accepted(robot):
+    """rotate with ``orientation``, add_lines / move_lines with ``line`` and a subscription
+    typed ``BasicSensorValuedataArray`` work as their SDK spellings do; both spellings of one
+    field at once are refused, naming both."""
+    _server, w = robot
+    await w.subscribe(f"{NS}/basic_sensors_values", "slamware_ros_sdk/BasicSensorValuedataArray")
+    await w.subscribe(f"{NS}/virtual_walls")
+    walls = f"{NS}/virtual_walls"
+    await w.publish(f"{NS}/add_lines", {"usage": {"usage": 0},
+                                        "line": [line(1.0, 1.0, 2.0, 1.0)]},
+                    "slamware_ros_sdk/AddLinesRequest", op_id="seed-add")
+    got = await w.until(lambda: (w.latest(walls) or {}).get("lines"), 10, "the seed's wall")
+    wall_id = got[0]["id"]
+    await w.publish(f"{NS}/move_lines", {"usage": {"usage": 0},
+                                         "line": [line(1.0, 2.0, 2.0, 2.0, wall_id)]},
+                    "slamware_ros_sdk/MoveLinesRequest")
+    await w.until(lambda: w.latest(walls)["lines"][0]["start"]["y"] == 2.0, 10, "moved wall")
+    start_yaw = current(w)[2]
+    half = math.pi / 4  # a quarter turn: quaternion of pi/2
+    await w.publish(f"{NS}/rotate", {"orientation": {"x": 0.0, "y": 0.0, "z": math.sin(half),
+                                                     "w": math.cos(half)},
+                                     "options": options()}, "slamware_ros_sdk/RotateRequest")
+    await w.until(lambda: abs(math.remainder(current(w)[2] - start_yaw - math.pi / 2, math.tau))
+                  < 0.05 and still(w), 20, "a quarter turn")
+    values = await w.until(lambda: w.latest(f"{NS}/basic_sensors_values"), 5, "sensor values")
+    assert "values_data" in values
+    await w.publish(f"{NS}/rotate", {"orientation": {"x": 0, "y": 0, "z": 0, "w": 1},
+                                     "rotation": {"x": 0, "y": 0, "z": 0, "w": 1},
+                                     "options": options()}, op_id="both")
+    status = await w.until(lambda: next((s for s in w.statuses if s.get("id") == "both"),
+                                        None), 5, "a refusal")
+    assert status["level"] == "error"
+    assert "'orientation'" in status["msg"] and "'rotation'" in status["msg"]
+    assert not any(s.get("id") == "seed-add" for s in w.statuses)
+
+
+async def test_teleop_and_cancel_are_not_errors(robot):
+    """move_by_direction at 10 Hz, as a joystick drives: every command but the last is
+    superseded by the next, and that is reported at info level, never as an error; so is an
+    ordinary cancel of a move."""
+    _server, w = robot
+    await w.client.send({"op": "set_level", "level": "info"})
+    ids = [f"joy-{i}" for i in range(10)]
+    for op_id in ids:  # the joystick's own 10 Hz pace
+        await w.publish(f"{NS}/move_by_direction", {"direction": {"direction": 2},
+                                                    "options": options()}, op_id=op_id)
+        await asyncio.sleep(0.1)
+    finals = {}
+    for op_id in ids:
+        finals[op_id] = await w.until(
+            lambda i=op_id: next((s for s in w.statuses if s.get("id") == i), None), 10, op_id)
+    assert all(s["level"] == "info" for s in finals.values()), finals
+    assert sum("superseded" in s["msg"] for s in finals.values()) >= 5
+    await move_to(w, 20.0, 8.2, op_id="long-move")
+    await w.until(lambda: w.latest(f"{NS}/odom")["twist"]["twist"]["linear"]["x"] > 0.1, 20,
+                  "the robot moving")
+    await w.publish(f"{NS}/cancel_action", {}, op_id="cancel")
+    for op_id, needle in (("cancel", "cancelled MoveToAction"), ("long-move", "cancelled")):
+        status = await w.until(
+            lambda i=op_id: next((s for s in w.statuses if s.get("id") == i), None), 10, op_id)
+        assert status["level"] == "info" and needle in status["msg"], status
+    assert not [s for s in w.statuses if s["level"] == "error"], w.statuses
+
+
+async def test_cmd_vel_honours_the_turn_and_stops_soon_after_the_last_command(robot):
+    """/cmd_vel at 10 Hz, driving forward while turning: the robot turns as it drives (the
+    REST emulation steers too), and it stops within a short distance of the last command."""
+    _server, w = robot
+    x0, y0, yaw0 = current(w)
+    twist = {"linear": {"x": 0.3, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": 0.4}}
+    for _ in range(15):  # a joystick's 10 Hz
+        await w.publish("/cmd_vel", twist, "geometry_msgs/Twist")
+        await asyncio.sleep(0.1)
+    last = current(w)
+    await w.until(lambda: still(w), 10, "the robot stopped")
+    x, y, yaw = current(w)
+    assert math.hypot(last[0] - x0, last[1] - y0) > 0.3
+    assert math.remainder(yaw - yaw0, math.tau) > 0.3
+    assert math.hypot(x - last[0], y - last[1]) < 0.2

@@ -468,3 +468,33 @@ def test_big_integer_arrays_become_compact_numpy_arrays():
         from_json(grid, {"data": data[:-1] + [128]}, reg)
     small, _ = from_json(grid, {"data": data[:10]}, reg)
     assert small["data"] == data[:10]
+
+
+# --- the seed's spellings (types/aliases.py) -------------------------------------------------
+
+
+def test_seed_field_names_are_read_as_the_sdks(reg: TypeRegistry) -> None:
+    q = {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}
+    msg, _ = convert(reg, "slamware_ros_sdk/RotateRequest", {"orientation": q})
+    assert msg["rotation"] == q and "orientation" not in msg
+    line = {"id": 1, "start": {"x": 0.0, "y": 0.0}, "end": {"x": 1.0, "y": 0.0}}
+    for name in ("AddLinesRequest", "MoveLinesRequest"):
+        msg, _ = convert(reg, f"slamware_ros_sdk/{name}", {"line": [line]})
+        assert msg["lines"] == [line]
+    both = error(reg, "slamware_ros_sdk/RotateRequest", {"orientation": q, "rotation": q})
+    assert "'orientation'" in both and "'rotation'" in both
+    # other types keep their strict field names (rotate_to has only `orientation`)
+    assert "unknown field 'rotation'" in error(reg, "slamware_ros_sdk/RotateToRequest",
+                                               {"orientation": q, "rotation": q})
+
+
+def test_seed_int8_stcm_bytes_and_type_name(reg: TypeRegistry) -> None:
+    req = reg.srv("slamware_ros_sdk/SyncSetStcm").request
+    msg, _ = from_json(req, {"raw_stcm": [-1, -128, 0, 127, 200]}, reg, now=lambda: NOW)
+    assert msg["raw_stcm"] == bytes([255, 128, 0, 127, 200])
+    with pytest.raises(ConversionError, match="-129"):
+        from_json(req, {"raw_stcm": [-129]}, reg, now=lambda: NOW)
+    assert "-1 is out of range" in error(reg, "std_msgs/UInt8MultiArray",
+                                         {"data": [-1]})
+    seed = reg.msg("slamware_ros_sdk/BasicSensorValuedataArray")
+    assert seed is reg.msg("slamware_ros_sdk/BasicSensorValueDataArray")

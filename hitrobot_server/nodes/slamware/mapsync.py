@@ -34,6 +34,11 @@ class MapHolder:
         self.cells = np.zeros((0, 0), dtype=np.uint8)
         self.col0 = self.row0 = 0
 
+    def forget(self) -> None:
+        """Every cell unknown, the extent kept: what to publish once the robot's map is gone
+        (a latched old map must not outlive it)."""
+        self.cells[:] = 0
+
     @property
     def empty(self) -> bool:
         return self.cells.size == 0

@@ -19,7 +19,7 @@ from ...bus.core import Bus
 from ...bus.errors import ServiceError
 from ...bus.names import canonical
 from ...bus.topics import Message, RequestRejected
-from ...robot.backend import BackendError, NotConnectedError, RobotBackend
+from ...robot.backend import ACTION_PREFIX, BackendError, NotConnectedError, RobotBackend
 from ...robot.model import (
     ActionDirection,
     ActionInfo,
@@ -35,6 +35,7 @@ from ...robot.model import (
     Pose2D,
     Rect,
 )
+from ...robot.relocalization import GOOD_QUALITY, settled_quality
 from ..base import RobotNode, require_finite
 from . import messages as m
 from .mapsync import MapHolder, tiles, window
@@ -260,9 +261,10 @@ class SlamwareNode(RobotNode):
             self._sync_requested = True
         known = await b.get_known_area(MapKind.EXPLORERMAP)
         if self._sync_requested:
-            self.map.clear()
-            if known.is_empty:
+            if known.is_empty:  # cleared: publish unknown cells instead of the old map
+                self.map.forget()
                 return
+            self.map.clear()
             size = max(16.0, self.params.map_sync_once_get_max_wh)
             for tile in tiles(known, size):
                 region = await b.get_map(tile, MapKind.EXPLORERMAP)
@@ -377,6 +379,8 @@ class SlamwareNode(RobotNode):
             action = current
         if action.result == ActionResult.SUCCESS:
             message.reject(f"{what}: done", level="info")
+        elif action.result == ActionResult.ABORTED:  # cancelled or superseded: not an error
+            message.reject(f"{what}: {action.reason or 'cancelled'}", level="info")
         else:
             why = action.reason or action.result.name.lower()
             message.reject(f"{what} failed: {why}")
@@ -403,7 +407,19 @@ class SlamwareNode(RobotNode):
         _point(msg["position"], "position")
         pose = Pose2D(msg["position"]["x"], msg["position"]["y"],
                       _quaternion_yaw(msg["orientation"], "orientation"))
-        self._run(message, "set_pose", lambda: self.backend.set_pose(pose))
+
+        async def set_pose() -> None:
+            """Forced as the SDK does, but the publisher learns whether the robot agrees."""
+            await self.backend.set_pose(pose)
+            quality = await settled_quality(self.backend)
+            if quality >= GOOD_QUALITY:
+                message.reject(f"set_pose: localized (quality {quality})", level="info")
+            else:
+                message.reject(f"set_pose: the pose was set but localization has not converged "
+                               f"(quality {quality} < {GOOD_QUALITY}); use /set_initialpose or "
+                               "recover_localization", level="warning")
+
+        self._run(message, "set_pose", set_pose)
 
     def _on_recover(self, message: Message) -> None:
         msg = message.msg
@@ -489,7 +505,13 @@ class SlamwareNode(RobotNode):
         self._run(message, "go_home", self.backend.go_home)
 
     def _on_cancel(self, message: Message) -> None:
-        self._run(message, "cancel_action", self.backend.cancel_action)
+        async def cancel() -> None:
+            stopped = await self.backend.cancel_action()
+            what = "nothing to cancel" if stopped is None else \
+                f"cancelled {stopped.action_name.removeprefix(ACTION_PREFIX)}"
+            message.reject(f"cancel_action: {what}", level="info")
+
+        self._run(message, "cancel_action", cancel)
 
     @staticmethod
     def _usage(msg: dict) -> ArtifactUsage:
@@ -541,19 +563,29 @@ class SlamwareNode(RobotNode):
             raise ServiceError(f"sync_get_stcm: {exc}") from None
 
     async def _sync_set_stcm(self, request: dict) -> dict:
-        """The real node's order: clear, cancel, stop localization and mapping, load the
-        composite map at the given pose, localize again, then resync the map copy."""
+        """The real node's steps, made safe: the map is checked completely first (a refused
+        map changes nothing); then cancel, stop localization and mapping, load the composite
+        map at the given pose (it replaces the old one, so no separate clear), localize again,
+        resync the map copy. If the robot refuses the load, localization and mapping are put
+        back as they were."""
         b = self.backend
-        data = request["raw_stcm"]
+        data = bytes(request["raw_stcm"])
         if not data:
             raise ServiceError("sync_set_stcm: field 'raw_stcm' is empty")
         pose = m.pose2d(request["robot_pose"])
         try:
-            await b.clear_map(MapKind.EXPLORERMAP)
+            await b.check_composite_map(data)
+            localizing = await b.get_localization_enabled()
+            mapping = await b.get_map_update(MapKind.EXPLORERMAP)
             await b.cancel_action()
             await b.set_localization_enabled(False)
             await b.set_map_update(False, MapKind.EXPLORERMAP)
-            await b.set_composite_map(bytes(data), pose)
+            try:
+                await b.set_composite_map(data, pose)
+            except BackendError:
+                await b.set_map_update(mapping, MapKind.EXPLORERMAP)
+                await b.set_localization_enabled(localizing)
+                raise
             await b.set_localization_enabled(True)
         except BackendError as exc:
             raise ServiceError(f"sync_set_stcm: {exc}") from None

@@ -14,20 +14,26 @@ path and the robot's own text.
 
 Where REST and the interface differ (see the README's real-robot section):
 
-* ``set_velocity`` is emulated with ``MoveByAction`` directions (no speed control);
+* ``set_velocity`` is emulated with short ``MoveByAction`` actions (direction or heading, with a
+  speed ratio);
 * ``set_blocked_areas`` becomes forbidden rectangle areas covering each polygon, marked by
   metadata so only ours are replaced;
 * ``add_lines`` cannot keep requested ids (the robot assigns them);
 * ``APPENDING`` is emulated by re-sending the remaining milestones plus the new targets;
 * basic sensors and the board temperature are not in the REST API: none and 0;
-* ``MoveOptions.planning_area`` has no REST form and is ignored;
-* ``compute_path`` (plan without moving) has no REST form: :class:`UnsupportedError`.
+* ``MoveOptions.planning_area`` has no REST form and is ignored by the robot;
+* ``compute_path`` (plan without moving) has no REST form: the server plans on the robot's map
+  itself; ``RETURN_UNREACHABLE_DIRECTLY`` has none either: the target is checked on that map
+  before the move is sent;
+* a move the robot reports as a success but that ended out of tolerance of its target is
+  reported as FAILED (``get_action``).
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import logging
 import math
 import time
@@ -38,10 +44,12 @@ from urllib.parse import urlsplit
 import numpy as np
 
 from ... import __version__
+from .. import composite_map
 from ..backend import BackendError, NotConnectedError, RobotBackend, UnsupportedError
 from ..model import (
     ActionDirection,
     ActionInfo,
+    ActionResult,
     ArtifactUsage,
     BasicSensorInfo,
     BasicSensorValue,
@@ -60,6 +68,10 @@ from ..model import (
     PowerStatus,
     Rect,
 )
+from ..sim.costmap import Costmap, CostmapConfig, build_costmap
+from ..sim.grid import GridSpec
+from ..sim.navigation import arrival_tolerance, path_search
+from ..sim.planner import run_in_slices
 from . import mapformat, paths, shapes
 from .http import Reply, RestHttp, TransportError
 
@@ -73,12 +85,18 @@ CONTROL_TIMEOUT = 8.0
 """Seconds for commands and configuration."""
 BULK_TIMEOUT = 30.0
 """Seconds for maps and stcm files, which can be large."""
-MANUAL_HOLD = 0.5
-"""Seconds one ``set_velocity`` keeps the robot moving (the MoveBy ``duration``)."""
-MANUAL_LINEAR = 0.5
-MANUAL_ANGULAR = 1.0
-"""Nominal speeds (m/s, rad/s) used to decide whether a twist is mostly driving or turning."""
+MANUAL_HOLD = 0.25
+"""Seconds one ``set_velocity`` keeps the robot moving (the MoveBy ``duration``): short, so the
+robot stops soon after the last command (``/cmd_vel`` publishers send at 10 Hz or more)."""
+MANUAL_LINEAR = 0.7
+MANUAL_ANGULAR = 1.8
+"""Nominal full manual speeds (m/s, rad/s): a twist's speed ratio is measured against them."""
 MOVE_ACTIONS = (shapes.MOVE_TO, shapes.SERIES_MOVE_TO)
+ACTION_HISTORY = 20
+"""Moves whose targets are remembered for the arrival check (the robot keeps 20 actions)."""
+ARRIVAL_SLACK = 0.05
+"""Metres of localization jitter allowed beyond a move's tolerance before its success is
+called a failure."""
 
 
 class SlamwareRestBackend(RobotBackend):
@@ -110,7 +128,9 @@ class SlamwareRestBackend(RobotBackend):
         self._last_ok = 0.0
         self._warned_missing: set[str] = set()
         self._blocked_lock = asyncio.Lock()
-        self._manual: tuple[int, ActionDirection, float] | None = None
+        self._manual: tuple[int, tuple, float] | None = None
+        self._blocked: tuple[tuple[Point2D, ...], ...] = ()
+        self._moves: dict[int, tuple[Point2D, float] | ActionInfo] = {}  # target or verdict
 
     # --- connection --------------------------------------------------------------------------
 
@@ -430,22 +450,58 @@ class SlamwareRestBackend(RobotBackend):
         dropped = options.flags & shapes.DROPPED_FLAGS
         if dropped:
             log.debug("move flags %s have no REST form; not sent", dropped)
+        if options.flags & MoveOptionFlag.RETURN_UNREACHABLE_DIRECTLY:
+            await self._check_targets(targets)
         if options.flags & MoveOptionFlag.APPENDING:
             current = await self.get_current_action()
             if current is not None and current.action_name in MOVE_ACTIONS:
                 targets = [*await self.get_remaining_milestones(), *targets]
-        return await self._start_action(shapes.move_to_request(targets, options, yaw))
+        info = await self._start_action(shapes.move_to_request(targets, options, yaw))
+        self._moves[info.action_id] = (targets[-1], arrival_tolerance(options))
+        while len(self._moves) > ACTION_HISTORY:
+            self._moves.pop(next(iter(self._moves)))
+        return info
 
     async def compute_path(
         self, start: Pose2D | None, goal: Pose2D, options: MoveOptions | None = None
     ) -> list[Point2D]:
-        """The REST endpoints this client speaks (:mod:`.paths`) only plan as part of a move
-        (``/motion/v1/path`` is the remaining path of the running action); planning without
-        moving is not among them."""
-        self._require_connection()
-        raise UnsupportedError(
-            "path planning without moving is not available over the Slamware REST API this "
-            "server speaks (only the running action's remaining path is); use move_to")
+        """REST has no planning without moving, but the server has the robot's map: it plans
+        itself with the simulator's planner (:func:`~..sim.navigation.path_search`) on a
+        costmap of the robot's explore map, virtual walls and tracks and the blocked areas
+        we sent (the robot's own planner and footprint may differ)."""
+        options = options or MoveOptions()
+        for value in (goal.x, goal.y) + (() if start is None else (start.x, start.y)):
+            if not math.isfinite(value):
+                raise BackendError("compute_path needs finite poses")
+        origin = await self.get_pose() if start is None else start
+        costmap = await self._costmap()
+        search = path_search(costmap, (origin.x, origin.y), (goal.x, goal.y), options)
+        result = await run_in_slices(search, self._require_connection)
+        if not result.ok:
+            raise BackendError(f"no path: {result.reason}")
+        return [Point2D(x, y) for x, y in result.path]
+
+    async def _costmap(self, area: Rect | None = None) -> Costmap:
+        """The planner's view of the robot's map (the known area when ``area`` is None)."""
+        region = await self.get_map(area)
+        if region.cells.size == 0:
+            raise BackendError("the robot has no map to plan on")
+        spec = GridSpec(region.origin_x, region.origin_y, region.resolution,
+                        region.width, region.height)
+        return build_costmap(
+            spec, region.cells >= 128, region.cells == 0, CostmapConfig(),
+            walls=await self.get_lines(ArtifactUsage.VIRTUAL_WALL),
+            blocked=self._blocked,
+            tracks=await self.get_lines(ArtifactUsage.VIRTUAL_TRACK))
+
+    async def _check_targets(self, targets: Sequence[Point2D]) -> None:
+        """``RETURN_UNREACHABLE_DIRECTLY`` has no REST form: refuse here a target the robot
+        cannot stand on (lethal on our costmap of its map), as the flag asks."""
+        for t in targets:
+            costmap = await self._costmap(Rect(t.x - 1.0, t.y - 1.0, 2.0, 2.0))
+            if costmap.lethal_at(np.array([[t.x, t.y]])).any():
+                raise BackendError(f"target ({t.x:.2f}, {t.y:.2f}) is occupied or unreachable "
+                                   "(RETURN_UNREACHABLE_DIRECTLY)")
 
     async def move_by_direction(
         self,
@@ -488,19 +544,39 @@ class SlamwareRestBackend(RobotBackend):
             return None
         reply = await self._request("DELETE", paths.CURRENT_ACTION,
                                     timeout=self._control_timeout)
-        if reply.status == 404:  # it finished meanwhile
-            return await self.get_action(current.action_id) or current
-        if not reply.ok:
+        if not reply.ok and reply.status != 404:  # 404: it finished meanwhile
             raise self._failed("DELETE", paths.CURRENT_ACTION, reply)
-        return await self.get_action(current.action_id) or current
+        after = await self.get_action(current.action_id)
+        if after is None:
+            return current
+        # a finished action reads back as a gravestone: keep the name and stage we know
+        return dataclasses.replace(after, action_name=after.action_name or current.action_name,
+                                   stage=after.stage or current.stage)
 
     async def get_current_action(self) -> ActionInfo | None:
         action = await self._get(paths.CURRENT_ACTION, shapes.action_from, missing_ok=True)
         return None if action is None or action.done else action
 
     async def get_action(self, action_id: int) -> ActionInfo | None:
-        return await self._get(f"{paths.ACTIONS}/{int(action_id)}", shapes.action_from,
-                               missing_ok=True)
+        """The action; a move we started that the robot calls a success but that ended
+        farther from its target than the tolerance (plus :data:`ARRIVAL_SLACK`) reads as
+        FAILED with the distance, so no interface reports an arrival that did not happen."""
+        action = await self._get(f"{paths.ACTIONS}/{int(action_id)}", shapes.action_from,
+                                 missing_ok=True)
+        move = self._moves.get(int(action_id))
+        if action is None or move is None or not action.succeeded:
+            return action
+        if isinstance(move, ActionInfo):  # judged when it finished
+            return move
+        target, tolerance = move
+        pose = await self.get_pose()
+        off = math.hypot(pose.x - target.x, pose.y - target.y)
+        if off > tolerance + ARRIVAL_SLACK:
+            action = dataclasses.replace(action, result=ActionResult.FAILED, reason=(
+                f"target unreachable: the robot stopped {off:.2f} m from ({target.x:.2f}, "
+                f"{target.y:.2f}) (tolerance {tolerance:.2f} m)"))
+        self._moves[int(action_id)] = action
+        return action
 
     async def get_remaining_path(self) -> list[Point2D]:
         return await self._get(paths.PATH, shapes.path_from, missing_ok=True) or []
@@ -509,10 +585,17 @@ class SlamwareRestBackend(RobotBackend):
         return await self._get(paths.MILESTONES, shapes.path_from, missing_ok=True) or []
 
     async def set_velocity(self, linear: float, angular: float) -> None:
-        """REST has no velocity control. Emulated with ``MoveByAction``: the dominant part of
-        the twist picks forward, backward, turn left or turn right (at the robot's own manual
-        speed; the magnitude is not honoured) for :data:`MANUAL_HOLD` seconds, re-sent at most
-        twice per hold; a zero twist cancels the manual move."""
+        """REST has no velocity control. Emulated with short ``MoveByAction`` actions (held
+        :data:`MANUAL_HOLD` s, re-sent when the command changes or half the hold passed):
+
+        * the magnitude becomes the move's ``speed_ratio`` against the nominal manual speeds
+          :data:`MANUAL_LINEAR` / :data:`MANUAL_ANGULAR` (clamped to 0.1-1, the REST range);
+        * turning in place → ``TURNLEFT`` / ``TURNRIGHT``; driving forward while turning → a
+          ``theta`` heading of ``angular / 2`` rad (the robot steers towards it), forward
+          only → ``FORWARD``; backward → ``BACKWARD`` (REST cannot reverse along a curve, the
+          turn is dropped);
+        * a zero twist cancels the manual move at once, so the robot coasts at most the rest of
+          one short hold after the last command."""
         if not (math.isfinite(linear) and math.isfinite(angular)):
             raise BackendError("velocities must be finite")
         loop = asyncio.get_running_loop()
@@ -525,17 +608,27 @@ class SlamwareRestBackend(RobotBackend):
                     await self._request("DELETE", paths.CURRENT_ACTION,
                                         timeout=self._control_timeout)
             return
-        if drive >= turn:
-            direction = ActionDirection.FORWARD if linear > 0 else ActionDirection.BACKWARD
-        else:
+        direction: ActionDirection | None = None
+        theta: float | None = None
+        if drive < 2e-3 or (turn > 4 * drive):
             direction = ActionDirection.TURNLEFT if angular > 0 else ActionDirection.TURNRIGHT
+            ratio = turn
+        elif linear < 0:
+            direction, ratio = ActionDirection.BACKWARD, drive
+        elif turn < 2e-3:
+            direction, ratio = ActionDirection.FORWARD, drive
+        else:
+            theta = max(-1.2, min(1.2, angular / 2.0))
+            ratio = drive / math.cos(theta)
+        ratio = round(min(1.0, max(0.1, ratio)), 2)
+        command = (direction if direction is not None else round(theta or 0.0, 2), ratio)
         now = loop.time()
         manual = self._manual
-        if manual is not None and manual[1] == direction and now - manual[2] < MANUAL_HOLD / 2:
+        if manual is not None and manual[1] == command and now - manual[2] < MANUAL_HOLD / 2:
             return
-        info = await self._start_action(
-            shapes.move_by_request(direction, None, MANUAL_HOLD))
-        self._manual = (info.action_id, direction, now)
+        info = await self._start_action(shapes.move_by_request(
+            direction, theta, MANUAL_HOLD, MoveOptions(speed_ratio=ratio)))
+        self._manual = (info.action_id, command, now)
 
     # --- artifacts ---------------------------------------------------------------------------
 
@@ -598,6 +691,7 @@ class SlamwareRestBackend(RobotBackend):
         left alone; ours from an earlier run are replaced."""
         path = f"{paths.RECTANGLE_AREAS}/{paths.FORBIDDEN_AREA}"
         covers = [shapes.cover_polygon(list(polygon)) for polygon in areas]
+        self._blocked = tuple(tuple(polygon) for polygon in areas)
         async with self._blocked_lock:
             existing = await self._json("GET", path, missing_ok=True)
             if existing is None:
@@ -623,6 +717,19 @@ class SlamwareRestBackend(RobotBackend):
         if not reply.ok:
             raise self._failed("GET", paths.STCM, reply)
         return reply.body
+
+    async def check_composite_map(self, data: bytes) -> None:
+        """Our own container (what the simulator and sim-device serve) is checked completely;
+        SLAMTEC's ``.stcm`` is proprietary and only the robot can judge it (its ``PUT`` refuses
+        a bad file without touching the map)."""
+        self._require_connection()
+        if data[:len(composite_map.MAGIC)] == composite_map.MAGIC:
+            try:
+                composite_map.decode(data)
+            except composite_map.CompositeMapError as exc:
+                raise BackendError(f"invalid composite map: {exc}") from None
+        elif not data:
+            raise BackendError("the composite map is empty")
 
     async def set_composite_map(self, data: bytes, pose: Pose2D) -> None:
         """PUT the file unchanged (the robot then sits at the origin), then set the pose."""

@@ -287,7 +287,7 @@ class RecoverLocalizationAction(Action):
     def _run(self, ctx: ActionContext) -> tuple[float, float]:
         if self._search is None:
             self._search = ctx.start_relocalization(self._area)
-            self._captured = ctx.latest_scan.pose
+            self._captured = ctx.scan_odometry
             if self._max_time is not None:
                 self._deadline = ctx.time + self._max_time
         self.stage = "RELOCALIZING"
@@ -302,7 +302,7 @@ class RecoverLocalizationAction(Action):
             ctx.report_relocalization(False)
             self.finish(ActionResult.FAILED, "relocalization failed: no matching pose")
         else:
-            ctx.apply_correction(compose(match, inverse(self._captured)))
+            ctx.relocalize(match, self._captured)
             ctx.report_relocalization(True)
             self.finish(ActionResult.SUCCESS)
         return 0.0, 0.0

@@ -31,7 +31,6 @@ from ..model import (
     LocalizationMovement,
     MapKind,
     MapRegion,
-    MoveOptionFlag,
     MoveOptions,
     Odometry,
     Point2D,
@@ -39,8 +38,8 @@ from ..model import (
     PowerStatus,
     Rect,
 )
-from .navigation import track_mode
-from .planner import PathSearch
+from .navigation import path_search
+from .planner import run_in_slices
 from .simulator import Simulator
 
 log = logging.getLogger(__name__)
@@ -51,8 +50,6 @@ SLOW_STEP = 0.05
 """A step slower than this (s) is logged: it delays every other task on the loop."""
 MAX_CATCH_UP = 5
 """Steps run back to back at most when the loop fell behind; older backlog is dropped."""
-PLAN_SLICE = 20_000
-"""A* expansions ``compute_path`` runs between yields to the event loop."""
 
 
 class SimBackend(RobotBackend):
@@ -234,26 +231,20 @@ class SimBackend(RobotBackend):
         self, start: Pose2D | None, goal: Pose2D, options: MoveOptions | None = None
     ) -> list[Point2D]:
         """A* on the current planning costmap with ``move_to``'s options, run in slices of
-        :data:`PLAN_SLICE` expansions so a long search never stalls the loop."""
+        :data:`~.planner.PLAN_SLICE` expansions so a long search never stalls the loop."""
         options = options or MoveOptions()
         for value in (goal.x, goal.y) + (() if start is None else (start.x, start.y)):
             if not math.isfinite(value):
                 raise BackendError("compute_path needs finite poses")
         sim = self._call(lambda: self.simulator)
         origin = sim.pose if start is None else start
-        search = PathSearch(
-            sim.costmap(),
-            (origin.x, origin.y),
-            (goal.x, goal.y),
-            smooth=not options.flags & MoveOptionFlag.NO_SMOOTH,
-            substitute_goal=not options.flags & MoveOptionFlag.RETURN_UNREACHABLE_DIRECTLY,
-            track_mode=track_mode(options),
-            bbox=options.planning_area,
-        )
-        while (result := search.advance(PLAN_SLICE)) is None:
-            await asyncio.sleep(0)
+        search = path_search(sim.costmap(), (origin.x, origin.y), (goal.x, goal.y), options)
+
+        def alive() -> None:
             if not self.connected:
                 raise NotConnectedError("simulator is not running")
+
+        result = await run_in_slices(search, alive)
         if not result.ok:
             raise BackendError(f"no path: {result.reason}")
         return [Point2D(x, y) for x, y in result.path]
@@ -326,6 +317,9 @@ class SimBackend(RobotBackend):
 
     async def get_composite_map(self) -> bytes:
         return self._call(self.simulator.composite_map)
+
+    async def check_composite_map(self, data: bytes) -> None:
+        self._call(self.simulator.check_composite_map, data)
 
     async def set_composite_map(self, data: bytes, pose: Pose2D) -> None:
         self._call(self.simulator.load_composite_map, data, pose)

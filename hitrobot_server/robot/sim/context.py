@@ -50,8 +50,12 @@ class ActionContext(Protocol):
     def start_relocalization(self, area: Rect | None) -> RelocalizationSearch:
         """A pose search for the latest scan."""
 
-    def apply_correction(self, correction: Pose2D) -> None:
-        """Shift the believed pose by a map-frame correction."""
+    @property
+    def scan_odometry(self) -> Pose2D:
+        """The odometry pose the latest scan was taken at (for motion since that scan)."""
+
+    def relocalize(self, match: Pose2D, at: Pose2D) -> None:
+        """Believe ``match`` was the pose at odometry pose ``at`` (plus the motion since)."""
 
     def report_relocalization(self, success: bool) -> None:
         """Record the outcome of a relocalization for the health report."""

@@ -30,17 +30,23 @@ class CostmapConfig:
     inflation_decay: float = 8.0
     unknown_cost: float = 1.0
     track_width: float = 0.05
+    park_margin: float = 0.1
+    """Room (m) beyond the lethal zone a replacement goal must have: the robot never parks
+    itself on the edge of an inflated obstacle, where tracking error wedges it."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
 class Costmap:
     """``lethal[row, col]``: the robot centre may not be there. ``cost``: multiplier >= 1 on the
-    length of a step into the cell. ``track``: cells on a virtual track (for track modes)."""
+    length of a step into the cell. ``track``: cells on a virtual track (for track modes).
+    ``parkable``: cells with room to stop in, clear of the inflated zone by ``park_margin``
+    (where a goal that cannot be stood on is moved to)."""
 
     spec: GridSpec
     lethal: np.ndarray
     cost: np.ndarray
     track: np.ndarray
+    parkable: np.ndarray
 
     def lethal_at(self, points: np.ndarray) -> np.ndarray:
         """Per point ``(n, 2)``: whether the robot centre may not be there (outside = lethal)."""
@@ -72,6 +78,8 @@ def build_costmap(
     # Distances run between cell centres; half a cell converts that to the distance to the
     # obstacle's edge, and the safety margin absorbs path-tracking error.
     lethal = clearance < config.robot_radius + 0.5 * res + config.safety_margin
+    parkable = ~lethal & (clearance >= config.robot_radius + 0.5 * res + config.safety_margin
+                          + config.park_margin)
     excess = np.maximum(clearance - config.robot_radius, 0.0)
     cost = 1.0 + config.inflation_cost * np.exp(-config.inflation_decay * excess)
     cost = np.where(clearance >= config.inflation_radius, 1.0, cost).astype(np.float32)
@@ -81,7 +89,7 @@ def build_costmap(
         line = rasterize_segments(spec, (_segment(t) for t in tracks))
         reach = max(1, round(config.track_width / res))
         track = distance_field(line, reach + 1) <= reach
-    return Costmap(spec, lethal, cost, track)
+    return Costmap(spec, lethal, cost, track, parkable)
 
 
 def densify(points: np.ndarray, step: float) -> np.ndarray:

@@ -128,10 +128,6 @@ class Localizer:
         """Force the believed pose (``set_pose``)."""
         self.error = compose(believed, inverse(true_pose))
 
-    def correct(self, correction: Pose2D) -> None:
-        """Apply a map-frame correction ``believed ← correction ⊕ believed``."""
-        self.error = compose(correction, self.error)
-
     def on_motion(self, true_pose: Pose2D, distance: float, rotation: float) -> None:
         """Odometry drift while not localizing, applied in the robot frame; called every tick
         (no randoms are drawn while the robot stands still)."""
@@ -177,9 +173,13 @@ class RelocalizationSearch:
         area: Rect | None,
         free: np.ndarray,
         config: LocalizationConfig,
+        yaw_window: tuple[float, float] | None = None,
     ) -> None:
+        """``yaw_window`` = (centre, half width) confines the headings searched (all when
+        ``None``)."""
         self.done = False
         self.pose: Pose2D | None = None
+        self.best: Pose2D | None = None
         self.score = 0.0
         self._field = field
         self._points = points
@@ -195,8 +195,13 @@ class RelocalizationSearch:
             cols = cols * stride + window[1].start
         self._rows, self._cols = rows, cols
         self._positions = np.stack(spec.center(cols, rows), axis=1).reshape(-1, 2)
-        count = round(2.0 * math.pi / config.coarse_yaw_step)
-        self._yaws = -math.pi + np.arange(count) * (2.0 * math.pi / count)
+        if yaw_window is None:
+            count = round(2.0 * math.pi / config.coarse_yaw_step)
+            self._yaws = -math.pi + np.arange(count) * (2.0 * math.pi / count)
+        else:
+            centre, half = yaw_window
+            steps = max(0, math.ceil(half / config.coarse_yaw_step))
+            self._yaws = centre + np.arange(-steps, steps + 1) * config.coarse_yaw_step
         self._next_yaw = 0
         self._best = np.zeros((0, 4))
         if len(rows) == 0:
@@ -204,7 +209,8 @@ class RelocalizationSearch:
 
     def advance(self, budget: int) -> bool:
         """Score about ``budget`` point lookups worth of candidates (at least one heading);
-        True once finished (then :attr:`pose` is the match, or ``None``)."""
+        True once finished (then :attr:`pose` is the accepted match, or ``None``;
+        :attr:`best` is the best candidate whatever its :attr:`score`)."""
         if self.done:
             return True
         per_yaw = max(1, len(self._positions) * len(self._points))
@@ -240,6 +246,8 @@ class RelocalizationSearch:
             if score > best_score:
                 best_pose, best_score = pose, score
         self.score = max(best_score, 0.0)
-        if best_pose is not None and best_score >= self._config.accept_score:
+        if best_pose is not None:
             x, y, yaw = (float(v) for v in best_pose)
-            self.pose = Pose2D(x, y, wrap_angle(yaw))
+            self.best = Pose2D(x, y, wrap_angle(yaw))
+            if best_score >= self._config.accept_score:
+                self.pose = self.best

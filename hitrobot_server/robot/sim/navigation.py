@@ -6,8 +6,14 @@ This is where the Slamware move flags take effect:
   overrides both);
 * ``WITH_YAW`` turns to the requested yaw after the last target (within 0.05 rad);
 * ``NO_SMOOTH`` keeps the raw grid path;
-* ``RETURN_UNREACHABLE_DIRECTLY`` fails when a target cannot be stood on instead of picking the
-  nearest free spot;
+* a target the robot cannot stand on (inside an inflated obstacle) is replaced by the nearest
+  spot it can park on, clear of the inflation; the robot drives there and the move then
+  **fails** ("the target ... is inside an obstacle: stopped at the nearest free spot X m
+  away") unless that
+  spot is within the arrival tolerance of the target: a move is a success only when the robot
+  stands within tolerance of every target;
+* ``RETURN_UNREACHABLE_DIRECTLY`` fails at once, without moving, when a target cannot be stood
+  on;
 * ``KEY_POINTS`` / mode 1 plan strictly along virtual tracks; ``KEY_POINTS_WITH_OA`` / mode 2
   prefer tracks but may leave them;
 * ``planning_area`` (not a flag) confines every leg's search to that rectangle;
@@ -29,7 +35,7 @@ import numpy as np
 
 from ..model import MoveOptionFlag, MoveOptions, NavigationMode, Point2D
 from .context import ActionContext
-from .costmap import densify
+from .costmap import Costmap, densify
 from .follower import DEFAULT_TOLERANCE, PRECISE_TOLERANCE, PathFollower
 from .planner import PathSearch, TrackMode
 
@@ -42,6 +48,8 @@ may legitimately start inside an inflated zone."""
 STUCK_TIMEOUT = 30.0
 """Seconds without getting 0.1 m closer to the current target before giving up."""
 DEFAULT_RETRIES = 5
+ARRIVAL_SLACK = 0.02
+"""Metres of localization jitter allowed on top of the tolerance when checking arrival."""
 BACK_OFF_TIME = 0.5
 BACK_OFF_SPEED = 0.1
 """After a collision the robot eases away from the contact (about 4 cm) before replanning, so
@@ -63,6 +71,29 @@ def track_mode(options: MoveOptions) -> TrackMode:
     return TrackMode.NONE
 
 
+def path_search(costmap: Costmap, start: tuple[float, float], goal: tuple[float, float],
+                options: MoveOptions) -> PathSearch:
+    """The search a move with ``options`` plans each leg with (also ``compute_path``'s)."""
+    flags = options.flags
+    return PathSearch(
+        costmap, start, goal,
+        smooth=not flags & MoveOptionFlag.NO_SMOOTH,
+        substitute_goal=not flags & MoveOptionFlag.RETURN_UNREACHABLE_DIRECTLY,
+        track_mode=track_mode(options),
+        bbox=options.planning_area,
+    )
+
+
+def arrival_tolerance(options: MoveOptions) -> float:
+    """How close (m) to a target counts as there: ``acceptable_precision``, else 0.05 m with
+    ``PRECISE``, else 0.15 m."""
+    if options.acceptable_precision is not None:
+        return options.acceptable_precision
+    if options.flags & MoveOptionFlag.PRECISE:
+        return PRECISE_TOLERANCE
+    return DEFAULT_TOLERANCE
+
+
 def speed_ratio(options: MoveOptions) -> float:
     """``speed_ratio`` clamped to the 0.1-1.0 range the chassis honours."""
     return 1.0 if options.speed_ratio is None else min(1.0, max(0.1, options.speed_ratio))
@@ -82,6 +113,7 @@ class Navigator:
         self._best_distance = math.inf
         self._best_time = 0.0
         self._back_off: tuple[float, float] | None = None
+        self._tolerance = DEFAULT_TOLERANCE
         self.stage = "PLANNING"
         self.done = not self._targets
         self.failure: str | None = None
@@ -144,35 +176,30 @@ class Navigator:
         linear, angular = follower.command(ctx.pose)
         self.stage = "ROTATING" if follower.arrived else "GOING_TO_TARGET"
         if follower.done:
+            target = self._targets[0]
+            off = math.hypot(target.x - ctx.pose.x, target.y - ctx.pose.y)
+            if off > self._tolerance + ARRIVAL_SLACK:
+                self.failure = (f"the target ({target.x:.2f}, {target.y:.2f}) is inside an "
+                                f"obstacle: stopped at the nearest free spot {off:.2f} m away "
+                                f"(tolerance {self._tolerance:.2f} m)")
+                return 0.0, 0.0
             self._targets.popleft()
             self._follower = None
             self.done = not self._targets
         return linear, angular
 
     def _start_search(self, ctx: ActionContext) -> PathSearch:
-        flags = self._options.flags
         target = self._targets[0]
-        self._search = search = PathSearch(
-            ctx.costmap(),
-            (ctx.pose.x, ctx.pose.y),
-            (target.x, target.y),
-            smooth=not flags & MoveOptionFlag.NO_SMOOTH,
-            substitute_goal=not flags & MoveOptionFlag.RETURN_UNREACHABLE_DIRECTLY,
-            track_mode=track_mode(self._options),
-            bbox=self._options.planning_area,
-        )
+        self._search = search = path_search(
+            ctx.costmap(), (ctx.pose.x, ctx.pose.y), (target.x, target.y), self._options)
         return search
 
     def _start_leg(self, ctx: ActionContext, path: Sequence[tuple[float, float]]) -> None:
         options = self._options
         last = len(self._targets) == 1
-        if options.acceptable_precision is not None:
-            tolerance = options.acceptable_precision
-        elif options.flags & MoveOptionFlag.PRECISE:
-            tolerance = PRECISE_TOLERANCE
-        else:
-            tolerance = DEFAULT_TOLERANCE
+        tolerance = arrival_tolerance(options)
         with_yaw = last and bool(options.flags & MoveOptionFlag.WITH_YAW)
+        self._tolerance = tolerance
         self._follower = PathFollower(
             path,
             ctx.drive,

@@ -6,7 +6,9 @@ loop; :func:`plan` runs one to completion. Budgets count expansions, not wall ti
 runs deterministic.
 
 Goal handling follows the Slamware flags: a target the robot cannot stand on is replaced by the
-nearest cell it can stand on, unless the caller asked for ``RETURN_UNREACHABLE_DIRECTLY``.
+nearest cell it can park on (clear of the inflated zone, ``Costmap.parkable``), unless the caller
+asked for ``RETURN_UNREACHABLE_DIRECTLY``. The caller decides whether the replacement is close
+enough to count as the target (the navigator fails a move that ends outside its tolerance).
 Virtual tracks give two modes: *strict* (``KEY_POINTS``) confines the search to track cells plus
 straight connectors from the start and to the goal; *priority* (``KEY_POINTS_WITH_OA``) makes
 track cells cheaper so paths follow tracks where they can and leave them to get around
@@ -15,9 +17,11 @@ obstacles.
 
 from __future__ import annotations
 
+import asyncio
 import enum
 import heapq
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -104,7 +108,8 @@ class PathSearch:
             if not substitute_goal:
                 self._fail("target is occupied or unreachable")
                 return
-            goal_cell = _nearest(spec, ~blocked, goal, GOAL_SUBSTITUTE_RADIUS)
+            goal_cell = _nearest(spec, ~blocked & costmap.parkable, goal,
+                                 GOAL_SUBSTITUTE_RADIUS)
             if goal_cell is None:
                 self._fail("no free space near the target")
                 return
@@ -276,6 +281,20 @@ def _nearest(
     if d2[best] > reach * reach:
         return None
     return int(cols[best]), int(rows[best])
+
+
+PLAN_SLICE = 20_000
+"""A* expansions an off-robot search (``compute_path``) runs between yields to the loop."""
+
+
+async def run_in_slices(search: PathSearch, alive: Callable[[], None],
+                        budget: int = PLAN_SLICE) -> PlanResult:
+    """Run ``search`` to completion ``budget`` expansions at a time, yielding to the event loop
+    between slices; ``alive`` raises to abandon it (e.g. the robot went away)."""
+    while (result := search.advance(budget)) is None:
+        await asyncio.sleep(0)
+        alive()
+    return result
 
 
 def plan(

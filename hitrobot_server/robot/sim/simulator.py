@@ -62,7 +62,7 @@ from .actions import (
 )
 from .artifacts import LineStore
 from .costmap import Costmap, CostmapConfig, build_costmap
-from .geometry import wrap_angle
+from .geometry import compose, inverse, wrap_angle
 from .grid import distance_field
 from .kinematics import DiffDrive, DriveLimits
 from .lidar import Lidar, LidarConfig, RayCaster
@@ -206,6 +206,7 @@ class Simulator:
         believed = self._localizer.believed(true_pose)
         angles = self._lidar.angles
         self._scan = LaserScan(believed, angles, ranges, self.time)
+        self._scan_odometry = true_pose
         self._sensors.update_sonars(true_pose)
         points = scan_points(angles, ranges, self.config.localization.match_points)
         self._localizer.update(self.config.scan_period, true_pose, points)
@@ -283,8 +284,15 @@ class Simulator:
             self._field, points, area, self._standable, self.config.localization
         )
 
-    def apply_correction(self, correction: Pose2D) -> None:
-        self._localizer.correct(correction)
+    @property
+    def scan_odometry(self) -> Pose2D:
+        return self._scan_odometry
+
+    def relocalize(self, match: Pose2D, at: Pose2D) -> None:
+        """Believe ``match`` at odometry pose ``at``: the pose is the match plus the odometry
+        motion since, whatever was believed (or forced with ``set_pose``) meanwhile."""
+        now = self._drive.pose
+        self._localizer.set_pose(compose(match, compose(inverse(at), now)), now)
 
     def report_relocalization(self, success: bool) -> None:
         self._relocalization_failed = not success
@@ -492,7 +500,7 @@ class Simulator:
     def _start(self, action: Action) -> ActionInfo:
         current = self._current
         if current is not None and not current.done:
-            current.finish(ActionResult.ABORTED, "replaced by a new action")
+            current.finish(ActionResult.ABORTED, "superseded by a new action")
         self._current = action
         self._history[action.action_id] = action
         while len(self._history) > ACTION_HISTORY:
@@ -531,10 +539,20 @@ class Simulator:
         )
         return composite_map.encode(cmap)
 
-    def load_composite_map(self, data: bytes, pose: Pose2D) -> None:
-        """Install a composite map and set the believed pose; ``ValueError`` if invalid."""
-        pose = _checked_pose(pose)
+    def check_composite_map(self, data: bytes) -> composite_map.CompositeMap:
+        """The decoded map if :meth:`load_composite_map` would take it; ``ValueError`` if
+        not (checked completely, so loading cannot fail half-way)."""
         cmap = composite_map.decode(data)
+        res = self.world.spec.resolution
+        if cmap.explore is not None and abs(cmap.explore.resolution - res) > 1e-6:
+            raise ValueError(f"map resolution {cmap.explore.resolution} differs from {res}")
+        return cmap
+
+    def load_composite_map(self, data: bytes, pose: Pose2D) -> None:
+        """Install a composite map and set the believed pose; ``ValueError`` (and nothing
+        changed) if either is invalid."""
+        pose = _checked_pose(pose)
+        cmap = self.check_composite_map(data)
         if cmap.explore is None:
             self._mapper.clear()
         else:

@@ -129,6 +129,18 @@ async def test_an_action_is_followed_to_its_end_and_idle_is_none(client):
     assert await client.get_action(10_000) is None
 
 
+async def test_plans_are_local_and_unreachable_targets_refused(device, client):
+    """compute_path plans on the robot's map without moving it; RETURN_UNREACHABLE_DIRECTLY
+    refuses an occupied target before anything is sent."""
+    before = device.simulator.true_pose
+    path = await client.compute_path(None, Pose2D(10.0, 12.5, 0.0))
+    assert math.dist((path[-1].x, path[-1].y), (10.0, 12.5)) < 0.01 and len(path) > 2
+    assert device.simulator.true_pose == before
+    with pytest.raises(BackendError, match="occupied"):
+        await client.move_to([Point2D(9.75, 2.2)],
+                             MoveOptions(flags=MoveOptionFlag.RETURN_UNREACHABLE_DIRECTLY))
+
+
 async def test_cancel_returns_the_final_state(client):
     await client.move_to([Point2D(20.0, 8.2)])
     assert await until(client.get_remaining_path)
@@ -183,8 +195,10 @@ async def test_velocity_is_emulated_with_move_by_and_zero_stops():
         assert sim.true_pose.x > x0 + 0.05
         await client.set_velocity(0.0, 0.0)
         assert await client.get_current_action() is None
-        await client.set_velocity(0.0, -0.8)  # mostly turning: turn right
-        await asyncio.sleep(0.3)
+        yaw0 = sim.true_pose.yaw
+        for _ in range(6):
+            await client.set_velocity(0.0, -1.8)  # turning in place: turn right, full speed
+            await asyncio.sleep(0.05)
         assert math.remainder(sim.true_pose.yaw - yaw0, math.tau) < -0.05
         await client.set_velocity(0.0, 0.0)
         with pytest.raises(BackendError):
@@ -301,6 +315,27 @@ async def test_bare_json_values_404s_and_short_maps(fake, fake_client):
     fake.answer("GET", f"{paths.RECTANGLE_AREAS}/forbidden_area", "", 404, "text/plain")
     with pytest.raises(UnsupportedError, match="rectangle areas"):
         await fake_client.set_blocked_areas([[Point2D(0, 0), Point2D(1, 0), Point2D(0, 1)]])
+
+
+async def test_a_success_out_of_tolerance_is_a_failure(fake, fake_client):
+    """A robot that calls a move a success while standing 0.6 m from its target: the move
+    reads as FAILED with the distance, judged once when it ends (a later pose changes
+    nothing); an in-tolerance success stays a success."""
+    fake.answer("POST", paths.ACTIONS, '{"action_id": 7, "action_name": '
+                '"slamtec.agent.actions.MoveToAction", "stage": "", '
+                '"state": {"status": 1, "result": 0, "reason": ""}}')
+    fake.answer("GET", f"{paths.ACTIONS}/7", '{"action_id": 7, '
+                '"state": {"status": 4, "result": 0, "reason": ""}}')
+    fake.answer("GET", paths.POSE, '{"x": 6.6, "y": 8.0, "z": 0, "yaw": 0, "pitch": 0, '
+                '"roll": 0}')
+    await fake_client.move_to([Point2D(6.0, 8.0)], MoveOptions(acceptable_precision=0.2))
+    judged = await fake_client.get_action(7)
+    assert judged.result is ActionResult.FAILED and "0.60 m" in judged.reason
+    fake.answer("GET", paths.POSE, '{"x": 6.0, "y": 8.0, "z": 0, "yaw": 0, "pitch": 0, '
+                '"roll": 0}')
+    assert (await fake_client.get_action(7)).result is ActionResult.FAILED
+    await fake_client.move_to([Point2D(6.1, 8.0)], MoveOptions(acceptable_precision=0.2))
+    assert (await fake_client.get_action(7)).result is ActionResult.SUCCESS
 
 
 async def test_a_status_2_action_is_paused_not_finished(fake, fake_client):

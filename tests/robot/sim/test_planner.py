@@ -60,7 +60,11 @@ def test_occupied_goal_is_replaced_unless_told_otherwise(world):
     inside_desk = (9.75, 2.2)
     result = plan(costmap, START, inside_desk)
     assert result.ok and result.goal != inside_desk
-    assert np.hypot(result.goal[0] - 9.75, result.goal[1] - 2.2) < 1.0
+    assert np.hypot(result.goal[0] - 9.75, result.goal[1] - 2.2) < 1.5
+    # the replacement is a spot to park on, clear of the inflated zone, not its edge
+    col, row = costmap.spec.cell(*result.goal)
+    assert costmap.parkable[row, col]
+    assert not costmap.lethal_at(np.array([result.goal]) + [[0.08, 0.0]]).any()
     strict = plan(costmap, START, inside_desk, substitute_goal=False)
     assert not strict.ok and "occupied" in strict.reason
 
