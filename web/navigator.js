@@ -124,9 +124,10 @@ export class Navigator {
       if (status.level === 'info' && /arrived/.test(text)) {
         this.show('succeeded', `SUCCEEDED → ${label}`);
         log('info', `arrived at ${label}`);
-      } else if (status.level === 'warning') {
+      } else if (status.level === 'info' || status.level === 'warning') {
+        // cancelled or replaced by another motion: the server says so at info level
         this.show('preempted', `PREEMPTED → ${label} — ${text}`);
-        log('warning', text);
+        log(status.level, text);
       } else if (status.level === 'error') {
         this.show('aborted', `ABORTED → ${label} — ${text}`);
         log('error', text);
