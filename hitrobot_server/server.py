@@ -30,6 +30,7 @@ class HitrobotServer:
             types or TypeRegistry.default(), unregister_timeout=self.settings.unregister_timeout
         )
         self.nodes: list[Node] = []
+        self.link = None  # the ZenohLink with --bus zenoh
         self.backend = None  # the robot (RobotBackend) when one is attached
         self.sessions: set[Session] = set()
         self._ws = None
@@ -49,6 +50,17 @@ class HitrobotServer:
             if not s.auth_secret_file:
                 raise ValueError("--authenticate needs --auth-secret-file")
             s.auth_secret = load_secret(s.auth_secret_file)
+        if s.bus == "zenoh":
+            from .bus.zenoh_link import ZenohLink, endpoints  # imported only when asked for
+
+            self.link = ZenohLink(
+                self.bus,
+                domain=s.zenoh_domain,
+                config_file=s.zenoh_config,
+                connect=endpoints(s.zenoh_connect),
+                listen=endpoints(s.zenoh_listen),
+            )
+            await self.link.start()
         self.backend = build_backend(s)
         if self.backend is not None:
             await self.backend.start()
@@ -95,6 +107,9 @@ class HitrobotServer:
         if self.backend is not None:
             await self.backend.stop()
             self.backend = None
+        if self.link is not None:
+            await self.link.stop()
+            self.link = None
 
 
 def _web_console() -> StaticFiles | None:

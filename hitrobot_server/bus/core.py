@@ -14,6 +14,7 @@ from collections.abc import Callable, Hashable, Iterable
 
 from ..types.registry import TypeRegistry, UnknownType
 from .errors import ActionError, BusError, ServiceError
+from .link import BusLink, RemoteGraph
 from .names import canonical
 from .params import ParamStore
 from .services import (
@@ -47,6 +48,16 @@ class Bus:
         self.actions: dict[str, Action] = {}
         self.params = ParamStore()
         self.nodes: dict[str, int] = {}  # node name -> registration count (for rosapi)
+        self.link: BusLink | None = None  # other processes (``--bus zenoh``), if joined
+
+    # ---------------------------------------------------------------- link hooks
+    def _changed(self, kind: str, name: str) -> None:
+        if self.link is not None:
+            self.link.changed(kind, name)
+
+    def remote_graph(self) -> RemoteGraph:
+        """What other processes joined to this bus have (empty without a link)."""
+        return self.link.graph() if self.link is not None else RemoteGraph()
 
     # ---------------------------------------------------------------- topics
     def topic(self, name: str) -> Topic | None:
@@ -55,6 +66,8 @@ class Bus:
     def _topic_for(self, name: str, type_name: str | None, latch: bool = False) -> Topic:
         name = canonical(name)
         topic = self.topics.get(name)
+        if type_name is None and topic is None and self.link is not None:
+            type_name = self.link.remote_type(name)
         if type_name is None:
             if topic is None:
                 raise BusError(f"topic '{name}' does not exist and no type was given")
@@ -81,12 +94,14 @@ class Bus:
         if latch:
             topic.latched = True
         topic.publishers[owner] = node
+        self._changed("topic", topic.name)
         return topic
 
     def unadvertise(self, name: str, owner: Hashable) -> None:
         topic = self.topic(name)
         if topic is not None and topic.publishers.pop(owner, None) is not None:
             self._maybe_expire(topic)
+            self._changed("topic", topic.name)
 
     def publish(
         self,
@@ -105,6 +120,8 @@ class Bus:
             raise BusError(f"topic '{canonical(name)}' does not exist")
         message = Message(topic, msg, self.clock() if stamp is None else stamp, reply, origin)
         topic.fan_out(message)
+        if self.link is not None:
+            self.link.published(message)
         return message
 
     def subscribe(
@@ -119,6 +136,7 @@ class Bus:
         """Add a subscriber; a latched topic hands it the last message right away."""
         topic = self._topic_for(name, type_name)
         topic.subscribers[key] = (node, callback)
+        self._changed("topic", topic.name)
         if replay_latched and topic.latched and topic.last is not None:
             try:
                 callback(topic.last)
@@ -130,6 +148,7 @@ class Bus:
         topic = self.topic(name)
         if topic is not None and topic.subscribers.pop(key, None) is not None:
             self._maybe_expire(topic)
+            self._changed("topic", topic.name)
 
     def _maybe_expire(self, topic: Topic) -> None:
         """Drop an unused topic after ``unregister_timeout`` (rosbridge #138's grace period)."""
@@ -149,6 +168,7 @@ class Bus:
         topic._expiry = None
         if topic.idle and self.topics.get(topic.name) is topic:
             del self.topics[topic.name]
+            self._changed("topic", topic.name)
 
     @staticmethod
     def _cancel_expiry(topic: Topic) -> None:
@@ -167,6 +187,7 @@ class Bus:
         except UnknownType as exc:
             raise BusError(str(exc.args[0] if exc.args else exc)) from None
         service = self.services[name] = Service(name, stype, owner, node, handler)
+        self._changed("service", name)
         return service
 
     def unadvertise_service(self, name: str, owner: Hashable) -> bool:
@@ -175,10 +196,15 @@ class Bus:
         if service is None or service.owner != owner:
             return False
         del self.services[name]
+        self._changed("service", name)
         return True
 
     def service(self, name: str) -> Service | None:
-        return self.services.get(canonical(name))
+        """The local provider, else a proxy for one in another process."""
+        found = self.services.get(canonical(name))
+        if found is None and self.link is not None:
+            return self.link.remote_service(canonical(name))
+        return found
 
     async def call_service(self, name: str, request: dict, timeout: float | None = None) -> dict:
         """Call a service; raises ServiceError with a user-facing reason on any failure."""
@@ -213,6 +239,7 @@ class Bus:
             for goal in list(old.goals.values()):
                 goal.cancel()
         action = self.actions[name] = Action(name, atype, owner, node, handler)
+        self._changed("action", name)
         return action
 
     def unadvertise_action(self, name: str, owner: Hashable) -> bool:
@@ -223,10 +250,15 @@ class Bus:
         del self.actions[name]
         for goal in list(action.goals.values()):
             goal.cancel()
+        self._changed("action", name)
         return True
 
     def action(self, name: str) -> Action | None:
-        return self.actions.get(canonical(name))
+        """The local provider, else a proxy for one in another process."""
+        found = self.actions.get(canonical(name))
+        if found is None and self.link is not None:
+            return self.link.remote_action(canonical(name))
+        return found
 
     def start_goal(
         self, name: str, goal: dict, on_feedback: Callable[[dict], None] | None = None
@@ -254,6 +286,7 @@ class Bus:
     # ---------------------------------------------------------------- participants
     def register_node(self, node: str) -> None:
         self.nodes[node] = self.nodes.get(node, 0) + 1
+        self._changed("node", node)
 
     def unregister_node(self, node: str) -> None:
         left = self.nodes.get(node, 0) - 1
@@ -261,19 +294,23 @@ class Bus:
             self.nodes[node] = left
         else:
             self.nodes.pop(node, None)
+        self._changed("node", node)
 
     def remove_owner(self, owner: Hashable, keys: Iterable[Hashable] = ()) -> None:
         """Forget everything a participant registered (its subscriptions under ``keys``)."""
         for topic in list(self.topics.values()):
             if topic.publishers.pop(owner, None) is not None:
                 self._maybe_expire(topic)
+                self._changed("topic", topic.name)
         for key in keys:
             for topic in list(self.topics.values()):
                 if topic.subscribers.pop(key, None) is not None:
                     self._maybe_expire(topic)
+                    self._changed("topic", topic.name)
         for name, service in list(self.services.items()):
             if service.owner == owner:
                 del self.services[name]
+                self._changed("service", name)
         for name, action in list(self.actions.items()):
             if action.owner == owner:
                 self.unadvertise_action(name, owner)
