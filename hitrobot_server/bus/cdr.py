@@ -169,6 +169,7 @@ class Ros2Codec:
 
     def decode(self, data: bytes, mtype: MsgType) -> dict:
         """A canonical (ROS 1 shaped) message from ROS 2 CDR bytes of the same type."""
+        self._ensure(mtype.name)
         return self._decoder(mtype)(self.store.deserialize_cdr(data, mtype.name))
 
     def encode_raw(self, obj: Any, name: str) -> bytes:

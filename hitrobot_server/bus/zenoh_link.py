@@ -41,7 +41,6 @@ from .link import RemoteGraph
 from .services import (
     STATUS_ABORTED,
     STATUS_CANCELED,
-    STATUS_SUCCEEDED,
     Action,
     GoalHandle,
     GoalOutcome,
@@ -71,7 +70,8 @@ RESULT_WAIT = 24 * 3600.0  # a get_result query waits for the goal to finish
 def session_config(
     config_file: str | None, connect: Iterable[str], listen: Iterable[str]
 ) -> zenoh.Config:
-    """Peer mode, no multicast scouting, explicit endpoints (a file may override)."""
+    """Peer mode, no multicast scouting, loopback unless told otherwise; a file replaces
+    these defaults, explicit endpoints still apply on top of it."""
     try:
         config = zenoh.Config.from_file(config_file) if config_file else zenoh.Config()
     except zenoh.ZError as exc:
@@ -79,6 +79,8 @@ def session_config(
     if not config_file:
         config.insert_json5("mode", '"peer"')
         config.insert_json5("scouting/multicast/enabled", "false")
+        # Zenoh's own default listens on every interface; ours stays on loopback.
+        listen = list(listen) or ["tcp/127.0.0.1:0"]
     try:
         for key, values in (("connect", list(connect)), ("listen", list(listen))):
             if values:
@@ -314,7 +316,7 @@ class ZenohLink:
     def _answer_latched(self, name: str, query: zenoh.Query) -> None:
         topic = self.bus.topics.get(name)
         try:
-            if topic is not None and topic.last is not None and topic.last.origin is None:
+            if topic is not None and topic.last is not None and topic.last.origin is not _REMOTE:
                 query.reply(query.key_expr, self._encode(topic.last))
         finally:
             query.drop()
@@ -636,7 +638,7 @@ class ZenohLink:
                         return GoalOutcome(STATUS_ABORTED, str(exc), False)
                 resp = self.codec.decode_raw(data, f"{parts['get_result']}_Response")
                 values = self.codec.unwrap(resp.result, atype.result)
-                return GoalOutcome(int(resp.status), values, int(resp.status) == STATUS_SUCCEEDED)
+                return GoalOutcome(int(resp.status), values, True)
             except ServiceError as exc:
                 status = STATUS_CANCELED if handle.cancelled.is_set() else STATUS_ABORTED
                 return GoalOutcome(status, str(exc), False)
