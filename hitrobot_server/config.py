@@ -51,6 +51,8 @@ class Settings:
     zenoh_domain: int = 0
     slamware: SlamwareParams = field(default_factory=SlamwareParams)
     auth_secret: str | None = field(default=None, repr=False)
+    # Set by the server when it shares a bus: client node names stay unique across servers.
+    client_tag: str = field(default="", repr=False)
     topics_filter: GlobFilter = field(init=False, repr=False)
     services_filter: GlobFilter = field(init=False, repr=False)
     params_filter: GlobFilter = field(init=False, repr=False)
@@ -107,7 +109,9 @@ _HELP = {
     "map_dir": "folder of saved map folders (default: $XDG_DATA_HOME/hitrobot-server/maps)",
 }
 
-_SKIP = {"auth_secret", "topics_filter", "services_filter", "params_filter", "slamware"}
+_SKIP = {
+    "auth_secret", "client_tag", "topics_filter", "services_filter", "params_filter", "slamware",
+}
 ROBOTS = ("sim", "none")
 BUSES = ("local", "zenoh")
 

@@ -61,6 +61,7 @@ class HitrobotServer:
                 listen=endpoints(s.zenoh_listen),
             )
             await self.link.start()
+            s.client_tag = f"{self.link.zid[:8]}_"
         self.backend = build_backend(s)
         if self.backend is not None:
             await self.backend.start()

@@ -155,6 +155,12 @@ class Ros2Codec:
             [("status", _base("int8")), ("result", _name(atype.result.name))],
         )
         self._synthetic(feedback, [("goal_id", uuid), ("feedback", _name(atype.feedback.name))])
+        info = _name("action_msgs/msg/GoalInfo")
+        self._synthetic("action_msgs/srv/CancelGoal_Request", [("goal_info", info)])
+        self._synthetic(
+            "action_msgs/srv/CancelGoal_Response",
+            [("return_code", _base("int8")), ("goals_canceling", (Nodetype.SEQUENCE, (info, 0)))],
+        )
         return {
             "send_goal": send,
             "get_result": result,

@@ -281,13 +281,14 @@ class ZenohLink:
         ep = {}
         if topic is not None:
             ep = {"type_name": topic.type_name, "type_hash": key.rsplit("/", 1)[1]}
-        self._sync_tokens(PUBLISHER, name, pubs, qos=qos_key(bool(topic and topic.latched)), **ep)
-        self._sync_tokens(SUBSCRIBER, name, subs, qos=qos_key(), **ep)
+        # Entities before tokens: whoever sees a token can already reach what it announces.
         self._sync_entity(self._pubs, name, key if pubs else "", self._declare_publisher)
         self._sync_entity(
             self._latch_q, name, key if pubs and topic.latched else "", self._declare_latch
         )
         self._sync_entity(self._subs, name, key if subs else "", self._declare_subscriber)
+        self._sync_tokens(PUBLISHER, name, pubs, qos=qos_key(bool(topic and topic.latched)), **ep)
+        self._sync_tokens(SUBSCRIBER, name, subs, qos=qos_key(), **ep)
 
     @staticmethod
     def _sync_entity(table: dict, name: str, key: str, declare) -> None:
