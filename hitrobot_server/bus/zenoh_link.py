@@ -192,8 +192,6 @@ class ZenohLink:
                 self._remote_subs[entity.name] = left
             else:
                 self._remote_subs.pop(entity.name, None)
-        if not alive and entity.kind == SERVICE:
-            self._provider_gone(entity)
         if alive and entity.kind == PUBLISHER and entity.latched:
             topic = self.bus.topics.get(entity.name)
             if topic is not None and topic.subscribers:
@@ -455,7 +453,7 @@ class ZenohLink:
                 self._hop(settle, None, reply.err.payload.to_string())
 
         def on_end() -> None:
-            self._hop(settle, None, f"{what}: the providing server did not answer")
+            self._hop(settle, None, f"{what}: no answer (its server is gone)")
 
         attachment = pack_attachment(next(self._seq), time.time_ns(), self._gid("client", key))
         self.session.get(
@@ -489,14 +487,6 @@ class ZenohLink:
             return self.codec.decode(data, stype.response)
 
         return Service(name, stype, _REMOTE_OWNER, entity.node, handler)
-
-    def _provider_gone(self, entity: Entity) -> None:
-        if entity.name.endswith("/_action/feedback"):
-            return
-        action = entity.name.removesuffix(ACTION_SUFFIX)
-        if action != entity.name and action in self._feedback:
-            for handle in list(self._feedback[action][1].values()):
-                handle.cancel()
 
     # ------------------------------------------------------------------ actions
     def _sync_action(self, name: str) -> None:
@@ -600,6 +590,22 @@ class ZenohLink:
             gid = bytes(goal_id.uuid)
             waiting[gid] = handle
             what = f"action '{name}'"
+            accepted: asyncio.Future[bool] = asyncio.get_running_loop().create_future()
+
+            async def send_cancel() -> None:
+                if not await accepted:  # a cancel before the goal's reply waits for it
+                    return
+                info = self.codec.make(
+                    "action_msgs/msg/GoalInfo",
+                    goal_id=goal_id,
+                    stamp=self.codec.make("builtin_interfaces/msg/Time", sec=0, nanosec=0),
+                )
+                req = self.codec.make("action_msgs/srv/CancelGoal_Request", goal_info=info)
+                raw = self.codec.encode_raw(req, "action_msgs/srv/CancelGoal_Request")
+                with contextlib.suppress(ServiceError):
+                    await self._get(keys["cancel_goal"], raw, 10.0, what)
+
+            handle.on_cancel.append(lambda: asyncio.ensure_future(send_cancel()))
             try:
                 req = self.codec.make(
                     f"{parts['send_goal']}_Request",
@@ -612,21 +618,10 @@ class ZenohLink:
                     30.0,
                     what,
                 )
-                if not self.codec.decode_raw(data, f"{parts['send_goal']}_Response").accepted:
+                ok = self.codec.decode_raw(data, f"{parts['send_goal']}_Response").accepted
+                accepted.set_result(bool(ok))
+                if not ok:
                     return GoalOutcome(STATUS_ABORTED, f"{what}: goal rejected", False)
-
-                def cancel() -> None:
-                    info = self.codec.make(
-                        "action_msgs/msg/GoalInfo",
-                        goal_id=goal_id,
-                        stamp=self.codec.make("builtin_interfaces/msg/Time", sec=0, nanosec=0),
-                    )
-                    req = self.codec.make("action_msgs/srv/CancelGoal_Request", goal_info=info)
-                    raw = self.codec.encode_raw(req, "action_msgs/srv/CancelGoal_Request")
-                    task = asyncio.ensure_future(self._get(keys["cancel_goal"], raw, 10.0, what))
-                    task.add_done_callback(lambda t: t.cancelled() or t.exception())
-
-                handle.on_cancel.append(cancel)
                 req = self.codec.make(f"{parts['get_result']}_Request", goal_id=goal_id)
                 raw = self.codec.encode_raw(req, f"{parts['get_result']}_Request")
                 try:
@@ -645,6 +640,8 @@ class ZenohLink:
                 return GoalOutcome(status, str(exc), False)
             finally:
                 waiting.pop(gid, None)
+                if not accepted.done():
+                    accepted.set_result(False)
 
         return Action(name, atype, _REMOTE_OWNER, entity.node, handler)
 

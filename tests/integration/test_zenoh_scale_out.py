@@ -351,8 +351,36 @@ async def test_three_servers_kill_and_restart():
             "publishers"])
         assert a_node in await nodes_of(cc)  # C lists A's client node
 
+        # a goal and a call in flight to A when it dies
+        await ca.send({"op": "advertise_action", "action": "/zt/slow",
+                       "type": "actionlib/action/TwoInts"})
+        await ca.send({"op": "advertise_service", "service": "/zt/slow_srv",
+                       "type": "std_srvs/SetBool"})
+
+        async def provided() -> bool:
+            return ("/zt/slow" in (await rosapi(cb, "action_servers"))["action_servers"]
+                    and "/zt/slow_srv" in (await rosapi(cb, "services"))["services"])
+
+        await until(provided, 10, "A's action and service on B")
+        await cb.send({"op": "send_action_goal", "id": "doomed", "action": "/zt/slow",
+                       "action_type": "actionlib/TwoInts", "args": {"a": 1, "b": 2}})
+        await cb.send({"op": "call_service", "id": "doomed_call", "service": "/zt/slow_srv",
+                       "args": {"data": True}})
+        arrived: set[str] = set()
+        while len(arrived) < 2:  # both reached A's provider (in either order)
+            m = await ca.expect(lambda m: m.get("op") in ("send_action_goal", "call_service"))
+            arrived.add(m["op"])
+
         a.proc.kill()  # kill -9: no goodbye, Zenoh notices the session is gone
         a.proc.wait(10)
+        ended: dict[str, dict] = {}
+        while len(ended) < 2:  # the goal and the call both fail, in either order
+            m = await cb.expect(lambda m: m.get("id") in ("doomed", "doomed_call")
+                                and m.get("op") != "status", timeout=20)
+            ended[m["id"]] = m
+        assert ended["doomed"]["status"] == 6 and not ended["doomed"]["result"]
+        assert "gone" in ended["doomed"]["values"]
+        assert not ended["doomed_call"]["result"] and "gone" in ended["doomed_call"]["values"]
 
         async def a_gone() -> bool:
             return a_node not in (await rosapi(cb, "publishers", topic="/zt/from_a"))[
