@@ -51,7 +51,13 @@ class HitrobotServer:
                 raise ValueError("--authenticate needs --auth-secret-file")
             s.auth_secret = load_secret(s.auth_secret_file)
         if s.bus == "zenoh":
-            from .bus.zenoh_link import ZenohLink, endpoints  # imported only when asked for
+            try:  # imported only when asked for: the default bus never loads Zenoh
+                from .bus.zenoh_link import ZenohLink, endpoints
+            except ImportError as exc:
+                raise ValueError(
+                    f"--bus zenoh needs the eclipse-zenoh package ({exc}); "
+                    "install it with: pip install 'hitrobot-server[zenoh]'"
+                ) from None
 
             self.link = ZenohLink(
                 self.bus,

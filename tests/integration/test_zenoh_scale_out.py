@@ -341,6 +341,13 @@ async def test_three_servers_kill_and_restart():
         for client in (cb, cc):
             assert (await client.expect(op="publish"))["msg"] == {"data": "one"}
 
+        # B and C both joined through A; they also reach each other
+        await cc.send({"op": "advertise", "topic": "/zt/from_c", "type": "std_msgs/String"})
+        await cb.send({"op": "subscribe", "topic": "/zt/from_c", "type": "std_msgs/String"})
+        await until(lambda: sees_subscriber(cc, "/zt/from_c", 1), 15, "B's subscriber on C")
+        await cc.send({"op": "publish", "topic": "/zt/from_c", "msg": {"data": "c to b"}})
+        assert (await cb.expect(op="publish", topic="/zt/from_c"))["msg"] == {"data": "c to b"}
+
         async def nodes_of(client: WsClient) -> list[str]:
             return (await rosapi(client, "nodes"))["nodes"]
 
