@@ -131,7 +131,8 @@ class ZenohLink:
         self._remote_subs: dict[str, int] = {}  # topic -> subscriptions in other processes
         self._graph: RemoteGraph | None = None
         self._watch = None
-        self._feedback: dict[str, tuple[Any, dict[bytes, GoalHandle]]] = {}
+        self._feedback: dict[str, tuple[Any, dict[bytes, GoalHandle]]] = {}  # remote actions
+        self._feedback_pubs: dict[str, Any] = {}  # local actions
 
     # ------------------------------------------------------------------ lifecycle
     async def start(self) -> None:
@@ -257,7 +258,7 @@ class ZenohLink:
         if self.session is None or name.startswith(LOCAL_ONLY):
             return
         if kind == "node":
-            self._sync_tokens(NODE, "", {name} if name in self.bus.nodes else set())
+            self._sync_tokens(NODE, name, {name} if name in self.bus.nodes else set())
         elif kind == "topic":
             self._sync_topic(name)
         elif kind == "service":
@@ -453,7 +454,7 @@ class ZenohLink:
                 self._hop(settle, None, reply.err.payload.to_string())
 
         def on_end() -> None:
-            self._hop(settle, None, f"{what}: no answer (its server is gone)")
+            self._hop(settle, None, f"{what}: no answer (its server is gone or too slow)")
 
         attachment = pack_attachment(next(self._seq), time.time_ns(), self._gid("client", key))
         self.session.get(
@@ -491,6 +492,10 @@ class ZenohLink:
     # ------------------------------------------------------------------ actions
     def _sync_action(self, name: str) -> None:
         action = self.bus.actions.get(name)
+        old = self._feedback_pubs.pop(name, None)
+        if old is not None:
+            with contextlib.suppress(zenoh.ZError):
+                old.undeclare()
         if action is None:
             self._serve(name, self._action_entries(name, None), None)
             return
@@ -508,7 +513,7 @@ class ZenohLink:
             parts["feedback"],
             self.codec.type_hash(parts["feedback"]),
         )
-        fb_pub = self.session.declare_publisher(feedback_key)
+        fb_pub = self._feedback_pubs[name] = self.session.declare_publisher(feedback_key)
 
         async def send_goal(payload: bytes) -> bytes:
             req = self.codec.decode_raw(payload, f"{parts['send_goal']}_Request")
