@@ -303,6 +303,10 @@ async def test_nav2_action_on_a_with_feedback_and_cancel_from_b(robot_pair):
             return "/follow_path" in (await rosapi(c, "action_servers"))["action_servers"]
 
         await until(listed, 20, "A's /follow_path on B")
+        nodes = set((await rosapi(c, "nodes"))["nodes"])  # B runs none of these itself
+        assert {"/nav2_actions", "/graph", "/locomotion", "/map_files", "/move_base",
+                "/robot_pose_publisher"} <= nodes, nodes
+
         await c.send({"op": "send_action_goal", "id": "plan", "action": "/compute_path_to_pose",
                       "action_type": "nav2_msgs/action/ComputePathToPose",
                       "args": {"goal": {"header": {"frame_id": "map"}, "pose": {
