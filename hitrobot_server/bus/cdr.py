@@ -17,24 +17,9 @@ import numpy as np
 from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_typestore
 
-from ..types.registry import ActionType, MsgType, TypeRegistry
+from ..types.registry import NUMPY_DTYPES, ActionType, MsgType, TypeRegistry
 
 _TIME = frozenset({"builtin_interfaces/msg/Time", "builtin_interfaces/msg/Duration"})
-_DTYPES = {
-    "bool": np.bool_,
-    "int8": np.int8,
-    "byte": np.int8,
-    "uint8": np.uint8,
-    "char": np.uint8,
-    "int16": np.int16,
-    "uint16": np.uint16,
-    "int32": np.int32,
-    "uint32": np.uint32,
-    "int64": np.int64,
-    "uint64": np.uint64,
-    "float32": np.float32,
-    "float64": np.float64,
-}
 _ZERO = {"string": "", "bool": False, "float32": 0.0, "float64": 0.0}
 _UUID = "unique_identifier_msgs/msg/UUID"
 _STAMP = "builtin_interfaces/msg/Time"
@@ -220,7 +205,7 @@ class Ros2Codec:
                 typ = elem[1][0]
                 if typ == "string":
                     return lambda v: [""] * fixed if v is _MISSING else list(v)
-                dtype = _DTYPES[typ]
+                dtype = NUMPY_DTYPES[typ]
 
                 def numbers(v: Any) -> np.ndarray:
                     if v is _MISSING:

@@ -59,6 +59,16 @@ async def rosapi(client: WsClient, name: str, **args) -> dict:
     return reply["values"]
 
 
+async def until_listed(client: WsClient, listing: str, name: str, timeout: float) -> None:
+    """Wait until rosapi's ``topics``/``services``/``action_servers`` on ``client``'s server
+    lists ``name``."""
+
+    async def listed() -> bool:
+        return name in (await rosapi(client, listing))[listing]
+
+    await until(listed, timeout, f"{name} in {listing}")
+
+
 async def sees_subscriber(client: WsClient, topic: str, count: int = 1) -> bool:
     return len((await rosapi(client, "subscribers", topic=topic))["subscribers"]) >= count
 
@@ -143,10 +153,7 @@ async def test_latched_topic_reaches_a_late_joiner_on_another_server(pair, clien
     await pub.send({"op": "publish", "topic": "/zt/latched", "msg": {"data": "the map"}})
     probe = await clients(b)
 
-    async def listed() -> bool:
-        return "/zt/latched" in (await rosapi(probe, "topics"))["topics"]
-
-    await until(listed, 10, "the latched topic on B")
+    await until_listed(probe, "topics", "/zt/latched", 10)
     late = await clients(b)
     await late.send({"op": "subscribe", "topic": "/zt/latched"})  # no type: B asks A's token
     msg = await late.expect(op="publish", topic="/zt/latched", timeout=10)
@@ -179,10 +186,7 @@ async def test_service_on_a_called_from_b(pair, clients):
     await provider.send({"op": "advertise_service", "service": "/zt/toggle",
                          "type": "std_srvs/SetBool"})
 
-    async def listed() -> bool:
-        return "/zt/toggle" in (await rosapi(caller, "services"))["services"]
-
-    await until(listed, 10, "the service on B")
+    await until_listed(caller, "services", "/zt/toggle", 10)
     assert (await rosapi(caller, "service_type", service="/zt/toggle"))["type"] == (
         "std_srvs/SetBool")
     await caller.send({"op": "call_service", "id": "c1", "service": "/zt/toggle",
@@ -218,10 +222,7 @@ async def test_client_action_on_a_with_goal_feedback_and_cancel_from_b(pair, cli
     await provider.send({"op": "advertise_action", "action": "/zt/fib",
                          "type": "actionlib/action/TwoInts"})
 
-    async def listed() -> bool:
-        return "/zt/fib" in (await rosapi(caller, "action_servers"))["action_servers"]
-
-    await until(listed, 10, "the action on B")
+    await until_listed(caller, "action_servers", "/zt/fib", 10)
     await caller.send({"op": "send_action_goal", "id": "g1", "action": "/zt/fib",
                        "action_type": "actionlib/TwoInts", "args": {"a": 2, "b": 3},
                        "feedback": True})
@@ -299,10 +300,7 @@ async def test_nav2_action_on_a_with_feedback_and_cancel_from_b(robot_pair):
     a, b = robot_pair
     c = await WsClient.open(b.port)
     try:
-        async def listed() -> bool:
-            return "/follow_path" in (await rosapi(c, "action_servers"))["action_servers"]
-
-        await until(listed, 20, "A's /follow_path on B")
+        await until_listed(c, "action_servers", "/follow_path", 20)
         nodes = set((await rosapi(c, "nodes"))["nodes"])  # B runs none of these itself
         assert {"/nav2_actions", "/graph", "/locomotion", "/map_files", "/move_base",
                 "/robot_pose_publisher"} <= nodes, nodes
