@@ -78,6 +78,7 @@ def pair():
     """Server A listens, server B connects; no robot."""
     port = free_port()
     a = zenoh_server(listen=port)
+    a.zenoh_port = port
     b = zenoh_server(connect=port)
     yield a, b
     b.stop()
@@ -416,3 +417,79 @@ async def test_three_servers_kill_and_restart():
 
 async def _missing(names, name: str) -> bool:
     return name not in await names
+
+
+CHATTER_KEY = ("0/zt/ros2_chatter/std_msgs::msg::dds_::String_/"
+               "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18")
+TALKER_KEY = CHATTER_KEY.replace("ros2_chatter", "ros2_talker")
+
+
+def ros2_cdr_string(text: str) -> bytes:
+    raw = text.encode() + b"\0"
+    return b"\x00\x01\x00\x00" + struct.pack("<I", len(raw)) + raw
+
+
+async def test_a_plain_zenoh_peer_in_rmw_zenoh_format_talks_with_a_server(pair, clients):
+    """A stand-in for a ROS 2 node on rmw_zenoh: a bare Zenoh session whose keys, tokens and
+    payloads are written out by hand here (not made with the server's own functions)."""
+    import zenoh
+
+    a, _b = pair
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"peer"')
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    conf.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
+    conf.insert_json5("connect/endpoints", f'["tcp/127.0.0.1:{a.zenoh_port}"]')
+    session = await asyncio.to_thread(zenoh.open, conf)
+    samples: asyncio.Queue = asyncio.Queue()
+    loop = asyncio.get_running_loop()
+    try:
+        zid = str(session.zid())
+        qos = "::,10:,:,:,,"
+        hash_ = CHATTER_KEY.rsplit("/", 1)[1]
+        tokens = [
+            session.liveliness().declare_token(f"@ros2_lv/0/{zid}/0/0/NN/%/%/ros2_listener"),
+            session.liveliness().declare_token(
+                f"@ros2_lv/0/{zid}/0/11/MS/%/%/ros2_listener/%zt%ros2_chatter/"
+                f"std_msgs::msg::dds_::String_/{hash_}/{qos}"),
+            session.liveliness().declare_token(
+                f"@ros2_lv/0/{zid}/0/12/MP/%/%/ros2_listener/%zt%ros2_talker/"
+                f"std_msgs::msg::dds_::String_/{hash_}/{qos}"),
+        ]
+        sub = session.declare_subscriber(CHATTER_KEY, lambda s: loop.call_soon_threadsafe(
+            samples.put_nowait, (s.payload.to_bytes(), s.attachment.to_bytes())))
+
+        c = await clients(a)
+        await c.send({"op": "advertise", "topic": "/zt/ros2_chatter", "type": "std_msgs/String"})
+        await until(lambda: _has(rosapi(c, "subscribers", topic="/zt/ros2_chatter"),
+                                 "subscribers", "/ros2_listener"), 10, "the ROS 2 listener")
+        assert "/ros2_listener" in (await rosapi(c, "nodes"))["nodes"]
+        await c.send({"op": "publish", "topic": "/zt/ros2_chatter", "msg": {"data": "hello"}})
+        payload, attachment = await asyncio.wait_for(samples.get(), 10)
+        assert payload == ros2_cdr_string("hello")
+        seq, stamp, gid_len = struct.unpack_from("<qqB", attachment)
+        assert gid_len == 16 and len(attachment) == 33 and seq > 0 and stamp > 1.6e18
+
+        # and the other way: the "ROS 2 node" publishes, a client on A subscribes by name only
+        await c.send({"op": "subscribe", "topic": "/zt/ros2_talker"})
+
+        async def server_subscribed() -> bool:  # A's MS token, seen from the bare session
+            replies = await asyncio.to_thread(
+                lambda: list(session.liveliness().get("@ros2_lv/0/**", timeout=5)))
+            keys = [str(r.ok.key_expr) for r in replies if r.ok is not None]
+            return any("/MS/" in k and "/%zt%ros2_talker/" in k for k in keys)
+
+        await until(server_subscribed, 10, "the server's subscription token")
+        session.put(TALKER_KEY, ros2_cdr_string("from ros 2"),
+                    attachment=struct.pack("<qqB", 1, time.time_ns(), 16) + bytes(16))
+        msg = await c.expect(op="publish", topic="/zt/ros2_talker", timeout=10)
+        assert msg["msg"] == {"data": "from ros 2"}
+        sub.undeclare()
+        for t in tokens:
+            t.undeclare()
+    finally:
+        await asyncio.to_thread(session.close)
+
+
+async def _has(reply, field: str, name: str) -> bool:
+    return name in (await reply)[field]
