@@ -17,6 +17,7 @@ import numpy as np
 from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_typestore
 
+from ..types.convert import BIG_ARRAY
 from ..types.registry import NUMPY_DTYPES, ActionType, MsgType, TypeRegistry
 
 _TIME = frozenset({"builtin_interfaces/msg/Time", "builtin_interfaces/msg/Duration"})
@@ -25,6 +26,7 @@ _UUID = "unique_identifier_msgs/msg/UUID"
 _STAMP = "builtin_interfaces/msg/Time"
 _EVENT_INFO = "service_msgs/msg/ServiceEventInfo"
 _BYTES = frozenset({"uint8", "char"})
+_NUMPY_INTS = frozenset({"int8", "byte", "int16", "uint16", "int32", "uint32", "int64"})
 _MISSING = object()
 
 Build = Callable[[Any], Any]
@@ -255,6 +257,15 @@ class Ros2Codec:
         if array is not None and not is_msg and typ not in ("time", "duration", "string"):
             if typ in _BYTES:
                 return lambda v: bytes(array or 0) if v is _MISSING else bytes(np.asarray(v).data)
+            if typ in _NUMPY_INTS:  # big integer arrays stay numpy, as convert.py keeps them
+
+                def ints(v: Any) -> Any:
+                    if v is _MISSING:
+                        return [0] * (array or 0)
+                    arr = np.asarray(v)
+                    return arr.copy() if arr.size >= BIG_ARRAY else arr.tolist()
+
+                return ints
             return lambda v: [0] * (array or 0) if v is _MISSING else np.asarray(v).tolist()
         if is_msg:
             sub = self.types.msg(typ)
