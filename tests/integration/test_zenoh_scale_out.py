@@ -19,8 +19,6 @@ from hitrobot_server.protocol import png
 
 from ..helpers import ServerProcess, Watcher, WsClient
 
-pytest.importorskip("zenoh")
-
 ODOM = "/slamware_ros_sdk_server_node/odom"
 SCAN = "/slamware_ros_sdk_server_node/scan"
 MAP = "/slamware_ros_sdk_server_node/map"
