@@ -50,8 +50,15 @@ class Settings:
     sim_speed: float = 1.0
     sim_mapping: bool = False
     map_dir: str | None = None
+    bus: str = "local"
+    zenoh_config: str | None = None
+    zenoh_connect: str | None = None
+    zenoh_listen: str | None = None
+    zenoh_domain: int = 0
     slamware: SlamwareParams = field(default_factory=SlamwareParams)
     auth_secret: str | None = field(default=None, repr=False)
+    # Set by the server when it shares a bus: client node names stay unique across servers.
+    client_tag: str = field(default="", repr=False)
     topics_filter: GlobFilter = field(init=False, repr=False)
     services_filter: GlobFilter = field(init=False, repr=False)
     params_filter: GlobFilter = field(init=False, repr=False)
@@ -105,11 +112,21 @@ _HELP = {
     "sim_seed": "random seed of the simulator (sensor noise); same seed, same run",
     "sim_speed": "simulated seconds per wall-clock second (2 = twice as fast)",
     "sim_mapping": "start the simulator with an empty map and mapping on (not a prebuilt map)",
+    "bus": "'local' (this process only) or 'zenoh' (share topics, services and actions with "
+    "other servers and rmw_zenoh ROS 2 nodes on the same Zenoh network)",
+    "zenoh_config": "Zenoh session config file (JSON5) for --bus zenoh; replaces the defaults "
+    "(peer mode, no multicast scouting)",
+    "zenoh_connect": "comma-separated Zenoh endpoints to connect to, e.g. tcp/127.0.0.1:7447",
+    "zenoh_listen": "comma-separated Zenoh endpoints to listen on, e.g. tcp/127.0.0.1:7447",
+    "zenoh_domain": "ROS domain id: the first chunk of every Zenoh key (as ROS_DOMAIN_ID)",
     "map_dir": "folder of saved map folders (default: $XDG_DATA_HOME/hitrobot-server/maps)",
 }
 
-_SKIP = {"auth_secret", "topics_filter", "services_filter", "params_filter", "slamware"}
+_SKIP = {
+    "auth_secret", "client_tag", "topics_filter", "services_filter", "params_filter", "slamware",
+}
 ROBOTS = ("sim", "none")
+BUSES = ("local", "zenoh")
 
 
 # rosbridge_websocket's own names where they differ from ours (beyond '_' for '-').
@@ -181,6 +198,8 @@ def load(args: argparse.Namespace) -> Settings:
         raise ValueError(f"status_level must be one of {', '.join(STATUS_LEVELS)}")
     if settings.robot not in ROBOTS and not settings.robot.startswith(("http://", "https://")):
         raise ValueError(f"robot must be {', '.join(ROBOTS)} or an http(s):// URL")
+    if settings.bus not in BUSES:
+        raise ValueError(f"bus must be one of {', '.join(BUSES)}")
     if settings.sim_speed <= 0:
         raise ValueError("sim_speed must be positive")
     if settings.ssl and not settings.certfile:

@@ -33,6 +33,7 @@ class HitrobotServer:
             types or TypeRegistry.default(), unregister_timeout=self.settings.unregister_timeout
         )
         self.nodes: list[Node] = []
+        self.link = None  # the ZenohLink with --bus zenoh
         self.backend = None  # the robot (RobotBackend) when one is attached
         self.sessions: set[Session] = set()
         self.shared = Shared.for_settings(self.settings)
@@ -59,6 +60,24 @@ class HitrobotServer:
             s.auth_secret = load_secret(s.auth_secret_file)
         self._rosout = RosoutHandler(self.bus, s.log_level.upper())
         logging.getLogger(PACKAGE_LOGGER).addHandler(self._rosout)
+        if s.bus == "zenoh":
+            try:  # imported only when asked for: the default bus never loads Zenoh
+                from .bus.zenoh_link import ZenohLink, endpoints
+            except ImportError as exc:
+                raise ValueError(
+                    f"--bus zenoh needs the eclipse-zenoh package ({exc}); "
+                    "install it with: pip install 'hitrobot-server[zenoh]'"
+                ) from None
+
+            self.link = ZenohLink(
+                self.bus,
+                domain=s.zenoh_domain,
+                config_file=s.zenoh_config,
+                connect=endpoints(s.zenoh_connect),
+                listen=endpoints(s.zenoh_listen),
+            )
+            await self.link.start()
+            s.client_tag = f"{self.link.zid[:8]}_"
         self.backend = build_backend(s)
         if self.backend is not None:
             await self.backend.start()
@@ -118,6 +137,9 @@ class HitrobotServer:
             logging.getLogger(PACKAGE_LOGGER).removeHandler(self._rosout)
             self._rosout.close()
             self._rosout = None
+        if self.link is not None:
+            await self.link.stop()
+            self.link = None
 
 
 def _tls_context(settings: Settings) -> ssl.SSLContext:

@@ -43,3 +43,30 @@ def test_unknown_config_key_is_an_error(tmp_path):
     cfg.write_text("[server]\nprot = 1\n")
     with pytest.raises(ValueError, match="prot"):
         load(build_parser().parse_args(["--config", str(cfg)]))
+
+
+def test_bus_settings_from_toml_and_flags(tmp_path):
+    cfg = tmp_path / "server.toml"
+    cfg.write_text('bus = "zenoh"\nzenoh_connect = ["tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"]\n'
+                   'zenoh-domain = 3\n')
+    s = load(build_parser().parse_args(["--config", str(cfg),
+                                        "--zenoh-listen", "tcp/127.0.0.1:7500"]))
+    assert (s.bus, s.zenoh_domain, s.zenoh_listen) == ("zenoh", 3, "tcp/127.0.0.1:7500")
+    from hitrobot_server.bus.zenoh_link import endpoints
+
+    assert endpoints(s.zenoh_connect) == ["tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"]
+    assert endpoints("tcp/127.0.0.1:1, tcp/127.0.0.1:2") == ["tcp/127.0.0.1:1", "tcp/127.0.0.1:2"]
+    assert load(build_parser().parse_args([])).bus == "local"
+
+
+def test_unknown_bus_is_refused():
+    out = subprocess.run([sys.executable, "-m", "hitrobot_server", "--bus", "mqtt"],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and "bus must be one of local, zenoh" in out.stderr
+
+
+def test_bad_zenoh_endpoint_is_a_clear_error():
+    out = subprocess.run([sys.executable, "-m", "hitrobot_server", "--robot", "none", "--port",
+                          "0", "--tcp-port", "0", "--bus", "zenoh", "--zenoh-listen", "bogus"],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 1 and "zenoh endpoints" in out.stderr and "bogus" in out.stderr

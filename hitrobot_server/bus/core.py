@@ -15,6 +15,7 @@ from ..types.registry import TypeRegistry, UnknownType
 from .action_interfaces import ActionInterfaces
 from .clock import wall_clock
 from .errors import ActionError, BusError, ServiceError
+from .link import BusLink, RemoteGraph
 from .names import canonical
 from .params import ParamStore
 from .services import (
@@ -52,6 +53,16 @@ class Bus:
         self.params = ParamStore()
         self.nodes: dict[str, int] = {}  # node name -> registration count (for rosapi)
         self.log_names: dict[str, str] = {}  # logger (module) name -> node name (for /rosout)
+        self.link: BusLink | None = None  # other processes (``--bus zenoh``), if joined
+
+    # ---------------------------------------------------------------- link hooks
+    def _changed(self, kind: str, name: str) -> None:
+        if self.link is not None:
+            self.link.changed(kind, name)
+
+    def remote_graph(self) -> RemoteGraph:
+        """What other processes joined to this bus have (empty without a link)."""
+        return self.link.graph() if self.link is not None else RemoteGraph()
 
     # ---------------------------------------------------------------- topics
     def topic(self, name: str) -> Topic | None:
@@ -60,6 +71,8 @@ class Bus:
     def _topic_for(self, name: str, type_name: str | None, latch: bool = False) -> Topic:
         name = canonical(name)
         topic = self.topics.get(name)
+        if type_name is None and topic is None and self.link is not None:
+            type_name = self.link.remote_type(name)
         if type_name is None:
             if topic is None:
                 raise BusError(f"topic '{name}' does not exist and no type was given")
@@ -86,12 +99,14 @@ class Bus:
         if latch:
             topic.latched = True
         topic.publishers[owner] = node
+        self._changed("topic", topic.name)
         return topic
 
     def unadvertise(self, name: str, owner: Hashable) -> None:
         topic = self.topic(name)
         if topic is not None and topic.publishers.pop(owner, None) is not None:
             self._maybe_expire(topic)
+            self._changed("topic", topic.name)
 
     def publish(
         self,
@@ -110,6 +125,8 @@ class Bus:
             raise BusError(f"topic '{canonical(name)}' does not exist")
         message = Message(topic, msg, self.clock() if stamp is None else stamp, reply, origin)
         topic.fan_out(message)
+        if self.link is not None:
+            self.link.published(message)
         return message
 
     def subscribe(
@@ -124,6 +141,7 @@ class Bus:
         """Add a subscriber; a latched topic hands it the last message right away."""
         topic = self._topic_for(name, type_name)
         topic.subscribers[key] = (node, callback)
+        self._changed("topic", topic.name)
         if replay_latched and topic.latched and topic.last is not None:
             try:
                 callback(topic.last)
@@ -135,6 +153,7 @@ class Bus:
         topic = self.topic(name)
         if topic is not None and topic.subscribers.pop(key, None) is not None:
             self._maybe_expire(topic)
+            self._changed("topic", topic.name)
 
     def _maybe_expire(self, topic: Topic) -> None:
         """Drop an unused topic after ``unregister_timeout`` (rosbridge #138's grace period)."""
@@ -154,6 +173,7 @@ class Bus:
         topic._expiry = None
         if topic.idle and self.topics.get(topic.name) is topic:
             del self.topics[topic.name]
+            self._changed("topic", topic.name)
 
     @staticmethod
     def _cancel_expiry(topic: Topic) -> None:
@@ -191,6 +211,7 @@ class Bus:
         if current is not None and current.owner != owner:
             self._replaced.setdefault(name, []).append(current)
         self.services[name] = service
+        self._changed("service", name)
         return service
 
     def unadvertise_service(self, name: str, owner: Hashable) -> bool:
@@ -211,10 +232,15 @@ class Bus:
             stack[:] = [s for s in stack if s.owner != owner]
         if not stack:
             self._replaced.pop(name, None)
+        self._changed("service", name)
         return True
 
     def service(self, name: str) -> Service | None:
-        return self.services.get(canonical(name))
+        """The local provider, else a proxy for one in another process."""
+        found = self.services.get(canonical(name))
+        if found is None and self.link is not None:
+            return self.link.remote_service(canonical(name))
+        return found
 
     async def call_service(self, name: str, request: dict, timeout: float | None = None) -> dict:
         """Call a service; raises ServiceError with a user-facing reason on any failure."""
@@ -264,6 +290,7 @@ class Bus:
                 goal.cancel()
         action = self.actions[name] = Action(name, atype, owner, node, handler, client=client)
         self._action_interfaces[name] = ActionInterfaces(self, action)
+        self._changed("action", name)
         return action
 
     def _drop_interfaces(self, name: str) -> None:
@@ -280,10 +307,15 @@ class Bus:
         for goal in list(action.goals.values()):
             goal.cancel()
         self._drop_interfaces(name)
+        self._changed("action", name)
         return True
 
     def action(self, name: str) -> Action | None:
-        return self.actions.get(canonical(name))
+        """The local provider, else a proxy for one in another process."""
+        found = self.actions.get(canonical(name))
+        if found is None and self.link is not None:
+            return self.link.remote_action(canonical(name))
+        return found
 
     def start_goal(
         self,
@@ -325,6 +357,7 @@ class Bus:
     # ---------------------------------------------------------------- participants
     def register_node(self, node: str) -> None:
         self.nodes[node] = self.nodes.get(node, 0) + 1
+        self._changed("node", node)
 
     def unregister_node(self, node: str) -> None:
         left = self.nodes.get(node, 0) - 1
@@ -332,16 +365,19 @@ class Bus:
             self.nodes[node] = left
         else:
             self.nodes.pop(node, None)
+        self._changed("node", node)
 
     def remove_owner(self, owner: Hashable, keys: Iterable[Hashable] = ()) -> None:
         """Forget everything a participant registered (its subscriptions under ``keys``)."""
         for topic in list(self.topics.values()):
             if topic.publishers.pop(owner, None) is not None:
                 self._maybe_expire(topic)
+                self._changed("topic", topic.name)
         for key in keys:
             for topic in list(self.topics.values()):
                 if topic.subscribers.pop(key, None) is not None:
                     self._maybe_expire(topic)
+                    self._changed("topic", topic.name)
         for name in list(self.services) + list(self._replaced):
             while self.unadvertise_service(name, owner):
                 pass

@@ -59,15 +59,18 @@ class Rosapi(Node):
     def _short(self, name: str) -> str:
         return self.bus.types.short(name)
 
-    def _topics(self) -> list:
+    def _topics(self) -> list[tuple[str, str]]:
+        """(name, type) of every topic here and in processes joined by a link."""
         allow = self.settings.topics_filter.allows
-        return sorted((t for t in self.bus.topics.values() if allow(t.name)), key=lambda t: t.name)
+        found = dict(self.bus.remote_graph().topics)
+        found.update((t.name, t.type_name) for t in self.bus.topics.values())
+        return sorted((n, t) for n, t in found.items() if allow(n))
 
-    def _services(self) -> list:
+    def _services(self) -> list[tuple[str, str]]:
         allow = self.settings.services_filter.allows
-        return sorted(
-            (s for s in self.bus.services.values() if allow(s.name)), key=lambda s: s.name
-        )
+        found = {n: t for n, (t, _node) in self.bus.remote_graph().services.items()}
+        found.update((s.name, s.type_name) for s in self.bus.services.values())
+        return sorted((n, t) for n, t in found.items() if allow(n))
 
     def _same_type(self, a: str, b: str, kind: str) -> bool:
         lookup = getattr(self.bus.types, kind)
@@ -79,46 +82,53 @@ class Rosapi(Node):
     # ------------------------------------------------------------------ topics
     async def topics(self, req: dict) -> dict:
         ts = self._topics()
-        return {"topics": [t.name for t in ts], "types": [self._short(t.type_name) for t in ts]}
+        return {"topics": [n for n, _t in ts], "types": [self._short(t) for _n, t in ts]}
 
     async def topics_for_type(self, req: dict) -> dict:
         return {
-            "topics": [
-                t.name for t in self._topics() if self._same_type(t.type_name, req["type"], "msg")
-            ]
+            "topics": [n for n, t in self._topics() if self._same_type(t, req["type"], "msg")]
         }
+
+    def _definition(self, type_name: str) -> str:
+        try:
+            return self.bus.types.definition_text(type_name)
+        except UnknownType:
+            return ""  # a ROS 2 type from another process that this registry lacks
 
     async def topics_and_raw_types(self, req: dict) -> dict:
         ts = self._topics()
         return {
-            "topics": [t.name for t in ts],
-            "types": [self._short(t.type_name) for t in ts],
-            "typedefs_full_text": [self.bus.types.definition_text(t.type_name) for t in ts],
+            "topics": [n for n, _t in ts],
+            "types": [self._short(t) for _n, t in ts],
+            "typedefs_full_text": [self._definition(t) for _n, t in ts],
         }
 
     async def topic_type(self, req: dict) -> dict:
-        topic = self.bus.topic(req["topic"]) if req["topic"] else None
-        visible = topic is not None and self.settings.topics_filter.allows(topic.name)
-        return {"type": self._short(topic.type_name) if visible else ""}
+        name = canonical(req["topic"]) if req["topic"] else ""
+        found = dict(self._topics())
+        return {"type": self._short(found[name]) if name in found else ""}
 
     async def publishers(self, req: dict) -> dict:
-        topic = self.bus.topic(req["topic"]) if req["topic"] else None
-        return {"publishers": sorted(set(topic.publishers.values())) if topic else []}
+        name = canonical(req["topic"]) if req["topic"] else ""
+        topic = self.bus.topic(name) if name else None
+        nodes = set(topic.publishers.values()) if topic else set()
+        nodes |= self.bus.remote_graph().publishers.get(name, set())
+        return {"publishers": sorted(nodes)}
 
     async def subscribers(self, req: dict) -> dict:
-        topic = self.bus.topic(req["topic"]) if req["topic"] else None
+        name = canonical(req["topic"]) if req["topic"] else ""
+        topic = self.bus.topic(name) if name else None
         nodes = {node for node, _cb in topic.subscribers.values()} if topic else set()
+        nodes |= self.bus.remote_graph().subscribers.get(name, set())
         return {"subscribers": sorted(nodes)}
 
     # ------------------------------------------------------------------ services
     async def services(self, req: dict) -> dict:
-        return {"services": [s.name for s in self._services()]}
+        return {"services": [n for n, _t in self._services()]}
 
     async def services_for_type(self, req: dict) -> dict:
         return {
-            "services": [
-                s.name for s in self._services() if self._same_type(s.type_name, req["type"], "srv")
-            ]
+            "services": [n for n, t in self._services() if self._same_type(t, req["type"], "srv")]
         }
 
     async def service_type(self, req: dict) -> dict:
@@ -139,7 +149,7 @@ class Rosapi(Node):
 
     # ------------------------------------------------------------------ graph
     async def nodes(self, req: dict) -> dict:
-        return {"nodes": sorted(self.bus.nodes)}
+        return {"nodes": sorted(set(self.bus.nodes) | self.bus.remote_graph().nodes)}
 
     async def node_details(self, req: dict) -> dict:
         node = canonical(req["node"]) if req["node"] else ""
@@ -158,6 +168,7 @@ class Rosapi(Node):
         spaces = {n.rsplit("/", 1)[0] for n in names if n.endswith("/goal")}
         found = {ns for ns in spaces if all(f"{ns}/{s}" in names for s in ACTIONLIB_SUFFIXES)}
         found.update(self.bus.actions)
+        found.update(self.bus.remote_graph().actions)
         return {"action_servers": sorted(found)}
 
     # ------------------------------------------------------------------ types

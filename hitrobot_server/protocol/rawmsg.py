@@ -13,25 +13,15 @@ from typing import Any
 import cbor2
 import numpy as np
 
-from hitrobot_server.types.registry import ROSBAGS_TIME_TYPES, MsgType, TypeRegistry
+from hitrobot_server.types.registry import (
+    NUMPY_DTYPES,
+    ROSBAGS_TIME_TYPES,
+    MsgType,
+    TypeRegistry,
+)
 
 Builder = Callable[[Any], Any]
 
-_DTYPES = {
-    "bool": np.bool_,
-    "int8": np.int8,
-    "byte": np.int8,
-    "uint8": np.uint8,
-    "char": np.uint8,
-    "int16": np.int16,
-    "uint16": np.uint16,
-    "int32": np.int32,
-    "uint32": np.uint32,
-    "int64": np.int64,
-    "uint64": np.uint64,
-    "float32": np.float32,
-    "float64": np.float64,
-}
 
 
 def _identity(value: Any) -> Any:
@@ -61,7 +51,7 @@ def _field_builder(field_type: str, is_msg: bool, array: int | None, reg: TypeRe
     elif field_type == "string":
         return list
     else:
-        return _numeric_array(_DTYPES[field_type])
+        return _numeric_array(NUMPY_DTYPES[field_type])
     if array is None:
         return elem
     return lambda value: [elem(x) for x in value]

@@ -69,7 +69,7 @@ class Session:
         self.peer = peer
         self.transport = transport
         self.client_id = next(_client_ids)
-        self.node = f"/hitrobot_client_{self.client_id}"
+        self.node = f"/hitrobot_client_{settings.client_tag}{self.client_id}"
         self.outbox = Outbox(settings.send_buffer_limit)
         self.status_level = settings.status_level
         self.authenticated = not settings.authenticate

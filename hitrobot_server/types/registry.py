@@ -17,6 +17,7 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
@@ -30,6 +31,22 @@ ROSBAGS_TIME_TYPES = {
     "duration": "builtin_interfaces/msg/Duration",
 }
 _TIME_TYPES = {msg: base for base, msg in ROSBAGS_TIME_TYPES.items()}
+# numpy element type of each numeric base type (arrays handed to rosbags' serialisers)
+NUMPY_DTYPES: dict[str, type[np.generic]] = {
+    "bool": np.bool_,
+    "int8": np.int8,
+    "byte": np.int8,
+    "uint8": np.uint8,
+    "char": np.uint8,
+    "int16": np.int16,
+    "uint16": np.uint16,
+    "int32": np.int32,
+    "uint32": np.uint32,
+    "int64": np.int64,
+    "uint64": np.uint64,
+    "float32": np.float32,
+    "float64": np.float64,
+}
 # rosbags' code generator gives empty messages this dummy member; it is never on the wire.
 _PLACEHOLDER = "structure_needs_at_least_one_member"
 _SEPARATOR = re.compile(r"^[ \t]*---[ \t]*\r?$", re.MULTILINE)

@@ -1,0 +1,45 @@
+"""What the bus expects of a link to other processes (the Zenoh link implements it).
+
+The bus calls the link on local changes and publishes and asks it on a miss; the link
+delivers remote messages with :meth:`Topic.fan_out`, never through :meth:`Bus.publish`, so a
+message that came from another process is never sent back out (no echo, no ping-pong).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from .services import Action, Service
+from .topics import Message
+
+
+@dataclass
+class RemoteGraph:
+    """What the other processes have, as rosapi lists it (names are absolute)."""
+
+    topics: dict[str, str] = field(default_factory=dict)  # name -> type (pkg/msg/Type)
+    publishers: dict[str, set[str]] = field(default_factory=dict)  # topic -> node names
+    subscribers: dict[str, set[str]] = field(default_factory=dict)
+    services: dict[str, tuple[str, str]] = field(default_factory=dict)  # name -> (type, node)
+    actions: dict[str, tuple[str, str]] = field(default_factory=dict)
+    nodes: set[str] = field(default_factory=set)
+
+
+class BusLink(Protocol):
+    def changed(self, kind: str, name: str) -> None:
+        """``kind`` is topic, service, action or node; ``name`` what changed locally."""
+
+    def published(self, message: Message) -> None:
+        """A local publish (never called for messages the link itself delivered)."""
+
+    def remote_type(self, topic: str) -> str | None:
+        """The type another process publishes or subscribes ``topic`` with."""
+
+    def remote_service(self, name: str) -> Service | None:
+        """A proxy whose handler calls the service in the process that provides it."""
+
+    def remote_action(self, name: str) -> Action | None:
+        """A proxy whose handler runs the goal in the process that provides the action."""
+
+    def graph(self) -> RemoteGraph: ...
