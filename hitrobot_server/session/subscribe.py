@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 from ..bus.topics import Message, Topic
 from ..protocol.errors import ProtocolError
 from .publish import check_topic_name
-from .wire import is_binary, publish_frames, strongest
+from .wire import is_binary, message_size, publish_frames, strongest
 
 if TYPE_CHECKING:
     from .session import Session
@@ -90,7 +90,7 @@ class ClientSubscription:
 
     def _send(self, message: Message) -> None:
         frames = publish_frames(message, self.topic_str, self.compression, self.fragment_size)
-        self.session.send_frames(frames, droppable=True)
+        self.session.send_frames(frames, droppable=True, size=message_size(message))
 
     def cancel(self) -> None:
         if self._timer is not None:

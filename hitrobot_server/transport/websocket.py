@@ -116,7 +116,9 @@ async def start_websocket(
 async def _read(ws: ServerConnection, session: Session) -> None:
     try:
         async for frame in ws:
-            session.receive(frame, binary=isinstance(frame, bytes))
+            pending = session.receive(frame, binary=isinstance(frame, bytes))
+            if pending is not None:  # a big op in the worker pool: the next frame waits for it
+                await pending
             if session.outbox.closed:
                 return
     except ConnectionClosed:

@@ -17,6 +17,10 @@ Rules (rosbridge's ROS 1 conventions plus the choices below):
 * Omitted fields get defaults and their paths are reported so the caller can warn.
 * Integer arrays of ``BIG_ARRAY`` or more elements (other than uint64) become numpy arrays of
   the field's width; smaller arrays stay lists. Encoders accept both.
+* Numeric arrays may also arrive as numpy arrays (big ops are parsed in a worker process, which
+  compacts long lists, see protocol/bulk.py). They are checked with numpy and give the same
+  result as the list would; a float array of ``BIG_ARRAY`` or more stays a float64 numpy array.
+  Any value numpy cannot vouch for goes through the list path, so errors read the same.
 * Header auto-fill, applied to every ``std_msgs/Header`` value at any depth: an omitted ``stamp``
   becomes now, an omitted header becomes ``{seq: 0, stamp: now, frame_id: ""}``. Neither is
   reported as missing, nor is an omitted ``seq`` (publishers number messages themselves).
@@ -65,6 +69,7 @@ _JSON_NAMES = {
     list: "array",
     tuple: "array",
     dict: "object",
+    np.ndarray: "array",
     type(None): "null",
     bytes: "bytes",
 }
@@ -232,7 +237,11 @@ def _each(elem: Conv, value: Any, path: str, ctx: _Ctx) -> list[Any]:
 
 
 def _float_array(length: int) -> Conv:
-    def conv(value: Any, path: str, ctx: _Ctx) -> list[float]:
+    def conv(value: Any, path: str, ctx: _Ctx) -> list[float] | np.ndarray:
+        if type(value) is np.ndarray:
+            value = _float_ndarray(value, path, length)
+            if type(value) is np.ndarray:
+                return value
         _check_array(value, path, length)
         kinds = set(map(type, value))
         if kinds <= _ONLY_FLOAT:
@@ -242,6 +251,34 @@ def _float_array(length: int) -> Conv:
         return _each(_float, value, path, ctx)
 
     return conv
+
+
+def _numeric(value: np.ndarray, path: str, length: int) -> str:
+    """The dtype kind ('i', 'u', 'f') of a 1-D numeric array of the right length, else ''."""
+    if value.ndim != 1 or value.dtype.kind not in "iuf":
+        return ""
+    if length and len(value) != length:
+        raise ConversionError(
+            f"{_where(path)} must have exactly {length} elements, got {len(value)}"
+        )
+    return value.dtype.kind
+
+
+def _float_ndarray(value: np.ndarray, path: str, length: int) -> np.ndarray | list:
+    if not _numeric(value, path, length):
+        return value.tolist()
+    wide = value.astype(np.float64, copy=False)
+    return wide if len(wide) >= BIG_ARRAY else wide.tolist()
+
+
+def _integral(value: np.ndarray, path: str, length: int) -> np.ndarray | None:
+    """An integer-valued array, or None when some element is not an integer."""
+    kind = _numeric(value, path, length)
+    if kind == "f":
+        if not np.isfinite(value).all() or (value != np.trunc(value)).any():
+            return None
+        return value.astype(np.int64)  # |x| beyond 2**63 then fails the range check below
+    return value if kind else None
 
 
 # Integer arrays at least this long (maps, images as int8) are checked and stored with numpy:
@@ -259,6 +296,13 @@ def _int_array(typ: str, length: int) -> Conv:
     dtype = _NUMPY_INTS.get(typ)
 
     def conv(value: Any, path: str, ctx: _Ctx) -> list[int] | np.ndarray:
+        if type(value) is np.ndarray:
+            ints = _integral(value, path, length)
+            if ints is not None and (not len(ints) or lo <= ints.min() and ints.max() <= hi):
+                if dtype is not None and len(ints) >= BIG_ARRAY:
+                    return ints.astype(dtype)
+                return ints.tolist()
+            value = value.tolist()  # the list path names the offending element
         _check_array(value, path, length)
         if set(map(type, value)) <= _ONLY_INT:
             if dtype is not None and len(value) >= BIG_ARRAY:
@@ -277,6 +321,8 @@ def _simple_array(elem: Conv, fast: type, length: int) -> Conv:
     only = frozenset({fast})
 
     def conv(value: Any, path: str, ctx: _Ctx) -> list[Any]:
+        if type(value) is np.ndarray:
+            value = value.tolist()
         _check_array(value, path, length)
         if set(map(type, value)) <= only:
             return list(value)
@@ -287,6 +333,8 @@ def _simple_array(elem: Conv, fast: type, length: int) -> Conv:
 
 def _list_array(elem: Conv, length: int) -> Conv:
     def conv(value: Any, path: str, ctx: _Ctx) -> list[Any]:
+        if type(value) is np.ndarray:
+            value = value.tolist()
         _check_array(value, path, length)
         return _each(elem, value, path, ctx)
 
@@ -297,6 +345,12 @@ def _bytes_array(typ: str, length: int) -> Conv:
     elem = _int_conv(typ)
 
     def conv(value: Any, path: str, ctx: _Ctx) -> bytes:
+        if type(value) is np.ndarray:
+            ints = _integral(value, path, 0)
+            if ints is not None and (not len(ints) or ints.min() >= 0 and ints.max() <= 255):
+                value = ints.astype(np.uint8).tobytes()
+            else:
+                value = value.tolist()
         kind = type(value)
         if kind is str:
             try:

@@ -1,0 +1,129 @@
+"""Whole-op codecs shared by the inline path and the worker process that runs big messages.
+
+Measured on CPython 3.11 (bench/README.md): ``orjson.loads``/``dumps``, ``cbor2`` and numpy's
+conversion of Python lists hold the GIL for the whole call, so a 10 MB map parsed or encoded in a
+*thread* still stalls the event loop for the whole call (100-150 ms); zlib releases it, PIL's PNG
+encode only partly (25 ms stalls). Big ops therefore go to a worker *process*. What crosses the
+process boundary is pickled, so long numeric lists are turned into compact numpy arrays before
+they go back: a 4M-cell map is 4 MB of int8, not 4M Python ints. The same functions build the
+inline encodings, so an offloaded message is byte-for-byte what the inline path sends.
+"""
+
+from __future__ import annotations
+
+import cbor2
+import numpy as np
+import orjson
+
+from ..types import jsoncodec
+from . import png
+from .fragment import fragment_bytes
+
+Frame = tuple[bytes, bool]  # (payload, is_binary)
+
+COMPACT_MIN = 1024
+"""Lists shorter than this are cheap to pickle as they are."""
+
+_INT_DTYPES = (np.int8, np.uint8, np.int16, np.uint16, np.int32, np.uint32, np.int64)
+_CONTAINERS = (dict, list)
+
+
+class DecodeError(ValueError):
+    """A frame that is not valid JSON/CBOR; the text is what the inline parser says."""
+
+
+class PngError(ValueError):
+    """A ``png`` op whose ``data`` is not a PNG holding text."""
+
+
+# ------------------------------------------------------------------------ incoming
+def _int_array(value: list) -> np.ndarray | list:
+    try:
+        wide = np.array(value, dtype=np.int64)
+    except OverflowError:  # beyond int64 (a uint64 field): keep the exact Python ints
+        return value
+    lo, hi = wide.min(), wide.max()
+    for dtype in _INT_DTYPES:
+        info = np.iinfo(dtype)
+        if info.min <= lo and hi <= info.max:
+            return wide.astype(dtype)
+    return wide
+
+
+def compact_arrays(value: object) -> object:
+    """Lists of at least ``COMPACT_MIN`` plain ints (or plain floats) become the smallest numpy
+    array holding them, at any depth. Anything else (bools, nulls, strings, mixed) is left as
+    it is, so the converter still sees, and names, every value it would refuse."""
+    kind = type(value)
+    if kind is dict:
+        for key, item in value.items():
+            if type(item) in _CONTAINERS:
+                value[key] = compact_arrays(item)
+    elif kind is list:
+        kinds = set(map(type, value))
+        if len(value) >= COMPACT_MIN and len(kinds) == 1:
+            if int in kinds:
+                return _int_array(value)
+            if float in kinds:
+                return np.array(value, dtype=np.float64)
+        if kinds & {dict, list}:
+            for i, item in enumerate(value):
+                if type(item) in _CONTAINERS:
+                    value[i] = compact_arrays(item)
+    return value
+
+
+def decode_json(data: str | bytes) -> object:
+    """Parse one JSON text op for the worker; raises :class:`DecodeError` (picklable, short)."""
+    try:
+        obj = jsoncodec.loads(data)
+    except ValueError as exc:
+        raise DecodeError(str(exc)) from None
+    return compact_arrays(obj)
+
+
+def decode_cbor(data: bytes) -> object:
+    try:
+        obj = cbor2.loads(data)
+    except Exception as exc:  # cbor2.CBORDecodeError and friends
+        raise DecodeError(str(exc)) from None
+    return compact_arrays(obj)
+
+
+def decode_png(b64: str) -> object:
+    """The op held by a ``png`` op's ``data``."""
+    try:
+        text = png.decode(b64)
+    except Exception as exc:
+        raise PngError(str(exc)) from None
+    return decode_json(text)
+
+
+# ------------------------------------------------------------------------ outgoing
+def publish_json(topic: str, msg_json: bytes) -> bytes:
+    """``{"op":"publish","topic":T,"msg":…}`` around an already serialised body."""
+    return b"".join((b'{"op":"publish","topic":', orjson.dumps(topic), b',"msg":', msg_json, b"}"))
+
+
+def publish_png(topic: str, msg: dict, op_json: bytes) -> bytes:
+    """The ``png`` op of a publish whose JSON text is ``op_json``."""
+    if not op_json.isascii():  # roslibjs 1.x decodes png pixels as Latin-1
+        op_json = jsoncodec.dumps_ascii({"op": "publish", "topic": topic, "msg": msg})
+    return png.png_op(op_json)
+
+
+def fragments(data: bytes, size: int, frag_id: str) -> list[Frame]:
+    """Encoded JSON split into ``fragment`` ops with the id ``frag_id``."""
+    return [(frame, False) for frame in fragment_bytes(data.decode(), size, frag_id)]
+
+
+def publish_frames(
+    topic: str, msg: dict, compression: str, fragment_size: int | None, frag_id: str
+) -> list[Frame]:
+    """Every frame one text subscriber (``none`` or ``png``) gets for one message."""
+    data = publish_json(topic, jsoncodec.dumps(msg))
+    if compression == "png":
+        data = publish_png(topic, msg, data)
+    if fragment_size and len(data) > fragment_size:
+        return fragments(data, fragment_size, frag_id)
+    return [(data, False)]
