@@ -6,6 +6,7 @@ import base64
 import math
 import time
 
+import numpy as np
 import pytest
 
 from hitrobot_server.types.convert import ConversionError, default_message, from_json, wall_now
@@ -461,3 +462,41 @@ def test_big_integer_arrays_become_compact_numpy_arrays():
         from_json(grid, {"data": data[:-1] + [128]}, reg)
     small, _ = from_json(grid, {"data": data[:10]}, reg)
     assert small["data"] == data[:10]
+
+
+# --- numpy arrays (big ops arrive compacted from the worker process) ---------------------------
+
+_NUMPY_CASES = [
+    ("nav_msgs/OccupancyGrid", "data", np.array([-1, 0, 100] * 2000, dtype=np.int8)),
+    ("nav_msgs/OccupancyGrid", "data", np.array([1, 2, 3], dtype=np.int16)),
+    ("nav_msgs/OccupancyGrid", "data", np.array([1.0, 2.0] * 3000)),  # integral floats
+    ("nav_msgs/OccupancyGrid", "data", np.array([1, 300] * 3000, dtype=np.int16)),
+    ("nav_msgs/OccupancyGrid", "data", np.array([1.0, 2.5] * 3000)),
+    ("sensor_msgs/Image", "data", np.array([0, 255] * 3000, dtype=np.uint8)),
+    ("sensor_msgs/Image", "data", np.array([0, 256] * 3000, dtype=np.int16)),
+    ("sensor_msgs/LaserScan", "ranges", np.linspace(0.0, 30.0, 5000)),
+    ("sensor_msgs/LaserScan", "ranges", np.arange(100, dtype=np.int32)),
+    ("geometry_msgs/PoseWithCovariance", "covariance", np.zeros(35)),
+    ("geometry_msgs/PoseWithCovariance", "covariance", np.ones(36)),
+    ("sensor_msgs/LaserScan", "header", np.arange(3)),
+    ("diagnostic_msgs/DiagnosticStatus", "values", np.arange(2000)),
+    ("sensor_msgs/JointState", "name", np.arange(5)),
+]
+
+
+@pytest.mark.parametrize("name,field,array", _NUMPY_CASES)
+def test_numpy_array_converts_or_fails_exactly_as_the_list(reg, name, field, array):
+    as_list = array.tolist()
+    try:
+        expected, _ = convert(reg, name, {field: as_list})
+    except ConversionError as exc:
+        assert error(reg, name, {field: array}) == str(exc)
+        return
+    got, _ = convert(reg, name, {field: array})
+    value, want = got[field], expected[field]
+    if isinstance(want, np.ndarray):
+        assert value.dtype == want.dtype and np.array_equal(value, want)
+    elif isinstance(value, np.ndarray):  # a long array stays numpy: the same values
+        assert value.tolist() == want and len(value) >= 4096
+    else:
+        assert value == want and type(value) is type(want)
