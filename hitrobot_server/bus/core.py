@@ -11,6 +11,7 @@ import asyncio
 import logging
 import time
 from collections.abc import Callable, Hashable, Iterable
+from typing import Any
 
 from ..types.registry import TypeRegistry, UnknownType
 from .errors import ActionError, BusError, ServiceError
@@ -95,15 +96,19 @@ class Bus:
         stamp: float | None = None,
         reply: Reply | None = None,
         origin: Origin | None = None,
+        encoded: dict[Hashable, Any] | None = None,
     ) -> Message:
         """Fan ``msg`` (canonical dict) out to every subscriber of an existing topic.
 
-        ``reply`` reaches the publisher when a subscriber refuses the message.
+        ``reply`` reaches the publisher when a subscriber refuses the message; ``encoded``
+        seeds the message's encode cache (a client's own text of it, see session/publish.py).
         """
         topic = self.topics.get(name) or self.topics.get(canonical(name))
         if topic is None:
             raise BusError(f"topic '{canonical(name)}' does not exist")
         message = Message(topic, msg, self.clock() if stamp is None else stamp, reply, origin)
+        if encoded:
+            message.cache.update(encoded)
         topic.fan_out(message)
         return message
 

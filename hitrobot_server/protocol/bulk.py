@@ -11,6 +11,8 @@ inline encodings, so an offloaded message is byte-for-byte what the inline path 
 
 from __future__ import annotations
 
+import functools
+
 import cbor2
 import numpy as np
 import orjson
@@ -100,9 +102,40 @@ def decode_png(b64: str) -> object:
 
 
 # ------------------------------------------------------------------------ outgoing
+@functools.lru_cache(maxsize=1024)
+def _publish_head(topic: str) -> bytes:
+    return b'{"op":"publish","topic":' + orjson.dumps(topic) + b',"msg":'
+
+
 def publish_json(topic: str, msg_json: bytes) -> bytes:
     """``{"op":"publish","topic":T,"msg":…}`` around an already serialised body."""
-    return b"".join((b'{"op":"publish","topic":', orjson.dumps(topic), b',"msg":', msg_json, b"}"))
+    return b"".join((_publish_head(topic), msg_json, b"}"))
+
+
+def verbatim_publish(text: str | bytes, op: dict) -> bytes | None:
+    """The outgoing ``publish`` op cut from the client's own ``publish`` text, or None.
+
+    Only for a message the converter left as it was (``from_json_verbatim``): then the text
+    of its ``msg`` already is its JSON, and re-encoding it would be wasted work (a third of
+    the cost of relaying a LaserScan). The keys around ``msg`` are re-serialised and must
+    match the text exactly, so whatever sits between them is the ``msg`` value as parsed
+    (with duplicate keys, a last-wins parser reads exactly what was validated); NaN/Infinity
+    literals, which only the lenient fallback parser accepts, are never passed on.
+    """
+    data = text.encode() if type(text) is str else text
+    keys = list(op)
+    at = keys.index("msg")
+    head = b"{" + b"".join(orjson.dumps(k) + b":" + orjson.dumps(op[k]) + b"," for k in keys[:at])
+    head += b'"msg":'
+    tail = b"".join(b"," + orjson.dumps(k) + b":" + orjson.dumps(op[k]) for k in keys[at + 1 :])
+    tail += b"}"
+    if not (data.startswith(head) and data.endswith(tail)) or len(data) < len(head) + len(tail):
+        return None
+    if (b"N" in data and b"NaN" in data) or (b"I" in data and b"Infinity" in data):
+        return None  # (one byte is a memchr; the 3-byte search costs 10 us on a LaserScan)
+    if head == _publish_head(op["topic"]) and tail == b"}":
+        return data  # the op already is {"op":"publish","topic":T,"msg":…}
+    return publish_json(op["topic"], data[len(head) : len(data) - len(tail)])
 
 
 def publish_png(topic: str, msg: dict, op_json: bytes) -> bytes:

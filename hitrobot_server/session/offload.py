@@ -52,16 +52,37 @@ async def run(fn: Callable[..., T], *args: Any) -> T:
 
 def approx_size(value: object) -> int:
     """Rough JSON size of a canonical message, without encoding it (an over-estimate is fine:
-    it only decides inline or offloaded). Looks into dicts and the first item of a list."""
+    it only decides inline or offloaded). Looks into dicts and the first item of a list; one
+    call per nested dict, so a LaserScan costs three calls."""
     kind = type(value)
     if kind is dict:
-        return sum(map(approx_size, value.values())) + 16 * len(value)
+        total = 16 * len(value)
+        for item in value.values():
+            kind = type(item)
+            if kind is dict:
+                total += approx_size(item)
+            elif kind is list:
+                total += _list_size(item)
+            elif kind is bytes or kind is np.ndarray or kind is str:
+                total += _flat_size(item)
+            else:
+                total += 12
+        return total
     if kind is list:
-        if not value:
-            return 2
-        first = value[0]
-        each = approx_size(first) if type(first) is dict or type(first) is list else 12
-        return each * len(value)
+        return _list_size(value)
+    return _flat_size(value)
+
+
+def _list_size(value: list) -> int:
+    if not value:
+        return 2
+    first = type(value[0])
+    each = approx_size(value[0]) if first is dict or first is list else 12
+    return each * len(value)
+
+
+def _flat_size(value: object) -> int:
+    kind = type(value)
     if kind is bytes:
         return len(value) * 4 // 3
     if kind is np.ndarray:

@@ -56,6 +56,7 @@ class Session:
         self.authenticated = not settings.authenticate
         self.auth_level: str | None = None
         self.closed = False
+        self.frame: str | bytes | None = None  # the text of the op being handled, if known
         self._defrag = Defragmenter(
             fragment_timeout=settings.fragment_timeout, max_bytes=settings.max_frame_size
         )
@@ -102,7 +103,13 @@ class Session:
             kind = "CBOR" if binary else "JSON"
             self.status("error", f"invalid {kind}: {exc}", None)
             return None
-        return self.handle(obj)
+        if binary:
+            return self.handle(obj)
+        self.frame = data
+        try:
+            return self.handle(obj)
+        finally:
+            self.frame = None
 
     def _offload(self, decode: Callable[[Any], object], data: object, op_id: Any = None) -> Pending:
         """Decode a big frame (or png payload) in the worker pool, then handle it here."""

@@ -41,3 +41,35 @@ def test_decode_errors_are_short_and_picklable():
     with pytest.raises(bulk.PngError):
         bulk.decode_png("not base64 png")
     assert bulk.decode_json('{"x": NaN}')["x"] != 0  # the NaN literal fallback still applies
+
+
+def _op(text: str) -> dict:
+    import orjson
+    return orjson.loads(text)
+
+
+def test_verbatim_publish_reuses_the_clients_text():
+    text = '{"op":"publish","topic":"/s","msg":{"data":"x","n":[1.5,2.5]}}'
+    assert bulk.verbatim_publish(text, _op(text)) == text.encode()
+    roslibjs = '{"op":"publish","id":"publish:/s:7","topic":"/s","msg":{"data":"x"},"latch":false}'
+    assert bulk.verbatim_publish(roslibjs, _op(roslibjs)) == (
+        b'{"op":"publish","topic":"/s","msg":{"data":"x"}}')
+
+
+@pytest.mark.parametrize("text", [
+    '{"op": "publish", "topic": "/s", "msg": {"data": "x"}}',  # spaced: not our serialisation
+    '{"op":"publish","topic":"/s","msg":{"data":"x"},"latch":false }',
+    '{"op":"publish","topic":"/s","msg":{"d":NaN}}',  # only the lenient parser reads NaN
+    '{"op":"publish","topic":"/s","msg":{"d":-Infinity}}',
+    '{"op":"publish","topic":"/s","msg":{"data":"x"},"topic":"/other"}',
+])
+def test_verbatim_publish_refuses_text_it_cannot_vouch_for(text):
+    import json
+    assert bulk.verbatim_publish(text, json.loads(text)) is None
+
+
+def test_duplicate_keys_still_read_as_what_was_validated():
+    import json
+    text = '{"op":"publish","topic":"/s","msg":{"data":"old"},"msg":{"data":"new"}}'
+    out = bulk.verbatim_publish(text, _op(text))
+    assert json.loads(out) == {"op": "publish", "topic": "/s", "msg": {"data": "new"}}

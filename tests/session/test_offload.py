@@ -261,3 +261,17 @@ async def test_other_clients_get_answers_while_a_big_map_is_processed(server):
     got = decode_png_op(await waiting)
     assert got["msg"]["info"]["width"] == 2000
     assert events == ["answer", "answer", "answer", "map"]
+
+
+async def test_a_canonical_publish_is_relayed_as_the_clients_own_text(bus):
+    pub, sub = session(bus), session(bus)
+    await feed(pub, {"op": "advertise", "topic": "/p", "type": "geometry_msgs/Point"})
+    await feed(sub, {"op": "subscribe", "topic": "/p"})
+    roslibjs = '{"op":"publish","id":"publish:/p:1","topic":"/p","msg":{"z":3.0,"x":1.0,"y":2.0},"latch":false}'  # noqa: E501
+    await feed(pub, roslibjs)
+    frames = await sub.outbox.get()
+    assert frames == [(b'{"op":"publish","topic":"/p","msg":{"z":3.0,"x":1.0,"y":2.0}}', False)]
+    sub.outbox.sent()
+    await feed(pub, '{"op":"publish","topic":"/p","msg":{"x":1,"y":2.0,"z":3.0}}')  # int x
+    frames = await sub.outbox.get()
+    assert frames == [(b'{"op":"publish","topic":"/p","msg":{"x":1.0,"y":2.0,"z":3.0}}', False)]

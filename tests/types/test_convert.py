@@ -500,3 +500,55 @@ def test_numpy_array_converts_or_fails_exactly_as_the_list(reg, name, field, arr
         assert value.tolist() == want and len(value) >= 4096
     else:
         assert value == want and type(value) is type(want)
+
+
+# --- verbatim: may the client's own text of the message be sent on? ---------------------------
+
+_VERBATIM = {"header": {"seq": 3, "stamp": {"secs": 1, "nsecs": 2}, "frame_id": "l"},
+             "angle_min": -1.0, "angle_max": 1.0, "angle_increment": 0.5, "time_increment": 0.0,
+             "scan_time": 0.1, "range_min": 0.1, "range_max": 30.0, "ranges": [1.5, 2.5],
+             "intensities": []}
+
+
+def _verbatim(reg, value) -> bool:
+    from hitrobot_server.types.convert import from_json_verbatim
+    msg, _, same = from_json_verbatim(reg.msg("sensor_msgs/LaserScan"), value, reg,
+                                      now=lambda: NOW)
+    if same:
+        assert msg == value
+    return same
+
+
+def test_a_canonical_message_is_verbatim(reg):
+    assert _verbatim(reg, _VERBATIM)
+    reordered = dict(reversed(list(_VERBATIM.items())))
+    assert _verbatim(reg, reordered)  # key order is not meaning in JSON
+
+
+@pytest.mark.parametrize("change", [
+    {"angle_min": -1},  # an int where a float goes: the output says -1.0
+    {"ranges": [1, 2.5]},
+    {"ranges": [None]},  # null means NaN
+    {"range_min": None},
+    {"header": {"stamp": {"secs": 1, "nsecs": 2}, "frame_id": "l"}},  # seq filled
+    {"header": {"seq": 3, "frame_id": "l"}},  # stamp filled
+    {"header": {"seq": 3.0, "stamp": {"secs": 1, "nsecs": 2}, "frame_id": "l"}},
+    {"header": {"seq": 3, "stamp": {"sec": 1, "nanosec": 2}, "frame_id": "l"}},
+    {"header": {"seq": 3, "stamp": {"secs": 1, "nsecs": 2_000_000_000}, "frame_id": "l"}},
+    {"header": {"seq": 3, "stamp": 1.5, "frame_id": "l"}},
+    {"header": {"seq": 3, "stamp": "now", "frame_id": "l"}},
+])
+def test_any_fill_retype_or_rename_is_not_verbatim(reg, change):
+    assert not _verbatim(reg, {**_VERBATIM, **change})
+    missing = dict(_VERBATIM)
+    del missing["scan_time"]
+    assert not _verbatim(reg, missing)
+
+
+def test_byte_arrays_are_never_verbatim(reg):
+    from hitrobot_server.types.convert import from_json_verbatim
+    for data in ([1, 2], "AQI="):
+        _, _, same = from_json_verbatim(reg.msg("std_msgs/UInt8MultiArray"),
+                                        {"layout": {"dim": [], "data_offset": 0}, "data": data},
+                                        reg)
+        assert not same
