@@ -527,6 +527,7 @@ async def relay_section(port: int, server: ServerProc, cfg) -> dict:
             "p50": pct(lat, 50) * 1e3,
             "p99": pct(lat, 99) * 1e3,
             "cpu": cpu.pcts(elapsed),
+            "srv_us": 1e6 * cpu.server_s / state["recv"] if state["recv"] else float("nan"),
         }
 
     # --- ping-pong latency: one message in flight
@@ -572,6 +573,7 @@ async def relay_section(port: int, server: ServerProc, cfg) -> dict:
                 f"{r['p99']:.2f}",
                 "",
                 *r["cpu"],
+                f"{r['srv_us']:.1f}",
             ]
         )
     rows.append(
@@ -583,11 +585,23 @@ async def relay_section(port: int, server: ServerProc, cfg) -> dict:
             f"{ping['p99']:.3f}",
             f"{ping['max']:.2f}",
             *ping["cpu"],
+            "",
         ]
     )
     print(
         table(
-            ["run", "recv/sent", "msg/s", "p50 ms", "p99 ms", "max ms", "srv CPU", "cli CPU"], rows
+            [
+                "run",
+                "recv/sent",
+                "msg/s",
+                "p50 ms",
+                "p99 ms",
+                "max ms",
+                "srv CPU",
+                "cli CPU",
+                "srv us/msg",
+            ],
+            rows,
         )
     )
     print(
@@ -740,6 +754,7 @@ async def fanout_run(
         "checked": checked,
         "bad": bad,
         "cpu": cpu.pcts(elapsed),
+        "srv_us": 1e6 * cpu.server_s / total if total else float("nan"),
     }
 
 
@@ -761,6 +776,7 @@ def fanout_table(title: str, runs: list[dict]) -> None:
                 fnum(r["mbps"], 1),
                 f"{r['checked'] - r['bad']}/{r['checked']}",
                 *r["cpu"],
+                f"{r['srv_us']:.1f}",
             ]
         )
     print(
@@ -779,6 +795,7 @@ def fanout_table(title: str, runs: list[dict]) -> None:
                 "samples ok",
                 "srv CPU",
                 "cli CPU",
+                "srv us/msg",
             ],
             rows,
         )
@@ -1527,25 +1544,45 @@ async def run(cfg, sections: set[str]) -> None:
             rows = []
             for o, c in zip(ours, ceiling, strict=True):
                 ratio = o["rate"] / c["rate"] if c["rate"] else float("nan")
+                cpu_ratio = c["srv_us"] / o["srv_us"] if o["srv_us"] else float("nan")
                 rows.append(
                     [
                         o["clients"],
                         fnum(o["rate"]),
                         fnum(c["rate"]),
                         f"{ratio:.2f}",
+                        f"{o['srv_us']:.1f}",
+                        f"{c['srv_us']:.1f}",
+                        f"{cpu_ratio:.2f}",
                         f"{o['frame']:.0f}",
                         f"{c['frame']:.0f}",
                     ]
                 )
                 summary.append(
                     f"ours/ceiling {o['clients']:>2} clients: {ratio:.2f} "
-                    f"({fnum(o['rate'])} vs {fnum(c['rate'])} msg/s)"
+                    f"({fnum(o['rate'])} vs {fnum(c['rate'])} msg/s); server CPU per message "
+                    f"{o['srv_us']:.1f} vs {c['srv_us']:.1f} us, ratio {cpu_ratio:.2f}"
                 )
             print("\n  ours vs ceiling (delivered msg/s, all clients)")
             print(
                 table(
-                    ["clients", "ours", "ceiling", "ratio", "our frame B", "ceiling frame B"], rows
+                    [
+                        "clients",
+                        "ours",
+                        "ceiling",
+                        "ratio",
+                        "ours srv us/msg",
+                        "ceiling srv us/msg",
+                        "CPU ratio",
+                        "our frame B",
+                        "ceiling frame B",
+                    ],
+                    rows,
                 )
+            )
+            print(
+                "  CPU ratio = ceiling's server CPU per delivered message / ours: the same "
+                "comparison, less\n  sensitive to other load on the machine than the rate."
             )
 
     if "5" in sections:

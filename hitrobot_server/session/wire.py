@@ -70,24 +70,31 @@ def publish_frames(
 ) -> Frames:
     """The frames one subscriber gets; fragments only text ops and only when asked to.
 
-    For a big message and a text compression this is a future of the frames (shared by every
-    subscriber with the same topic spelling, compression and fragment size), or its result
-    once it is done.
+    Computed once per (compression, topic spelling, fragment size) and shared by every such
+    subscriber. For a big message and a text compression this is a future of the frames, or
+    its result once it is done.
     """
+    key = (compression, topic, fragment_size)
+    frames = message.cache.get(key)
+    if frames is None:
+        frames = message.cache[key] = _frames(message, topic, compression, fragment_size)
+    if type(frames) is list:
+        return frames
+    if frames.done() and not frames.cancelled() and frames.exception() is None:
+        return frames.result()
+    return frames
+
+
+def _frames(message: Message, topic: str, compression: str, fragment_size: int | None) -> Frames:
     if compression == "cbor":
         return [(publish_cbor(message, topic), True)]
     if compression == "cbor-raw":
         return [(publish_cbor_raw(message, topic), True)]
-    if message_size(message) >= offload.OFFLOAD_BYTES:
-        key = ("bulk", compression, topic, fragment_size)
-        future = message.cached(key, lambda: _offloaded(message, topic, compression, fragment_size))
-        if future.done() and not future.cancelled() and future.exception() is None:
-            return future.result()
-        return future
+    if ("json", topic) not in message.cache and message_size(message) >= offload.OFFLOAD_BYTES:
+        return _offloaded(message, topic, compression, fragment_size)
     data = publish_png(message, topic) if compression == "png" else publish_json(message, topic)
     if fragment_size and len(data) > fragment_size:
-        key = ("frag", compression, topic, fragment_size)
-        return message.cached(key, lambda: fragment_frames(data, fragment_size, None))
+        return fragment_frames(data, fragment_size, None)
     return [(data, False)]
 
 

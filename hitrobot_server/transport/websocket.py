@@ -57,9 +57,11 @@ def direct_writer(ws: ServerConnection):
             ws.protocol.state is not State.OPEN
             or transport is None
             or transport.get_write_buffer_size() > DIRECT_WRITE_LIMIT
-            or any(len(data) > CHUNK_BYTES for data, _ in frames)
         ):
             return False
+        for data, _ in frames:
+            if len(data) > CHUNK_BYTES:  # big: the pump sends it in continuation frames
+                return False
         for data, binary in frames:
             broadcast((ws,), data, text=not binary)
         return True
