@@ -16,7 +16,11 @@ Sections:
   2. fan-out    sensor_msgs/LaserScan (720 ranges) published at max rate to 1/10/50 clients.
   3. map        2000x2000 nav_msgs/OccupancyGrid on a latched topic, compression none / png.
   4. ceiling    section 2 against a bare ``websockets`` server that only broadcasts the frames
-                it is sent, and the ratio of our delivered rate to it.
+                it is sent, and the ratio of our delivered rate (and server CPU) to it.
+  5. probe      a client (its own process) calls /rosapi/get_time every 5 ms while 2000x2000
+                and 4000x4000 maps are published to a png and an uncompressed subscriber.
+  6. memory     server RSS with 1000 idle WebSocket clients, and while a subscriber stops
+                reading for 30 s (10 s with --quick).
 
 Subscribers in sections 1, 2 and 4 are minimal WebSocket clients written on asyncio.Protocol:
 they parse frame headers only, count frames and bytes, and keep a sample of payloads, which is
