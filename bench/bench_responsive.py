@@ -26,9 +26,8 @@ async def round_trips(ws, count: int) -> list[float]:
     out = []
     for i in range(count):
         t0 = time.perf_counter()
-        await ws.send(
-            json.dumps({"op": "call_service", "id": f"t{i}", "service": "/rosapi/get_time"})
-        )
+        await ws.send(json.dumps({"op": "call_service", "id": f"t{i}",
+                                  "service": "/rosapi/get_time"}))
         while True:
             msg = json.loads(await asyncio.wait_for(ws.recv(), 5))
             if msg.get("id") == f"t{i}":
@@ -41,31 +40,15 @@ async def round_trips(ws, count: int) -> list[float]:
 def summary(name: str, rtts: list[float]) -> str:
     rtts = sorted(rtts)
     p99 = rtts[min(len(rtts) - 1, int(len(rtts) * 0.99))]
-    return (
-        f"  {name:<34} n={len(rtts):4d}  p50 {statistics.median(rtts):6.2f} ms  "
-        f"p99 {p99:6.2f} ms  max {rtts[-1]:6.2f} ms"
-    )
+    return (f"  {name:<34} n={len(rtts):4d}  p50 {statistics.median(rtts):6.2f} ms  "
+            f"p99 {p99:6.2f} ms  max {rtts[-1]:6.2f} ms")
 
 
 async def main(speed: float, count: int) -> None:
     proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "hitrobot_server",
-            "--port",
-            "0",
-            "--tcp-port",
-            "0",
-            "--sim-mapping",
-            "--sim-speed",
-            str(speed),
-            "--log-level",
-            "warning",
-        ],
-        stdout=subprocess.PIPE,
-        text=True,
-    )
+        [sys.executable, "-m", "hitrobot_server", "--port", "0", "--tcp-port", "0",
+         "--sim-mapping", "--sim-speed", str(speed), "--log-level", "warning"],
+        stdout=subprocess.PIPE, text=True)
     try:
         line = proc.stdout.readline()
         port = int(re.search(r"ws://[\d.]+:(\d+)", line).group(1))
@@ -81,22 +64,11 @@ async def main(speed: float, count: int) -> None:
             reader = asyncio.create_task(drain())
             await asyncio.sleep(1.0)
             idle = await round_trips(probe, count)
-            await probe.send(
-                json.dumps(
-                    {
-                        "op": "publish",
-                        "topic": f"{NS}/move_to",
-                        "msg": {
-                            "location": {"x": 20.0, "y": 8.2, "z": 0.0},
-                            "options": {
-                                "opt_flags": {"flags": 0},
-                                "speed_ratio": {"is_valid": False, "value": 0.0},
-                            },
-                            "yaw": 0.0,
-                        },
-                    }
-                )
-            )
+            await probe.send(json.dumps({"op": "publish", "topic": f"{NS}/move_to", "msg": {
+                "location": {"x": 20.0, "y": 8.2, "z": 0.0},
+                "options": {"opt_flags": {"flags": 0},
+                            "speed_ratio": {"is_valid": False, "value": 0.0}},
+                "yaw": 0.0}}))
             await asyncio.sleep(0.5)
             moving = await round_trips(probe, count)
             reader.cancel()
