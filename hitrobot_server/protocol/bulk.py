@@ -31,7 +31,15 @@ _CONTAINERS = (dict, list)
 
 
 class DecodeError(ValueError):
-    """A frame that is not valid JSON/CBOR; the text is what the inline parser says."""
+    """A frame that is not valid JSON/CBOR; the text is what the inline parser says, ``id``
+    the op's id when the parser could tell it."""
+
+    def __init__(self, text: str, id: object = None) -> None:
+        super().__init__(text)
+        self.id = id
+
+    def __reduce__(self):  # pickled back from the worker with its id
+        return (DecodeError, (str(self), self.id))
 
 
 class PngError(ValueError):
@@ -80,7 +88,7 @@ def decode_json(data: str | bytes) -> object:
     try:
         obj = jsoncodec.loads(data)
     except ValueError as exc:
-        raise DecodeError(str(exc)) from None
+        raise DecodeError(str(exc), getattr(exc, "id", None)) from None
     return compact_arrays(obj)
 
 
@@ -88,7 +96,7 @@ def decode_cbor(data: bytes) -> object:
     try:
         obj = cbor2.loads(data)
     except Exception as exc:  # cbor2.CBORDecodeError and friends
-        raise DecodeError(str(exc)) from None
+        raise DecodeError(str(exc), getattr(exc, "id", None)) from None
     return compact_arrays(obj)
 
 

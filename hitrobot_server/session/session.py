@@ -122,7 +122,7 @@ class Session:
                 return
             except bulk.DecodeError as exc:
                 kind = "CBOR" if decode is bulk.decode_cbor else "JSON"
-                self.status("error", f"invalid {kind}: {exc}", None)
+                self.status("error", f"invalid {kind}: {exc}", exc.id)
                 return
             except Exception as exc:  # the pool broke (a worker was killed): say so, go on
                 log.exception("client %s: decoding a big op failed", self.node)

@@ -73,3 +73,9 @@ def test_duplicate_keys_still_read_as_what_was_validated():
     text = '{"op":"publish","topic":"/s","msg":{"data":"old"},"msg":{"data":"new"}}'
     out = bulk.verbatim_publish(text, _op(text))
     assert json.loads(out) == {"op": "publish", "topic": "/s", "msg": {"data": "new"}}
+
+
+def test_decode_error_keeps_its_id_through_pickling():
+    import pickle
+    error = pickle.loads(pickle.dumps(bulk.DecodeError("bad value", "op7")))
+    assert isinstance(error, bulk.DecodeError) and error.id == "op7" and str(error) == "bad value"
