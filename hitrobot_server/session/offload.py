@@ -10,6 +10,7 @@ The pool starts on first use, so a server that never sees a big message never pa
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import multiprocessing
 import os
 from collections.abc import Callable
@@ -26,15 +27,28 @@ OFFLOAD_BYTES = 256 * 1024
 256 kB cost about 5 ms to parse, convert and encode, a pool round trip about 1 ms."""
 
 WORKERS = max(1, min(2, (os.cpu_count() or 2) - 1))
+"""One worker on 2 cores (the loop keeps a core; two measured no better there), two above."""
 
 _pool: ProcessPoolExecutor | None = None
+
+
+WORKER_NICENESS = 10
+"""Workers run at a lower priority than the event loop: on a busy 2-core machine the loop
+(every client's answers) gets the CPU first, the big message's encoding what is left."""
+
+
+def _lower_priority() -> None:
+    with contextlib.suppress(OSError, AttributeError):  # not everywhere allowed or available
+        os.nice(WORKER_NICENESS)
 
 
 def _executor() -> ProcessPoolExecutor:
     global _pool
     if _pool is None:
         # spawn, not fork: the server has threads (asyncio.to_thread) whose locks a fork copies
-        _pool = ProcessPoolExecutor(WORKERS, mp_context=multiprocessing.get_context("spawn"))
+        _pool = ProcessPoolExecutor(
+            WORKERS, mp_context=multiprocessing.get_context("spawn"), initializer=_lower_priority
+        )
     return _pool
 
 
