@@ -292,24 +292,23 @@ class ServerProc:
         except (OSError, IndexError, ValueError):
             return float("nan")
 
-    def rss_mb(self) -> float:
+    def _status_mb(self, field: str) -> float:
+        """A memory figure of /proc/<pid>/status (``VmHWM``, ``VmRSS``), MB."""
         try:
             for line in Path(f"/proc/{self.proc.pid}/status").read_text().splitlines():
-                if line.startswith("VmHWM:"):
+                if line.startswith(field + ":"):
                     return int(line.split()[1]) / 1024
         except OSError:
             pass
         return float("nan")
 
+    def rss_mb(self) -> float:
+        """Peak resident set size (VmHWM), MB."""
+        return self._status_mb("VmHWM")
+
     def rss_now_mb(self) -> float:
         """Resident set size right now (VmRSS), MB."""
-        try:
-            for line in Path(f"/proc/{self.proc.pid}/status").read_text().splitlines():
-                if line.startswith("VmRSS:"):
-                    return int(line.split()[1]) / 1024
-        except OSError:
-            pass
-        return float("nan")
+        return self._status_mb("VmRSS")
 
     def stop(self) -> None:
         if self.proc.poll() is None:
