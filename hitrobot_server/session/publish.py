@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from ..bus.names import canonical, valid_name
-from ..protocol.bulk import verbatim_publish
+from ..protocol.bulk import VERBATIM_MIN, verbatim_publish
 from ..protocol.errors import ProtocolError
 from ..types.convert import from_json_verbatim
 
@@ -81,9 +81,9 @@ class PublishOps:
             body = {topic.mtype.fields[0].name: body}  # seed 4.1: "msg": <string> on /cmd_string
         value, missing, verbatim = from_json_verbatim(topic.mtype, body, s.types)
         encoded = None
-        if s.frame is not None:  # the op's text: its length is the message's size, near enough
-            encoded = {"size": len(s.frame)}
-            if verbatim and body is msg.get("msg"):
+        if s.frame is not None:
+            encoded = {"size": len(s.frame)}  # the op's length is the message's size, near enough
+            if verbatim and len(s.frame) >= VERBATIM_MIN and body is msg.get("msg"):
                 text = verbatim_publish(s.frame, msg)  # the client's text is the outgoing op
                 if text is not None:
                     encoded["json", msg["topic"]] = text

@@ -105,7 +105,7 @@ class Session:
             return None
         if binary:
             return self.handle(obj)
-        self.frame = data
+        self.frame = data  # a publish may send this text on as it is
         try:
             return self.handle(obj)
         finally:

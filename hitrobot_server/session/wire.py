@@ -31,7 +31,10 @@ def _msg_json(message: Message) -> bytes:
 
 def publish_json(message: Message, topic: str) -> bytes:
     """``{"op":"publish","topic":T,"msg":…}`` with the message body serialised once."""
-    return message.cached(("json", topic), lambda: bulk.publish_json(topic, _msg_json(message)))
+    data = message.cache.get(("json", topic))
+    if data is None:
+        data = message.cache["json", topic] = bulk.publish_json(topic, _msg_json(message))
+    return data
 
 
 def publish_png(message: Message, topic: str) -> bytes:
@@ -61,8 +64,12 @@ def publish_cbor_raw(message: Message, topic: str) -> bytes:
 
 
 def message_size(message: Message) -> int:
-    """Estimated JSON size of the message body, computed once per message."""
-    return message.cached("size", lambda: offload.approx_size(message.msg))
+    """Estimated JSON size of the message body, computed once per message (or given by the
+    publisher: the length of the op it came in)."""
+    size = message.cache.get("size")
+    if size is None:
+        size = message.cache["size"] = offload.approx_size(message.msg)
+    return size
 
 
 def publish_frames(
