@@ -265,13 +265,24 @@ async def test_other_clients_get_answers_while_a_big_map_is_processed(server):
 
 async def test_a_canonical_publish_is_relayed_as_the_clients_own_text(bus):
     pub, sub = session(bus), session(bus)
-    await feed(pub, {"op": "advertise", "topic": "/p", "type": "geometry_msgs/Point"})
-    await feed(sub, {"op": "subscribe", "topic": "/p"})
-    roslibjs = '{"op":"publish","id":"publish:/p:1","topic":"/p","msg":{"z":3.0,"x":1.0,"y":2.0},"latch":false}'  # noqa: E501
+    await feed(pub, {"op": "advertise", "topic": "/a", "type": "std_msgs/Float64MultiArray"})
+    await feed(sub, {"op": "subscribe", "topic": "/a"})
+    values = ",".join(f"{i}.5" for i in range(400))  # > bulk.VERBATIM_MIN: worth reusing
+    body = '{"data":[' + values + '],"layout":{"dim":[],"data_offset":0}}'  # not field order
+    roslibjs = f'{{"op":"publish","id":"publish:/a:1","topic":"/a","msg":{body},"latch":false}}'
+    assert len(roslibjs) >= bulk.VERBATIM_MIN
     await feed(pub, roslibjs)
     frames = await sub.outbox.get()
-    assert frames == [(b'{"op":"publish","topic":"/p","msg":{"z":3.0,"x":1.0,"y":2.0}}', False)]
+    assert frames == [(f'{{"op":"publish","topic":"/a","msg":{body}}}'.encode(), False)]
     sub.outbox.sent()
-    await feed(pub, '{"op":"publish","topic":"/p","msg":{"x":1,"y":2.0,"z":3.0}}')  # int x
+    altered = body.replace("0.5,", "0,", 1)  # an int in a float array: re-encoded as 0.0
+    await feed(pub, f'{{"op":"publish","topic":"/a","msg":{altered}}}')
     frames = await sub.outbox.get()
-    assert frames == [(b'{"op":"publish","topic":"/p","msg":{"x":1.0,"y":2.0,"z":3.0}}', False)]
+    sub.outbox.sent()
+    out = frames[0][0]
+    assert out.startswith(b'{"op":"publish","topic":"/a","msg":{"layout":')
+    assert orjson.loads(out)["msg"]["data"][:2] == [0.0, 1.5] and b"[0.0,1.5," in out
+    await feed(pub, '{"op":"publish","topic":"/a","msg":{"data":[1.5],"layout":{"dim":[],'
+                    '"data_offset":0}}}')  # short: re-encoded, in field order
+    frames = await sub.outbox.get()
+    assert frames[0][0].startswith(b'{"op":"publish","topic":"/a","msg":{"layout":')
