@@ -81,9 +81,9 @@ class PublishOps:
             body = {topic.mtype.fields[0].name: body}  # seed 4.1: "msg": <string> on /cmd_string
         value, missing, verbatim = from_json_verbatim(topic.mtype, body, s.types)
         encoded = None
-        if s.frame is not None:
+        if s.frame is not None and len(s.frame) >= VERBATIM_MIN:
             encoded = {"size": len(s.frame)}  # the op's length is the message's size, near enough
-            if verbatim and len(s.frame) >= VERBATIM_MIN and body is msg.get("msg"):
+            if verbatim and body is msg.get("msg"):
                 text = verbatim_publish(s.frame, msg)  # the client's text is the outgoing op
                 if text is not None:
                     encoded["json", msg["topic"]] = text

@@ -13,6 +13,7 @@ from ..protocol import bulk, cbor, png, rawmsg
 from ..protocol.fragment import FragmentIds
 from ..protocol.ops import COMPRESSIONS
 from ..types import jsoncodec
+from ..types.registry import MsgType, TypeRegistry
 from . import offload
 from .outbox import Frame, Frames
 
@@ -63,6 +64,19 @@ def publish_cbor_raw(message: Message, topic: str) -> bytes:
     )
 
 
+def has_lists(mtype: MsgType, reg: TypeRegistry) -> bool:
+    """Whether a message of this type can hold a variable-length array (at any depth); one
+    that cannot (Twist, Odometry, String, ...) is never big enough to leave the event loop."""
+    memo = reg.plan_cache("has_lists")
+    found = memo.get(mtype.name)
+    if found is None:
+        memo[mtype.name] = False  # a recursive type cannot loop forever here
+        found = memo[mtype.name] = any(
+            f.array == 0 or (f.is_msg and has_lists(reg.msg(f.type), reg)) for f in mtype.fields
+        )
+    return found
+
+
 def message_size(message: Message) -> int:
     """Estimated JSON size of the message body, computed once per message (or given by the
     publisher: the length of the op it came in)."""
@@ -97,7 +111,11 @@ def _frames(message: Message, topic: str, compression: str, fragment_size: int |
         return [(publish_cbor(message, topic), True)]
     if compression == "cbor-raw":
         return [(publish_cbor_raw(message, topic), True)]
-    if ("json", topic) not in message.cache and message_size(message) >= offload.OFFLOAD_BYTES:
+    if (
+        ("json", topic) not in message.cache
+        and has_lists(message.topic.mtype, message.topic.types)
+        and message_size(message) >= offload.OFFLOAD_BYTES
+    ):
         return _offloaded(message, topic, compression, fragment_size)
     data = publish_png(message, topic) if compression == "png" else publish_json(message, topic)
     if fragment_size and len(data) > fragment_size:

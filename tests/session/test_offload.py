@@ -286,3 +286,12 @@ async def test_a_canonical_publish_is_relayed_as_the_clients_own_text(bus):
                     '"data_offset":0}}}')  # short: re-encoded, in field order
     frames = await sub.outbox.get()
     assert frames[0][0].startswith(b'{"op":"publish","topic":"/a","msg":{"layout":')
+
+
+def test_only_types_with_variable_arrays_can_be_big():
+    reg = TypeRegistry.default()
+    assert wire.has_lists(reg.msg("nav_msgs/OccupancyGrid"), reg)
+    assert wire.has_lists(reg.msg("nav_msgs/Path"), reg)  # poses[]
+    assert wire.has_lists(reg.msg("visualization_msgs/MarkerArray"), reg)  # nested
+    assert not wire.has_lists(reg.msg("nav_msgs/Odometry"), reg)  # fixed covariance[36]
+    assert not wire.has_lists(reg.msg("std_msgs/String"), reg)
