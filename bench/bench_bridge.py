@@ -16,7 +16,11 @@ Sections:
   2. fan-out    sensor_msgs/LaserScan (720 ranges) published at max rate to 1/10/50 clients.
   3. map        2000x2000 nav_msgs/OccupancyGrid on a latched topic, compression none / png.
   4. ceiling    section 2 against a bare ``websockets`` server that only broadcasts the frames
-                it is sent, and the ratio of our delivered rate to it.
+                it is sent, and the ratio of our delivered rate (and server CPU) to it.
+  5. probe      a client (its own process) calls /rosapi/get_time every 5 ms while 2000x2000
+                and 4000x4000 maps are published to a png and an uncompressed subscriber.
+  6. memory     server RSS with 1000 idle WebSocket clients, and while a subscriber stops
+                reading for 30 s (10 s with --quick).
 
 Subscribers in sections 1, 2 and 4 are minimal WebSocket clients written on asyncio.Protocol:
 they parse frame headers only, count frames and bytes, and keep a sample of payloads, which is
@@ -34,6 +38,7 @@ import os
 import platform
 import random
 import re
+import resource
 import signal
 import subprocess
 import sys
@@ -287,14 +292,23 @@ class ServerProc:
         except (OSError, IndexError, ValueError):
             return float("nan")
 
-    def rss_mb(self) -> float:
+    def _status_mb(self, field: str) -> float:
+        """A memory figure of /proc/<pid>/status (``VmHWM``, ``VmRSS``), MB."""
         try:
             for line in Path(f"/proc/{self.proc.pid}/status").read_text().splitlines():
-                if line.startswith("VmHWM:"):
+                if line.startswith(field + ":"):
                     return int(line.split()[1]) / 1024
         except OSError:
             pass
         return float("nan")
+
+    def rss_mb(self) -> float:
+        """Peak resident set size (VmHWM), MB."""
+        return self._status_mb("VmHWM")
+
+    def rss_now_mb(self) -> float:
+        """Resident set size right now (VmRSS), MB."""
+        return self._status_mb("VmRSS")
 
     def stop(self) -> None:
         if self.proc.poll() is None:
@@ -516,6 +530,7 @@ async def relay_section(port: int, server: ServerProc, cfg) -> dict:
             "p50": pct(lat, 50) * 1e3,
             "p99": pct(lat, 99) * 1e3,
             "cpu": cpu.pcts(elapsed),
+            "srv_us": 1e6 * cpu.server_s / state["recv"] if state["recv"] else float("nan"),
         }
 
     # --- ping-pong latency: one message in flight
@@ -561,6 +576,7 @@ async def relay_section(port: int, server: ServerProc, cfg) -> dict:
                 f"{r['p99']:.2f}",
                 "",
                 *r["cpu"],
+                f"{r['srv_us']:.1f}",
             ]
         )
     rows.append(
@@ -572,11 +588,23 @@ async def relay_section(port: int, server: ServerProc, cfg) -> dict:
             f"{ping['p99']:.3f}",
             f"{ping['max']:.2f}",
             *ping["cpu"],
+            "",
         ]
     )
     print(
         table(
-            ["run", "recv/sent", "msg/s", "p50 ms", "p99 ms", "max ms", "srv CPU", "cli CPU"], rows
+            [
+                "run",
+                "recv/sent",
+                "msg/s",
+                "p50 ms",
+                "p99 ms",
+                "max ms",
+                "srv CPU",
+                "cli CPU",
+                "srv us/msg",
+            ],
+            rows,
         )
     )
     print(
@@ -729,6 +757,7 @@ async def fanout_run(
         "checked": checked,
         "bad": bad,
         "cpu": cpu.pcts(elapsed),
+        "srv_us": 1e6 * cpu.server_s / total if total else float("nan"),
     }
 
 
@@ -750,6 +779,7 @@ def fanout_table(title: str, runs: list[dict]) -> None:
                 fnum(r["mbps"], 1),
                 f"{r['checked'] - r['bad']}/{r['checked']}",
                 *r["cpu"],
+                f"{r['srv_us']:.1f}",
             ]
         )
     print(
@@ -768,6 +798,7 @@ def fanout_table(title: str, runs: list[dict]) -> None:
                 "samples ok",
                 "srv CPU",
                 "cli CPU",
+                "srv us/msg",
             ],
             rows,
         )
@@ -1085,6 +1116,300 @@ async def map_section(cfg) -> list[dict]:
     return results
 
 
+# ======================================================================= 5. probe while maps
+def probe_client_main(port: int, limit: float) -> None:
+    """A separate process (so the bench's own decoding never delays it): calls
+    /rosapi/get_time every 5 ms until stdin closes (or ``limit`` s), then prints one JSON line
+    of [monotonic send time, RTT s] pairs."""
+
+    async def main() -> None:
+        loop = asyncio.get_running_loop()
+        pending: dict[bytes, asyncio.Future] = {}
+
+        def on_msg(payload: bytes, now: float) -> None:
+            i = payload.find(b'"id":"p')
+            if i >= 0:
+                fut = pending.pop(payload[i + 6 : payload.find(b'"', i + 6)], None)
+                if fut is not None and not fut.done():
+                    fut.set_result(time.monotonic())
+
+        client = await RawWs.open(port, on_message=on_msg)
+        stop = asyncio.Event()
+        loop.add_reader(sys.stdin.fileno(), lambda: stop.set() if not sys.stdin.read(1) else None)
+        rtts: list[tuple[float, float]] = []
+        end = time.monotonic() + limit
+        seq = 0
+        print("ready", flush=True)
+        while not stop.is_set() and time.monotonic() < end:
+            seq += 1
+            key = b"p%d" % seq
+            fut = pending[key] = loop.create_future()
+            start = time.monotonic()
+            client.send(b'{"op":"call_service","id":"%s","service":"/rosapi/get_time"}' % key)
+            try:
+                rtts.append((start, await asyncio.wait_for(fut, 10) - start))
+            except TimeoutError:
+                pending.pop(key, None)
+            await asyncio.sleep(max(0.0, 0.005 - (time.monotonic() - start)))
+        await client.close()
+        print(orjson.dumps(rtts).decode(), flush=True)
+
+    asyncio.run(main())
+
+
+async def probe_maps_section(cfg) -> list[dict]:
+    """Issue 11's scenario: a client calls /rosapi/get_time every 5 ms while another publishes
+    big maps to one png and one uncompressed subscriber; probe RTT before and during."""
+    server = start_ours(cfg.profile, "probe_maps")
+    results = []
+    try:
+        port = server.port
+        pub = await RawWs.open(port)
+        subs = {c: await RawWs.open(port) for c in ("none", "png")}
+        for size in cfg.probe_map_sizes:
+            grid = make_grid(size, size)
+            data = grid["data"]
+            topic = f"/bench/probe_map_{size}"
+            pub.send(
+                {"op": "advertise", "topic": topic, "type": "nav_msgs/OccupancyGrid", "latch": True}
+            )
+            for comp, sub in subs.items():
+                sub.send(
+                    {
+                        "op": "subscribe",
+                        "topic": topic,
+                        "type": "nav_msgs/OccupancyGrid",
+                        "compression": comp,
+                    }
+                )
+            for c in (pub, *subs.values()):
+                await barrier(c, "probe-maps")
+            frame = ws_frame(orjson.dumps({"op": "publish", "topic": topic, "msg": grid}))
+            del grid
+
+            async def publish_once(frame=frame, data=data) -> dict:
+                got = {c: asyncio.get_running_loop().create_future() for c in subs}
+                for comp, sub in subs.items():
+
+                    def on_msg(payload, now, comp=comp):
+                        if payload.startswith(b'{"op":"status"') or b"service_resp" in payload[:40]:
+                            return
+                        if not got[comp].done():
+                            got[comp].set_result((payload, now))
+
+                    sub.on_message = on_msg
+                t0 = perf()
+                pub.write_frame(frame)
+                out = {}
+                for comp, fut in got.items():
+                    payload, t_frame = await asyncio.wait_for(fut, cfg.map_timeout)
+                    out[comp] = {"frame": (t_frame - t0) * 1e3, "payload": payload}
+                for sub in subs.values():
+                    sub.on_message = None
+                return out
+
+            def decode_runs(runs: list[dict], data=data) -> None:
+                """After the probe window, so that this process's decoding (a core's worth on a
+                2-core machine) does not starve the server and the probe during it."""
+                for run in runs:
+                    for comp, r in run.items():
+                        t = perf()
+                        msg = decode_map(r.pop("payload"), comp)
+                        r["decoded"] = r["frame"] + (perf() - t) * 1e3
+                        r["ok"] = msg["msg"]["data"] == data
+
+            if size == cfg.probe_map_sizes[0]:
+                await publish_once()  # untimed warm-up: starts the server's worker pool
+            probe = subprocess.Popen(
+                [sys.executable, str(Path(__file__).resolve()), "--probe-client", str(port)],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                text=True,
+                cwd=ROOT,
+            )
+            try:
+                line = await asyncio.to_thread(probe.stdout.readline)
+                if line.strip() != "ready":
+                    raise RuntimeError(f"probe client did not start: {line!r}")
+                await asyncio.sleep(0.5)  # RTTs before the maps
+                t0 = time.monotonic()
+                runs = [await publish_once() for _ in range(cfg.probe_map_reps)]
+                t1 = time.monotonic()
+                await asyncio.sleep(0.2)
+            finally:
+                out, _ = await asyncio.to_thread(probe.communicate, "", 30)
+            decode_runs(runs)
+            rtts = orjson.loads(out.strip().splitlines()[-1])
+            before = [r for t, r in rtts if t < t0]
+            during = [r for t, r in rtts if t0 <= t <= t1]
+            results.append(
+                {
+                    "size": size,
+                    "frame_mb": len(frame) / 1e6,
+                    "maps": len(runs),
+                    "base_p50": pct(before, 50) * 1e3,
+                    "p50": pct(during, 50) * 1e3,
+                    "max": max(during, default=float("nan")) * 1e3,
+                    "n": len(during),
+                    "none": min(r["none"]["decoded"] for r in runs),
+                    "png": min(r["png"]["decoded"] for r in runs),
+                    "png_max": max(r["png"]["decoded"] for r in runs),
+                    "ok": all(r[c]["ok"] for r in runs for c in subs),
+                }
+            )
+        await close_all([pub, *subs.values()])
+        rss = server.rss_mb()
+    finally:
+        server.stop()
+    print(
+        "\n[5] probe while maps: a client calls /rosapi/get_time every 5 ms (its own process) "
+        "while another publishes\n    OccupancyGrid maps on a latched topic to one png and one "
+        "uncompressed subscriber, one map after the other"
+    )
+    print(
+        table(
+            [
+                "map",
+                "publish MB",
+                "maps",
+                "probe p50 before ms",
+                "probe p50 during ms",
+                "probe max during ms",
+                "probes",
+                "none: publish->decoded ms",
+                "png: publish->decoded ms",
+                "data ok",
+            ],
+            [
+                [
+                    f"{r['size']}x{r['size']}",
+                    f"{r['frame_mb']:.1f}",
+                    r["maps"],
+                    f"{r['base_p50']:.2f}",
+                    f"{r['p50']:.2f}",
+                    fnum(r["max"], 1),
+                    r["n"],
+                    fnum(r["none"]),
+                    f"{fnum(r['png'])} (max {fnum(r['png_max'])})",
+                    "yes" if r["ok"] else "NO",
+                ]
+                for r in results
+            ],
+        )
+    )
+    print(
+        "  publish->decoded: best of the maps = frame received + client decode (timed after the "
+        "probe window, so the\n  bench's decoding does not compete with the server for the 2 "
+        f"cores during it). Server peak RSS "
+        f"{rss:.0f} MB (main process; the worker pool's CPU and memory are not counted)."
+    )
+    return results
+
+
+# ======================================================================= 6. memory
+async def idle_rss(cfg) -> dict:
+    server = start_ours(None, "idle")
+    clients: list[RawWs] = []
+    try:
+        probe = await RawWs.open(server.port)
+        await barrier(probe, "idle-empty")
+        await asyncio.sleep(0.5)
+        empty = server.rss_now_mb()
+        for start in range(0, cfg.idle_clients, 100):
+            batch = min(100, cfg.idle_clients - start)
+            clients += await asyncio.gather(*(RawWs.open(server.port) for _ in range(batch)))
+        await barrier(probe, "idle-full", timeout=30)
+        await asyncio.sleep(0.5)
+        full = server.rss_now_mb()
+    finally:
+        await close_all(clients)
+        server.stop()
+    return {"clients": len(clients), "empty": empty, "full": full}
+
+
+async def stalled_rss(cfg) -> dict:
+    """One subscriber stops reading while LaserScans flow to it and to a normal subscriber."""
+    server = start_ours(None, "stalled")
+    topic = "/bench/stalled"
+    src = ScanSource(topic)
+    try:
+        pub = await RawWs.open(server.port)
+        good = await RawWs.open(server.port)
+        stuck = await RawWs.open(server.port)
+        pub.send({"op": "advertise", "topic": topic, "type": "sensor_msgs/LaserScan"})
+        for c in (good, stuck):
+            c.send({"op": "subscribe", "topic": topic, "type": "sensor_msgs/LaserScan"})
+        for c in (pub, good, stuck):
+            await barrier(c, "stalled")
+        stuck.transport.pause_reading()  # the kernel buffers fill, then the server's outbox
+        rss = [server.rss_now_mb()]
+        sent = 0
+        t0 = perf()
+        next_sample = t0 + 1
+        while perf() - t0 < cfg.stall_seconds:
+            for _ in range(cfg.stall_rate // 100):
+                pub.write_frame(ws_frame(src.frame(sent)))
+                sent += 1
+            await pub.drain()
+            await asyncio.sleep(0.01)
+            if perf() >= next_sample:
+                rss.append(server.rss_now_mb())
+                next_sample += 1
+        await barrier(good, "stalled-end", timeout=30)
+        elapsed = perf() - t0
+        rss.append(server.rss_now_mb())
+        result = {
+            "seconds": elapsed,
+            "sent": sent,
+            "good": good.count,
+            "rss": rss,
+            "mb": sent * len(src.frame(0)) / 1e6,
+        }
+        stuck.transport.abort()
+        await close_all([pub, good])
+    finally:
+        server.stop()
+    return result
+
+
+async def memory_section(cfg) -> dict:
+    idle = await idle_rss(cfg)
+    stall = await stalled_rss(cfg)
+    per_client = 1024 * (idle["full"] - idle["empty"]) / max(idle["clients"], 1)
+    print(
+        "\n[6] memory: server RSS (VmRSS) with idle clients, and with a subscriber that stops "
+        "reading"
+    )
+    print(
+        table(
+            ["run", "RSS before MB", "RSS after MB", "delta MB", "detail"],
+            [
+                [
+                    f"{idle['clients']} idle WebSocket clients",
+                    f"{idle['empty']:.1f}",
+                    f"{idle['full']:.1f}",
+                    f"{idle['full'] - idle['empty']:.1f}",
+                    f"{per_client:.1f} kB/client",
+                ],
+                [
+                    f"stalled reader, {stall['seconds']:.0f} s",
+                    f"{stall['rss'][0]:.1f}",
+                    f"{stall['rss'][-1]:.1f}",
+                    f"{stall['rss'][-1] - stall['rss'][0]:.1f}",
+                    f"max {max(stall['rss']):.1f} MB; {stall['sent']:,} scans "
+                    f"({stall['mb']:.0f} MB) sent, the reading subscriber got {stall['good']:,}",
+                ],
+            ],
+        )
+    )
+    samples = " ".join(f"{x:.0f}" for x in stall["rss"])
+    print(
+        f"  stalled: LaserScans at ~{cfg.stall_rate}/s to a reading and a non-reading "
+        f"subscriber; RSS sampled every second: {samples}"
+    )
+    return {"idle": idle, "stall": stall}
+
+
 # ======================================================================= main
 def machine_info() -> None:
     import PIL
@@ -1139,6 +1464,11 @@ def config(quick: bool):
     c.map_size = 2000
     c.map_reps = 1 if quick else 3
     c.map_timeout = 60.0
+    c.probe_map_sizes = (2000, 4000)
+    c.probe_map_reps = 2 if quick else 4
+    c.idle_clients = 1000
+    c.stall_seconds = 10.0 if quick else 30.0
+    c.stall_rate = 500  # LaserScans per second
     return c
 
 
@@ -1217,26 +1547,63 @@ async def run(cfg, sections: set[str]) -> None:
             rows = []
             for o, c in zip(ours, ceiling, strict=True):
                 ratio = o["rate"] / c["rate"] if c["rate"] else float("nan")
+                cpu_ratio = c["srv_us"] / o["srv_us"] if o["srv_us"] else float("nan")
                 rows.append(
                     [
                         o["clients"],
                         fnum(o["rate"]),
                         fnum(c["rate"]),
                         f"{ratio:.2f}",
+                        f"{o['srv_us']:.1f}",
+                        f"{c['srv_us']:.1f}",
+                        f"{cpu_ratio:.2f}",
                         f"{o['frame']:.0f}",
                         f"{c['frame']:.0f}",
                     ]
                 )
                 summary.append(
                     f"ours/ceiling {o['clients']:>2} clients: {ratio:.2f} "
-                    f"({fnum(o['rate'])} vs {fnum(c['rate'])} msg/s)"
+                    f"({fnum(o['rate'])} vs {fnum(c['rate'])} msg/s); server CPU per message "
+                    f"{o['srv_us']:.1f} vs {c['srv_us']:.1f} us, ratio {cpu_ratio:.2f}"
                 )
             print("\n  ours vs ceiling (delivered msg/s, all clients)")
             print(
                 table(
-                    ["clients", "ours", "ceiling", "ratio", "our frame B", "ceiling frame B"], rows
+                    [
+                        "clients",
+                        "ours",
+                        "ceiling",
+                        "ratio",
+                        "ours srv us/msg",
+                        "ceiling srv us/msg",
+                        "CPU ratio",
+                        "our frame B",
+                        "ceiling frame B",
+                    ],
+                    rows,
                 )
             )
+            print(
+                "  CPU ratio = ceiling's server CPU per delivered message / ours: the same "
+                "comparison, less\n  sensitive to other load on the machine than the rate."
+            )
+
+    if "5" in sections:
+        for r in await probe_maps_section(cfg):
+            summary.append(
+                f"probe RTT during {r['size']}x{r['size']} maps: p50 {r['p50']:.2f} ms, max "
+                f"{fnum(r['max'], 1)} ms (before: p50 {r['base_p50']:.2f}); png publish->decoded "
+                f"{fnum(r['png'])} ms, none {fnum(r['none'])} ms"
+            )
+
+    if "6" in sections:
+        mem = await memory_section(cfg)
+        idle, stall = mem["idle"], mem["stall"]
+        summary.append(
+            f"{idle['clients']} idle clients: +{idle['full'] - idle['empty']:.1f} MB RSS; stalled "
+            f"reader over {stall['seconds']:.0f} s: RSS {stall['rss'][0]:.0f} -> max "
+            f"{max(stall['rss']):.0f} MB"
+        )
 
     print("\n== summary " + "=" * 60)
     for line in summary:
@@ -1248,7 +1615,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="a ~20 s run with smaller counts")
     parser.add_argument(
-        "--sections", default="1234", help="which sections to run, e.g. 24 (default: 1234)"
+        "--sections", default="123456", help="which sections to run, e.g. 24 (default: all)"
     )
     parser.add_argument(
         "--profile-server",
@@ -1256,10 +1623,17 @@ def main() -> int:
         help="run each hitrobot-server under cProfile, writing DIR/<run>.prof",
     )
     parser.add_argument("--ceiling-server", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--probe-client", type=int, metavar="PORT", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.ceiling_server:
         ceiling_server_main()
         return 0
+    if args.probe_client:
+        probe_client_main(args.probe_client, limit=300.0)
+        return 0
+    with contextlib.suppress(ValueError, OSError):  # 1000 idle clients need the file handles
+        soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (max(soft, min(hard, 8192)), hard))
     cfg = config(args.quick)
     cfg.profile = args.profile_server
     asyncio.run(run(cfg, set(args.sections)))

@@ -1,3 +1,6 @@
-from .cli import main
+"""``python -m hitrobot_server``."""
 
-raise SystemExit(main())
+if __name__ == "__main__":  # not when a worker process (spawn) imports this as __mp_main__
+    from .cli import main
+
+    raise SystemExit(main())

@@ -5,8 +5,9 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from ..bus.names import canonical, valid_name
+from ..protocol.bulk import VERBATIM_MIN, verbatim_publish
 from ..protocol.errors import ProtocolError
-from ..types.convert import from_json
+from ..types.convert import from_json_verbatim
 
 if TYPE_CHECKING:
     from .session import Session
@@ -78,7 +79,14 @@ class PublishOps:
         body = msg.get("msg", {})
         if topic.mtype.fields and len(topic.mtype.fields) == 1 and not isinstance(body, dict):
             body = {topic.mtype.fields[0].name: body}  # seed 4.1: "msg": <string> on /cmd_string
-        value, missing = from_json(topic.mtype, body, s.types)
+        value, missing, verbatim = from_json_verbatim(topic.mtype, body, s.types)
+        encoded = None
+        if s.frame is not None and len(s.frame) >= VERBATIM_MIN:
+            encoded = {"size": len(s.frame)}  # the op's length is the message's size, near enough
+            if verbatim and body is msg.get("msg"):
+                text = verbatim_publish(s.frame, msg)  # the client's text is the outgoing op
+                if text is not None:
+                    encoded["json", msg["topic"]] = text
         if missing:
             s.status(
                 "warning",
@@ -89,7 +97,7 @@ class PublishOps:
         def reply(level: str, text: str) -> None:
             s.status(level, f"publish to '{name}': {text}", op_id)
 
-        s.bus.publish(name, value, reply=reply, origin=s.origin)
+        s.bus.publish(name, value, reply=reply, origin=s.origin, encoded=encoded)
 
     def close(self) -> None:
         for name in list(self.ads):

@@ -1,16 +1,19 @@
 """One connected client: parses its ops, keeps its state, and talks to the bus.
 
 The session owns no socket. A transport feeds it frames (``receive``) or decoded objects
-(``handle``) and drains ``outbox``; that is all a transport does.
+(``handle``) and drains ``outbox``; that is all a transport does. Both return ``None`` once the
+op is done, or a task when a big op went to the worker pool (session/offload.py): the transport
+awaits it before feeding the next frame, so one client's ops still run in the order sent.
 """
 
 from __future__ import annotations
 
 import asyncio
+import functools
 import itertools
 import logging
 import time
-from collections.abc import Callable, Coroutine
+from collections.abc import Awaitable, Callable, Coroutine
 from dataclasses import dataclass
 from typing import Any
 
@@ -18,20 +21,22 @@ from ..bus.core import Bus
 from ..bus.errors import BusError
 from ..bus.topics import Origin
 from ..config import Settings
-from ..protocol import auth, cbor, ops, png
+from ..protocol import auth, bulk, cbor, ops, png
 from ..protocol.errors import ProtocolError, message_id, status_op
 from ..protocol.fragment import Defragmenter, FragmentBudget
 from ..protocol.status import set_level, should_send
 from ..types import jsoncodec
 from ..types.convert import ConversionError
+from . import offload
 from .actions import ActionOps
-from .outbox import Frame, Outbox
+from .outbox import Frames, Outbox
 from .publish import PublishOps
 from .services import ServiceOps
 from .subscribe import SubscribeOps
 from .wire import json_frames
 
 log = logging.getLogger(__name__)
+Pending = Awaitable[None] | None  # what receive/handle return: None, or a task to await
 _client_ids = itertools.count(1)
 
 STREAM_ERRORS_PER_SECOND = 10
@@ -75,6 +80,7 @@ class Session:
         self.authenticated = not settings.authenticate
         self.auth_level: str | None = None
         self.closed = False
+        self.frame: str | bytes | None = None  # the text of the op being handled, if known
         self._defrag = Defragmenter(
             fragment_timeout=settings.fragment_timeout,
             max_bytes=settings.max_frame_size,
@@ -90,7 +96,7 @@ class Session:
         self.subscriptions = SubscribeOps(self)
         self.service_ops = ServiceOps(self)
         self.action_ops = ActionOps(self)
-        self._handlers: dict[str, Callable[[dict], None]] = {
+        self._handlers: dict[str, Callable[[dict], Pending]] = {
             "fragment": self._op_fragment,
             "png": self._op_png,
             "set_level": self._op_set_level,
@@ -116,18 +122,29 @@ class Session:
         log.info("client %s connected from %s over %s", self.node, peer or "?", transport)
 
     # ------------------------------------------------------------------ input
-    def receive(self, data: str | bytes, binary: bool = False) -> None:
+    def receive(self, data: str | bytes, binary: bool = False) -> Pending:
         """One WebSocket frame (text JSON, or binary CBOR) or a re-assembled text."""
+        if len(data) >= offload.OFFLOAD_BYTES:
+            if not self.authenticated:  # nothing big is parsed for a client not logged in
+                self._reject_unauthenticated("message", None)
+                return None
+            return self._offload(bulk.decode_cbor if binary else bulk.decode_json, data)
         try:
             obj = cbor.decode(data) if binary else jsoncodec.loads(data)
         except Exception as exc:  # JSONDecodeError, CBORDecodeError, jsoncodec.InvalidValue
             kind = "CBOR" if binary else "JSON"
             if not self.authenticated:
                 self._reject_unauthenticated(f"invalid {kind}", None)
-                return
+                return None
             self.status("error", f"invalid {kind}: {exc}", getattr(exc, "id", None))
-            return
-        self.handle(obj)
+            return None
+        if binary:
+            return self.handle(obj)
+        self.frame = data  # a publish may send this text on as it is
+        try:
+            return self.handle(obj)
+        finally:
+            self.frame = None
 
     def stream_error(self, error: ProtocolError) -> None:
         """Report unparseable input of a byte stream (TCP). Before auth it closes, like any
@@ -149,17 +166,40 @@ class Session:
                 return
         self.status(error.level, error.msg, error.id)
 
-    def handle(self, obj: object) -> None:
+    def _offload(self, decode: Callable[[Any], object], data: object, op_id: Any = None) -> Pending:
+        """Decode a big frame (or png payload) in the worker pool, then handle it here."""
+
+        async def run() -> None:
+            try:
+                obj = await offload.run(decode, data)
+            except bulk.PngError as exc:
+                self.status("error", f"png: field 'data' is not a valid PNG payload: {exc}", op_id)
+                return
+            except bulk.DecodeError as exc:
+                kind = "CBOR" if decode is bulk.decode_cbor else "JSON"
+                self.status("error", f"invalid {kind}: {exc}", exc.id)
+                return
+            except Exception as exc:  # the pool broke (a worker was killed): say so, go on
+                log.exception("client %s: decoding a big op failed", self.node)
+                self.status("error", f"internal error: {exc}", op_id)
+                return
+            more = self.handle(obj)
+            if more is not None:
+                await more
+
+        return self.spawn(run())
+
+    def handle(self, obj: object) -> Pending:
         """Run one decoded op; every failure becomes a status message, never an exception."""
         op_id = message_id(obj)
         if not self.authenticated and not (isinstance(obj, dict) and obj.get("op") == "auth"):
             op = obj.get("op") if isinstance(obj, dict) else None
             self._reject_unauthenticated(op if isinstance(op, str) else "message", op_id)
-            return
+            return None
         try:
             msg = ops.parse_message(obj)
             ops.validate_op(msg)
-            self._handlers[msg["op"]](msg)
+            return self._handlers[msg["op"]](msg)
         except ProtocolError as exc:
             self.service_ops.invalid_response(obj, exc.msg)
             self.status(exc.level, exc.msg, exc.id if exc.id is not None else op_id)
@@ -169,14 +209,14 @@ class Session:
         except Exception as exc:
             log.exception("client %s: op failed", self.node)
             self.status("error", f"internal error: {exc}", op_id)
+        return None
 
-    def _op_fragment(self, msg: dict) -> None:
+    def _op_fragment(self, msg: dict) -> Pending:
         try:
             text = self._defrag.add(msg, time.monotonic())
         finally:
             self._arm_fragment_timer()
-        if text is not None:
-            self.receive(text)
+        return None if text is None else self.receive(text)
 
     def _arm_fragment_timer(self) -> None:
         """Evict timed-out fragments on time, not when the next fragment happens to come."""
@@ -199,14 +239,17 @@ class Session:
             )
         self._arm_fragment_timer()
 
-    def _op_png(self, msg: dict) -> None:
+    def _op_png(self, msg: dict) -> Pending:
+        if len(msg["data"]) >= offload.OFFLOAD_BYTES:
+            decode = functools.partial(bulk.decode_png, max_bytes=self.settings.max_frame_size)
+            return self._offload(decode, msg["data"], msg.get("id"))
         try:
             text = png.decode(msg["data"], self.settings.max_frame_size)
         except Exception as exc:
             raise ProtocolError(
                 f"png: field 'data' is not a valid PNG payload: {exc}", msg.get("id")
             ) from None
-        self.receive(text)
+        return self.receive(text)
 
     def _op_set_level(self, msg: dict) -> None:
         self.status_level = set_level(msg)
@@ -244,8 +287,8 @@ class Session:
         size = fragment_size or self.settings.max_message_size
         self.outbox.put(json_frames(obj, size, compression))
 
-    def send_frames(self, frames: list[Frame], droppable: bool) -> None:
-        self.outbox.put(frames, droppable)
+    def send_frames(self, frames: Frames, droppable: bool, size: int | None = None) -> None:
+        self.outbox.put(frames, droppable, size)
 
     def status(self, level: str, msg: str, op_id: Any = None) -> None:
         if level == "error":

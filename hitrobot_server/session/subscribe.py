@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 from ..bus.topics import Message, Topic
 from ..protocol.errors import ProtocolError
 from .publish import check_topic_name
-from .wire import is_binary, publish_frames, publish_json, strongest
+from .wire import is_binary, message_size, publish_frames, strongest
 
 if TYPE_CHECKING:
     from .session import Session
@@ -87,7 +87,7 @@ class ClientSubscription:
     def _queue(self, message: Message) -> None:
         """Queue a message; a full queue, or this client's queues over their byte limit, drop
         their oldest first (and, with nothing left to drop, the newest)."""
-        size = len(publish_json(message, self.topic_str))
+        size = message_size(message)  # an estimate: encoding here would put big maps on the loop
         ops = self.ops
         limit = self.session.settings.send_buffer_limit
         while self._pending and (
@@ -121,7 +121,8 @@ class ClientSubscription:
 
     def _send(self, message: Message) -> None:
         frames = publish_frames(message, self.topic_str, self.compression, self.fragment_size)
-        self.session.send_frames(frames, droppable=True)
+        size = None if type(frames) is list else message_size(message)  # a future: estimate
+        self.session.send_frames(frames, droppable=True, size=size)
 
     def cancel(self) -> None:
         if self._timer is not None:

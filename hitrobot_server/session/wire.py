@@ -1,13 +1,21 @@
-"""Outgoing wire encodings of bus messages, cached on the message for every subscriber."""
+"""Outgoing wire encodings of bus messages, cached on the message for every subscriber.
+
+A big message (``offload.OFFLOAD_BYTES`` or more) is encoded for text subscribers in the worker
+pool: its entry in the cache is then a future of the frames, which the outbox awaits in order.
+"""
 
 from __future__ import annotations
 
+import asyncio
+
 from ..bus.topics import Message
-from ..protocol import cbor, png, rawmsg
-from ..protocol.fragment import FragmentIds, fragment_bytes
+from ..protocol import bulk, cbor, png, rawmsg
+from ..protocol.fragment import FragmentIds
 from ..protocol.ops import COMPRESSIONS
 from ..types import jsoncodec
-from .outbox import Frame
+from ..types.registry import MsgType, TypeRegistry
+from . import offload
+from .outbox import Frame, Frames
 
 _BINARY = {"cbor", "cbor-raw"}
 _fragment_ids = FragmentIds()
@@ -24,29 +32,17 @@ def _msg_json(message: Message) -> bytes:
 
 def publish_json(message: Message, topic: str) -> bytes:
     """``{"op":"publish","topic":T,"msg":…}`` with the message body serialised once."""
-
-    def make() -> bytes:
-        return b"".join(
-            (
-                b'{"op":"publish","topic":',
-                jsoncodec.dumps(topic),
-                b',"msg":',
-                _msg_json(message),
-                b"}",
-            )
-        )
-
-    return message.cached(("json", topic), make)
+    data = message.cache.get(("json", topic))
+    if data is None:
+        data = message.cache["json", topic] = bulk.publish_json(topic, _msg_json(message))
+    return data
 
 
 def publish_png(message: Message, topic: str) -> bytes:
-    def make() -> bytes:
-        text = publish_json(message, topic)
-        if not text.isascii():  # roslibjs 1.x decodes png pixels as Latin-1
-            text = jsoncodec.dumps_ascii({"op": "publish", "topic": topic, "msg": message.msg})
-        return png.png_op(text)
-
-    return message.cached(("png", topic), make)
+    return message.cached(
+        ("png", topic),
+        lambda: bulk.publish_png(topic, message.msg, publish_json(message, topic)),
+    )
 
 
 def publish_cbor(message: Message, topic: str) -> bytes:
@@ -68,25 +64,77 @@ def publish_cbor_raw(message: Message, topic: str) -> bytes:
     )
 
 
+def has_lists(mtype: MsgType, reg: TypeRegistry) -> bool:
+    """Whether a message of this type can hold a variable-length array (at any depth); one
+    that cannot (Twist, Odometry, String, ...) is never big enough to leave the event loop."""
+    memo = reg.plan_cache("has_lists")
+    found = memo.get(mtype.name)
+    if found is None:
+        memo[mtype.name] = False  # a recursive type cannot loop forever here
+        found = memo[mtype.name] = any(
+            f.array == 0 or (f.is_msg and has_lists(reg.msg(f.type), reg)) for f in mtype.fields
+        )
+    return found
+
+
+def message_size(message: Message) -> int:
+    """Estimated JSON size of the message body, computed once per message (or given by the
+    publisher: the length of the op it came in)."""
+    size = message.cache.get("size")
+    if size is None:
+        size = message.cache["size"] = offload.approx_size(message.msg)
+    return size
+
+
 def publish_frames(
     message: Message, topic: str, compression: str, fragment_size: int | None
-) -> list[Frame]:
-    """The frames one subscriber gets; fragments only text ops and only when asked to."""
+) -> Frames:
+    """The frames one subscriber gets; fragments only text ops and only when asked to.
+
+    Computed once per (compression, topic spelling, fragment size) and shared by every such
+    subscriber. For a big message and a text compression this is a future of the frames, or
+    its result once it is done.
+    """
+    key = (compression, topic, fragment_size)
+    frames = message.cache.get(key)
+    if frames is None:
+        frames = message.cache[key] = _frames(message, topic, compression, fragment_size)
+    if type(frames) is list:
+        return frames
+    if frames.done() and not frames.cancelled() and frames.exception() is None:
+        return frames.result()
+    return frames
+
+
+def _frames(message: Message, topic: str, compression: str, fragment_size: int | None) -> Frames:
     if compression == "cbor":
         return [(publish_cbor(message, topic), True)]
     if compression == "cbor-raw":
         return [(publish_cbor_raw(message, topic), True)]
+    if (
+        ("json", topic) not in message.cache
+        and has_lists(message.topic.mtype, message.topic.types)
+        and message_size(message) >= offload.OFFLOAD_BYTES
+    ):
+        return _offloaded(message, topic, compression, fragment_size)
     data = publish_png(message, topic) if compression == "png" else publish_json(message, topic)
     if fragment_size and len(data) > fragment_size:
-        key = ("frag", compression, topic, fragment_size)
-        return message.cached(key, lambda: fragment_frames(data, fragment_size, None))
+        return fragment_frames(data, fragment_size, None)
     return [(data, False)]
+
+
+def _offloaded(
+    message: Message, topic: str, compression: str, fragment_size: int | None
+) -> asyncio.Future[list[Frame]]:
+    frag_id = _fragment_ids.next()
+    return asyncio.ensure_future(
+        offload.run(bulk.publish_frames, topic, message.msg, compression, fragment_size, frag_id)
+    )
 
 
 def fragment_frames(data: bytes, size: int, op_id: object) -> list[Frame]:
     """Split encoded JSON into ``fragment`` ops with a fresh, non-empty string id."""
-    frag_id = _fragment_ids.next(op_id)
-    return [(frame, False) for frame in fragment_bytes(data.decode(), size, frag_id)]
+    return bulk.fragments(data, size, _fragment_ids.next(op_id))
 
 
 def json_frames(

@@ -69,7 +69,9 @@ async def _read(reader: asyncio.StreamReader, session, max_frame_size: int) -> N
                 if isinstance(item, ProtocolError):
                     session.stream_error(item)
                 else:
-                    session.handle(item)
+                    pending = session.handle(item)
+                    if pending is not None:
+                        await pending
             if session.outbox.closed:
                 return
     except (ConnectionError, OSError):

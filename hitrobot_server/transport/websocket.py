@@ -27,6 +27,10 @@ HttpHandler = Callable[[ServerConnection, Request], Response | None]
 
 # Above this many bytes in a socket's write buffer, frames wait in the outbox instead.
 DIRECT_WRITE_LIMIT = 256 * 1024
+# A message bigger than this goes out as WebSocket continuation frames of this size, so that
+# writing a 40 MB map is many short steps of the event loop instead of one of 100+ ms. Clients
+# see one message (RFC 6455 fragmentation, reassembled by every WebSocket implementation).
+CHUNK_BYTES = 1024 * 1024
 
 
 async def pump(session: Session, send_frame, delay: float) -> None:
@@ -57,6 +61,9 @@ def direct_writer(ws: ServerConnection):
             or transport.get_write_buffer_size() > DIRECT_WRITE_LIMIT
         ):
             return False
+        for data, _ in frames:
+            if len(data) > CHUNK_BYTES:  # big: the pump sends it in continuation frames
+                return False
         for data, binary in frames:
             broadcast((ws,), data, text=not binary)
         return True
@@ -87,7 +94,12 @@ async def start_websocket(
             session.outbox.direct = direct_writer(ws)
 
         async def send_frame(data: bytes, binary: bool) -> None:
-            await ws.send(data, text=not binary)
+            if len(data) > CHUNK_BYTES:
+                view = memoryview(data)
+                chunks = (view[i : i + CHUNK_BYTES] for i in range(0, len(data), CHUNK_BYTES))
+                await ws.send(chunks, text=not binary)
+            else:
+                await ws.send(data, text=not binary)
 
         writer = asyncio.create_task(pump(session, send_frame, delay_between_messages))
         reader = asyncio.create_task(_read(ws, session))
@@ -127,7 +139,9 @@ async def start_websocket(
 async def _read(ws: ServerConnection, session: Session) -> None:
     try:
         async for frame in ws:
-            session.receive(frame, binary=isinstance(frame, bytes))
+            pending = session.receive(frame, binary=isinstance(frame, bytes))
+            if pending is not None:  # a big op in the worker pool: the next frame waits for it
+                await pending
             if session.outbox.closed:
                 return
     except ConnectionClosed:

@@ -64,3 +64,38 @@ async def test_get_waits_for_put():
     assert not waiter.done()
     box.put(frames(5))
     assert await asyncio.wait_for(waiter, 1) == frames(5)
+
+
+async def test_a_future_entry_holds_later_frames_until_it_resolves():
+    box = Outbox(limit=1000)
+    sent: list = []
+    box.direct = lambda fr: sent.append(fr) or True
+    future = asyncio.get_running_loop().create_future()
+    assert box.put(future, droppable=True, size=100)
+    assert box.buffered == 100
+    box.put(frames(2))  # would be written directly, but must wait behind the future
+    assert sent == [] and len(box) == 2
+    getter = asyncio.ensure_future(box.get())
+    await asyncio.sleep(0)
+    assert not getter.done()
+    future.set_result(frames(1))
+    assert await getter == frames(1)
+    box.sent()
+    assert await box.get() == frames(2)
+
+
+async def test_a_failed_or_cancelled_future_is_skipped_and_a_cancelled_get_leaves_it_alone():
+    box = Outbox()
+    failed = asyncio.get_running_loop().create_future()
+    failed.set_exception(RuntimeError("encoder broke"))
+    box.put(failed, droppable=True)
+    box.put(frames(3))
+    assert await box.get() == frames(3)
+
+    shared = asyncio.get_running_loop().create_future()
+    box.put(shared, droppable=True)
+    getter = asyncio.ensure_future(box.get())
+    await asyncio.sleep(0)
+    getter.cancel()  # this client's pump goes away
+    await asyncio.gather(getter, return_exceptions=True)
+    assert not shared.cancelled()  # other subscribers still await the same encoding

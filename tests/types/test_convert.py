@@ -6,6 +6,7 @@ import base64
 import math
 import time
 
+import numpy as np
 import pytest
 
 from hitrobot_server.types.convert import ConversionError, default_message, from_json, wall_now
@@ -498,3 +499,93 @@ def test_seed_int8_stcm_bytes_and_type_name(reg: TypeRegistry) -> None:
                                          {"data": [-1]})
     seed = reg.msg("slamware_ros_sdk/BasicSensorValuedataArray")
     assert seed is reg.msg("slamware_ros_sdk/BasicSensorValueDataArray")
+
+
+# --- numpy arrays (big ops arrive compacted from the worker process) ---------------------------
+
+_NUMPY_CASES = [
+    ("nav_msgs/OccupancyGrid", "data", np.array([-1, 0, 100] * 2000, dtype=np.int8)),
+    ("nav_msgs/OccupancyGrid", "data", np.array([1, 2, 3], dtype=np.int16)),
+    ("nav_msgs/OccupancyGrid", "data", np.array([1.0, 2.0] * 3000)),  # integral floats
+    ("nav_msgs/OccupancyGrid", "data", np.array([1, 300] * 3000, dtype=np.int16)),
+    ("nav_msgs/OccupancyGrid", "data", np.array([1.0, 2.5] * 3000)),
+    ("sensor_msgs/Image", "data", np.array([0, 255] * 3000, dtype=np.uint8)),
+    ("sensor_msgs/Image", "data", np.array([0, 256] * 3000, dtype=np.int16)),
+    ("sensor_msgs/LaserScan", "ranges", np.linspace(0.0, 30.0, 5000)),
+    ("sensor_msgs/LaserScan", "ranges", np.arange(100, dtype=np.int32)),
+    ("geometry_msgs/PoseWithCovariance", "covariance", np.zeros(35)),
+    ("geometry_msgs/PoseWithCovariance", "covariance", np.ones(36)),
+    ("sensor_msgs/LaserScan", "header", np.arange(3)),
+    ("diagnostic_msgs/DiagnosticStatus", "values", np.arange(2000)),
+    ("sensor_msgs/JointState", "name", np.arange(5)),
+]
+
+
+@pytest.mark.parametrize("name,field,array", _NUMPY_CASES)
+def test_numpy_array_converts_or_fails_exactly_as_the_list(reg, name, field, array):
+    as_list = array.tolist()
+    try:
+        expected, _ = convert(reg, name, {field: as_list})
+    except ConversionError as exc:
+        assert error(reg, name, {field: array}) == str(exc)
+        return
+    got, _ = convert(reg, name, {field: array})
+    value, want = got[field], expected[field]
+    if isinstance(want, np.ndarray):
+        assert value.dtype == want.dtype and np.array_equal(value, want)
+    elif isinstance(value, np.ndarray):  # a long array stays numpy: the same values
+        assert value.tolist() == want and len(value) >= 4096
+    else:
+        assert value == want and type(value) is type(want)
+
+
+# --- verbatim: may the client's own text of the message be sent on? ---------------------------
+
+_VERBATIM = {"header": {"seq": 3, "stamp": {"secs": 1, "nsecs": 2}, "frame_id": "l"},
+             "angle_min": -1.0, "angle_max": 1.0, "angle_increment": 0.5, "time_increment": 0.0,
+             "scan_time": 0.1, "range_min": 0.1, "range_max": 30.0, "ranges": [1.5, 2.5],
+             "intensities": []}
+
+
+def _verbatim(reg, value) -> bool:
+    from hitrobot_server.types.convert import from_json_verbatim
+    msg, _, same = from_json_verbatim(reg.msg("sensor_msgs/LaserScan"), value, reg,
+                                      now=lambda: NOW)
+    if same:
+        assert msg == value
+    return same
+
+
+def test_a_canonical_message_is_verbatim(reg):
+    assert _verbatim(reg, _VERBATIM)
+    reordered = dict(reversed(list(_VERBATIM.items())))
+    assert _verbatim(reg, reordered)  # key order is not meaning in JSON
+
+
+@pytest.mark.parametrize("change", [
+    {"angle_min": -1},  # an int where a float goes: the output says -1.0
+    {"ranges": [1, 2.5]},
+    {"ranges": [None]},  # null means NaN
+    {"range_min": None},
+    {"header": {"stamp": {"secs": 1, "nsecs": 2}, "frame_id": "l"}},  # seq filled
+    {"header": {"seq": 3, "frame_id": "l"}},  # stamp filled
+    {"header": {"seq": 3.0, "stamp": {"secs": 1, "nsecs": 2}, "frame_id": "l"}},
+    {"header": {"seq": 3, "stamp": {"sec": 1, "nanosec": 2}, "frame_id": "l"}},
+    {"header": {"seq": 3, "stamp": {"secs": 1, "nsecs": 2_000_000_000}, "frame_id": "l"}},
+    {"header": {"seq": 3, "stamp": 1.5, "frame_id": "l"}},
+    {"header": {"seq": 3, "stamp": "now", "frame_id": "l"}},
+])
+def test_any_fill_retype_or_rename_is_not_verbatim(reg, change):
+    assert not _verbatim(reg, {**_VERBATIM, **change})
+    missing = dict(_VERBATIM)
+    del missing["scan_time"]
+    assert not _verbatim(reg, missing)
+
+
+def test_byte_arrays_are_never_verbatim(reg):
+    from hitrobot_server.types.convert import from_json_verbatim
+    for data in ([1, 2], "AQI="):
+        _, _, same = from_json_verbatim(reg.msg("std_msgs/UInt8MultiArray"),
+                                        {"layout": {"dim": [], "data_offset": 0}, "data": data},
+                                        reg)
+        assert not same
