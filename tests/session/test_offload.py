@@ -292,6 +292,22 @@ async def test_a_canonical_publish_is_relayed_as_the_clients_own_text(bus):
     assert frames[0][0].startswith(b'{"op":"publish","topic":"/a","msg":{"layout":')
 
 
+
+async def test_a_publish_in_the_seeds_spelling_is_relayed_in_the_sdks(bus):
+    """A field renamed by the alias table (seed ``line`` → SDK ``lines``) is not the client's
+    text any more, however long the op: subscribers get the canonical field name."""
+    pub, sub = session(bus), session(bus)
+    topic = "/slamware_ros_sdk_server_node/add_lines"
+    await feed(pub, {"op": "advertise", "topic": topic, "type": "slamware_ros_sdk/AddLinesRequest"})
+    await feed(sub, {"op": "subscribe", "topic": topic})
+    line = {"id": 1, "start": {"x": 0.5, "y": 0.5}, "end": {"x": 1.5, "y": 0.5}}
+    body = {"usage": {"usage": 0}, "line": [line] * 40}
+    text = publish_text(topic, body)
+    assert len(text) >= bulk.VERBATIM_MIN
+    await feed(pub, text)
+    msg = (await next_op(sub, "publish", timeout=10))["msg"]
+    assert "line" not in msg and len(msg["lines"]) == 40
+
 def test_only_types_with_variable_arrays_can_be_big():
     reg = TypeRegistry.default()
     assert wire.has_lists(reg.msg("nav_msgs/OccupancyGrid"), reg)
