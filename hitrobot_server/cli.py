@@ -14,7 +14,7 @@ from .signals import until_terminated
 
 TOOLS = {
     "conformance": "hitrobot_server.conformance.runner",
-    "sim-device": "hitrobot_server.robot.rest.device",
+    "sim-device": "hitrobot_server.commands.sim_device",
 }
 
 

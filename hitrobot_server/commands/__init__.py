@@ -1,0 +1,1 @@
+"""The command-line tools besides the server itself (``hitrobot-server <tool> ...``)."""
