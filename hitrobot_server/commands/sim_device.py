@@ -4,13 +4,12 @@
 from __future__ import annotations
 
 import argparse
-import asyncio
-import logging
 import sys
 
 from ..robot.factory import build_simulator
 from ..robot.rest.device import NOT_EMULATED, SimDevice
 from ..signals import until_terminated
+from . import run_command
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -54,14 +53,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.sim_speed <= 0:
         print("hitrobot-server sim-device: --sim-speed must be positive", file=sys.stderr)
         return 2
-    logging.basicConfig(level=args.log_level.upper(),
-                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    try:
-        asyncio.run(serve(args))
-    except (OSError, ValueError) as exc:
-        print(f"hitrobot-server sim-device: {exc}", file=sys.stderr)
-        return 1
-    return 0
+    return run_command("hitrobot-server sim-device", lambda: serve(args), args.log_level)
 
 
 if __name__ == "__main__":
