@@ -34,6 +34,14 @@ async def until(predicate: Callable[[], object], what: str, timeout: float = 2.0
         await asyncio.sleep(0.01)
 
 
+async def round_trip(client, timeout: float = 5.0) -> None:
+    """A connection's ops are handled in order: once this call is answered, every op the
+    client sent before it (subscribe, advertise, ...) has been handled too."""
+    op_id = f"round_trip:{time.monotonic_ns()}"
+    await client.send({"op": "call_service", "id": op_id, "service": "/rosapi/get_time"})
+    await client.expect(op="service_response", id=op_id, timeout=timeout)
+
+
 def matches(msg: dict, **fields) -> bool:
     return all(msg.get(k) == v for k, v in fields.items())
 
