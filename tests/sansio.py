@@ -59,7 +59,10 @@ class Hub:
         self.bus = Bus(TypeRegistry.default(), unregister_timeout=0.2)
         self.options = SessionOptions(**options)
         self.shared = Shared.for_options(self.options)
-        self.node_options = NodeOptions(map_store=map_store)
+        self.node_options = NodeOptions(  # rosapi lists what the session's globs allow
+            map_store=map_store, topics_glob=self.options.topics_glob,
+            services_glob=self.options.services_glob,
+        )
         self.nodes: list[Node] = []
         self.clients: list[SessionClient] = []
 
