@@ -275,8 +275,9 @@ async def test_reboot_asks_first_and_version_answers(console: Console, watcher):
     await dialog.wait_for()
     assert "Reboot" in await dialog.text_content()
     await dialog.locator("button[value=cancel]").click()
-    await asyncio.sleep(0.5)
+    await asyncio.sleep(0.5)  # a window for a (wrong) command to arrive: none may
     assert watcher.messages.get("/system_shell/cmd_string") is None
+    await console.wait_data("#robot-state", "state", "ok")  # the robot's state has arrived
     assert await page.get_attribute("#robot-state", "data-state") == "ok"
 
     await page.click("[data-cmd=version]")
