@@ -4,17 +4,16 @@
 from __future__ import annotations
 
 import argparse
-import asyncio
-import logging
 import sys
 
 from . import __version__
+from .commands import run_command
 from .config import Settings, add_arguments, load
 from .signals import until_terminated
 
 TOOLS = {
     "conformance": "hitrobot_server.conformance.runner",
-    "sim-device": "hitrobot_server.robot.rest.device",
+    "sim-device": "hitrobot_server.commands.sim_device",
 }
 
 
@@ -63,16 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     except (OSError, ValueError) as exc:
         print(f"hitrobot-server: {exc}", file=sys.stderr)
         return 2
-    logging.basicConfig(
-        level=settings.log_level.upper(),
-        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
-    )
-    try:
-        asyncio.run(serve(settings))
-    except (OSError, ValueError) as exc:
-        print(f"hitrobot-server: {exc}", file=sys.stderr)
-        return 1
-    return 0
+    return run_command("hitrobot-server", lambda: serve(settings), settings.log_level)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,8 @@
 """Server settings: one dataclass filled from defaults, a TOML file, then command-line flags.
 
-Flag names follow rosbridge_websocket's parameters so a rosbridge user finds them.
+Flag names follow rosbridge_websocket's parameters so a rosbridge user finds them. Config sits
+at the top: each layer defines its own small options object (``SessionOptions``,
+``NodeOptions``, ``RobotOptions``) and :class:`Settings` builds them to hand down.
 """
 
 from __future__ import annotations
@@ -12,8 +14,9 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from .bus.names import GlobFilter
-from .nodes.slamware.params import SlamwareParams
+from .nodes.options import NodeOptions, SlamwareParams
+from .robot.options import RobotOptions
+from .session.options import SessionOptions
 
 STATUS_LEVELS = ("info", "warning", "error", "none")
 
@@ -59,13 +62,6 @@ class Settings:
     auth_secret: str | None = field(default=None, repr=False)
     # Set by the server when it shares a bus: client node names stay unique across servers.
     client_tag: str = field(default="", repr=False)
-    topics_filter: GlobFilter = field(init=False, repr=False)
-    services_filter: GlobFilter = field(init=False, repr=False)
-    params_filter: GlobFilter = field(init=False, repr=False)
-
-    def __post_init__(self) -> None:
-        self.refresh_filters()
-
     @property
     def map_store(self) -> Path:
         """Where map folders are saved: ``--map-dir`` or the per-user data directory."""
@@ -74,10 +70,44 @@ class Settings:
         base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
         return Path(base) / "hitrobot-server" / "maps"
 
-    def refresh_filters(self) -> None:
-        self.topics_filter = GlobFilter.parse(self.topics_glob)
-        self.services_filter = GlobFilter.parse(self.services_glob, always=("/rosapi/*",))
-        self.params_filter = GlobFilter.parse(self.params_glob)
+    def session_options(self) -> SessionOptions:
+        """What each client session gets (built when a client connects, so the secret and
+        client tag set at start are in)."""
+        return SessionOptions(
+            authenticate=self.authenticate,
+            auth_secret=self.auth_secret,
+            client_tag=self.client_tag,
+            fragment_timeout=self.fragment_timeout,
+            fragment_memory_limit=self.fragment_memory_limit,
+            max_frame_size=self.max_frame_size,
+            max_message_size=self.max_message_size,
+            send_buffer_limit=self.send_buffer_limit,
+            status_level=self.status_level,
+            call_service_timeout=self.call_service_timeout,
+            topics_glob=self.topics_glob,
+            services_glob=self.services_glob,
+        )
+
+    def node_options(self) -> NodeOptions:
+        return NodeOptions(
+            map_store=self.map_store,
+            slamware=self.slamware,
+            authenticate=self.authenticate,
+            time_scale=self.sim_speed if self.robot == "sim" else 1.0,
+            topics_glob=self.topics_glob,
+            services_glob=self.services_glob,
+            params_glob=self.params_glob,
+        )
+
+    def robot_options(self) -> RobotOptions:
+        return RobotOptions(
+            robot=self.robot,
+            world=self.world,
+            sim_seed=self.sim_seed,
+            sim_speed=self.sim_speed,
+            sim_mapping=self.sim_mapping,
+            reconn_wait_ms=self.slamware.reconn_wait_ms,
+        )
 
 
 _HELP = {
@@ -122,9 +152,7 @@ _HELP = {
     "map_dir": "folder of saved map folders (default: $XDG_DATA_HOME/hitrobot-server/maps)",
 }
 
-_SKIP = {
-    "auth_secret", "client_tag", "topics_filter", "services_filter", "params_filter", "slamware",
-}
+_SKIP = {"auth_secret", "client_tag", "slamware"}
 ROBOTS = ("sim", "none")
 BUSES = ("local", "zenoh")
 

@@ -14,6 +14,7 @@ from .nodes.assembly import start_nodes, stop_nodes
 from .nodes.base import Node
 from .protocol.auth import load_secret
 from .robot.factory import build_backend
+from .session.options import SessionOptions
 from .session.session import Session, Shared
 from .transport.http import StaticFiles, default_web_root, missing_libraries
 from .transport.tcp import start_tcp
@@ -36,7 +37,8 @@ class HitrobotServer:
         self.link = None  # the ZenohLink with --bus zenoh
         self.backend = None  # the robot (RobotBackend) when one is attached
         self.sessions: set[Session] = set()
-        self.shared = Shared.for_settings(self.settings)
+        self.shared = Shared.for_options(self.settings.session_options())
+        self._session_options: SessionOptions | None = None  # built at start
         self._ws = None
         self._tcp: asyncio.Server | None = None
         self._ws_console = False
@@ -45,8 +47,10 @@ class HitrobotServer:
         self._rosout: RosoutHandler | None = None
 
     def new_session(self, peer: str, transport: str) -> Session:
+        if self._session_options is None:
+            self._session_options = self.settings.session_options()
         session = Session(
-            self.bus, self.settings, peer=peer, transport=transport, shared=self.shared
+            self.bus, self._session_options, peer=peer, transport=transport, shared=self.shared
         )
         self.sessions.add(session)
         session.on_close.append(self.sessions.discard)
@@ -78,10 +82,11 @@ class HitrobotServer:
             )
             await self.link.start()
             s.client_tag = f"{self.link.zid[:8]}_"
-        self.backend = build_backend(s)
+        self._session_options = s.session_options()  # with the secret and client tag set
+        self.backend = build_backend(s.robot_options())
         if self.backend is not None:
             await self.backend.start()
-        self.nodes = await start_nodes(self.bus, s, self.backend)
+        self.nodes = await start_nodes(self.bus, s.node_options(), self.backend)
 
         def factory(peer: str, transport: str) -> Session:
             return self.new_session(peer, transport)

@@ -34,32 +34,29 @@ async def until(predicate: Callable[[], object], what: str, timeout: float = 2.0
         await asyncio.sleep(0.01)
 
 
+async def round_trip(client, timeout: float = 5.0) -> None:
+    """A connection's ops are handled in order: once this call is answered, every op the
+    client sent before it (subscribe, advertise, ...) has been handled too."""
+    op_id = f"round_trip:{time.monotonic_ns()}"
+    await client.send({"op": "call_service", "id": op_id, "service": "/rosapi/get_time"})
+    await client.expect(op="service_response", id=op_id, timeout=timeout)
+
+
 def matches(msg: dict, **fields) -> bool:
     return all(msg.get(k) == v for k, v in fields.items())
 
 
-class WsClient:
-    """A raw protocol client over a real WebSocket; decodes JSON text and CBOR binary frames."""
+class ProtocolClient:
+    """What every test client does with decoded messages: wait for one, or for none."""
 
-    def __init__(self, ws):
-        self.ws = ws
+    def __init__(self) -> None:
         self.seen: list[dict] = []
 
-    @classmethod
-    async def open(cls, port: int, **kw) -> WsClient:
-        ws = await connect(f"ws://127.0.0.1:{port}", max_size=None, **kw)
-        return cls(ws)
-
     async def send(self, obj: dict | str) -> None:
-        await self.ws.send(obj if isinstance(obj, str) else json.dumps(obj))
+        raise NotImplementedError
 
     async def recv(self, timeout: float = 5.0) -> dict:
-        frame = await asyncio.wait_for(self.ws.recv(), timeout)
-        msg = cbor2.loads(frame) if isinstance(frame, bytes) else orjson.loads(frame)
-        if isinstance(frame, bytes):
-            msg["_binary"] = True
-        self.seen.append(msg)
-        return msg
+        raise NotImplementedError
 
     async def expect(self, pred: Callable[[dict], bool] | None = None, timeout: float = 5.0,
                      **fields) -> dict:
@@ -92,6 +89,37 @@ class WsClient:
         await self.send({"op": "call_service", "id": op_id, "service": service,
                          "args": args or {}, **extra})
         return await self.expect(op="service_response", id=op_id, timeout=timeout)
+
+
+def decode_frame(frame: str | bytes, binary: bool) -> dict:
+    """A JSON text frame or a CBOR binary frame, as the test sees it."""
+    if binary:
+        msg = cbor2.loads(frame)
+        msg["_binary"] = True
+        return msg
+    return orjson.loads(frame)
+
+
+class WsClient(ProtocolClient):
+    """A raw protocol client over a real WebSocket; decodes JSON text and CBOR binary frames."""
+
+    def __init__(self, ws):
+        super().__init__()
+        self.ws = ws
+
+    @classmethod
+    async def open(cls, port: int, **kw) -> WsClient:
+        ws = await connect(f"ws://127.0.0.1:{port}", max_size=None, **kw)
+        return cls(ws)
+
+    async def send(self, obj: dict | str) -> None:
+        await self.ws.send(obj if isinstance(obj, str) else json.dumps(obj))
+
+    async def recv(self, timeout: float = 5.0) -> dict:
+        frame = await asyncio.wait_for(self.ws.recv(), timeout)
+        msg = decode_frame(frame, isinstance(frame, bytes))
+        self.seen.append(msg)
+        return msg
 
     async def close(self) -> None:
         await self.ws.close()

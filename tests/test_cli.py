@@ -35,7 +35,8 @@ def test_toml_config_then_flags_override(tmp_path):
     s = load(build_parser().parse_args(["--config", str(cfg), "--port", "7000"]))
     assert s.port == 7000  # flag beats file
     assert s.status_level == "warning"
-    assert s.topics_filter.allows("/robot/odom") and not s.topics_filter.allows("/other")
+    topics = s.session_options().topics_filter
+    assert topics.allows("/robot/odom") and not topics.allows("/other")
 
 
 def test_unknown_config_key_is_an_error(tmp_path):

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import asyncio
 
-from .helpers import WsClient
+from .helpers import ProtocolClient, WsClient
 
 TOPIC = "/witness/chatter"
 
@@ -14,14 +14,18 @@ class Witness:
     """Subscribes to :data:`TOPIC` and publishes on it through a second connection, so every
     message sent after :meth:`open` can be counted on arrival."""
 
-    def __init__(self, sub: WsClient, pub: WsClient):
+    def __init__(self, sub: ProtocolClient, pub: ProtocolClient):
         self.sub = sub
         self.pub = pub
         self.sent = 0
 
     @classmethod
     async def open(cls, port: int) -> Witness:
-        sub, pub = await WsClient.open(port), await WsClient.open(port)
+        return await cls.on(await WsClient.open(port), await WsClient.open(port))
+
+    @classmethod
+    async def on(cls, sub: ProtocolClient, pub: ProtocolClient) -> Witness:
+        """A witness on two given connections (sockets, or sessions driven sans-I/O)."""
         await sub.send({"op": "set_level", "id": "lv", "level": "info"})
         await sub.expect(op="status", id="lv")
         await pub.send({"op": "advertise", "topic": TOPIC, "type": "std_msgs/String"})

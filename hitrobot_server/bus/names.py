@@ -58,3 +58,15 @@ class GlobFilter:
             return True
         name = canonical(name)
         return any(fnmatchcase(name, p) for p in self.patterns + self.always)
+
+
+def access_filters(
+    topics_glob: str | None, services_glob: str | None, params_glob: str | None = None
+) -> tuple[GlobFilter, GlobFilter, GlobFilter]:
+    """The ``--topics-glob``/``--services-glob``/``--params-glob`` allow-lists, parsed once
+    the same way for the session's op checks and rosapi's listings (rosapi stays callable)."""
+    return (
+        GlobFilter.parse(topics_glob),
+        GlobFilter.parse(services_glob, always=("/rosapi/*",)),
+        GlobFilter.parse(params_glob),
+    )

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from ..bus.core import Bus
-from ..config import Settings
 from ..robot.backend import RobotBackend
 from ..robot.locomotion import STAND_UP_SECONDS, LocomotionBackend
 from .base import Node
@@ -17,6 +16,7 @@ from .mapfiles import MapFilesNode
 from .move_base import MoveBaseNode
 from .nav2_actions import Nav2ActionsNode
 from .navigation import NavigationNode
+from .options import NodeOptions
 from .patrol import PatrolNode
 from .pointclouds import PointCloudNode
 from .rosapi import Rosapi
@@ -25,7 +25,7 @@ from .slamware import SlamwareNode
 from .tf_republisher import TFRepublisherNode
 
 
-async def start_nodes(bus: Bus, settings: Settings, backend: RobotBackend | None) -> list[Node]:
+async def start_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend | None) -> list[Node]:
     """Create and start every node; robot-facing nodes only when a robot is attached."""
     nodes: list[Node] = [Rosapi(bus, settings), TFRepublisherNode(bus)]
     if backend is not None:
@@ -38,11 +38,10 @@ async def start_nodes(bus: Bus, settings: Settings, backend: RobotBackend | None
     return nodes
 
 
-def robot_nodes(bus: Bus, settings: Settings, backend: RobotBackend) -> list[Node]:
+def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend) -> list[Node]:
     """The robot-facing nodes, in start order. All of them drive the robot through the
     locomotion gate, so a sitting robot refuses motion whichever interface asks."""
-    scale = settings.sim_speed if settings.robot == "sim" else 1.0
-    robot = LocomotionBackend(backend, STAND_UP_SECONDS / scale)
+    robot = LocomotionBackend(backend, STAND_UP_SECONDS / settings.time_scale)
     frame = settings.slamware.map_frame
     move_base = MoveBaseNode(bus, robot, frame)
     map_manager = MapManager(bus, robot, settings)

@@ -24,7 +24,6 @@ from dataclasses import asdict, dataclass
 import networkx as nx
 
 from ..bus.core import Bus
-from ..config import Settings
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionResult, Point2D
 from .base import RobotNode
@@ -37,6 +36,7 @@ from .mapfiles import (
     load_yaml,
     number,
 )
+from .options import NodeOptions
 from .patrol import follow
 
 PKG = "hitrobot_msgs"
@@ -164,7 +164,7 @@ def shortest_path(graph: Graph, start: int, goal: int) -> list[int]:
 class GraphNodeService(RobotNode):
     """The route graph node."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, settings: Settings,
+    def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions,
                  mapfiles: MapFilesNode):
         super().__init__(bus, "/graph", backend)
         self.backend: RobotBackend = backend

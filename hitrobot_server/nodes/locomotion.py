@@ -30,11 +30,11 @@ from collections.abc import Callable
 
 from ..bus.core import Bus
 from ..bus.errors import BusError
-from ..config import Settings
 from ..robot.backend import NotConnectedError
 from ..robot.locomotion import ListenError, LocomotionBackend, parse_listen
 from ..robot.model import Odometry, Pose2D, Twist2D
 from .base import RobotNode
+from .options import NodeOptions
 from .slamware import messages as m
 
 log = logging.getLogger(__name__)
@@ -99,7 +99,7 @@ def topic_part(name: str) -> str:
 class LocomotionNode(RobotNode):
     """stand_up, sit_down, set_listen, robot_state, /Odometry and the map-frame odometry."""
 
-    def __init__(self, bus: Bus, backend: LocomotionBackend, settings: Settings,
+    def __init__(self, bus: Bus, backend: LocomotionBackend, settings: NodeOptions,
                  map_name: Callable[[], str]):
         super().__init__(bus, "/locomotion", backend)
         self.backend: LocomotionBackend = backend

@@ -26,12 +26,12 @@ import yaml
 
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
-from ..config import Settings
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from .base import RobotNode
 from .conventional import pose2d_of
 from .map_manager.node import NODE_NAME as MAP_MANAGER
 from .map_manager.store import MapStore, StoreError, validate_name, write_file
+from .options import NodeOptions
 
 log = logging.getLogger(__name__)
 
@@ -158,7 +158,7 @@ class LoadedMap:
 class MapFilesNode(RobotNode):
     """``list_map_files``, ``load_laser_map`` and ``set_map`` over the map manager's store."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, settings: Settings):
+    def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions):
         super().__init__(bus, "/map_files", backend)
         self.backend: RobotBackend = backend
         self.store = MapStore(settings.map_store)

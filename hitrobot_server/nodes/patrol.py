@@ -32,7 +32,6 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 
 from ..bus.core import Bus
-from ..config import Settings
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionInfo, ActionResult, Point2D
 from .base import RobotNode
@@ -46,6 +45,7 @@ from .mapfiles import (
     load_yaml,
     number,
 )
+from .options import NodeOptions
 
 log = logging.getLogger(__name__)
 
@@ -139,7 +139,7 @@ async def follow(backend: RobotBackend, action: ActionInfo) -> ActionInfo | None
 class PatrolNode(RobotNode):
     """``planning/*``: the current route, route files and the patrol loop."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, settings: Settings,
+    def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions,
                  mapfiles: MapFilesNode):
         super().__init__(bus, NS, backend)
         self.backend: RobotBackend = backend

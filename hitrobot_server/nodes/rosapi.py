@@ -13,16 +13,16 @@ import orjson
 from ..bus.core import Bus
 from ..bus.errors import ServiceError
 from ..bus.names import canonical
-from ..config import Settings
 from ..types.registry import UnknownType
 from ..types.typedef import srv_request_typedefs, srv_response_typedefs, typedefs
 from .base import Node
+from .options import NodeOptions
 
 ACTIONLIB_SUFFIXES = ("goal", "cancel", "status", "feedback", "result")
 
 
 class Rosapi(Node):
-    def __init__(self, bus: Bus, settings: Settings):
+    def __init__(self, bus: Bus, settings: NodeOptions):
         super().__init__(bus, "/rosapi")
         self.settings = settings
         handlers: dict[str, tuple[str, Callable[[dict], Awaitable[dict]]]] = {

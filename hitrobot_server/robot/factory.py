@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from ..config import Settings
 from .backend import RobotBackend
+from .options import RobotOptions
 
 
 def build_simulator(world: str | None = None, seed: int = 0, mapping: bool = False):
@@ -16,17 +16,17 @@ def build_simulator(world: str | None = None, seed: int = 0, mapping: bool = Fal
     return Simulator(loaded, seed=seed, config=config)
 
 
-def build_backend(settings: Settings) -> RobotBackend | None:
+def build_backend(options: RobotOptions) -> RobotBackend | None:
     """The robot backend for ``--robot``; the caller starts and stops it."""
-    if settings.robot == "none":
+    if options.robot == "none":
         return None
-    if settings.robot.startswith(("http://", "https://")):
+    if options.robot.startswith(("http://", "https://")):
         from .rest.client import SlamwareRestBackend
 
-        return SlamwareRestBackend(settings.robot, settings.slamware.reconn_wait_ms)
-    if settings.robot != "sim":
-        raise ValueError(f"--robot {settings.robot}: expected sim, none or an http(s):// URL")
+        return SlamwareRestBackend(options.robot, options.reconn_wait_ms)
+    if options.robot != "sim":
+        raise ValueError(f"--robot {options.robot}: expected sim, none or an http(s):// URL")
     from .sim.backend import SimBackend
 
-    simulator = build_simulator(settings.world, settings.sim_seed, settings.sim_mapping)
-    return SimBackend(simulator, time_scale=settings.sim_speed)
+    simulator = build_simulator(options.world, options.sim_seed, options.sim_mapping)
+    return SimBackend(simulator, time_scale=options.sim_speed)

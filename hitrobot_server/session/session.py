@@ -20,7 +20,6 @@ from typing import Any
 from ..bus.core import Bus
 from ..bus.errors import BusError
 from ..bus.topics import Origin
-from ..config import Settings
 from ..protocol import auth, bulk, cbor, ops, png
 from ..protocol.errors import ProtocolError, message_id, status_op
 from ..protocol.fragment import Defragmenter, FragmentBudget
@@ -29,6 +28,7 @@ from ..types import jsoncodec
 from ..types.convert import ConversionError
 from . import offload
 from .actions import ActionOps
+from .options import SessionOptions
 from .outbox import Frames, Outbox
 from .publish import PublishOps
 from .services import ServiceOps
@@ -51,8 +51,8 @@ class Shared:
     auth_replays: auth.ReplayCache  # auth MACs already accepted (each grants access once)
 
     @classmethod
-    def for_settings(cls, settings: Settings) -> Shared:
-        return cls(FragmentBudget(settings.fragment_memory_limit), auth.ReplayCache())
+    def for_options(cls, options: SessionOptions) -> Shared:
+        return cls(FragmentBudget(options.fragment_memory_limit), auth.ReplayCache())
 
 
 class Session:
@@ -61,14 +61,14 @@ class Session:
     def __init__(
         self,
         bus: Bus,
-        settings: Settings,
+        settings: SessionOptions,
         *,
         peer: str = "",
         transport: str = "ws",
         shared: Shared | None = None,
     ):
         self.bus = bus
-        self.shared = shared or Shared.for_settings(settings)
+        self.shared = shared or Shared.for_options(settings)
         self.settings = settings
         self.types = bus.types
         self.peer = peer

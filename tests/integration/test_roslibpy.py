@@ -57,7 +57,7 @@ def test_pub_sub_between_two_clients(ros):
     talker = roslibpy.Topic(a, "/rlp/chatter", "std_msgs/String")
     talker.advertise()
     assert wait_for(lambda: talker.is_advertised)
-    time.sleep(0.2)
+    b.get_time()  # round trip: b's subscribe (sent before it) has been handled
     for i in range(5):
         talker.publish(roslibpy.Message({"data": f"hello {i}"}))
     assert wait_for(lambda: len(received) >= 5)
@@ -76,7 +76,7 @@ def test_client_advertised_service_called_by_other_client(ros):
 
     service = roslibpy.Service(provider, "/rlp/toggle", "std_srvs/SetBool")
     service.advertise(handler)
-    time.sleep(0.3)
+    provider.get_time()  # round trip: the advertise (sent before it) has been handled
     client = roslibpy.Service(caller, "/rlp/toggle", "std_srvs/SetBool")
     result = client.call(roslibpy.ServiceRequest({"data": True}), timeout=5)
     assert result["success"] is True and result["message"] == "flipped"
@@ -86,15 +86,13 @@ def test_client_advertised_service_called_by_other_client(ros):
 def test_params_and_get_time_and_rosapi(ros):
     r = ros()
     param = roslibpy.Param(r, "/rlp/max_speed")
-    param.set(0.7)
-    time.sleep(0.2)
+    param.set(0.7)  # a blocking service call: set once it returns
     assert param.get(timeout=5) == 0.7
     assert "/rlp/max_speed" in r.get_params()
     param.delete()
     t = r.get_time()
     assert abs(t["secs"] - time.time()) < 5
-    roslibpy.Topic(r, "/rlp/listed", "geometry_msgs/Twist").advertise()
-    time.sleep(0.3)
+    roslibpy.Topic(r, "/rlp/listed", "geometry_msgs/Twist").advertise()  # before the call below
     assert "/rlp/listed" in r.get_topics()
     assert r.get_topic_type("/rlp/listed") == "geometry_msgs/Twist"
     assert "/rosapi/get_time" in r.get_services()

@@ -1,4 +1,10 @@
-"""Fixtures shared by the robot-facing node tests."""
+"""Fixtures shared by the robot-facing node tests.
+
+``start_robot`` starts a server with the simulated robot, in process ("sim") or behind a
+sim-device over HTTP ("rest"); a test that uses it runs once per backend. ``robot`` is the one
+ready-made robot of a test module: the module says what it needs in a ``ROBOT = RobotSetup(...)``
+(speed, topics to watch, when the robot counts as ready, which backends).
+"""
 
 from __future__ import annotations
 
@@ -7,10 +13,27 @@ import pytest
 from hitrobot_server.robot.factory import build_simulator
 from hitrobot_server.robot.rest.device import SimDevice
 
+from ..helpers import Watcher, WsClient
+from .robot_setup import Robot, RobotSetup
 
-@pytest.fixture(params=["sim", "rest"])
-def backend(request) -> str:
-    return request.param
+BACKENDS = ("sim", "rest")
+
+
+@pytest.fixture
+def backend() -> str:
+    """The simulator in process, unless a test is parametrised over both backends below."""
+    return "sim"
+
+
+def pytest_generate_tests(metafunc):
+    """Every test that starts a robot runs per backend; a module's ``robot`` fixture runs on
+    the backends its ``ROBOT`` names (the simulator only, unless it says otherwise)."""
+    if "backend" in metafunc.fixturenames:
+        setup = getattr(metafunc.module, "ROBOT", None)
+        use_setup = setup is not None and "robot" in metafunc.fixturenames
+        backends = setup.backends if use_setup else BACKENDS
+        if backends != ("sim",):
+            metafunc.parametrize("backend", backends)
 
 
 @pytest.fixture
@@ -40,3 +63,18 @@ async def start_robot(make_server, backend):
         await device.stop()
 
 
+@pytest.fixture
+async def robot(request, start_robot, tmp_path):
+    """The module's robot (its ``ROBOT`` setup), watched and ready."""
+    setup: RobotSetup = request.module.ROBOT
+    overrides = {"map_dir": str(tmp_path / "maps")} if setup.map_dir else {}
+    server = await start_robot(sim_speed=setup.sim_speed, **overrides)
+    w = await Watcher.open(server.port)
+    for topic, type_name in setup.watch.items():
+        await w.subscribe(topic, type_name)
+    await w.until(lambda: setup.ready(w), setup.ready_timeout, setup.ready_what)
+    c = await WsClient.open(server.port) if setup.client else None
+    yield Robot(server, w, c)
+    if c is not None:
+        await c.close()
+    await w.close()

@@ -10,19 +10,14 @@ import pytest
 
 from hitrobot_server.nodes.slamware.messages import yaw_of
 
-from ..helpers import Watcher
+from .robot_setup import RobotSetup
 
 POSE_TYPE = "geometry_msgs/PoseWithCovarianceStamped"
 
 
-@pytest.fixture
-async def robot(make_server):
-    server = await make_server(robot="sim", sim_speed=4.0)
-    w = await Watcher.open(server.port)
-    await w.subscribe("/robot_pose", "geometry_msgs/Pose")
-    await w.until(lambda: w.latest("/robot_pose"), 5, "a robot pose")
-    yield server, w
-    await w.close()
+ROBOT = RobotSetup(sim_speed=4.0, watch={"/robot_pose": "geometry_msgs/Pose"},
+                   ready=lambda w: w.latest("/robot_pose"), ready_what="a robot pose",
+                   ready_timeout=5)
 
 
 def estimate(x, y, yaw: float = 0.0, frame: str = "/map") -> dict:
@@ -36,7 +31,7 @@ def planar(pose: dict) -> tuple[float, float, float]:
 
 
 async def test_robot_pose_is_published_at_10_hz_or_more(robot):
-    _server, w = robot
+    w = robot.w
     count = len(w.messages["/robot_pose"])
     began = time.monotonic()
     await asyncio.sleep(1.0)
@@ -47,7 +42,7 @@ async def test_robot_pose_is_published_at_10_hz_or_more(robot):
 
 
 async def test_initialpose_moves_the_believed_pose(robot):
-    _server, w = robot
+    w = robot.w
     await w.publish("/initialpose", estimate(5.4, 8.2, 0.7), POSE_TYPE, op_id="ip")
 
     def moved():
@@ -63,7 +58,7 @@ async def test_initialpose_moves_the_believed_pose(robot):
     ({**estimate(5.0, 8.0), "header": {"frame_id": "base_link"}}, "map frame"),
 ])
 async def test_invalid_initialpose_is_refused(robot, bad, words):
-    _server, w = robot
+    w = robot.w
     before = planar(w.latest("/robot_pose"))
     await w.publish("/initialpose", bad, POSE_TYPE, op_id="bad")
     status = await w.until(lambda: next((s for s in w.statuses if s.get("id") == "bad"), None),

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import pytest
-
 from hitrobot_server.nodes.diagnostics import ERROR, OK, STALE, WARN
 
 from ..helpers import Watcher
+from .robot_setup import RobotSetup
 
 
 def by_name(msg: dict) -> dict[str, dict]:
@@ -33,18 +32,13 @@ async def test_without_a_robot_only_the_bridge_is_reported(make_server):
     await w.close()
 
 
-@pytest.fixture
-async def robot(make_server):
-    server = await make_server(robot="sim", sim_speed=4.0)
-    w = await Watcher.open(server.port)
-    await w.subscribe("/diagnostics_agg")
-    await w.next("/diagnostics_agg", timeout=3)
-    yield server, w
-    await w.close()
+ROBOT = RobotSetup(sim_speed=4.0, watch={"/diagnostics_agg": None},
+                   ready=lambda w: w.latest("/diagnostics_agg"),
+                   ready_what="a new message on /diagnostics_agg", ready_timeout=3)
 
 
 async def test_robot_items_are_ok_at_start_and_follow_the_robot(robot, monkeypatch):
-    server, w = robot
+    server, w = robot.server, robot.w
     got = by_name(w.latest("/diagnostics_agg"))
     assert {"/Robot", "/Robot/Connection", "/Robot/Battery", "/Robot/Localization",
             "/Robot/Motion", "/Robot/Health", "/Bridge", "/Bridge/Clients"} <= set(got)
@@ -75,7 +69,7 @@ async def test_robot_items_are_ok_at_start_and_follow_the_robot(robot, monkeypat
 
 
 async def test_an_offline_robot_is_an_error_and_its_items_stale(robot):
-    server, w = robot
+    server, w = robot.server, robot.w
     await server.backend.stop()
     got = by_name(await w.next("/diagnostics_agg", timeout=3))
     assert got["/Robot/Connection"]["level"] == ERROR

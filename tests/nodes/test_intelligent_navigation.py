@@ -13,6 +13,7 @@ import roslibpy
 from hitrobot_server.nodes.slamware.messages import yaw_of
 
 from ..helpers import Watcher, WsClient
+from .robot_setup import RobotSetup
 
 ODOM = "/slamware_ros_sdk_server_node/odom"
 ACTION = "/intelligent_navigate_to_pose"
@@ -48,16 +49,8 @@ def example_goal(x: float, y: float, **travel) -> dict:
     return {"travel_params": params, "pose": pose_stamped(x, y)}
 
 
-@pytest.fixture
-async def robot(make_server):
-    server = await make_server(robot="sim", sim_speed=6.0)
-    w = await Watcher.open(server.port)
-    await w.subscribe(ODOM, "nav_msgs/Odometry")
-    await w.until(lambda: w.latest(ODOM), 10, "odometry")
-    c = await WsClient.open(server.port)
-    yield server, w, c
-    await c.close()
-    await w.close()
+ROBOT = RobotSetup(sim_speed=6.0, watch={ODOM: "nav_msgs/Odometry"},
+                   ready=lambda w: w.latest(ODOM), ready_what="odometry", client=True)
 
 
 def pose_of(w: Watcher) -> tuple[float, float, float]:
@@ -80,7 +73,7 @@ def feedback_of(c: WsClient, op_id: str) -> list[dict]:
 
 
 async def test_roslibpy_action_client_arrives_with_feedback(robot):
-    server, w, _c = robot
+    server, w = robot.server, robot.w
     target = (*OFFICE, math.pi / 2)
 
     def run() -> tuple[dict, list[dict]]:
@@ -116,7 +109,7 @@ async def test_roslibpy_action_client_arrives_with_feedback(robot):
 
 
 async def test_example_shape_is_accepted_and_cancel_stops_the_robot(robot):
-    _server, w, c = robot
+    w, c = robot.w, robot.c
     # the vendor's test example, path_following_mode 4 (line following) needs virtual tracks;
     # free navigation (2) through the alias drives
     await send(c, "g", example_goal(*FAR, path_following_mode=2),
@@ -142,7 +135,7 @@ async def test_example_shape_is_accepted_and_cancel_stops_the_robot(robot):
 
 
 async def test_invalid_travel_params_are_rejected_with_the_reason(robot):
-    _server, _w, c = robot
+    c = robot.c
     cases = {
         "reverse": (field_list_goal(*NEAR, direction_constraint=4), "reverse"),
         "disagree": (field_list_goal(*NEAR, path_following_mode=3), "disagree"),
@@ -158,7 +151,7 @@ async def test_invalid_travel_params_are_rejected_with_the_reason(robot):
 
 
 async def test_should_stop_cancels_the_running_goal(robot):
-    _server, w, c = robot
+    w, c = robot.w, robot.c
     await send(c, "run", field_list_goal(*FAR))
     await c.expect(lambda m: speed(w) > 0.1, op="action_feedback", id="run", timeout=15)
     await send(c, "stop", {"should_stop": True})
@@ -173,7 +166,7 @@ async def test_should_stop_cancels_the_running_goal(robot):
 
 
 async def test_set_initialpose_refines_a_slightly_off_pose(robot):
-    _server, w, c = robot
+    w, c = robot.w, robot.c
     true_x, true_y, true_yaw = pose_of(w)
     off = pose_stamped(true_x + 0.25, true_y - 0.15, true_yaw + 0.08)
     reply = await c.call("/set_initialpose", {"init_pose": {

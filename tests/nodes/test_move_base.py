@@ -17,6 +17,7 @@ except ImportError:  # roslibpy 2.x
     from roslibpy.ros1.actionlib import ActionClient, Goal, GoalStatus
 
 from ..helpers import ServerProcess, Watcher, connect_roslibpy
+from .robot_setup import RobotSetup
 
 SPEED = "4"  # simulated seconds per wall second
 ACTION = "move_base_msgs/MoveBaseAction"
@@ -130,15 +131,9 @@ def test_status_is_published_at_5_hz_while_idle(ros):
 
 
 # ---------------------------------------------------------------- raw WebSocket, in process
-@pytest.fixture
-async def robot(make_server):
-    server = await make_server(robot="sim", sim_speed=4.0)
-    w = await Watcher.open(server.port)
-    await w.subscribe("/move_base/status")
-    await w.subscribe("/move_base/result")
-    await w.until(lambda: w.latest("/move_base/status"), 5, "a status message")
-    yield server, w
-    await w.close()
+ROBOT = RobotSetup(sim_speed=4.0, watch={"/move_base/status": None, "/move_base/result": None},
+                   ready=lambda w: w.latest("/move_base/status"), ready_what="a status message",
+                   ready_timeout=5)
 
 
 def goal_msg(goal_id: str, x, y, frame: str = "map", orientation=None) -> dict:
@@ -156,7 +151,7 @@ async def result_for(w: Watcher, goal_id: str, timeout: float = 30) -> dict:
 
 
 async def test_unreachable_goal_is_aborted_with_the_robots_reason(robot):
-    _server, w = robot
+    w = robot.w
     await w.publish("/move_base/goal", goal_msg("nowhere", 100.0, 100.0),
                     "move_base_msgs/MoveBaseActionGoal", op_id="g")
     status = await result_for(w, "nowhere")
@@ -170,7 +165,7 @@ async def test_unreachable_goal_is_aborted_with_the_robots_reason(robot):
 
 
 async def test_invalid_goals_are_rejected_and_keep_the_running_goal(robot):
-    _server, w = robot
+    w = robot.w
     await w.publish("/move_base/goal", goal_msg("run", *FAR), "move_base_msgs/MoveBaseActionGoal")
     await w.until(lambda: any(s["goal_id"]["id"] == "run" and s["status"] == 1
                               for s in w.latest("/move_base/status")["status_list"]), 5, "ACTIVE")
@@ -192,17 +187,20 @@ async def test_invalid_goals_are_rejected_and_keep_the_running_goal(robot):
 
 
 async def test_cancel_before_the_robot_started_recalls(robot):
-    server, w = robot
+    server, w = robot.server, robot.w
     backend = server.backend
     real_move_to = backend.move_to
 
+    asked = asyncio.Event()
+
     async def slow_move_to(*args, **kw):
+        asked.set()
         await asyncio.sleep(0.5)  # a slow robot link
         return await real_move_to(*args, **kw)
 
     backend.move_to = slow_move_to
     await w.publish("/move_base/goal", goal_msg("slow", *FAR), "move_base_msgs/MoveBaseActionGoal")
-    await asyncio.sleep(0.1)
+    await asyncio.wait_for(asked.wait(), 5)  # the goal is on its way to the robot
     await w.publish("/move_base/cancel", {"id": "slow"}, "actionlib_msgs/GoalID")
     assert (await result_for(w, "slow"))["status"] == 8  # RECALLED
     await asyncio.sleep(0.8)  # the robot was told to move meanwhile: it must be stopped again

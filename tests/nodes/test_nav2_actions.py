@@ -14,6 +14,7 @@ from hitrobot_server.robot.model import Point2D
 from hitrobot_server.robot.sim.world import load_world
 
 from ..helpers import Watcher, WsClient
+from .robot_setup import RobotSetup
 
 ODOM = "/slamware_ros_sdk_server_node/odom"
 COMPUTE = "/compute_path_to_pose"
@@ -45,16 +46,8 @@ def solid_at(world, x: float, y: float) -> bool:
                             int((x - s.origin_x) / s.resolution)])
 
 
-@pytest.fixture
-async def robot(make_server):
-    server = await make_server(robot="sim", sim_speed=6.0)
-    w = await Watcher.open(server.port)
-    await w.subscribe(ODOM, "nav_msgs/Odometry")
-    await w.until(lambda: w.latest(ODOM), 10, "odometry")
-    c = await WsClient.open(server.port)
-    yield w, c
-    await c.close()
-    await w.close()
+ROBOT = RobotSetup(sim_speed=6.0, watch={ODOM: "nav_msgs/Odometry"},
+                   ready=lambda w: w.latest(ODOM), ready_what="odometry", client=True)
 
 
 def robot_xy(w: Watcher) -> tuple[float, float]:
@@ -88,7 +81,7 @@ def test_path_helpers():
 
 # ------------------------------------------------------------------ over the wire
 async def test_compute_path_is_collision_free_and_ends_at_the_goal(robot, world):
-    w, c = robot
+    w, c = robot.w, robot.c
     res = await compute(c, pose_stamped(*FAR, yaw=math.pi / 2))
     assert res["status"] == 4 and res["result"] is True
     path = res["values"]["path"]
@@ -120,7 +113,7 @@ async def test_compute_path_is_collision_free_and_ends_at_the_goal(robot, world)
 
 
 async def test_follow_path_drives_it_with_decreasing_distance(robot):
-    w, c = robot
+    w, c = robot.w, robot.c
     plan = await compute(c, pose_stamped(*OFFICE, yaw=math.pi / 2))
     path = plan["values"]["path"]
     await c.send({"op": "send_action_goal", "id": "follow", "action": FOLLOW,
@@ -139,7 +132,7 @@ async def test_follow_path_drives_it_with_decreasing_distance(robot):
 
 
 async def test_follow_path_cancel_stops_the_robot(robot):
-    w, c = robot
+    w, c = robot.w, robot.c
     plan = await compute(c, pose_stamped(*FAR))
     await c.send({"op": "send_action_goal", "id": "far", "action": FOLLOW,
                   "action_type": "nav2_msgs/action/FollowPath",

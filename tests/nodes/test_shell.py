@@ -13,6 +13,7 @@ from hitrobot_server import __version__
 from hitrobot_server.nodes.base import Node
 
 from ..helpers import Watcher
+from .robot_setup import RobotSetup
 
 NS = "/slamware_ros_sdk_server_node"
 SECRET = "0123456789abcdef"
@@ -41,19 +42,13 @@ def modes(w: Watcher, topic: str) -> list[str]:
     return [msg["data"] for _t, msg in w.messages.get(topic, [])]
 
 
-@pytest.fixture
-async def robot(make_server, tmp_path):
-    server = await make_server(robot="sim", sim_speed=4.0, map_dir=str(tmp_path / "maps"))
-    w = await Watcher.open(server.port)
-    for topic in MODES:
-        await w.subscribe(topic, "std_msgs/String")
-    await w.until(lambda: all(modes(w, t) for t in MODES), 5, "the latched mode")
-    yield server, w
-    await w.close()
+ROBOT = RobotSetup(sim_speed=4.0, watch=dict.fromkeys(MODES, "std_msgs/String"),
+                   ready=lambda w: all(modes(w, t) for t in MODES), ready_what="the latched mode",
+                   ready_timeout=5, map_dir=True)
 
 
 async def test_mode_switches_publish_busy_then_the_mode(robot):
-    _server, w = robot
+    w = robot.w
     await w.subscribe(f"{NS}/robot_basic_state")
     assert modes(w, "/ros_mode") == ["navigation"]  # the prebuilt map: not mapping
     await command(w, "gmapping", "g")
@@ -75,7 +70,7 @@ async def test_mode_switches_publish_busy_then_the_mode(robot):
 
 
 async def test_version_null_and_unknown_commands(robot):
-    _server, w = robot
+    w = robot.w
     await w.subscribe("/system_shell/version", "std_msgs/String")
     await command(w, "version")
     text = (await w.until(lambda: w.latest("/system_shell/version"), 5, "a version"))["data"]
@@ -88,7 +83,7 @@ async def test_version_null_and_unknown_commands(robot):
 
 
 async def test_cancel_stops_move_base_goals_and_the_robot(robot):
-    server, w = robot
+    server, w = robot.server, robot.w
     await w.subscribe("/move_base/result")
     await w.publish("/move_base/goal", {"goal_id": {"id": "far"}, "goal": {"target_pose": {
         "header": {"frame_id": "map"},
@@ -103,7 +98,7 @@ async def test_cancel_stops_move_base_goals_and_the_robot(robot):
 
 
 async def test_map_commands_go_to_the_map_manager(robot):
-    server, w = robot
+    server, w = robot.server, robot.w
     probe = Node(server.bus, "/map_manager_probe")
     got: list[tuple[str, str]] = []
     for topic in ("/map_manager/save_map", "/map_manager/load_map"):

@@ -20,6 +20,7 @@ from hitrobot_server.nodes.slamware.messages import yaw_of
 from hitrobot_server.robot.sim.world import load_world
 
 from ..helpers import Watcher
+from .robot_setup import RobotSetup
 
 NS = "/slamware_ros_sdk_server_node"
 PRECISE_WITH_YAW = 16 | 32
@@ -36,16 +37,11 @@ def world():
     return load_world()
 
 
-@pytest.fixture
-async def robot(start_robot):
-    """(server, watcher) with odom, path and basic state watched."""
-    server = await start_robot(sim_speed=SPEED)
-    w = await Watcher.open(server.port)
-    await w.subscribe(f"{NS}/odom", "nav_msgs/Odometry")
-    await w.subscribe(f"{NS}/robot_basic_state")
-    await w.until(lambda: w.latest(f"{NS}/odom"), 10, "odometry")
-    yield server, w
-    await w.close()
+# odom and basic state watched, on both backends
+ROBOT = RobotSetup(sim_speed=SPEED,
+                   watch={f"{NS}/odom": "nav_msgs/Odometry", f"{NS}/robot_basic_state": None},
+                   ready=lambda w: w.latest(f"{NS}/odom"), ready_what="odometry",
+                   backends=("sim", "rest"))
 
 
 def pose_of(odom: dict) -> tuple[float, float, float]:
@@ -97,7 +93,7 @@ async def move_to(w: Watcher, x: float, y: float, yaw: float = 0.0, flags: int =
 
 
 async def test_move_to_precise_with_yaw_reaches_goal_on_a_wall_free_path(robot, world):
-    _server, w = robot
+    w = robot.w
     await w.subscribe(f"{NS}/global_plan_path")
     goal = (10.0, 12.5, math.pi / 2)  # from the corridor into an office
     assert clearance(world, goal[0], goal[1]) >= 0.5  # a spot the robot can stand on exactly
@@ -115,7 +111,7 @@ async def test_move_to_precise_with_yaw_reaches_goal_on_a_wall_free_path(robot, 
 
 
 async def test_virtual_wall_across_corridor_detour_and_enclosed_goal_fails(robot):
-    _server, w = robot
+    w = robot.w
     await w.subscribe(f"{NS}/global_plan_path")
     await w.subscribe(f"{NS}/virtual_walls")
     wall = ((12.0, 6.9), (12.0, 9.6))
@@ -148,7 +144,7 @@ async def test_virtual_wall_across_corridor_detour_and_enclosed_goal_fails(robot
 
 
 async def test_cancel_action_stops_the_robot(robot):
-    _server, w = robot
+    w = robot.w
     await move_to(w, 20.0, 8.2)
     await w.until(lambda: w.latest(f"{NS}/odom")["twist"]["twist"]["linear"]["x"] > 0.1, 20,
                   "the robot moving")
@@ -161,7 +157,7 @@ async def test_cancel_action_stops_the_robot(robot):
 
 
 async def test_go_home_docks_and_charges(robot):
-    _server, w = robot
+    w = robot.w
     await w.publish(f"{NS}/go_home", {})
     state = await w.until(
         lambda: (w.latest(f"{NS}/robot_basic_state") or {}).get("is_charging") and
@@ -172,7 +168,7 @@ async def test_go_home_docks_and_charges(robot):
 
 
 async def test_scan_matches_the_known_geometry(robot, world):
-    _server, w = robot
+    w = robot.w
     await w.subscribe(f"{NS}/scan")
     scan = await w.next(f"{NS}/scan")
     x, y, yaw = current(w)  # the robot stands still at its start pose, localized
@@ -226,7 +222,7 @@ async def test_map_grows_while_mapping_and_freezes_when_disabled(start_robot):
 
 
 async def test_stcm_round_trip_restores_the_map(robot):
-    _server, w = robot
+    w = robot.w
     await w.subscribe(f"{NS}/map", "nav_msgs/OccupancyGrid")
     original = await w.until(lambda: w.latest(f"{NS}/map"), 10, "the map")
     saved = await w.call(f"{NS}/sync_get_stcm")
@@ -257,7 +253,7 @@ def pose_msg(x: float, y: float, yaw: float) -> dict:
 async def test_refused_stcm_changes_nothing(robot):
     """A composite map that is too short, or whose checksum is wrong, is refused before the
     robot's map, localization or mapping are touched (the seed's int8[] spelling too)."""
-    _server, w = robot
+    w = robot.w
     state = f"{NS}/robot_basic_state"
     await w.until(lambda: (w.latest(state) or {}).get("localization_quality", 0) > 60, 10,
                   "good localization")
@@ -280,7 +276,7 @@ async def test_refused_stcm_changes_nothing(robot):
 async def test_clear_map_publishes_the_cleared_map_to_late_subscribers(robot):
     """After clear_map the node's map (and the composed /map) hold no known cell any more,
     also for a client that subscribes only afterwards (the latched copy)."""
-    server, w = robot
+    server, w = robot.server, robot.w
     for topic in (f"{NS}/map", "/map"):
         await w.subscribe(topic, "nav_msgs/OccupancyGrid")
         full = await w.until(lambda t=topic: w.latest(t), 10, topic)
@@ -300,7 +296,7 @@ async def test_clear_map_publishes_the_cleared_map_to_late_subscribers(robot):
 
 
 async def test_set_pose_far_away_drops_quality_and_recovery_restores_it(robot):
-    _server, w = robot
+    w = robot.w
     state = f"{NS}/robot_basic_state"
     await w.until(lambda: (w.latest(state) or {}).get("localization_quality", 0) > 60, 10,
                   "good localization")
@@ -328,7 +324,7 @@ async def test_set_pose_far_away_drops_quality_and_recovery_restores_it(robot):
 
 
 async def test_publish_rates_follow_their_periods(robot):
-    _server, w = robot
+    w = robot.w
     periods = {f"{NS}/odom": 0.05, f"{NS}/scan": 0.1, f"{NS}/map": 0.2,
                f"{NS}/basic_sensors_values": 0.05, f"{NS}/global_plan_path": 0.05,
                f"{NS}/virtual_walls": 0.5, f"{NS}/robot_basic_state": 1.0}
@@ -347,7 +343,7 @@ async def test_publish_rates_follow_their_periods(robot):
 
 
 async def test_invalid_requests_get_status_errors_and_change_nothing(robot):
-    _server, w = robot
+    w = robot.w
     await w.subscribe(f"{NS}/virtual_walls")
     await w.until(lambda: w.latest(f"{NS}/virtual_walls") is not None, 5, "walls")
     before = current(w)
@@ -413,7 +409,7 @@ async def test_the_seeds_spellings_are_accepted(robot):
     """rotate with ``orientation``, add_lines / move_lines with ``line`` and a subscription
     typed ``BasicSensorValuedataArray`` work as their SDK spellings do; both spellings of one
     field at once are refused, naming both."""
-    _server, w = robot
+    w = robot.w
     await w.subscribe(f"{NS}/basic_sensors_values", "slamware_ros_sdk/BasicSensorValuedataArray")
     await w.subscribe(f"{NS}/virtual_walls")
     walls = f"{NS}/virtual_walls"
@@ -449,7 +445,7 @@ async def test_teleop_and_cancel_are_not_errors(robot):
     """move_by_direction at 10 Hz, as a joystick drives: every command but the last is
     superseded by the next, and that is reported at info level, never as an error; so is an
     ordinary cancel of a move."""
-    _server, w = robot
+    w = robot.w
     await w.client.send({"op": "set_level", "level": "info"})
     ids = [f"joy-{i}" for i in range(10)]
     for op_id in ids:  # the joystick's own 10 Hz pace
@@ -476,7 +472,7 @@ async def test_teleop_and_cancel_are_not_errors(robot):
 async def test_cmd_vel_honours_the_turn_and_stops_soon_after_the_last_command(robot):
     """/cmd_vel at 10 Hz, driving forward while turning: the robot turns as it drives (the
     REST emulation steers too), and it stops within a short distance of the last command."""
-    _server, w = robot
+    w = robot.w
     x0, y0, yaw0 = current(w)
     twist = {"linear": {"x": 0.3, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": 0.4}}
     for _ in range(15):  # a joystick's 10 Hz

@@ -1,18 +1,14 @@
-"""ROS 2 action ops relayed between a goal sender and a client action server."""
+"""ROS 2 action ops relayed between a goal sender and a client action server (sessions
+driven sans-I/O)."""
 
 from __future__ import annotations
 
-import asyncio
 
-from ..helpers import WsClient
-
-
-async def test_goal_feedback_result_and_cancel_relay(server):
-    provider = await WsClient.open(server.port)
-    caller = await WsClient.open(server.port)
+async def test_goal_feedback_result_and_cancel_relay(hub):
+    provider = hub.open()
+    caller = hub.open()
     await provider.send({"op": "advertise_action", "action": "/fib",
                          "type": "nav2_msgs/action/FollowPath"})
-    await asyncio.sleep(0.05)
     await caller.send({"op": "send_action_goal", "id": "g1", "action": "/fib",
                        "action_type": "nav2_msgs/action/FollowPath",
                        "args": {"controller_id": "c"}, "feedback": True})
@@ -39,12 +35,11 @@ async def test_goal_feedback_result_and_cancel_relay(server):
     assert res["status"] == 5 and res["result"] is False
 
 
-async def test_provider_disconnect_aborts_goal(server):
-    provider = await WsClient.open(server.port)
-    caller = await WsClient.open(server.port)
+async def test_provider_disconnect_aborts_goal(hub):
+    provider = hub.open()
+    caller = hub.open()
     await provider.send({"op": "advertise_action", "action": "/nav",
                          "type": "nav2_msgs/NavigateToPose"})
-    await asyncio.sleep(0.05)
     await caller.send({"op": "send_action_goal", "id": "g", "action": "/nav",
                        "action_type": "nav2_msgs/NavigateToPose", "args": {}})
     await provider.expect(op="send_action_goal")

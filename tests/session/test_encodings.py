@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio
 import base64
 import io
 import json
@@ -10,8 +9,6 @@ import math
 
 import numpy as np
 from PIL import Image
-
-from ..helpers import WsClient
 
 
 def decode_png_op(op: dict) -> dict:
@@ -28,13 +25,12 @@ def join_fragments(frags: list[dict]) -> dict:
     return json.loads("".join(f["data"] for f in frags))
 
 
-async def test_one_megabyte_round_trips_fragmented_both_ways(server):
-    sender = await WsClient.open(server.port)
-    receiver = await WsClient.open(server.port)
+async def test_one_megabyte_round_trips_fragmented_both_ways(hub):
+    sender = hub.open()
+    receiver = hub.open()
     payload = "".join(chr(0x41 + i % 26) for i in range(1_000_000)) + "é中"
     await receiver.send({"op": "subscribe", "topic": "/big", "type": "std_msgs/String",
                          "fragment_size": 65536})
-    await asyncio.sleep(0.05)
     text = json.dumps({"op": "publish", "topic": "/big", "msg": {"data": payload}})
     size = 100_000
     total = math.ceil(len(text) / size)
@@ -49,9 +45,9 @@ async def test_one_megabyte_round_trips_fragmented_both_ways(server):
     assert joined["op"] == "publish" and joined["msg"]["data"] == payload
 
 
-async def test_png_4000x4000_occupancy_grid_decodes_identically(server):
-    pub = await WsClient.open(server.port)
-    sub = await WsClient.open(server.port)
+async def test_png_4000x4000_occupancy_grid_decodes_identically(hub):
+    pub = hub.open()
+    sub = hub.open()
     rng = np.random.default_rng(1)
     data = rng.choice(np.array([-1, 0, 100], dtype=np.int8), size=4000 * 4000).tolist()
     grid = {"header": {"seq": 0, "stamp": {"secs": 5, "nsecs": 6}, "frame_id": "map"},
@@ -63,7 +59,6 @@ async def test_png_4000x4000_occupancy_grid_decodes_identically(server):
     await pub.send({"op": "advertise", "topic": "/map", "type": "nav_msgs/OccupancyGrid",
                     "latch": True})
     await pub.send({"op": "publish", "topic": "/map", "msg": grid})
-    await asyncio.sleep(0.5)
     await sub.send({"op": "subscribe", "topic": "/map", "type": "nav_msgs/OccupancyGrid",
                     "compression": "png"})
     op = await sub.expect(op="png", timeout=60)
@@ -76,23 +71,23 @@ async def test_png_4000x4000_occupancy_grid_decodes_identically(server):
     assert decoded["msg"]["data"] == data
 
 
-async def test_png_payload_stays_ascii_for_latin1_decoders(client):
-    await client.send({"op": "subscribe", "topic": "/s", "type": "std_msgs/String",
+async def test_png_payload_stays_ascii_for_latin1_decoders(peer):
+    await peer.send({"op": "subscribe", "topic": "/s", "type": "std_msgs/String",
                        "compression": "png"})
-    await client.send({"op": "publish", "topic": "/s", "msg": {"data": "größe 😀"}})
-    op = await client.expect(op="png")
+    await peer.send({"op": "publish", "topic": "/s", "msg": {"data": "größe 😀"}})
+    op = await peer.expect(op="png")
     img = Image.open(io.BytesIO(base64.b64decode(op["data"])))
     raw = img.tobytes()
     assert raw.isascii()
     assert json.loads(raw.decode("latin-1"))["msg"]["data"] == "größe 😀"
 
 
-async def test_cbor_binary_frame_with_typed_arrays(client):
-    await client.send({"op": "subscribe", "topic": "/scan", "type": "sensor_msgs/LaserScan",
+async def test_cbor_binary_frame_with_typed_arrays(peer):
+    await peer.send({"op": "subscribe", "topic": "/scan", "type": "sensor_msgs/LaserScan",
                        "compression": "cbor"})
-    await client.send({"op": "publish", "topic": "/scan",
+    await peer.send({"op": "publish", "topic": "/scan",
                        "msg": {"ranges": [1.5, 2.5, None], "intensities": [], "angle_max": 1.0}})
-    msg = await client.expect(op="publish")
+    msg = await peer.expect(op="publish")
     assert msg["_binary"] is True
     ranges = msg["msg"]["ranges"]
     # cbor2 hands unknown tags back as CBORTag: 85 = float32 little-endian typed array
@@ -101,22 +96,21 @@ async def test_cbor_binary_frame_with_typed_arrays(client):
     assert values[0] == 1.5 and values[1] == 2.5 and np.isnan(values[2])
 
 
-async def test_cbor_raw_carries_ros1_bytes(client):
-    await client.send({"op": "subscribe", "topic": "/n", "type": "std_msgs/Int32",
+async def test_cbor_raw_carries_ros1_bytes(peer):
+    await peer.send({"op": "subscribe", "topic": "/n", "type": "std_msgs/Int32",
                        "compression": "cbor-raw"})
-    await client.send({"op": "publish", "topic": "/n", "msg": {"data": 258}})
-    msg = await client.expect(op="publish")
+    await peer.send({"op": "publish", "topic": "/n", "msg": {"data": 258}})
+    msg = await peer.expect(op="publish")
     assert msg["msg"]["bytes"] == (258).to_bytes(4, "little")
     assert isinstance(msg["msg"]["secs"], int)
 
 
-async def test_png_op_from_a_client_is_decoded_and_run(server):
+async def test_png_op_from_a_client_is_decoded_and_run(hub):
     from hitrobot_server.protocol import png
 
-    sender = await WsClient.open(server.port)
-    receiver = await WsClient.open(server.port)
+    sender = hub.open()
+    receiver = hub.open()
     await receiver.send({"op": "subscribe", "topic": "/from_png", "type": "std_msgs/String"})
-    await asyncio.sleep(0.05)
     inner = json.dumps({"op": "publish", "topic": "/from_png", "msg": {"data": "via png"}})
     await sender.send({"op": "png", "data": png.encode(inner.encode())})
     got = await receiver.expect(op="publish", topic="/from_png")

@@ -1,10 +1,9 @@
-"""Every class of bad input gets a status error with the op's id; nothing else breaks."""
+"""Every class of bad input gets a status error with the op's id; nothing else breaks
+(sessions driven sans-I/O)."""
 
 from __future__ import annotations
 
 import pytest
-
-from ..helpers import WsClient
 
 BAD = [
     ("{not json", None, "invalid JSON"),
@@ -31,9 +30,9 @@ BAD = [
 
 
 @pytest.mark.parametrize(("raw", "op_id", "needle"), BAD)
-async def test_bad_input_gets_status_error_and_connection_survives(server, raw, op_id, needle):
-    a = await WsClient.open(server.port)
-    b = await WsClient.open(server.port)
+async def test_bad_input_gets_status_error_and_connection_survives(hub, raw, op_id, needle):
+    a = hub.open()
+    b = hub.open()
     await a.send(raw)
     status = await a.expect(op="status", level="error")
     assert needle in status["msg"], status
@@ -52,24 +51,24 @@ async def test_bad_input_gets_status_error_and_connection_survives(server, raw, 
     await b.close()
 
 
-async def test_type_conflict_names_both_types(client):
-    await client.send({"op": "advertise", "topic": "/c", "type": "std_msgs/String"})
-    await client.send({"op": "subscribe", "id": "tc", "topic": "/c", "type": "std_msgs/Int32"})
-    status = await client.expect(op="status", id="tc")
+async def test_type_conflict_names_both_types(peer):
+    await peer.send({"op": "advertise", "topic": "/c", "type": "std_msgs/String"})
+    await peer.send({"op": "subscribe", "id": "tc", "topic": "/c", "type": "std_msgs/Int32"})
+    status = await peer.expect(op="status", id="tc")
     assert "std_msgs/String" in status["msg"] and "std_msgs/Int32" in status["msg"]
 
 
-async def test_bad_message_content_names_the_field(client):
-    await client.send({"op": "advertise", "topic": "/p", "type": "geometry_msgs/Pose"})
-    await client.send({"op": "publish", "id": "bad", "topic": "/p",
+async def test_bad_message_content_names_the_field(peer):
+    await peer.send({"op": "advertise", "topic": "/p", "type": "geometry_msgs/Pose"})
+    await peer.send({"op": "publish", "id": "bad", "topic": "/p",
                        "msg": {"position": {"x": "one"}}})
-    status = await client.expect(op="status", id="bad")
+    status = await peer.expect(op="status", id="bad")
     assert status["level"] == "error" and "position.x" in status["msg"]
 
 
-async def test_glob_denied_topic_and_service(make_server):
-    srv = await make_server(topics_glob="/allowed/*", services_glob="/svc/*")
-    c = await WsClient.open(srv.port)
+async def test_glob_denied_topic_and_service(make_hub):
+    hub = await make_hub(topics_glob="/allowed/*", services_glob="/svc/*")
+    c = hub.open()
     await c.send({"op": "advertise", "id": "g", "topic": "/secret", "type": "std_msgs/String"})
     status = await c.expect(op="status", id="g")
     assert "--topics-glob" in status["msg"]
@@ -81,12 +80,12 @@ async def test_glob_denied_topic_and_service(make_server):
     await c.close()
 
 
-async def test_set_level_none_silences_and_warning_adds_partial_message_warning(client):
-    await client.send({"op": "advertise", "topic": "/w", "type": "geometry_msgs/Point"})
-    await client.send({"op": "set_level", "level": "warning"})
-    await client.send({"op": "publish", "id": "part", "topic": "/w", "msg": {"x": 1}})
-    warn = await client.expect(op="status", id="part")
+async def test_set_level_none_silences_and_warning_adds_partial_message_warning(peer):
+    await peer.send({"op": "advertise", "topic": "/w", "type": "geometry_msgs/Point"})
+    await peer.send({"op": "set_level", "level": "warning"})
+    await peer.send({"op": "publish", "id": "part", "topic": "/w", "msg": {"x": 1}})
+    warn = await peer.expect(op="status", id="part")
     assert warn["level"] == "warning" and "y" in warn["msg"]
-    await client.send({"op": "set_level", "level": "none"})
-    await client.send({"op": "frobnicate", "id": "quiet"})
-    await client.expect_none(op="status", timeout=0.4)
+    await peer.send({"op": "set_level", "level": "none"})
+    await peer.send({"op": "frobnicate", "id": "quiet"})
+    await peer.expect_none(op="status", timeout=0.4)

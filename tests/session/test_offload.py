@@ -18,9 +18,9 @@ import pytest
 from PIL import Image
 
 from hitrobot_server.bus.core import Bus
-from hitrobot_server.config import Settings
 from hitrobot_server.protocol import bulk, cbor, rawmsg
 from hitrobot_server.session import offload, wire
+from hitrobot_server.session.options import SessionOptions
 from hitrobot_server.session.session import Session
 from hitrobot_server.types.convert import from_json
 from hitrobot_server.types.registry import TypeRegistry
@@ -53,7 +53,7 @@ def bus() -> Bus:
 
 
 def session(bus: Bus) -> Session:
-    return Session(bus, Settings(robot="none"))
+    return Session(bus, SessionOptions())
 
 
 async def feed(s: Session, obj_or_text) -> None:
@@ -345,7 +345,7 @@ async def test_big_hostile_ops_are_checked_like_small_ones(bus):
     Image.new("RGB", (side, side)).save(bomb, format="PNG")
     data = base64.b64encode(bomb.getvalue()).decode()
     data += "=" * (offload.OFFLOAD_BYTES - len(data) + 4 - (offload.OFFLOAD_BYTES % 4))
-    small = Session(bus, Settings(robot="none", max_frame_size=1_000_000))
+    small = Session(bus, SessionOptions(max_frame_size=1_000_000))
     await feed(small, {"op": "png", "id": "bomb", "data": data})
     error = await next_op(small, "status")
     assert error["id"] == "bomb" and f"{side}x{side} pixels" in error["msg"]
@@ -353,7 +353,7 @@ async def test_big_hostile_ops_are_checked_like_small_ones(bus):
 
 async def test_a_big_frame_before_auth_closes_without_parsing(bus):
     secret = "0123456789abcdef"
-    s = Session(bus, Settings(robot="none", authenticate=True, auth_secret=secret))
+    s = Session(bus, SessionOptions(authenticate=True, auth_secret=secret))
     await feed(s, publish_text("/map", grid(BIG, 12), id="early"))
     error = await next_op(s, "status")
     assert error["level"] == "error" and "not authenticated" in error["msg"]

@@ -1,19 +1,16 @@
-"""Service calls between clients and to in-process providers."""
+"""Service calls between clients and to in-process providers, sessions driven sans-I/O."""
 
 from __future__ import annotations
 
-import asyncio
-
 import pytest
 
-from ..helpers import WsClient
+from ..sansio import SessionClient
 
 
-async def test_client_provider_round_trip_with_list_and_object_args(server):
-    provider = await WsClient.open(server.port)
-    caller = await WsClient.open(server.port)
+async def test_client_provider_round_trip_with_list_and_object_args(hub):
+    provider = hub.open()
+    caller = hub.open()
     await provider.send({"op": "advertise_service", "service": "/add", "type": "std_srvs/SetBool"})
-    await asyncio.sleep(0.05)
     await caller.send({"op": "call_service", "id": "c1", "service": "/add", "args": [True]})
     req = await provider.expect(op="call_service")
     assert req["id"] == "service_request:/add:1" and req["args"] == {"data": True}
@@ -31,11 +28,10 @@ async def test_client_provider_round_trip_with_list_and_object_args(server):
     assert reply["service"] == "add#legacy" and reply["values"]["message"] == ""
 
 
-async def test_provider_result_false_without_values_fails_caller(server):
-    provider = await WsClient.open(server.port)
-    caller = await WsClient.open(server.port)
+async def test_provider_result_false_without_values_fails_caller(hub):
+    provider = hub.open()
+    caller = hub.open()
     await provider.send({"op": "advertise_service", "service": "/f", "type": "std_srvs/Trigger"})
-    await asyncio.sleep(0.05)
     await caller.send({"op": "call_service", "id": "c", "service": "/f"})
     req = await provider.expect(op="call_service")
     await provider.send({"op": "service_response", "id": req["id"], "service": "/f",
@@ -44,11 +40,10 @@ async def test_provider_result_false_without_values_fails_caller(server):
     assert reply["result"] is False and "/f" in reply["values"]
 
 
-async def test_provider_disconnect_fails_pending_and_removes_service(server):
-    provider = await WsClient.open(server.port)
-    caller = await WsClient.open(server.port)
+async def test_provider_disconnect_fails_pending_and_removes_service(hub):
+    provider = hub.open()
+    caller = hub.open()
     await provider.send({"op": "advertise_service", "service": "/gone", "type": "std_srvs/Empty"})
-    await asyncio.sleep(0.05)
     await caller.send({"op": "call_service", "id": "p", "service": "/gone"})
     await provider.expect(op="call_service")
     await provider.close()
@@ -58,49 +53,47 @@ async def test_provider_disconnect_fails_pending_and_removes_service(server):
     assert "/gone" not in services
 
 
-async def test_unknown_service_answers_and_reports(client):
-    reply = await client.call("/does/not/exist")
+async def test_unknown_service_answers_and_reports(peer):
+    reply = await peer.call("/does/not/exist")
     assert reply["result"] is False and "does not exist" in reply["values"]
-    status = await client.expect(op="status")
+    status = await peer.expect(op="status")
     assert "/does/not/exist" in status["msg"]
 
 
-async def test_call_timeout(server):
-    provider = await WsClient.open(server.port)
-    caller = await WsClient.open(server.port)
+async def test_call_timeout(hub):
+    provider = hub.open()
+    caller = hub.open()
     await provider.send({"op": "advertise_service", "service": "/slow", "type": "std_srvs/Empty"})
-    await asyncio.sleep(0.05)
     await caller.send({"op": "call_service", "id": "t", "service": "/slow", "timeout": 0.2})
     reply = await caller.expect(op="service_response", id="t", timeout=3)
     assert reply["result"] is False and "0.2" in reply["values"]
 
 
-async def test_rosapi_params_and_types(client):
-    assert (await client.call("rosapi/set_param", {"name": "/robot/speed", "value": "0.5"}))[
+async def test_rosapi_params_and_types(peer):
+    assert (await peer.call("rosapi/set_param", {"name": "/robot/speed", "value": "0.5"}))[
         "result"]
-    got = await client.call("/rosapi/get_param", {"name": "/robot/speed"})
+    got = await peer.call("/rosapi/get_param", {"name": "/robot/speed"})
     assert got["values"]["value"] == "0.5"
-    tree = await client.call("/rosapi/get_param", {"name": "/robot"})
+    tree = await peer.call("/rosapi/get_param", {"name": "/robot"})
     assert tree["values"]["value"] == '{"speed":0.5}'
-    names = (await client.call("/rosapi/get_param_names"))["values"]["names"]
+    names = (await peer.call("/rosapi/get_param_names"))["values"]["names"]
     assert "/robot/speed" in names
-    assert (await client.call("/rosapi/has_param", {"name": "/robot/speed"}))["values"]["exists"]
-    await client.call("/rosapi/delete_param", {"name": "/robot/speed"})
-    assert not (await client.call("/rosapi/has_param", {"name": "/robot/speed"}))["values"][
+    assert (await peer.call("/rosapi/has_param", {"name": "/robot/speed"}))["values"]["exists"]
+    await peer.call("/rosapi/delete_param", {"name": "/robot/speed"})
+    assert not (await peer.call("/rosapi/has_param", {"name": "/robot/speed"}))["values"][
         "exists"]
-    details = (await client.call("/rosapi/message_details", {"type": "geometry_msgs/PoseStamped"}))
+    details = (await peer.call("/rosapi/message_details", {"type": "geometry_msgs/PoseStamped"}))
     defs = details["values"]["typedefs"]
     assert defs[0]["type"] == "geometry_msgs/PoseStamped"
     assert defs[0]["fieldnames"] == ["header", "pose"]
     assert defs[0]["fieldarraylen"] == [-1, -1]
-    t = (await client.call("/rosapi/get_time"))["values"]["time"]
+    t = (await peer.call("/rosapi/get_time"))["values"]["time"]
     assert set(t) == {"secs", "nsecs"}
-    await client.send({"op": "advertise", "topic": "/x", "type": "std_msgs/String"})
-    await asyncio.sleep(0.05)
-    topics = (await client.call("/rosapi/topics"))["values"]
+    await peer.send({"op": "advertise", "topic": "/x", "type": "std_msgs/String"})
+    topics = (await peer.call("/rosapi/topics"))["values"]
     assert "/x" in topics["topics"]
     assert topics["types"][topics["topics"].index("/x")] == "std_msgs/String"
-    assert (await client.call("/rosapi/topic_type", {"topic": "x"}))["values"]["type"] == \
+    assert (await peer.call("/rosapi/topic_type", {"topic": "x"}))["values"]["type"] == \
         "std_msgs/String"
 
 
@@ -110,24 +103,25 @@ async def test_rosapi_params_and_types(client):
     ('"timeout": -1', "field 'timeout' must be a finite number"),
     ('"timeout": Infinity', "field 'timeout' must be a finite number"),
 ])
-async def test_call_service_with_bad_compression_or_timeout_is_refused(client, extra, needle):
-    await client.send('{"op": "call_service", "id": "bad", "service": "/rosapi/get_time", '
+async def test_call_service_with_bad_compression_or_timeout_is_refused(peer, extra, needle):
+    await peer.send('{"op": "call_service", "id": "bad", "service": "/rosapi/get_time", '
                       + extra + "}")
-    reply = await client.expect(op="service_response", id="bad")
+    reply = await peer.expect(op="service_response", id="bad")
     assert reply["result"] is False and needle in reply["values"]
-    status = await client.expect(op="status", id="bad")
+    status = await peer.expect(op="status", id="bad")
     assert status["level"] == "error" and needle in status["msg"]
-    await client.send({"op": "call_service", "id": "zero", "service": "/rosapi/get_time",
+    await peer.send({"op": "call_service", "id": "zero", "service": "/rosapi/get_time",
                        "timeout": 0})
-    reply = await client.expect(op="service_response", id="zero")
+    reply = await peer.expect(op="service_response", id="zero")
     assert reply["result"] is True  # 0 still means "no timeout"
 
 
-async def _provider_and_call(server, service: str, type_name: str) -> tuple[WsClient, WsClient,
-                                                                           dict]:
+async def _provider_and_call(
+    hub, service: str, type_name: str
+) -> tuple[SessionClient, SessionClient, dict]:
     """A client serving ``service`` (advertise acknowledged) and a call it has received."""
-    provider = await WsClient.open(server.port)
-    caller = await WsClient.open(server.port)
+    provider = hub.open()
+    caller = hub.open()
     await provider.send({"op": "set_level", "level": "info"})
     await provider.send({"op": "advertise_service", "id": "adv", "service": service,
                          "type": type_name})
@@ -137,20 +131,20 @@ async def _provider_and_call(server, service: str, type_name: str) -> tuple[WsCl
     return provider, caller, await provider.expect(op="call_service")
 
 
-async def test_provider_result_false_values_reach_the_caller(server):
+async def test_provider_result_false_values_reach_the_caller(hub):
     """rosbridge passes a provider's values with result:false; roslibpy's AddTwoInts test
     relies on it."""
-    provider, caller, req = await _provider_and_call(server, "/sum", "rospy_tutorials/AddTwoInts")
+    provider, caller, req = await _provider_and_call(hub, "/sum", "rospy_tutorials/AddTwoInts")
     await provider.send({"op": "service_response", "id": req["id"], "service": "/sum",
                          "values": {"sum": 5}, "result": False})
     reply = await caller.expect(op="service_response", id="c")
     assert reply["result"] is False and reply["values"] == {"sum": 5}
 
 
-async def test_provider_result_null_still_answers_the_caller(server):
+async def test_provider_result_null_still_answers_the_caller(hub):
     """roslibpy sends result:null when a handler returns None: the caller gets a failed
     response with the reason and the provider a status error."""
-    provider, caller, req = await _provider_and_call(server, "/sum2",
+    provider, caller, req = await _provider_and_call(hub, "/sum2",
                                                      "example_interfaces/AddTwoInts")
     await provider.send({"op": "service_response", "id": req["id"], "service": "/sum2",
                          "values": {"sum": 5}, "result": None})
@@ -161,8 +155,8 @@ async def test_provider_result_null_still_answers_the_caller(server):
     assert status["level"] == "error" and "result" in status["msg"]
 
 
-async def test_provider_result_false_with_bad_values_answers_both(server):
-    provider, caller, req = await _provider_and_call(server, "/sum3", "rospy_tutorials/AddTwoInts")
+async def test_provider_result_false_with_bad_values_answers_both(hub):
+    provider, caller, req = await _provider_and_call(hub, "/sum3", "rospy_tutorials/AddTwoInts")
     await provider.send({"op": "service_response", "id": req["id"], "service": "/sum3",
                          "values": {"total": 5}, "result": False})
     reply = await caller.expect(op="service_response", id="c")

@@ -1,21 +1,21 @@
 """A throttled subscription cannot make the server hold an unbounded backlog: queue_length is
-clamped (with a warning) and a client's throttle queues are bounded in bytes."""
+clamped (with a warning) and a client's throttle queues are bounded in bytes (sessions driven
+sans-I/O)."""
 
 from __future__ import annotations
 
 from hitrobot_server.session.subscribe import MAX_QUEUE_LENGTH
 
-from ..helpers import WsClient
 from ..witness import Witness
 
 LIMIT = 200_000
 BODY = "x" * 20_000
 
 
-async def test_huge_queue_length_is_clamped_and_bytes_are_bounded(make_server):
-    server = await make_server(send_buffer_limit=LIMIT)
-    witness = await Witness.open(server.port)
-    bad = await WsClient.open(server.port)
+async def test_huge_queue_length_is_clamped_and_bytes_are_bounded(make_hub):
+    hub = await make_hub(send_buffer_limit=LIMIT)
+    witness = await Witness.on(hub.open(), hub.open())
+    bad = hub.open()
     await bad.send({"op": "set_level", "level": "warning"})
     for topic in ("/big1", "/big2"):
         await bad.send({"op": "subscribe", "id": topic, "topic": topic,
@@ -24,7 +24,7 @@ async def test_huge_queue_length_is_clamped_and_bytes_are_bounded(make_server):
         status = await bad.expect(op="status", id=topic)
         assert status["level"] == "warning"
         assert f"clamped to {MAX_QUEUE_LENGTH}" in status["msg"] and str(LIMIT) in status["msg"]
-    pub = await WsClient.open(server.port)
+    pub = hub.open()
     for topic in ("/big1", "/big2"):
         await pub.send({"op": "advertise", "topic": topic, "type": "std_msgs/String"})
     for i in range(60):
@@ -32,7 +32,7 @@ async def test_huge_queue_length_is_clamped_and_bytes_are_bounded(make_server):
             await pub.send({"op": "publish", "topic": topic, "msg": {"data": f"{i}{BODY}"}})
         await witness.publish(1)
     assert (await pub.call("/rosapi/get_time"))["result"] is True  # all publishes are handled
-    session = next(s for s in server.sessions if s.subscriptions.subs.get("/big1"))
+    session = next(c.session for c in hub.clients if c.session.subscriptions.subs.get("/big1"))
     ops = session.subscriptions
     queued = [len(sub._pending) for sub in ops.subs.values()]
     # 120 messages of ~20 kB were throttled; the queues keep the newest that fit in LIMIT

@@ -6,7 +6,7 @@ import asyncio
 
 from websockets.asyncio.client import connect
 
-from ..helpers import WsClient
+from ..helpers import WsClient, round_trip
 
 
 async def test_stalled_client_does_not_delay_fast_one(make_server):
@@ -14,11 +14,14 @@ async def test_stalled_client_does_not_delay_fast_one(make_server):
     # the slow client subscribes, then never reads; tiny socket buffers make it back up fast
     slow = await connect(f"ws://127.0.0.1:{server.port}", max_size=None, max_queue=1)
     await slow.send('{"op":"subscribe","topic":"/firehose","type":"std_msgs/String"}')
+    await slow.send('{"op":"call_service","id":"subscribed","service":"/rosapi/get_time"}')
+    while '"subscribed"' not in await asyncio.wait_for(slow.recv(), 5):  # round trip
+        pass
     slow.transport.pause_reading()
     fast = await WsClient.open(server.port)
     pub = await WsClient.open(server.port)
     await fast.send({"op": "subscribe", "topic": "/firehose", "type": "std_msgs/String"})
-    await asyncio.sleep(0.1)
+    await round_trip(fast)
     payload = "x" * 20_000
     n = 600  # ~12 MB in all: far beyond the slow client's buffers
 

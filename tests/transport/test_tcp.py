@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 import json
 
-from ..helpers import TcpClient, WsClient
+from ..helpers import TcpClient, WsClient, round_trip
 
 
 async def test_concatenated_split_and_newline_input(server):
@@ -17,7 +17,7 @@ async def test_concatenated_split_and_newline_input(server):
     blob = (sub + pub1 + "\n" + pub2).encode()
     for i in range(0, len(blob), 7):  # split everywhere, including inside UTF-8 sequences
         await c.send_bytes(blob[i:i + 7])
-        await asyncio.sleep(0)
+        await asyncio.sleep(0)  # one loop turn: each chunk is its own write (under test)
     assert (await c.expect(op="publish"))["msg"]["data"] == "héllo 中"
     assert (await c.expect(op="publish"))["msg"]["data"] == "two"
     await c.close()
@@ -50,12 +50,13 @@ async def test_tcp_and_websocket_clients_share_the_bus(server):
     ws = await WsClient.open(server.port)
     await ws.send({"op": "subscribe", "topic": "/shared", "type": "std_msgs/String"})
     await tcp.send({"op": "advertise", "topic": "/shared", "type": "std_msgs/String"})
-    await asyncio.sleep(0.05)
+    await round_trip(ws)
+    await round_trip(tcp)
     await tcp.send({"op": "publish", "topic": "/shared", "msg": {"data": "from tcp"}})
     assert (await ws.expect(op="publish"))["msg"]["data"] == "from tcp"
     await ws.send({"op": "call_service", "id": "c", "service": "/rosapi/topics"})
     await tcp.send({"op": "subscribe", "topic": "/shared"})
-    await asyncio.sleep(0.05)
+    await round_trip(tcp)
     await ws.send({"op": "publish", "topic": "/shared", "msg": {"data": "from ws"}})
     assert (await tcp.expect(op="publish"))["msg"]["data"] == "from ws"
     await tcp.close()

@@ -275,8 +275,9 @@ async def test_reboot_asks_first_and_version_answers(console: Console, watcher):
     await dialog.wait_for()
     assert "Reboot" in await dialog.text_content()
     await dialog.locator("button[value=cancel]").click()
-    await asyncio.sleep(0.5)
+    await asyncio.sleep(0.5)  # a window for a (wrong) command to arrive: none may
     assert watcher.messages.get("/system_shell/cmd_string") is None
+    await console.wait_data("#robot-state", "state", "ok")  # the robot's state has arrived
     assert await page.get_attribute("#robot-state", "data-state") == "ok"
 
     await page.click("[data-cmd=version]")
@@ -291,7 +292,8 @@ async def test_arrow_keys_drive_and_release_stops(console: Console, watcher):
     await watcher.subscribe("/cmd_vel", "geometry_msgs/Twist")
     await page.locator("#map").focus()
     await page.keyboard.down("ArrowUp")
-    await asyncio.sleep(0.6)
+    await watcher.until(lambda: len(watcher.messages.get("/cmd_vel", [])) >= 4, 5,
+                        "four drive commands while the key is held")
     sent = [m for _, m in watcher.messages.get("/cmd_vel", [])]
     assert len(sent) >= 4, sent  # 10 per second while held
     assert all(abs(m["linear"]["x"] - 0.3) < 1e-9 and m["angular"]["z"] == 0 for m in sent)
@@ -300,7 +302,8 @@ async def test_arrow_keys_drive_and_release_stops(console: Console, watcher):
     assert twist["angular"]["z"] > 0 and twist["linear"]["x"] > 0
     await page.keyboard.up("ArrowLeft")
     await page.keyboard.up("ArrowUp")
-    await asyncio.sleep(0.4)
+    await watcher.until(lambda: watcher.latest("/cmd_vel")["linear"]["x"] == 0, 5,
+                        "the stop command on release")
     last = watcher.latest("/cmd_vel")
     assert last["linear"]["x"] == 0 and last["angular"]["z"] == 0
     count = len(watcher.messages["/cmd_vel"])
@@ -314,7 +317,8 @@ async def test_arrow_keys_drive_and_release_stops(console: Console, watcher):
     twist = await watcher.next("/cmd_vel")
     assert twist["angular"]["z"] < 0
     await page.evaluate("window.dispatchEvent(new Event('blur'))")
-    await asyncio.sleep(0.3)
+    await watcher.until(lambda: watcher.latest("/cmd_vel")["angular"]["z"] == 0, 5,
+                        "the stop command on blur")
     last = watcher.latest("/cmd_vel")
     assert last["linear"]["x"] == 0 and last["angular"]["z"] == 0
     await page.mouse.up()

@@ -23,11 +23,11 @@ import numpy as np
 
 from ...bus.core import Bus
 from ...bus.topics import Message, RequestRejected
-from ...config import Settings
 from ...robot import composite_map
 from ...robot.backend import BackendError, NotConnectedError, RobotBackend
 from ...robot.model import ArtifactUsage, Line, MapRegion, Point2D, Pose2D, Rect
 from ..base import RobotNode
+from ..options import NodeOptions
 from ..slamware import messages as m
 from ..slamware.mapsync import MapHolder, tiles
 from ..slamware.node import NODE_NAME as SLAMWARE_NODE
@@ -137,7 +137,7 @@ def occupancy_message(grid: Grid, frame: str, now: float) -> dict:
 class MapManager(RobotNode):
     """The map manager node; needs a robot (the SLAM layer is the robot's map)."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, settings: Settings):
+    def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions):
         super().__init__(bus, NODE_NAME, backend)
         self.store = MapStore(settings.map_store)
         params = settings.slamware

@@ -7,16 +7,15 @@ from ``actions/:current`` when idle, action status 0/1/3/4 with result 0/-1/-2, 
 actions read back as gravestones (no name, no stage), line ids chosen by the robot (requested
 ids are ignored). It binds 127.0.0.1 by default.
 
-It is a test double, not an emulator of every endpoint: see :data:`NOT_EMULATED`.
+It is a test double, not an emulator of every endpoint: see :data:`NOT_EMULATED`. Its command
+line is :mod:`hitrobot_server.commands.sim_device`.
 """
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 import logging
 import math
-import sys
 from collections.abc import Awaitable, Callable
 from typing import Any
 
@@ -24,7 +23,6 @@ import orjson
 from aiohttp import web
 
 from ... import __version__
-from ...signals import until_terminated
 from ..backend import ACTION_PREFIX, BackendError, NotConnectedError, UnsupportedError
 from ..model import ActionDirection, ActionInfo, Line, Pose2D, Rect
 from ..sim.backend import SimBackend
@@ -500,63 +498,3 @@ class SimDevice:
         if found:
             await self._areas_changed(usage)
         return reply(found)
-
-
-# --- command line ----------------------------------------------------------------------------
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="hitrobot-server sim-device",
-        description="Serve the built-in simulated robot over the Slamware REST API, so "
-        "'hitrobot-server --robot http://ADDRESS:PORT' (or any Slamware REST client) can "
-        f"drive it. Not emulated: {NOT_EMULATED}.",
-    )
-    parser.add_argument("--port", type=int, default=1448,
-                        help="HTTP port (default: 1448, the robot's; 0 = any free one)")
-    parser.add_argument("--address", default="127.0.0.1",
-                        help="address to bind (default: 127.0.0.1)")
-    parser.add_argument("--world", metavar="FILE", default=None,
-                        help="map_server YAML (+ PGM) to drive in (default: the built-in office)")
-    parser.add_argument("--sim-speed", type=float, default=1.0,
-                        help="simulated seconds per wall-clock second (default: 1)")
-    parser.add_argument("--sim-seed", type=int, default=0,
-                        help="random seed of the simulator (default: 0)")
-    parser.add_argument("--sim-mapping", action="store_true",
-                        help="start with an empty map and mapping on")
-    parser.add_argument("--log-level", default="info",
-                        help="logging level: debug, info, warning, error (default: info)")
-    return parser
-
-
-async def serve(args: argparse.Namespace) -> None:
-    from ..factory import build_simulator
-
-    simulator = build_simulator(args.world, args.sim_seed, args.sim_mapping)
-    device = SimDevice(simulator, address=args.address, port=args.port,
-                       time_scale=args.sim_speed)
-    await device.start()
-    print(f"hitrobot-server sim-device: {device.url}", flush=True)
-    try:
-        await until_terminated()
-    finally:
-        await device.stop()
-
-
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    if args.sim_speed <= 0:
-        print("hitrobot-server sim-device: --sim-speed must be positive", file=sys.stderr)
-        return 2
-    logging.basicConfig(level=args.log_level.upper(),
-                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    try:
-        asyncio.run(serve(args))
-    except (OSError, ValueError) as exc:
-        print(f"hitrobot-server sim-device: {exc}", file=sys.stderr)
-        return 1
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -249,8 +249,9 @@ async def test_blocked_areas_become_forbidden_rectangles_and_replace_only_ours(d
 async def test_factory_builds_the_rest_client_from_a_url():
     from hitrobot_server.nodes.slamware import SlamwareParams
 
-    backend = build_backend(Settings(robot="http://192.0.2.1:1448/",
-                                     slamware=SlamwareParams(reconn_wait_ms=1234)))
+    settings = Settings(robot="http://192.0.2.1:1448/",
+                        slamware=SlamwareParams(reconn_wait_ms=1234))
+    backend = build_backend(settings.robot_options())
     assert isinstance(backend, SlamwareRestBackend)
     assert backend.url == "http://192.0.2.1:1448" and backend._reconn_wait == 1.234
     assert not backend.connected

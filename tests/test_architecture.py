@@ -1,0 +1,121 @@
+"""The floors of ARCHITECTURE.md, checked: no package of hitrobot_server imports a floor above
+its own. Imports are read with ``ast`` (every import, also those inside functions), so the rule
+holds however modules move within a package."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import hitrobot_server
+
+PACKAGE = Path(hitrobot_server.__file__).parent
+
+# What each floor (hitrobot_server.<name>) may import from the project, besides itself and the
+# root package's __init__ (the version). Bottom first.
+BASE = {"types", "tf_buffer", "signals"}  # pure helpers, no project imports
+ALLOWED: dict[str, set[str]] = {
+    "types": set(),
+    "tf_buffer": set(),
+    "signals": set(),
+    "protocol": {"types"},
+    "bus": {"types", "protocol"},
+    "robot": {"types", "tf_buffer"},
+    "session": {"bus", "protocol", "types"},
+    "transport": {"session", "protocol", "types"},
+    "nodes": {"bus", "robot", "protocol", "types", "tf_buffer"},
+    "conformance": {"protocol", "types"},  # a client tool: it talks to servers over sockets
+    # the top: assembles the floors, so it may import any of them
+    "config": {"session", "bus", "nodes", "robot", "protocol", "types"},
+    "server": {"config", "transport", "session", "bus", "nodes", "robot", "protocol", "types"},
+    "commands": {"robot", "signals", "config", "types"},
+    "cli": {"config", "server", "signals", "conformance", "commands"},
+    "__main__": {"cli"},
+}
+
+# Known upward imports, each with its reason. Empty: keep it so.
+EXCEPTIONS: dict[tuple[str, str], str] = {}
+
+
+def floor_of(module: list[str]) -> str:
+    """``['hitrobot_server', 'nodes', 'slamware', 'node']`` → ``'nodes'``."""
+    return module[1] if len(module) > 1 else ""
+
+
+def imported_modules(source: str, module: list[str], is_package: bool) -> list[list[str]]:
+    """The project modules one file imports, as dotted parts, relative imports resolved."""
+    here = module if is_package else module[:-1]
+    found: list[list[str]] = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            found += [a.name.split(".") for a in node.names if a.name.split(".")[0] == PACKAGE.name]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = here[: len(here) - (node.level - 1)]
+                if node.module:
+                    found.append(base + node.module.split("."))
+                else:
+                    found += [base + [a.name] for a in node.names]
+            elif node.module and node.module.split(".")[0] == PACKAGE.name:
+                found.append(node.module.split("."))
+    return found
+
+
+def violations(source: str, module: list[str], is_package: bool) -> list[str]:
+    floor = floor_of(module)
+    bad = []
+    for target in imported_modules(source, module, is_package):
+        dest = floor_of(target)
+        if dest in ("", floor, "__version__"):
+            continue
+        if dest not in ALLOWED.get(floor, set()) and (floor, dest) not in EXCEPTIONS:
+            bad.append(f"{'.'.join(module)} imports {'.'.join(target)} ({floor} → {dest})")
+    return bad
+
+
+def project_modules():
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = [PACKAGE.name, *path.relative_to(PACKAGE).with_suffix("").parts]
+        is_package = parts[-1] == "__init__"
+        if is_package:
+            parts = parts[:-1]
+        yield path, parts, is_package
+
+
+def test_every_floor_is_placed():
+    """A new subpackage or top-level module gets a place in ALLOWED (and ARCHITECTURE.md)."""
+    floors = {floor_of(parts) for _, parts, _ in project_modules()} - {""}
+    assert floors <= set(ALLOWED), f"not placed on a floor: {sorted(floors - set(ALLOWED))}"
+
+
+def test_no_layer_imports_upward():
+    bad = []
+    for path, parts, is_package in project_modules():
+        bad += violations(path.read_text(encoding="utf-8"), parts, is_package)
+    assert not bad, "upward imports:\n" + "\n".join(bad)
+
+
+def test_base_floors_import_nothing_of_ours():
+    assert all(not ALLOWED[name] for name in BASE)
+
+
+def test_exceptions_are_still_needed():
+    """An exception that no module uses any more is removed, not kept as a hole."""
+    used = set()
+    for path, parts, is_package in project_modules():
+        for target in imported_modules(path.read_text(encoding="utf-8"), parts, is_package):
+            used.add((floor_of(parts), floor_of(target)))
+    assert set(EXCEPTIONS) <= used
+
+
+def test_the_rule_catches_an_upward_import():
+    """The checker itself: a node importing the session, relative or absolute, or the bus
+    importing a node, is reported; a node importing the bus is not."""
+    node = ["hitrobot_server", "nodes", "slamware", "node"]
+    assert violations("from ...session.session import Session\n", node, False)
+    assert violations("import hitrobot_server.transport.tcp\n", node, False)
+    assert violations("def f():\n    from ...transport import tcp\n", node, False)
+    assert violations("from ..nodes import base\n", ["hitrobot_server", "bus", "core"], False)
+    assert violations("from .. import nodes\n", ["hitrobot_server", "bus"], True)
+    assert not violations("from ...bus.core import Bus\n", node, False)
+    assert not violations("from . import params\n", node, False)
