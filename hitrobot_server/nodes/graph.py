@@ -27,6 +27,7 @@ from ..bus.core import Bus
 from ..config import Settings
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionResult, Point2D
+from ..robot.motion import follow
 from .base import RobotNode
 from .mapfiles import (
     GRAPH_FILE,
@@ -37,7 +38,6 @@ from .mapfiles import (
     load_yaml,
     number,
 )
-from .patrol import follow
 
 PKG = "hitrobot_msgs"
 CURRENT_TOPIC = "/graph/current"

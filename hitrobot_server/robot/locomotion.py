@@ -215,7 +215,7 @@ class LocomotionBackend(RobotBackend):
 
         self._transition = asyncio.get_running_loop().create_task(finish(), name="stand-up")
 
-    def _check_motion(self, manual: bool = False) -> None:
+    def check_motion(self, manual: bool = False) -> None:
         """Refuse motion the locomotion state or the control mode does not allow; ``manual``
         is teleoperation (velocity and MoveBy commands) as opposed to autonomous motion."""
         if not self.inner.connected:
@@ -249,35 +249,35 @@ class LocomotionBackend(RobotBackend):
     # --- motion (gated) ------------------------------------------------------------------
     async def move_to(self, targets: Sequence[Point2D], options: MoveOptions | None = None,
                       yaw: float = 0.0) -> ActionInfo:
-        self._check_motion()
+        self.check_motion()
         return await self.inner.move_to(targets, options, yaw)
 
     async def move_by_direction(self, direction: ActionDirection,
                                 options: MoveOptions | None = None,
                                 duration: float = 0.5) -> ActionInfo:
-        self._check_motion(manual=True)
+        self.check_motion(manual=True)
         return await self.inner.move_by_direction(direction, options, duration)
 
     async def move_by_theta(self, theta: float, options: MoveOptions | None = None,
                             duration: float = 0.5) -> ActionInfo:
-        self._check_motion(manual=True)
+        self.check_motion(manual=True)
         return await self.inner.move_by_theta(theta, options, duration)
 
     async def rotate_to(self, yaw: float, options: MoveOptions | None = None) -> ActionInfo:
-        self._check_motion()
+        self.check_motion()
         return await self.inner.rotate_to(yaw, options)
 
     async def rotate(self, angle: float, options: MoveOptions | None = None) -> ActionInfo:
-        self._check_motion()
+        self.check_motion()
         return await self.inner.rotate(angle, options)
 
     async def go_home(self, options: MoveOptions | None = None) -> ActionInfo:
-        self._check_motion()
+        self.check_motion()
         return await self.inner.go_home(options)
 
     async def set_velocity(self, linear: float, angular: float) -> None:
         if linear != 0.0 or angular != 0.0:  # a stop is always allowed
-            self._check_motion(manual=True)
+            self.check_motion(manual=True)
         await self.inner.set_velocity(linear, angular)
 
 

@@ -8,7 +8,6 @@ request we cannot carry out is reported to the client that sent it as a ``status
 
 from __future__ import annotations
 
-import asyncio
 import logging
 import math
 import time
@@ -24,7 +23,6 @@ from ...robot.model import (
     ActionDirection,
     ActionInfo,
     ActionResult,
-    ActionStatus,
     ArtifactUsage,
     Line,
     LocalizationMovement,
@@ -35,6 +33,7 @@ from ...robot.model import (
     Pose2D,
     Rect,
 )
+from ...robot.motion import follow
 from ...robot.relocalization import GOOD_QUALITY, settled_quality
 from ..base import RobotNode, require_finite
 from . import messages as m
@@ -47,7 +46,6 @@ NODE_NAME = "/slamware_ros_sdk_server_node"
 PKG = "slamware_ros_sdk"
 KNOWN_FLAGS = 0xFF | 512 | 1024 | 2048  # the ROS msg's bits plus the SDK's newer ones
 GOAL_FLAGS = MoveOptionFlag.MILESTONE | MoveOptionFlag.PRECISE | MoveOptionFlag.WITH_YAW
-ACTION_POLL = 0.1  # seconds between looks at a running action we started
 
 
 def _enum(path: str, value: int, enum_type) -> Any:
@@ -371,12 +369,10 @@ class SlamwareNode(RobotNode):
         self.spawn(go())
 
     async def _watch_action(self, message: Message, what: str, action: ActionInfo) -> None:
-        while action.status != ActionStatus.DONE:
-            await asyncio.sleep(ACTION_POLL)
-            current = await self.backend.get_action(action.action_id)
-            if current is None:  # replaced by a newer action, or forgotten by the robot
-                return
-            action = current
+        final = await follow(self.backend, action)
+        if final is None:  # replaced by a newer action, or forgotten by the robot
+            return
+        action = final
         if action.result == ActionResult.SUCCESS:
             message.reject(f"{what}: done", level="info")
         elif action.result == ActionResult.ABORTED:  # cancelled or superseded: not an error
