@@ -34,8 +34,8 @@ from ..config import Settings
 from ..robot.backend import NotConnectedError
 from ..robot.locomotion import ListenError, LocomotionBackend, parse_listen
 from ..robot.model import Odometry, Pose2D, Twist2D
+from . import messages as m
 from .base import RobotNode
-from .slamware import messages as m
 
 log = logging.getLogger(__name__)
 

@@ -29,9 +29,9 @@ from ..bus.topics import Message, RequestRejected
 from ..config import Settings
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from .base import RobotNode
-from .conventional import pose2d_of
 from .map_manager.node import NODE_NAME as MAP_MANAGER
 from .map_manager.store import MapStore, StoreError, validate_name, write_file
+from .messages import pose2d_of
 
 log = logging.getLogger(__name__)
 

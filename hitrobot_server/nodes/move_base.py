@@ -34,11 +34,10 @@ from ..bus.topics import Message, RequestRejected
 from ..robot import motion
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import MoveOptions, Point2D, Pose2D
-from ..robot.motion import cancel_if_current, watch
+from ..robot.motion import GOAL_FLAGS, cancel_if_current, watch
+from . import messages as m
 from .base import RobotNode
-from .conventional import map_frames, pose2d_of
-from .slamware import messages as m
-from .slamware.node import GOAL_FLAGS
+from .messages import map_frames, pose2d_of
 
 log = logging.getLogger(__name__)
 

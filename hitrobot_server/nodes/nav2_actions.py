@@ -49,7 +49,6 @@ from ..bus.services import (
     GoalHandle,
     GoalOutcome,
 )
-from ..bus.topics import RequestRejected
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import (
     ActionInfo,
@@ -60,9 +59,9 @@ from ..robot.model import (
     Pose2D,
 )
 from ..robot.motion import drive
+from . import messages as m
 from .base import RobotNode
-from .conventional import map_frames, pose2d_of
-from .slamware import messages as m
+from .messages import GoalRejected, goal_pose, map_frames, pose_stamped, rejected
 
 log = logging.getLogger(__name__)
 
@@ -80,37 +79,10 @@ START_SKIP = 0.15
 """A followed path's first point this close (m) to the robot is where it already is."""
 
 
-class GoalRejected(Exception):
-    """The goal cannot run at all; the text is the reason."""
-
-
-def rejected(reason: str) -> GoalOutcome:
-    return GoalOutcome(STATUS_ABORTED, reason, False)
-
-
 # ------------------------------------------------------------------ message helpers
-def pose_stamped(pose: Pose2D, frame: str, t: float | None = None) -> dict:
-    return {"header": m.header(frame, t), "pose": m.pose(pose)}
-
-
 def duration(seconds: float) -> dict:
     secs = math.floor(seconds)
     return {"secs": int(secs), "nsecs": min(int((seconds - secs) * 1e9), 999_999_999)}
-
-
-def check_frame(frames: frozenset[str], header: dict, path: str) -> None:
-    frame = header["frame_id"]
-    if frame not in frames:
-        raise GoalRejected(f"field '{path}.frame_id': '{frame}' is not the map frame")
-
-
-def goal_pose(frames: frozenset[str], stamped: dict, path: str) -> Pose2D:
-    """A validated PoseStamped in the map frame as a planar pose."""
-    check_frame(frames, stamped["header"], f"{path}.header")
-    try:
-        return pose2d_of(stamped["pose"], f"{path}.pose")
-    except RequestRejected as exc:
-        raise GoalRejected(str(exc)) from None
 
 
 def has_orientation(pose: dict) -> bool:

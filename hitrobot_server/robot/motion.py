@@ -23,12 +23,16 @@ from dataclasses import dataclass
 from typing import TypeVar
 
 from .backend import BackendError, NotConnectedError, RobotBackend
-from .model import ActionInfo, ActionResult
+from .model import ActionInfo, ActionResult, MoveOptionFlag
 
 log = logging.getLogger(__name__)
 
 POLL_PERIOD = 0.1
 """Seconds between looks at a running robot action (the one poll policy of every node)."""
+
+GOAL_FLAGS = MoveOptionFlag.MILESTONE | MoveOptionFlag.PRECISE | MoveOptionFlag.WITH_YAW
+"""How a navigation goal (``move_base_simple/goal``, ``/move_base``) is driven: precisely,
+through its milestone, turning to the goal's heading at the end."""
 
 T = TypeVar("T")
 
