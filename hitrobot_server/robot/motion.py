@@ -22,7 +22,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import TypeVar
 
-from .backend import BackendError, NotConnectedError, RobotBackend
+from .backend import BackendError, MotionBackend, NotConnectedError
 from .model import ActionInfo, ActionResult, MoveOptionFlag
 
 log = logging.getLogger(__name__)
@@ -51,7 +51,7 @@ class MotionEnd:
     reason: str = ""
 
 
-async def follow(backend: RobotBackend, action: ActionInfo,
+async def follow(backend: MotionBackend, action: ActionInfo,
                  period: float = POLL_PERIOD) -> ActionInfo | None:
     """Wait for the robot's ``action`` to end: its final state, or ``None`` when the robot no
     longer knows it (replaced by a newer one). Robot errors propagate."""
@@ -64,7 +64,7 @@ async def follow(backend: RobotBackend, action: ActionInfo,
     return action
 
 
-async def cancel_if_current(backend: RobotBackend, action_id: int | None,
+async def cancel_if_current(backend: MotionBackend, action_id: int | None,
                             who: str = "") -> None:
     """Cancel the robot's current action if it is still ``action_id`` (never someone else's);
     a robot error is logged, not raised."""
@@ -88,7 +88,7 @@ def end_of(action: ActionInfo) -> MotionEnd:
 
 
 async def watch(
-    backend: RobotBackend,
+    backend: MotionBackend,
     action_id: int,
     sample: Callable[[], Awaitable[T]],
     on_poll: Callable[[ActionInfo, T], None],
@@ -145,7 +145,7 @@ async def watch(
 
 
 async def drive(
-    backend: RobotBackend,
+    backend: MotionBackend,
     cancelled: asyncio.Event,
     start: Callable[[], Awaitable[ActionInfo]],
     sample: Callable[[], Awaitable[T]],

@@ -24,7 +24,6 @@ import numpy as np
 from ...bus.core import Bus
 from ...bus.topics import Message, RequestRejected
 from ...config import Settings
-from ...robot import composite_map
 from ...robot.backend import BackendError, NotConnectedError, RobotBackend
 from ...robot.model import ArtifactUsage, Line, MapRegion, Point2D, Pose2D, Rect
 from .. import messages as m
@@ -345,9 +344,7 @@ class MapManager(RobotNode):
 
             walls, tracks = lines(robot["virtual_walls"]), lines(robot["virtual_tracks"])
             home = None if robot["home"] is None else Pose2D(*robot["home"])
-        pose = await b.get_pose()
-        data = composite_map.encode(composite_map.CompositeMap(region, walls, tracks, home))
-        await b.set_composite_map(data, pose)
+        await b.install_map(region, walls, tracks, home, await b.get_pose())
         if self.bus.topic(self.topic_sync) is not None:
             self.publish(self.topic_sync, {})
 
