@@ -29,15 +29,8 @@ from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionResult, Point2D
 from ..robot.motion import follow
 from .base import RobotNode
-from .mapfiles import (
-    GRAPH_FILE,
-    FileError,
-    MapFilesNode,
-    NamedFiles,
-    dump_yaml,
-    load_yaml,
-    number,
-)
+from .mapfiles import GRAPH_FILE, MapFilesNode
+from .namedfiles import FileError, NamedFiles, dump_yaml, load_yaml, number
 
 PKG = "hitrobot_msgs"
 CURRENT_TOPIC = "/graph/current"

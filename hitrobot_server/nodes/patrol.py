@@ -37,16 +37,8 @@ from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionInfo, ActionResult, Point2D
 from ..robot.motion import cancel_if_current, follow
 from .base import RobotNode
-from .mapfiles import (
-    ROUTE_FILE,
-    FileError,
-    MapFilesNode,
-    NamedFiles,
-    dump_yaml,
-    list_reply,
-    load_yaml,
-    number,
-)
+from .mapfiles import ROUTE_FILE, MapFilesNode
+from .namedfiles import FileError, NamedFiles, dump_yaml, list_reply, load_yaml, number
 
 log = logging.getLogger(__name__)
 
