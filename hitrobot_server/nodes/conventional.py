@@ -13,28 +13,14 @@ import logging
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
-from ..robot.model import Pose2D
-from .base import RobotNode, require_finite
-from .slamware import messages as m
+from . import messages as m
+from .base import RobotNode
+from .messages import map_frames, pose2d_of
 
 log = logging.getLogger(__name__)
 
 ROBOT_POSE_PERIOD = 0.05
 """Seconds between ``/robot_pose`` messages (20 Hz; nav2d throttles to 10 Hz itself)."""
-
-
-def map_frames(map_frame: str) -> frozenset[str]:
-    """Frame ids that name the map frame: empty (unset), ``map``, ``/map`` and the node's own."""
-    bare = map_frame.lstrip("/")
-    return frozenset({"", "map", "/map", bare, f"/{bare}"})
-
-
-def pose2d_of(pose: dict, path: str) -> Pose2D:
-    """A validated geometry_msgs/Pose as the robot's planar pose (all-zero quaternion = yaw 0)."""
-    p, q = pose["position"], pose["orientation"]
-    require_finite(f"{path}.position", p["x"], p["y"], p["z"])
-    require_finite(f"{path}.orientation", q["x"], q["y"], q["z"], q["w"])
-    return Pose2D(float(p["x"]), float(p["y"]), m.yaw_of(q))
 
 
 class ConventionalNode(RobotNode):

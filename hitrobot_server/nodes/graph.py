@@ -26,18 +26,11 @@ import networkx as nx
 from ..bus.core import Bus
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionResult, Point2D
+from ..robot.motion import follow
 from .base import RobotNode
-from .mapfiles import (
-    GRAPH_FILE,
-    FileError,
-    MapFilesNode,
-    NamedFiles,
-    dump_yaml,
-    load_yaml,
-    number,
-)
+from .mapfiles import GRAPH_FILE, MapFilesNode
+from .namedfiles import FileError, NamedFiles, dump_yaml, load_yaml, number
 from .options import NodeOptions
-from .patrol import follow
 
 PKG = "hitrobot_msgs"
 CURRENT_TOPIC = "/graph/current"

@@ -63,10 +63,10 @@ from ..robot.model import (
     Point2D,
     Pose2D,
 )
+from ..robot.motion import drive
 from ..robot.relocalization import localize_near
 from .base import RobotNode
-from .conventional import map_frames
-from .nav2_actions import GoalRejected, drive, goal_pose, pose_stamped, rejected
+from .messages import GoalRejected, goal_pose, map_frames, pose_stamped, rejected
 
 log = logging.getLogger(__name__)
 
@@ -173,9 +173,9 @@ class IntelligentNavigationNode(RobotNode):
                 self._feedback(handle, odometry.pose, _state(action))
 
             end = await drive(
-                self.backend, handle,
+                self.backend, handle.cancelled,
                 lambda: self.backend.move_to([Point2D(target.x, target.y)], options, target.yaw),
-                on_poll)
+                self.backend.get_odometry, on_poll)
         finally:
             self.running.discard(handle)
         try:

@@ -33,9 +33,9 @@ from ..bus.errors import BusError
 from ..robot.backend import NotConnectedError
 from ..robot.locomotion import ListenError, LocomotionBackend, parse_listen
 from ..robot.model import Odometry, Pose2D, Twist2D
+from . import messages as m
 from .base import RobotNode
 from .options import NodeOptions
-from .slamware import messages as m
 
 log = logging.getLogger(__name__)
 

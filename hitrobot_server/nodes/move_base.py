@@ -31,12 +31,13 @@ from dataclasses import dataclass, field
 
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
+from ..robot import motion
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
-from ..robot.model import ActionResult, MoveOptions, Point2D, Pose2D
+from ..robot.model import MoveOptions, Point2D, Pose2D
+from ..robot.motion import GOAL_FLAGS, cancel_if_current, watch
+from . import messages as m
 from .base import RobotNode
-from .conventional import map_frames, pose2d_of
-from .slamware import messages as m
-from .slamware.node import GOAL_FLAGS
+from .messages import map_frames, pose2d_of
 
 log = logging.getLogger(__name__)
 
@@ -46,8 +47,6 @@ TERMINAL = frozenset({PREEMPTED, SUCCEEDED, ABORTED, REJECTED, RECALLED, LOST})
 
 STATUS_PERIOD = 0.1
 """Seconds between ``status`` messages (actionlib's default is 5 Hz; we send 10)."""
-POLL_PERIOD = 0.1
-"""Seconds between looks at the robot's action; one feedback message per look."""
 STATUS_LIST_TIMEOUT = 5.0
 """Seconds a finished goal stays in the status list (actionlib's ``status_list_timeout``)."""
 NEW_GOAL_TEXT = "This goal was canceled because another goal was received by the action server"
@@ -204,57 +203,29 @@ class MoveBaseNode(RobotNode):
             goal.action_id = info.action_id
             if goal.done:  # cancelled while the robot was being asked: undo
                 if goal.status == RECALLED and self.current is None:
-                    await self._cancel_robot_action(info.action_id)
+                    await cancel_if_current(self.backend, info.action_id, "move_base: ")
                 return
             goal.status = ACTIVE
             self._publish_status()
         await self._watch(goal)
 
     async def _watch(self, goal: Goal) -> None:
-        while not goal.done:
-            await asyncio.sleep(POLL_PERIOD)
-            if goal.done or goal.status != ACTIVE or goal.action_id is None:
-                return
-            try:
-                action = await self.backend.get_action(goal.action_id)
-                pose = await self.backend.get_pose()
-            except NotConnectedError:
-                self._finish(goal, ABORTED, "the robot disconnected")
-                return
-            except BackendError as exc:  # transient: look again on the next poll
-                log.warning("move_base: polling action %s: %s", goal.action_id, exc)
-                continue
-            if goal.done or goal.status != ACTIVE:
-                return
-            if action is None:
-                self._finish(goal, ABORTED, "the robot no longer knows the goal's action")
-                return
-            if not action.done:
-                self._publish_feedback(goal, pose)
-                continue
-            if action.result == ActionResult.SUCCESS:
-                self._finish(goal, SUCCEEDED, "")
-            elif action.result == ActionResult.FAILED:
-                self._finish(goal, ABORTED, action.reason or "the robot could not reach the goal")
-            else:  # cancelled or replaced on the robot, not through us
-                self._finish(goal, PREEMPTED, f"stopped on the robot: {action.reason or 'aborted'}")
+        if goal.done or goal.action_id is None:
+            return
+        end = await watch(self.backend, goal.action_id, self.backend.get_pose,
+                          lambda _action, pose: self._publish_feedback(goal, pose),
+                          gone=lambda: goal.done or goal.status != ACTIVE, who="move_base: ")
+        if end.kind == motion.SUCCEEDED:
+            self._finish(goal, SUCCEEDED, "")
+        elif end.kind == motion.FAILED:
+            self._finish(goal, ABORTED, end.reason)
+        elif end.kind == motion.PREEMPTED:  # cancelled or replaced on the robot, not through us
+            self._finish(goal, PREEMPTED, end.reason)
 
     def _stop_watching(self, goal: Goal) -> None:
         task = goal.task
         if task is not None and task is not asyncio.current_task():
             task.cancel()
-
-    async def _cancel_robot_action(self, action_id: int | None) -> None:
-        """Cancel the robot's current action if it is still ``action_id`` (never someone
-        else's)."""
-        if action_id is None:
-            return
-        try:
-            current = await self.backend.get_current_action()
-            if current is not None and current.action_id == action_id:
-                await self.backend.cancel_action()
-        except BackendError as exc:
-            log.warning("move_base: cancelling action %s: %s", action_id, exc)
 
     # ------------------------------------------------------------------ cancel
     def _on_cancel(self, message: Message) -> None:
@@ -291,5 +262,5 @@ class MoveBaseNode(RobotNode):
 
     async def _preempt(self, goal: Goal, text: str) -> None:
         async with self._lock:
-            await self._cancel_robot_action(goal.action_id)
+            await cancel_if_current(self.backend, goal.action_id, "move_base: ")
         self._finish(goal, PREEMPTED, text)

@@ -18,7 +18,8 @@ itself, on the robot's map, lines and blocked areas (:meth:`RobotBackend.compute
 corners (Douglas-Peucker, :data:`SIMPLIFY_TOLERANCE`) and handed to the robot as one
 ``SeriesMoveTo`` through them (the robot plans each short leg itself, so it still avoids what is
 in the way), turning to the last pose's orientation at the end (none when that quaternion is
-all zero). Feedback every :data:`POLL_PERIOD` s: ``distance_to_goal`` is the length of the path
+all zero). Feedback at every look at the robot's action
+(:data:`~hitrobot_server.robot.motion.POLL_PERIOD`): ``distance_to_goal`` is the length of the path
 still ahead of the robot's projection onto it (never increases), ``speed`` the robot's linear
 speed. The result (empty) comes when the last point is reached; cancel stops the robot (status
 5); a robot failure or another command replacing the motion → ABORTED with the reason.
@@ -37,8 +38,6 @@ import contextlib
 import logging
 import math
 import time
-from collections.abc import Awaitable, Callable
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -50,27 +49,24 @@ from ..bus.services import (
     GoalHandle,
     GoalOutcome,
 )
-from ..bus.topics import RequestRejected
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import (
     ActionInfo,
-    ActionResult,
     MoveOptionFlag,
     MoveOptions,
     Odometry,
     Point2D,
     Pose2D,
 )
+from ..robot.motion import drive
+from . import messages as m
 from .base import RobotNode
-from .conventional import map_frames, pose2d_of
-from .slamware import messages as m
+from .messages import GoalRejected, goal_pose, map_frames, pose_stamped, rejected
 
 log = logging.getLogger(__name__)
 
 COMPUTE_PATH = "/compute_path_to_pose"
 FOLLOW_PATH = "/follow_path"
-POLL_PERIOD = 0.1
-"""Seconds between looks at a running robot action (one feedback per look)."""
 PATH_SPACING = 0.05
 """Spacing (m) of the poses of a computed path (the map resolution, as nav2's planners give)."""
 SIMPLIFY_TOLERANCE = 0.05
@@ -83,37 +79,10 @@ START_SKIP = 0.15
 """A followed path's first point this close (m) to the robot is where it already is."""
 
 
-class GoalRejected(Exception):
-    """The goal cannot run at all; the text is the reason."""
-
-
-def rejected(reason: str) -> GoalOutcome:
-    return GoalOutcome(STATUS_ABORTED, reason, False)
-
-
 # ------------------------------------------------------------------ message helpers
-def pose_stamped(pose: Pose2D, frame: str, t: float | None = None) -> dict:
-    return {"header": m.header(frame, t), "pose": m.pose(pose)}
-
-
 def duration(seconds: float) -> dict:
     secs = math.floor(seconds)
     return {"secs": int(secs), "nsecs": min(int((seconds - secs) * 1e9), 999_999_999)}
-
-
-def check_frame(frames: frozenset[str], header: dict, path: str) -> None:
-    frame = header["frame_id"]
-    if frame not in frames:
-        raise GoalRejected(f"field '{path}.frame_id': '{frame}' is not the map frame")
-
-
-def goal_pose(frames: frozenset[str], stamped: dict, path: str) -> Pose2D:
-    """A validated PoseStamped in the map frame as a planar pose."""
-    check_frame(frames, stamped["header"], f"{path}.header")
-    try:
-        return pose2d_of(stamped["pose"], f"{path}.pose")
-    except RequestRejected as exc:
-        raise GoalRejected(str(exc)) from None
 
 
 def has_orientation(pose: dict) -> bool:
@@ -204,79 +173,6 @@ class PathProgress:
         _, self.segment, self.t = best
         k = self.segment
         return float((1.0 - self.t) * self.lengths[k] + self.after[k + 1])
-
-
-# ------------------------------------------------------------------ driving a goal
-@dataclass(frozen=True)
-class MotionEnd:
-    """How a robot motion watched for a goal ended: ``kind`` is succeeded, failed or
-    canceled."""
-
-    kind: str
-    reason: str = ""
-
-
-async def stop_if_current(backend: RobotBackend, action_id: int | None) -> None:
-    """Cancel the robot's current action if it is still ``action_id`` (never someone else's)."""
-    if action_id is None:
-        return
-    try:
-        current = await backend.get_current_action()
-        if current is not None and current.action_id == action_id:
-            await backend.cancel_action()
-    except BackendError as exc:
-        log.warning("stopping robot action %s: %s", action_id, exc)
-
-
-async def drive(
-    backend: RobotBackend,
-    handle: GoalHandle,
-    start: Callable[[], Awaitable[ActionInfo]],
-    on_poll: Callable[[ActionInfo, Odometry], None],
-    period: float = POLL_PERIOD,
-) -> MotionEnd:
-    """Start a robot motion with ``start`` and watch it until it ends or the goal is
-    cancelled (the robot is then stopped); ``on_poll`` sees every look while it runs."""
-    if handle.cancelled.is_set():
-        return MotionEnd("canceled", "canceled before the robot moved")
-    try:
-        info = await start()
-    except NotConnectedError:
-        return MotionEnd("failed", "the robot is not connected")
-    except BackendError as exc:
-        return MotionEnd("failed", f"the robot refused the goal: {exc}")
-    action_id = info.action_id
-    waiter = asyncio.ensure_future(handle.cancelled.wait())
-    try:
-        while True:
-            await asyncio.wait({waiter}, timeout=period)
-            if handle.cancelled.is_set():
-                await stop_if_current(backend, action_id)
-                return MotionEnd("canceled", "canceled")
-            try:
-                action = await backend.get_action(action_id)
-                odometry = await backend.get_odometry()
-            except NotConnectedError:
-                return MotionEnd("failed", "the robot disconnected")
-            except BackendError as exc:  # transient: look again
-                log.warning("polling robot action %s: %s", action_id, exc)
-                continue
-            if action is None:
-                return MotionEnd("failed", "the robot no longer knows the goal's action")
-            if not action.done:
-                on_poll(action, odometry)
-                continue
-            if action.result == ActionResult.SUCCESS:
-                return MotionEnd("succeeded")
-            if action.result == ActionResult.FAILED:
-                return MotionEnd("failed", action.reason or "the robot could not reach the goal")
-            return MotionEnd("failed", f"stopped on the robot: {action.reason or 'aborted'}")
-    except asyncio.CancelledError:  # the goal's task itself went away: leave the robot still
-        with contextlib.suppress(Exception):
-            await asyncio.shield(stop_if_current(backend, action_id))
-        raise
-    finally:
-        waiter.cancel()
 
 
 # ------------------------------------------------------------------ the node
@@ -377,9 +273,9 @@ class Nav2ActionsNode(RobotNode):
                 "speed": abs(odometry.twist.vx),
             })
 
-        end = await drive(self.backend, handle,
+        end = await drive(self.backend, handle.cancelled,
                           lambda: self.backend.move_to(targets, options, planar[-1].yaw),
-                          on_poll)
+                          self.backend.get_odometry, on_poll)
         if end.kind == "succeeded":
             handle.feedback({"distance_to_goal": 0.0, "speed": 0.0})
             return GoalOutcome(STATUS_SUCCEEDED, {"result": {}}, True)

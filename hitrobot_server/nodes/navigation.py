@@ -19,15 +19,15 @@ silently, as on the robot.
 
 from __future__ import annotations
 
-import asyncio
 from collections.abc import Callable
 
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
-from ..robot.model import ActionResult, ActionStatus, MoveOptionFlag, MoveOptions, Point2D, Rect
+from ..robot.model import ActionResult, MoveOptionFlag, MoveOptions, Point2D, Rect
+from ..robot.motion import follow
+from . import messages as m
 from .base import RobotNode, require_finite
-from .slamware import messages as m
 
 NODE_NAME = "/navigation"
 PKG = "map_messages"
@@ -36,8 +36,6 @@ POI_TOPIC = f"{NODE_NAME}/navigate_to_poi"
 UNREACHABLE_TOPIC = f"{NODE_NAME}/target_unreachable"
 FAST_PLANNING_MARGIN = 1.0
 """Metres added around the robot-goal bounding box for ``fast_planning``."""
-POLL = 0.1
-"""Seconds between looks at the running move."""
 
 UNKNOWN, TILT_OCCURED, GRAVE_TILT_OCCURED, STALL_OCCURED, LASER_OBSTACLE = 0, 10, 15, 20, 30
 
@@ -111,13 +109,11 @@ class NavigationNode(RobotNode):
                     acceptable_precision=float(distance) if distance > 0 else None,
                     planning_area=area,
                 )
-                action = await self.backend.move_to([target], options, yaw)
-                while action.status != ActionStatus.DONE:
-                    await asyncio.sleep(POLL)
-                    current = await self.backend.get_action(action.action_id)
-                    if current is None:  # replaced and forgotten
-                        return
-                    action = current
+                final = await follow(self.backend,
+                                     await self.backend.move_to([target], options, yaw))
+                if final is None:  # replaced and forgotten
+                    return
+                action = final
             except NotConnectedError:
                 message.reject(f"{what}: the robot is not connected")
                 return

@@ -34,17 +34,10 @@ from dataclasses import asdict, dataclass
 from ..bus.core import Bus
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionInfo, ActionResult, Point2D
+from ..robot.motion import cancel_if_current, follow
 from .base import RobotNode
-from .mapfiles import (
-    ROUTE_FILE,
-    FileError,
-    MapFilesNode,
-    NamedFiles,
-    dump_yaml,
-    list_reply,
-    load_yaml,
-    number,
-)
+from .mapfiles import ROUTE_FILE, MapFilesNode
+from .namedfiles import FileError, NamedFiles, dump_yaml, list_reply, load_yaml, number
 from .options import NodeOptions
 
 log = logging.getLogger(__name__)
@@ -53,7 +46,6 @@ NS = "/planning"
 PKG = "hitrobot_msgs"
 STATE_TOPIC = f"{NS}/patrol_state"
 MAX_WAYPOINTS = 256  # waypoint_index is a uint8
-ACTION_POLL = 0.1
 ODOM_FRAMES = frozenset({"odom"})
 
 
@@ -122,18 +114,6 @@ def nearest(waypoints: Sequence[Waypoint], x: float, y: float) -> int:
     """Index of the waypoint closest to (x, y); the first of equals."""
     return min(range(len(waypoints)),
                key=lambda i: math.hypot(waypoints[i].x - x, waypoints[i].y - y))
-
-
-async def follow(backend: RobotBackend, action: ActionInfo) -> ActionInfo | None:
-    """Wait for the robot's ``action`` to end: its final state, or None when the robot no
-    longer knows it (replaced by a newer one)."""
-    while not action.done:
-        await asyncio.sleep(ACTION_POLL)
-        current = await backend.get_action(action.action_id)
-        if current is None:
-            return None
-        action = current
-    return action
 
 
 class PatrolNode(RobotNode):
@@ -316,13 +296,8 @@ class PatrolNode(RobotNode):
             task.cancel()
         if self.active:
             action_id, self._action_id = self._action_id, None
-            if action_id is not None and self.backend.connected:
-                try:
-                    current = await self.backend.get_current_action()
-                    if current is not None and current.action_id == action_id:
-                        await self.backend.cancel_action()
-                except BackendError as exc:
-                    log.warning("patrol: cancelling the robot's action: %s", exc)
+            if self.backend.connected:
+                await cancel_if_current(self.backend, action_id, "patrol: ")
             self._end(text)
 
     def _end(self, text: str) -> None:

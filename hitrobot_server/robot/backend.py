@@ -9,12 +9,19 @@ maps each method to one or two HTTP calls, while the simulator answers from memo
 Conventions: poses are in the robot's map frame; failures raise :class:`BackendError`;
 ``NotConnectedError`` means the robot is unreachable (the node should drop the request and
 retry later, as ``slamware_ros_sdk_server_node`` does).
+
+The boundary is split by concern into small protocols -- :class:`MotionBackend` (actions and
+velocity), :class:`MapBackend` (map, localization, lines, home, whole-map transfer),
+:class:`SensorBackend` (odometry, lidar, bumpers, identity, health) and :class:`PowerBackend`
+(battery, shutdown) -- so a helper can ask for just the part it uses; :class:`RobotBackend`
+is all of them plus the connection lifecycle, and is what a backend implements.
 """
 
 from __future__ import annotations
 
-from abc import ABC, abstractmethod
+from abc import abstractmethod
 from collections.abc import Sequence
+from typing import Protocol
 
 from .model import (
     ActionDirection,
@@ -53,126 +60,8 @@ class UnsupportedError(BackendError):
     """The robot does not offer this feature (e.g. a map kind other than the explore map)."""
 
 
-class RobotBackend(ABC):
-    """Async interface to one robot. Methods are cheap to await and never block the loop."""
-
-    @property
-    @abstractmethod
-    def connected(self) -> bool:
-        """Whether the robot is reachable right now."""
-
-    @abstractmethod
-    async def start(self) -> None:
-        """Connect (or start simulating); idempotent."""
-
-    @abstractmethod
-    async def stop(self) -> None:
-        """Disconnect (or stop simulating); idempotent."""
-
-    # --- state -------------------------------------------------------------------------------
-
-    @abstractmethod
-    async def get_pose(self) -> Pose2D:
-        """The localized robot pose (what the robot believes, not ground truth)."""
-
-    @abstractmethod
-    async def get_odometry(self) -> Odometry:
-        """Pose plus body-frame velocity."""
-
-    @abstractmethod
-    async def get_laser_scan(self) -> LaserScan:
-        """The latest lidar frame with the pose it was taken from."""
-
-    @abstractmethod
-    async def get_known_area(self, kind: MapKind = MapKind.EXPLORERMAP) -> Rect:
-        """Bounding box of the mapped area; empty when nothing is mapped."""
-
-    @abstractmethod
-    async def get_map(
-        self, area: Rect | None = None, kind: MapKind = MapKind.EXPLORERMAP
-    ) -> MapRegion:
-        """The map cells covering ``area`` (the known area when ``None``), cell-aligned."""
-
-    @abstractmethod
-    async def clear_map(self, kind: MapKind = MapKind.EXPLORERMAP) -> None:
-        """Forget the map."""
-
-    @abstractmethod
-    async def get_map_update(self, kind: MapKind = MapKind.EXPLORERMAP) -> bool:
-        """Whether scans are written into the map (mapping mode)."""
-
-    @abstractmethod
-    async def set_map_update(self, enabled: bool, kind: MapKind = MapKind.EXPLORERMAP) -> None:
-        """Switch mapping on or off; off freezes the map."""
-
-    @abstractmethod
-    async def get_localization_enabled(self) -> bool:
-        """Whether the robot localizes against its map (off = pure odometry)."""
-
-    @abstractmethod
-    async def set_localization_enabled(self, enabled: bool) -> None:
-        """Switch localization on or off."""
-
-    @abstractmethod
-    async def get_localization_quality(self) -> int:
-        """Localization quality 0-100; 0 while localization is disabled."""
-
-    @abstractmethod
-    async def set_pose(self, pose: Pose2D) -> None:
-        """Force the robot's believed pose."""
-
-    @abstractmethod
-    async def recover_localization(
-        self,
-        area: Rect | None = None,
-        max_time_ms: int | None = None,
-        movement: LocalizationMovement | None = None,
-    ) -> ActionInfo:
-        """Start a relocalization action searching ``area`` (whole map when ``None``/empty)."""
-
-    @abstractmethod
-    async def get_power_status(self) -> PowerStatus:
-        """Battery, charging and dock state."""
-
-    @abstractmethod
-    async def get_board_temperature(self) -> int:
-        """Main board temperature in degrees Celsius."""
-
-    @abstractmethod
-    async def get_sensors_info(self) -> list[BasicSensorInfo]:
-        """The bumpers, cliff sensors and sonars the robot has."""
-
-    @abstractmethod
-    async def get_sensor_values(self) -> dict[int, BasicSensorValue]:
-        """Current readings keyed by sensor id. ``is_in_impact`` follows slamware_ros_sdk: a
-        digital sensor is in impact when triggered; a sonar always reports in impact."""
-
-    @abstractmethod
-    async def get_device_info(self) -> DeviceInfo:
-        """Identity and version strings."""
-
-    @abstractmethod
-    async def get_health(self) -> HealthInfo:
-        """Active warnings and errors."""
-
-    @abstractmethod
-    async def clear_health_error(self, error_code: int) -> bool:
-        """Acknowledge an error by its ``error_code``; False if it was not active."""
-
-    # --- power (optional) ------------------------------------------------------------------
-
-    async def power_off(self) -> None:
-        """Shut the robot down: it goes offline and stays so (``/cmd_string shutdown``).
-        Optional; raises :class:`UnsupportedError` when the robot cannot do it."""
-        raise UnsupportedError("this robot cannot be shut down remotely")
-
-    async def reboot(self) -> None:
-        """Restart the robot: it goes offline now and comes back later with a fresh state
-        (``/cmd_string reboot``); returns once it is offline. Optional; raises
-        :class:`UnsupportedError` when the robot cannot do it."""
-        raise UnsupportedError("this robot cannot be rebooted remotely")
-
-    # --- motion ------------------------------------------------------------------------------
+class MotionBackend(Protocol):
+    """Starting, following and stopping robot actions, and velocity control."""
 
     @abstractmethod
     async def move_to(
@@ -250,7 +139,60 @@ class RobotBackend(ABC):
         the next one or until the backend's dead-man timeout lapses, then the robot stops. It
         replaces any running action."""
 
-    # --- artifacts ---------------------------------------------------------------------------
+
+class MapBackend(Protocol):
+    """The robot's map and its place in it: localization, lines, home, whole-map transfer."""
+
+    @abstractmethod
+    async def get_pose(self) -> Pose2D:
+        """The localized robot pose (what the robot believes, not ground truth)."""
+
+    @abstractmethod
+    async def set_pose(self, pose: Pose2D) -> None:
+        """Force the robot's believed pose."""
+
+    @abstractmethod
+    async def get_localization_enabled(self) -> bool:
+        """Whether the robot localizes against its map (off = pure odometry)."""
+
+    @abstractmethod
+    async def set_localization_enabled(self, enabled: bool) -> None:
+        """Switch localization on or off."""
+
+    @abstractmethod
+    async def get_localization_quality(self) -> int:
+        """Localization quality 0-100; 0 while localization is disabled."""
+
+    @abstractmethod
+    async def recover_localization(
+        self,
+        area: Rect | None = None,
+        max_time_ms: int | None = None,
+        movement: LocalizationMovement | None = None,
+    ) -> ActionInfo:
+        """Start a relocalization action searching ``area`` (whole map when ``None``/empty)."""
+
+    @abstractmethod
+    async def get_known_area(self, kind: MapKind = MapKind.EXPLORERMAP) -> Rect:
+        """Bounding box of the mapped area; empty when nothing is mapped."""
+
+    @abstractmethod
+    async def get_map(
+        self, area: Rect | None = None, kind: MapKind = MapKind.EXPLORERMAP
+    ) -> MapRegion:
+        """The map cells covering ``area`` (the known area when ``None``), cell-aligned."""
+
+    @abstractmethod
+    async def clear_map(self, kind: MapKind = MapKind.EXPLORERMAP) -> None:
+        """Forget the map."""
+
+    @abstractmethod
+    async def get_map_update(self, kind: MapKind = MapKind.EXPLORERMAP) -> bool:
+        """Whether scans are written into the map (mapping mode)."""
+
+    @abstractmethod
+    async def set_map_update(self, enabled: bool, kind: MapKind = MapKind.EXPLORERMAP) -> None:
+        """Switch mapping on or off; off freezes the map."""
 
     @abstractmethod
     async def get_lines(self, usage: ArtifactUsage) -> list[Line]:
@@ -301,3 +243,83 @@ class RobotBackend(ABC):
     async def set_composite_map(self, data: bytes, pose: Pose2D) -> None:
         """Replace map, lines and home with ``data`` and set the robot's pose
         (``sync_set_stcm``)."""
+
+    @abstractmethod
+    async def install_map(self, explore: MapRegion | None, walls: Sequence[Line],
+                          tracks: Sequence[Line], home: Pose2D | None, pose: Pose2D) -> None:
+        """Replace the explore map (cleared when ``None``), the virtual walls and tracks and
+        the home dock with these, and set the robot's pose: a map loaded from disk or drawn by
+        a client. Each backend writes them in its own form (the caller knows no map format)."""
+
+
+class SensorBackend(Protocol):
+    """What the robot senses and reports about itself: odometry, lidar, bumpers, health."""
+
+    @abstractmethod
+    async def get_odometry(self) -> Odometry:
+        """Pose plus body-frame velocity."""
+
+    @abstractmethod
+    async def get_laser_scan(self) -> LaserScan:
+        """The latest lidar frame with the pose it was taken from."""
+
+    @abstractmethod
+    async def get_sensors_info(self) -> list[BasicSensorInfo]:
+        """The bumpers, cliff sensors and sonars the robot has."""
+
+    @abstractmethod
+    async def get_sensor_values(self) -> dict[int, BasicSensorValue]:
+        """Current readings keyed by sensor id. ``is_in_impact`` follows slamware_ros_sdk: a
+        digital sensor is in impact when triggered; a sonar always reports in impact."""
+
+    @abstractmethod
+    async def get_device_info(self) -> DeviceInfo:
+        """Identity and version strings."""
+
+    @abstractmethod
+    async def get_health(self) -> HealthInfo:
+        """Active warnings and errors."""
+
+    @abstractmethod
+    async def clear_health_error(self, error_code: int) -> bool:
+        """Acknowledge an error by its ``error_code``; False if it was not active."""
+
+
+class PowerBackend(Protocol):
+    """Battery and board state, shutdown and reboot."""
+
+    @abstractmethod
+    async def get_power_status(self) -> PowerStatus:
+        """Battery, charging and dock state."""
+
+    @abstractmethod
+    async def get_board_temperature(self) -> int:
+        """Main board temperature in degrees Celsius."""
+
+    async def power_off(self) -> None:
+        """Shut the robot down: it goes offline and stays so (``/cmd_string shutdown``).
+        Optional; raises :class:`UnsupportedError` when the robot cannot do it."""
+        raise UnsupportedError("this robot cannot be shut down remotely")
+
+    async def reboot(self) -> None:
+        """Restart the robot: it goes offline now and comes back later with a fresh state
+        (``/cmd_string reboot``); returns once it is offline. Optional; raises
+        :class:`UnsupportedError` when the robot cannot do it."""
+        raise UnsupportedError("this robot cannot be rebooted remotely")
+
+
+class RobotBackend(MotionBackend, MapBackend, SensorBackend, PowerBackend):
+    """Async interface to one robot. Methods are cheap to await and never block the loop."""
+
+    @property
+    @abstractmethod
+    def connected(self) -> bool:
+        """Whether the robot is reachable right now."""
+
+    @abstractmethod
+    async def start(self) -> None:
+        """Connect (or start simulating); idempotent."""
+
+    @abstractmethod
+    async def stop(self) -> None:
+        """Disconnect (or stop simulating); idempotent."""

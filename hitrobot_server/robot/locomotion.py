@@ -1,8 +1,9 @@
 """The locomotion state machine and control mode, as a gate in front of a robot backend.
 
-:class:`LocomotionBackend` wraps any :class:`RobotBackend` and delegates everything to it, but
-its *motion* methods (``move_to``, ``move_by_direction``, ``move_by_theta``, ``rotate_to``,
-``rotate``, ``go_home`` and a non-zero ``set_velocity``) raise :class:`BackendError` unless
+:class:`LocomotionBackend` wraps any :class:`RobotBackend` and passes every method through to it
+(written out, so reading the class shows the whole boundary), but its *motion* methods
+(``move_to``, ``move_by_direction``, ``move_by_theta``, ``rotate_to``, ``rotate``,
+``go_home`` and a non-zero ``set_velocity``) raise :class:`BackendError` unless
 the robot is in a state that may move (``IN_CONTROL``). Every node that drives the robot (the
 Slamware topics, ``/cmd_vel``, ``/move_base``, ``/navigation``, patrols, graph navigation, the
 ``/cmd_string`` shell) therefore sees the same refusal with the same text, without knowing
@@ -36,12 +37,30 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import enum
-import inspect
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 from .backend import BackendError, RobotBackend
-from .model import ActionDirection, ActionInfo, MoveOptions, Point2D
+from .model import (
+    ActionDirection,
+    ActionInfo,
+    ArtifactUsage,
+    BasicSensorInfo,
+    BasicSensorValue,
+    DeviceInfo,
+    HealthInfo,
+    LaserScan,
+    Line,
+    LocalizationMovement,
+    MapKind,
+    MapRegion,
+    MoveOptions,
+    Odometry,
+    Point2D,
+    Pose2D,
+    PowerStatus,
+    Rect,
+)
 
 
 class LocomotionState(enum.IntEnum):
@@ -167,12 +186,11 @@ class LocomotionBackend(RobotBackend):
         self._transition: asyncio.Task | None = None
         self.control = ControlMode()
 
-    def __getattr__(self, name: str):
-        # Anything the wrapper does not define (a simulator handle, reboot_delay, url, ...)
-        # is the wrapped backend's.
-        if name == "inner":
-            raise AttributeError(name)
-        return getattr(self.inner, name)
+    @property
+    def simulator(self):
+        """The wrapped simulator (sim tools and tests reach it through the gate); an
+        ``AttributeError`` when the wrapped robot is not simulated."""
+        return self.inner.simulator
 
     # --- locomotion ----------------------------------------------------------------------
     @property
@@ -215,7 +233,7 @@ class LocomotionBackend(RobotBackend):
 
         self._transition = asyncio.get_running_loop().create_task(finish(), name="stand-up")
 
-    def _check_motion(self, manual: bool = False) -> None:
+    def check_motion(self, manual: bool = False) -> None:
         """Refuse motion the locomotion state or the control mode does not allow; ``manual``
         is teleoperation (velocity and MoveBy commands) as opposed to autonomous motion."""
         if not self.inner.connected:
@@ -249,53 +267,155 @@ class LocomotionBackend(RobotBackend):
     # --- motion (gated) ------------------------------------------------------------------
     async def move_to(self, targets: Sequence[Point2D], options: MoveOptions | None = None,
                       yaw: float = 0.0) -> ActionInfo:
-        self._check_motion()
+        self.check_motion()
         return await self.inner.move_to(targets, options, yaw)
 
     async def move_by_direction(self, direction: ActionDirection,
                                 options: MoveOptions | None = None,
                                 duration: float = 0.5) -> ActionInfo:
-        self._check_motion(manual=True)
+        self.check_motion(manual=True)
         return await self.inner.move_by_direction(direction, options, duration)
 
     async def move_by_theta(self, theta: float, options: MoveOptions | None = None,
                             duration: float = 0.5) -> ActionInfo:
-        self._check_motion(manual=True)
+        self.check_motion(manual=True)
         return await self.inner.move_by_theta(theta, options, duration)
 
     async def rotate_to(self, yaw: float, options: MoveOptions | None = None) -> ActionInfo:
-        self._check_motion()
+        self.check_motion()
         return await self.inner.rotate_to(yaw, options)
 
     async def rotate(self, angle: float, options: MoveOptions | None = None) -> ActionInfo:
-        self._check_motion()
+        self.check_motion()
         return await self.inner.rotate(angle, options)
 
     async def go_home(self, options: MoveOptions | None = None) -> ActionInfo:
-        self._check_motion()
+        self.check_motion()
         return await self.inner.go_home(options)
 
     async def set_velocity(self, linear: float, angular: float) -> None:
         if linear != 0.0 or angular != 0.0:  # a stop is always allowed
-            self._check_motion(manual=True)
+            self.check_motion(manual=True)
         await self.inner.set_velocity(linear, angular)
 
+    # --- motion (never gated): passed through ----------------------------------------
+    async def compute_path(self, start: Pose2D | None, goal: Pose2D,
+                           options: MoveOptions | None = None) -> list[Point2D]:
+        return await self.inner.compute_path(start, goal, options)
 
-def _delegate(name: str):
-    async def method(self, *args, **kwargs):
-        return await getattr(self.inner, name)(*args, **kwargs)
+    async def cancel_action(self) -> ActionInfo | None:
+        return await self.inner.cancel_action()
 
-    method.__name__ = name
-    method.__qualname__ = f"LocomotionBackend.{name}"
-    method.__doc__ = getattr(RobotBackend, name).__doc__
-    return method
+    async def get_current_action(self) -> ActionInfo | None:
+        return await self.inner.get_current_action()
 
+    async def get_action(self, action_id: int) -> ActionInfo | None:
+        return await self.inner.get_action(action_id)
 
-# Every other method of the boundary (state, maps, lines, optional extras such as a path
-# query) is passed through as is, abstract or not, so the wrapper never hides a feature.
-for _name, _value in list(vars(RobotBackend).items()):
-    if (not _name.startswith("_") and inspect.iscoroutinefunction(_value)
-            and _name not in vars(LocomotionBackend)):
-        setattr(LocomotionBackend, _name, _delegate(_name))
-LocomotionBackend.__abstractmethods__ = frozenset()
-del _name, _value
+    async def get_remaining_path(self) -> list[Point2D]:
+        return await self.inner.get_remaining_path()
+
+    async def get_remaining_milestones(self) -> list[Point2D]:
+        return await self.inner.get_remaining_milestones()
+
+    # --- map and localization: passed through ----------------------------------------
+    async def get_pose(self) -> Pose2D:
+        return await self.inner.get_pose()
+
+    async def set_pose(self, pose: Pose2D) -> None:
+        return await self.inner.set_pose(pose)
+
+    async def get_localization_enabled(self) -> bool:
+        return await self.inner.get_localization_enabled()
+
+    async def set_localization_enabled(self, enabled: bool) -> None:
+        return await self.inner.set_localization_enabled(enabled)
+
+    async def get_localization_quality(self) -> int:
+        return await self.inner.get_localization_quality()
+
+    async def recover_localization(self, area: Rect | None = None, max_time_ms: int | None = None,
+                                   movement: LocalizationMovement | None = None) -> ActionInfo:
+        return await self.inner.recover_localization(area, max_time_ms, movement)
+
+    async def get_known_area(self, kind: MapKind = MapKind.EXPLORERMAP) -> Rect:
+        return await self.inner.get_known_area(kind)
+
+    async def get_map(self, area: Rect | None = None,
+                      kind: MapKind = MapKind.EXPLORERMAP) -> MapRegion:
+        return await self.inner.get_map(area, kind)
+
+    async def clear_map(self, kind: MapKind = MapKind.EXPLORERMAP) -> None:
+        return await self.inner.clear_map(kind)
+
+    async def get_map_update(self, kind: MapKind = MapKind.EXPLORERMAP) -> bool:
+        return await self.inner.get_map_update(kind)
+
+    async def set_map_update(self, enabled: bool, kind: MapKind = MapKind.EXPLORERMAP) -> None:
+        return await self.inner.set_map_update(enabled, kind)
+
+    async def get_lines(self, usage: ArtifactUsage) -> list[Line]:
+        return await self.inner.get_lines(usage)
+
+    async def add_lines(self, usage: ArtifactUsage, lines: Sequence[Line]) -> list[Line]:
+        return await self.inner.add_lines(usage, lines)
+
+    async def remove_line(self, usage: ArtifactUsage, line_id: int) -> bool:
+        return await self.inner.remove_line(usage, line_id)
+
+    async def clear_lines(self, usage: ArtifactUsage) -> None:
+        return await self.inner.clear_lines(usage)
+
+    async def move_lines(self, usage: ArtifactUsage, lines: Sequence[Line]) -> bool:
+        return await self.inner.move_lines(usage, lines)
+
+    async def set_blocked_areas(self, areas: Sequence[Sequence[Point2D]]) -> None:
+        return await self.inner.set_blocked_areas(areas)
+
+    async def get_home_pose(self) -> Pose2D | None:
+        return await self.inner.get_home_pose()
+
+    async def set_home_pose(self, pose: Pose2D) -> None:
+        return await self.inner.set_home_pose(pose)
+
+    async def get_composite_map(self) -> bytes:
+        return await self.inner.get_composite_map()
+
+    async def check_composite_map(self, data: bytes) -> None:
+        return await self.inner.check_composite_map(data)
+
+    async def set_composite_map(self, data: bytes, pose: Pose2D) -> None:
+        return await self.inner.set_composite_map(data, pose)
+
+    async def install_map(self, explore: MapRegion | None, walls: Sequence[Line],
+                          tracks: Sequence[Line], home: Pose2D | None, pose: Pose2D) -> None:
+        return await self.inner.install_map(explore, walls, tracks, home, pose)
+
+    # --- sensors: passed through -----------------------------------------------------
+    async def get_odometry(self) -> Odometry:
+        return await self.inner.get_odometry()
+
+    async def get_laser_scan(self) -> LaserScan:
+        return await self.inner.get_laser_scan()
+
+    async def get_sensors_info(self) -> list[BasicSensorInfo]:
+        return await self.inner.get_sensors_info()
+
+    async def get_sensor_values(self) -> dict[int, BasicSensorValue]:
+        return await self.inner.get_sensor_values()
+
+    async def get_device_info(self) -> DeviceInfo:
+        return await self.inner.get_device_info()
+
+    async def get_health(self) -> HealthInfo:
+        return await self.inner.get_health()
+
+    async def clear_health_error(self, error_code: int) -> bool:
+        return await self.inner.clear_health_error(error_code)
+
+    # --- power: passed through -------------------------------------------------------
+    async def get_power_status(self) -> PowerStatus:
+        return await self.inner.get_power_status()
+
+    async def get_board_temperature(self) -> int:
+        return await self.inner.get_board_temperature()

@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from hitrobot_server.nodes.slamware.messages import yaw_of
+from hitrobot_server.nodes.messages import yaw_of
 from hitrobot_server.robot.sim.world import load_world
 
 from ..helpers import Watcher

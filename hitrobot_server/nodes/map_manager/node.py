@@ -23,15 +23,12 @@ import numpy as np
 
 from ...bus.core import Bus
 from ...bus.topics import Message, RequestRejected
-from ...robot import composite_map
 from ...robot.backend import BackendError, NotConnectedError, RobotBackend
 from ...robot.model import ArtifactUsage, Line, MapRegion, Point2D, Pose2D, Rect
+from .. import messages as m
 from ..base import RobotNode
+from ..mapsync import MapHolder, tiles
 from ..options import NodeOptions
-from ..slamware import messages as m
-from ..slamware.mapsync import MapHolder, tiles
-from ..slamware.node import NODE_NAME as SLAMWARE_NODE
-from ..slamware.node import SlamwareNode
 from . import mapio
 from .layers import (
     DEFAULT_STATES,
@@ -120,20 +117,6 @@ def grid_of_message(msg: dict) -> Grid:
                 data.astype(np.int8).reshape(height, width))
 
 
-def occupancy_message(grid: Grid, frame: str, now: float) -> dict:
-    return {
-        "header": m.header(frame, now),
-        "info": {
-            "map_load_time": m.stamp(now),
-            "resolution": grid.resolution,
-            "width": grid.width,
-            "height": grid.height,
-            "origin": m.pose(Pose2D(grid.origin_x, grid.origin_y, 0.0)),
-        },
-        "data": grid.data.ravel(),
-    }
-
-
 class MapManager(RobotNode):
     """The map manager node; needs a robot (the SLAM layer is the robot's map)."""
 
@@ -156,9 +139,9 @@ class MapManager(RobotNode):
         self._blocked_sent: list | None = []
         self._blocked_stale = False
 
-        self.topic_slam = SlamwareNode._resolve(params.map_topic)
-        self.topic_scan = SlamwareNode._resolve(params.scan_topic)
-        self.topic_sync = f"{SLAMWARE_NODE}/sync_map"
+        self.topic_slam = m.slamware_topic(params.map_topic)
+        self.topic_scan = m.slamware_topic(params.scan_topic)
+        self.topic_sync = f"{m.SLAMWARE_NODE}/sync_map"
         self.advertise(MAP_TOPIC, "nav_msgs/OccupancyGrid", latch=True)
         self.advertise(POIS_TOPIC, f"{PKG}/PointsOfInterest", latch=True)
         self.advertise(self.topic_sync, "slamware_ros_sdk/SyncMapRequest")
@@ -226,7 +209,7 @@ class MapManager(RobotNode):
         if grid is None or (not force and grid.same_as(self.published)):
             return
         now = self.bus.clock()
-        self.publish(MAP_TOPIC, occupancy_message(grid, MAP_FRAME, now))
+        self.publish(MAP_TOPIC, m.occupancy_grid(grid, MAP_FRAME, now))
         self.published = grid
         self._last_publish = asyncio.get_running_loop().time()
 
@@ -361,9 +344,7 @@ class MapManager(RobotNode):
 
             walls, tracks = lines(robot["virtual_walls"]), lines(robot["virtual_tracks"])
             home = None if robot["home"] is None else Pose2D(*robot["home"])
-        pose = await b.get_pose()
-        data = composite_map.encode(composite_map.CompositeMap(region, walls, tracks, home))
-        await b.set_composite_map(data, pose)
+        await b.install_map(region, walls, tracks, home, await b.get_pose())
         if self.bus.topic(self.topic_sync) is not None:
             self.publish(self.topic_sync, {})
 

@@ -8,7 +8,6 @@ request we cannot carry out is reported to the client that sent it as a ``status
 
 from __future__ import annotations
 
-import asyncio
 import logging
 import math
 import time
@@ -17,14 +16,12 @@ from typing import Any
 
 from ...bus.core import Bus
 from ...bus.errors import ServiceError
-from ...bus.names import canonical
 from ...bus.topics import Message, RequestRejected
 from ...robot.backend import ACTION_PREFIX, BackendError, NotConnectedError, RobotBackend
 from ...robot.model import (
     ActionDirection,
     ActionInfo,
     ActionResult,
-    ActionStatus,
     ArtifactUsage,
     Line,
     LocalizationMovement,
@@ -35,19 +32,18 @@ from ...robot.model import (
     Pose2D,
     Rect,
 )
+from ...robot.motion import GOAL_FLAGS, follow
 from ...robot.relocalization import GOOD_QUALITY, settled_quality
+from .. import messages as m
 from ..base import RobotNode, require_finite
-from . import messages as m
-from .mapsync import MapHolder, tiles, window
+from ..mapsync import MapHolder, tiles, window
 from .params import SlamwareParams
 
 log = logging.getLogger(__name__)
 
-NODE_NAME = "/slamware_ros_sdk_server_node"
+NODE_NAME = m.SLAMWARE_NODE
 PKG = "slamware_ros_sdk"
 KNOWN_FLAGS = 0xFF | 512 | 1024 | 2048  # the ROS msg's bits plus the SDK's newer ones
-GOAL_FLAGS = MoveOptionFlag.MILESTONE | MoveOptionFlag.PRECISE | MoveOptionFlag.WITH_YAW
-ACTION_POLL = 0.1  # seconds between looks at a running action we started
 
 
 def _enum(path: str, value: int, enum_type) -> Any:
@@ -109,19 +105,19 @@ class SlamwareNode(RobotNode):
         for name, value in p.as_dict().items():
             bus.params.set(f"{NODE_NAME}/{name}", value)
 
-        self.topic_scan = self._resolve(p.scan_topic)
-        self.topic_odom = self._resolve(p.odom_topic)
+        self.topic_scan = m.slamware_topic(p.scan_topic)
+        self.topic_odom = m.slamware_topic(p.odom_topic)
         self.scan_topics = self._with_alias(self.topic_scan, p.conventional_scan_topic)
         self.odom_topics = self._with_alias(self.topic_odom, p.conventional_odom_topic)
-        self.topic_map = self._resolve(p.map_topic)
-        self.topic_map_info = self._resolve(p.map_info_topic)
-        self.topic_sensors_info = self._resolve(p.basic_sensors_info_topic)
-        self.topic_sensors_values = self._resolve(p.basic_sensors_values_topic)
-        self.topic_path = self._resolve(p.path_topic)
-        self.topic_state = self._resolve("robot_basic_state")
-        self.topic_walls = self._resolve("virtual_walls")
-        self.topic_tracks = self._resolve("virtual_tracks")
-        self.topic_device = self._resolve("robot_device_info")
+        self.topic_map = m.slamware_topic(p.map_topic)
+        self.topic_map_info = m.slamware_topic(p.map_info_topic)
+        self.topic_sensors_info = m.slamware_topic(p.basic_sensors_info_topic)
+        self.topic_sensors_values = m.slamware_topic(p.basic_sensors_values_topic)
+        self.topic_path = m.slamware_topic(p.path_topic)
+        self.topic_state = m.slamware_topic("robot_basic_state")
+        self.topic_walls = m.slamware_topic("virtual_walls")
+        self.topic_tracks = m.slamware_topic("virtual_tracks")
+        self.topic_device = m.slamware_topic("robot_device_info")
         for topic, type_name, latch in (
             *((t, "sensor_msgs/LaserScan", False) for t in self.scan_topics),
             *((t, "nav_msgs/Odometry", False) for t in self.odom_topics),
@@ -139,8 +135,8 @@ class SlamwareNode(RobotNode):
             self.advertise(topic, type_name, latch=latch)
 
         requests: list[tuple[str, str, Callable[[Message], None]]] = [
-            (self._resolve(p.vel_control_topic), "geometry_msgs/Twist", self._on_cmd_vel),
-            (self._resolve(p.goal_topic), "geometry_msgs/PoseStamped", self._on_goal),
+            (m.slamware_topic(p.vel_control_topic), "geometry_msgs/Twist", self._on_cmd_vel),
+            (m.slamware_topic(p.goal_topic), "geometry_msgs/PoseStamped", self._on_goal),
             ("sync_map", f"{PKG}/SyncMapRequest", self._on_sync_map),
             ("set_pose", "geometry_msgs/Pose", self._on_set_pose),
             ("recover_localization", f"{PKG}/RecoverLocalizationRequest", self._on_recover),
@@ -163,21 +159,16 @@ class SlamwareNode(RobotNode):
             ("move_lines", f"{PKG}/MoveLinesRequest", self._on_move_lines),
         ]
         for topic, type_name, handler in requests:
-            self.subscribe(self._resolve(topic), type_name, handler)
+            self.subscribe(m.slamware_topic(topic), type_name, handler)
 
-        self.service(self._resolve("sync_get_stcm"), f"{PKG}/SyncGetStcm", self._sync_get_stcm)
-        self.service(self._resolve("sync_set_stcm"), f"{PKG}/SyncSetStcm", self._sync_set_stcm)
+        self.service(m.slamware_topic("sync_get_stcm"), f"{PKG}/SyncGetStcm", self._sync_get_stcm)
+        self.service(m.slamware_topic("sync_set_stcm"), f"{PKG}/SyncSetStcm", self._sync_set_stcm)
 
     @classmethod
     def _with_alias(cls, topic: str, alias: str) -> tuple[str, ...]:
         """The node's own topic, plus its conventional name when set and different."""
-        alias = cls._resolve(alias) if alias else ""
+        alias = m.slamware_topic(alias) if alias else ""
         return (topic, alias) if alias and alias != topic else (topic,)
-
-    @staticmethod
-    def _resolve(name: str) -> str:
-        """Relative names live under the node (``~``), absolute ones stay as given."""
-        return canonical(name) if name.startswith("/") else f"{NODE_NAME}/{name}"
 
     # ------------------------------------------------------------------ lifecycle
     async def start(self) -> None:
@@ -371,12 +362,10 @@ class SlamwareNode(RobotNode):
         self.spawn(go())
 
     async def _watch_action(self, message: Message, what: str, action: ActionInfo) -> None:
-        while action.status != ActionStatus.DONE:
-            await asyncio.sleep(ACTION_POLL)
-            current = await self.backend.get_action(action.action_id)
-            if current is None:  # replaced by a newer action, or forgotten by the robot
-                return
-            action = current
+        final = await follow(self.backend, action)
+        if final is None:  # replaced by a newer action, or forgotten by the robot
+            return
+        action = final
         if action.result == ActionResult.SUCCESS:
             message.reject(f"{what}: done", level="info")
         elif action.result == ActionResult.ABORTED:  # cancelled or superseded: not an error

@@ -356,6 +356,13 @@ class SlamwareRestBackend(RobotBackend):
         _finite_pose(pose)
         await self._command("PUT", paths.POSE, shapes.pose3d_json(pose))
 
+    async def install_map(self, explore: MapRegion | None, walls: Sequence[Line],
+                          tracks: Sequence[Line], home: Pose2D | None, pose: Pose2D) -> None:
+        """PUT as our composite-map container (what sim-device takes; SLAMTEC's ``.stcm`` is
+        proprietary and cannot be written here), then set the pose."""
+        await self.set_composite_map(composite_map.encode(composite_map.CompositeMap(
+            explore, tuple(walls), tuple(tracks), home)), pose)
+
     async def recover_localization(
         self,
         area: Rect | None = None,

@@ -17,6 +17,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import TypeVar
 
+from .. import composite_map
 from ..backend import BackendError, NotConnectedError, RobotBackend, UnsupportedError
 from ..model import (
     ActionDirection,
@@ -323,3 +324,10 @@ class SimBackend(RobotBackend):
 
     async def set_composite_map(self, data: bytes, pose: Pose2D) -> None:
         self._call(self.simulator.load_composite_map, data, pose)
+
+    async def install_map(self, explore: MapRegion | None, walls: Sequence[Line],
+                          tracks: Sequence[Line], home: Pose2D | None, pose: Pose2D) -> None:
+        """Through the simulator's own container, so the content is checked completely, as a
+        loaded file is, before anything changes."""
+        await self.set_composite_map(composite_map.encode(composite_map.CompositeMap(
+            explore, tuple(walls), tuple(tracks), home)), pose)

@@ -1,7 +1,8 @@
-"""Robot model values → the ROS messages the real node publishes (canonical dicts).
+"""ROS messages shared by the nodes: robot model values → canonical dicts, and back.
 
-Conversions follow slamware_ros_sdk's msg_convert and its laser/map handling so a client sees
-the same numbers from us as from the real node.
+Builders and parsers that more than one node uses live here, below every node, so no node
+imports another for them. Conversions follow slamware_ros_sdk's msg_convert and its laser/map
+handling so a client sees the same numbers from us as from the real node.
 """
 
 from __future__ import annotations
@@ -10,8 +11,11 @@ import math
 
 import numpy as np
 
-from ...bus.clock import ros_time, wall_clock
-from ...robot.model import (
+from ..bus.clock import ros_time, wall_clock
+from ..bus.names import canonical
+from ..bus.services import STATUS_ABORTED, GoalOutcome
+from ..bus.topics import RequestRejected
+from ..robot.model import (
     BasicSensorInfo,
     BasicSensorValue,
     DeviceInfo,
@@ -21,6 +25,7 @@ from ...robot.model import (
     Pose2D,
     SensorType,
 )
+from .base import require_finite
 
 TWO_PI = 2.0 * math.pi
 COMPENSATED_BINS = 360
@@ -150,4 +155,73 @@ def device_info(info: DeviceInfo) -> dict:
         "software_version": info.software_version,
         "sdp_version": info.sdp_version,
         "sdk_version": info.sdk_version,
+    }
+
+
+# ------------------------------------------------------------------ names
+SLAMWARE_NODE = "/slamware_ros_sdk_server_node"
+"""The Slamware node's name: its relative topic names live under it."""
+
+
+def slamware_topic(name: str) -> str:
+    """A Slamware parameter's topic name: relative names live under the node (``~``),
+    absolute ones stay as given."""
+    return canonical(name) if name.startswith("/") else f"{SLAMWARE_NODE}/{name}"
+
+
+def map_frames(map_frame: str) -> frozenset[str]:
+    """Frame ids that name the map frame: empty (unset), ``map``, ``/map`` and the node's own."""
+    bare = map_frame.lstrip("/")
+    return frozenset({"", "map", "/map", bare, f"/{bare}"})
+
+
+# ------------------------------------------------------------------ poses and goals
+def pose2d_of(pose: dict, path: str) -> Pose2D:
+    """A validated geometry_msgs/Pose as the robot's planar pose (all-zero quaternion = yaw 0)."""
+    p, q = pose["position"], pose["orientation"]
+    require_finite(f"{path}.position", p["x"], p["y"], p["z"])
+    require_finite(f"{path}.orientation", q["x"], q["y"], q["z"], q["w"])
+    return Pose2D(float(p["x"]), float(p["y"]), yaw_of(q))
+
+
+class GoalRejected(Exception):
+    """The goal cannot run at all; the text is the reason."""
+
+
+def rejected(reason: str) -> GoalOutcome:
+    return GoalOutcome(STATUS_ABORTED, reason, False)
+
+
+def pose_stamped(pose_: Pose2D, frame: str, t: float | None = None) -> dict:
+    return {"header": header(frame, t), "pose": pose(pose_)}
+
+
+def check_frame(frames: frozenset[str], header_: dict, path: str) -> None:
+    frame = header_["frame_id"]
+    if frame not in frames:
+        raise GoalRejected(f"field '{path}.frame_id': '{frame}' is not the map frame")
+
+
+def goal_pose(frames: frozenset[str], stamped: dict, path: str) -> Pose2D:
+    """A validated PoseStamped in the map frame as a planar pose."""
+    check_frame(frames, stamped["header"], f"{path}.header")
+    try:
+        return pose2d_of(stamped["pose"], f"{path}.pose")
+    except RequestRejected as exc:
+        raise GoalRejected(str(exc)) from None
+
+
+# ------------------------------------------------------------------ maps
+def occupancy_grid(grid, frame: str, now: float) -> dict:
+    """A nav_msgs/OccupancyGrid of ``grid`` (origin, resolution, width, height, int8 data)."""
+    return {
+        "header": header(frame, now),
+        "info": {
+            "map_load_time": stamp(now),
+            "resolution": grid.resolution,
+            "width": grid.width,
+            "height": grid.height,
+            "origin": pose(Pose2D(grid.origin_x, grid.origin_y, 0.0)),
+        },
+        "data": grid.data.ravel(),
     }
