@@ -385,7 +385,9 @@ async def test_invalid_requests_get_status_errors_and_change_nothing(robot):
         status = await w.until(
             lambda i=op_id: next((s for s in w.statuses if s.get("id") == i), None), 5, op_id)
         assert status["level"] == "error" and needle in status["msg"], status
-    await asyncio.sleep(0.6)
+    for _ in range(2):  # walls and poses the robot reported after the refusals
+        await w.next(f"{NS}/virtual_walls", 5)
+    await w.next(f"{NS}/odom", 5)
     assert w.latest(f"{NS}/virtual_walls")["lines"] == []
     after = current(w)
     assert math.hypot(after[0] - before[0], after[1] - before[1]) < 0.01
