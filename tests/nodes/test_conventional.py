@@ -64,6 +64,6 @@ async def test_invalid_initialpose_is_refused(robot, bad, words):
     status = await w.until(lambda: next((s for s in w.statuses if s.get("id") == "bad"), None),
                            5, "a status error")
     assert status["level"] == "error" and words in status["msg"]
-    await asyncio.sleep(0.2)
-    after = planar(w.latest("/robot_pose"))
+    for _ in range(2):  # poses the robot reported after the refusal, not just a wall-clock gap
+        after = planar(await w.next("/robot_pose", 5))
     assert math.hypot(after[0] - before[0], after[1] - before[1]) < 0.05

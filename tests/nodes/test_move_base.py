@@ -191,17 +191,23 @@ async def test_cancel_before_the_robot_started_recalls(robot):
     backend = server.backend
     real_move_to = backend.move_to
 
-    asked = asyncio.Event()
+    asked, moved = asyncio.Event(), asyncio.Event()
 
     async def slow_move_to(*args, **kw):
         asked.set()
         await asyncio.sleep(0.5)  # a slow robot link
-        return await real_move_to(*args, **kw)
+        try:
+            return await real_move_to(*args, **kw)
+        finally:
+            moved.set()
 
     backend.move_to = slow_move_to
     await w.publish("/move_base/goal", goal_msg("slow", *FAR), "move_base_msgs/MoveBaseActionGoal")
     await asyncio.wait_for(asked.wait(), 5)  # the goal is on its way to the robot
     await w.publish("/move_base/cancel", {"id": "slow"}, "actionlib_msgs/GoalID")
     assert (await result_for(w, "slow"))["status"] == 8  # RECALLED
-    await asyncio.sleep(0.8)  # the robot was told to move meanwhile: it must be stopped again
-    assert await backend.get_current_action() is None
+    await asyncio.wait_for(moved.wait(), 5)  # the robot was told to move meanwhile
+    deadline = time.monotonic() + 5  # ... so it must be stopped again
+    while (action := await backend.get_current_action()) is not None:
+        assert time.monotonic() < deadline, f"the late move was not stopped: {action}"
+        await asyncio.sleep(0.02)

@@ -190,6 +190,24 @@ async def test_scan_matches_the_known_geometry(robot, world):
     assert np.median(error) < 0.05 and np.percentile(error, 90) < 0.15
 
 
+async def synced_map(w: Watcher) -> dict:
+    """The map as the node publishes it after a full sync: sync_map is handled once the call
+    after it is answered; the sync runs at the next map update tick, so wait for map messages
+    newer than that until two in a row agree (a sync in progress publishes a partial map)."""
+    topic = f"{NS}/map"
+    await w.publish(f"{NS}/sync_map", {})
+    await w.call("/rosapi/get_time")
+    after = len(w.messages.get(topic, []))
+
+    def settled() -> dict | None:
+        got = [msg for _t, msg in w.messages.get(topic, [])[after:]]
+        if len(got) >= 4 and got[-1]["data"] == got[-2]["data"]:
+            return got[-1]
+        return None
+
+    return await w.until(settled, 20, "a settled map after sync_map")
+
+
 async def test_map_grows_while_mapping_and_freezes_when_disabled(start_robot):
     server = await start_robot(sim_speed=SPEED, sim_mapping=True)
     w = await Watcher.open(server.port)
@@ -205,17 +223,17 @@ async def test_map_grows_while_mapping_and_freezes_when_disabled(start_robot):
     await move_to(w, 14.0, 8.2)
     await w.until(lambda: known() > first * 1.5, 60, "the map to grow")
     await w.publish(f"{NS}/set_map_update", {"enabled": False, "kind": {"kind": 0}})
+    await w.subscribe(f"{NS}/robot_basic_state")
+    await w.call("/rosapi/get_time")  # both ops handled: what follows is newer state
+    w.messages.pop(f"{NS}/robot_basic_state", None)
+    await w.until(lambda: (w.latest(f"{NS}/robot_basic_state") or {})
+                  .get("is_map_building_enabled") is False, 10, "map building disabled")
     # the node's copy refreshes only a window around the robot (as the real node's does), so
     # compare full syncs of the robot's map before and after more driving
-    await asyncio.sleep(0.5)
-    await w.publish(f"{NS}/sync_map", {})
-    await asyncio.sleep(1.0)
-    frozen = w.latest(f"{NS}/map")
+    frozen = await synced_map(w)
     await move_to(w, 20.0, 8.2)
     await w.until(lambda: w.latest(f"{NS}/odom") and current(w)[0] > 17.0, 60, "more driving")
-    await w.publish(f"{NS}/sync_map", {})
-    await asyncio.sleep(1.0)
-    assert w.latest(f"{NS}/map")["data"] == frozen["data"]
+    assert (await synced_map(w))["data"] == frozen["data"]
     state = (await w.call("/rosapi/get_time"))  # the bus still answers while the robot moves
     assert state["result"] is True
     await w.close()
@@ -331,7 +349,7 @@ async def test_publish_rates_follow_their_periods(robot):
     for topic in periods:
         if topic not in (f"{NS}/odom", f"{NS}/robot_basic_state"):
             await w.subscribe(topic)
-    await asyncio.sleep(0.5)
+    await w.until(lambda: all(w.messages.get(t) for t in periods), 5, "every topic publishing")
     for topic in periods:
         w.messages[topic] = []
     await asyncio.sleep(4.5)
@@ -367,7 +385,9 @@ async def test_invalid_requests_get_status_errors_and_change_nothing(robot):
         status = await w.until(
             lambda i=op_id: next((s for s in w.statuses if s.get("id") == i), None), 5, op_id)
         assert status["level"] == "error" and needle in status["msg"], status
-    await asyncio.sleep(0.6)
+    for _ in range(2):  # walls and poses the robot reported after the refusals
+        await w.next(f"{NS}/virtual_walls", 5)
+    await w.next(f"{NS}/odom", 5)
     assert w.latest(f"{NS}/virtual_walls")["lines"] == []
     after = current(w)
     assert math.hypot(after[0] - before[0], after[1] - before[1]) < 0.01

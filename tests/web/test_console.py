@@ -33,7 +33,15 @@ def covered(x: float, y: float, rects: list[dict], pad: float = 4) -> bool:
 
 async def test_page_loads_without_console_errors(console: Console):
     page = console.page
-    await asyncio.sleep(1.5)  # let every subscription deliver at least once
+    # the page has heard from the bridge, the robot's state, its pose and the map
+    await page.wait_for_function("""() => {
+        const text = (sel) => (document.querySelector(sel) || {}).textContent || '';
+        return window.hitrobot && window.hitrobot.view.mapBounds !== null
+            && text('#bridge-state .value') === 'connected'
+            && document.querySelector('#robot-state').dataset.state === 'ok'
+            && text('#battery .value').endsWith('%')
+            && text('#robot-pose').includes('robot at');
+    }""", timeout=10_000)
     assert console.errors == []
     libraries = await page.evaluate("window.hitrobot.libraries")
     assert libraries["roslib"].startswith("1.") and libraries["ros2d"] == "0.10.0"
@@ -84,7 +92,10 @@ async def test_map_canvas_shows_the_map(console: Console, watcher):
 async def test_robot_marker_sits_at_the_robot_pose(console: Console, watcher):
     await watcher.subscribe("/robot_pose", "geometry_msgs/Pose")
     pose = await watcher.next("/robot_pose")
-    await asyncio.sleep(0.5)
+    await console.page.wait_for_function(  # the marker has been placed at that pose
+        """([x, y]) => { const p = window.hitrobot.robot.pose;
+                        return p && Math.hypot(p.x - x, p.y - y) < 0.05; }""",
+        arg=[pose["position"]["x"], pose["position"]["y"]], timeout=10_000)
     await console.frame()
     img = await console.screenshot_array()
     ex, ey = await console.to_client(pose["position"]["x"], pose["position"]["y"])
@@ -161,7 +172,12 @@ async def test_cancel_stops_the_goal(console: Console, watcher):
     assert await page.locator("#log li.warning, #log li.error").count() == 0
     assert await page.locator(".toast").count() == 0
     await watcher.subscribe(ODOM, "nav_msgs/Odometry")
-    await asyncio.sleep(0.5)
+
+    def speed() -> float:
+        odom = watcher.latest(ODOM)
+        return abs(odom["twist"]["twist"]["linear"]["x"]) if odom else math.inf
+
+    await watcher.until(lambda: speed() < 0.05, 5, "the robot slowing down")
     twist = (await watcher.next(ODOM))["twist"]["twist"]
     assert abs(twist["linear"]["x"]) < 0.05
     assert await page.locator("#cancel-goal").is_disabled()
