@@ -9,6 +9,7 @@ import re
 import subprocess
 import sys
 import time
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 
 import cbor2
@@ -46,17 +47,22 @@ def matches(msg: dict, **fields) -> bool:
     return all(msg.get(k) == v for k, v in fields.items())
 
 
-class ProtocolClient:
-    """What every test client does with decoded messages: wait for one, or for none."""
+class ProtocolClient(ABC):
+    """What every test client does with decoded messages: wait for one, or for none.
+
+    Subclasses carry the ops: over a socket (``WsClient``) or into a Session directly
+    (``tests.sansio.SessionClient``)."""
 
     def __init__(self) -> None:
         self.seen: list[dict] = []
 
+    @abstractmethod
     async def send(self, obj: dict | str) -> None:
-        raise NotImplementedError
+        """Send one op (a dict, or text as it is)."""
 
+    @abstractmethod
     async def recv(self, timeout: float = 5.0) -> dict:
-        raise NotImplementedError
+        """The next decoded message (recorded in ``seen``)."""
 
     async def expect(self, pred: Callable[[dict], bool] | None = None, timeout: float = 5.0,
                      **fields) -> dict:
