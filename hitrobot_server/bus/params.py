@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable
 from typing import Any
 
 from .names import canonical
@@ -15,6 +16,12 @@ class ParamStore:
 
     def __init__(self) -> None:
         self._root: dict[str, Any] = {}
+        # Called with the name after every set/delete (Foxglove parameter subscriptions).
+        self.watchers: list[Callable[[str], None]] = []
+
+    def _notify(self, name: str) -> None:
+        for watcher in list(self.watchers):
+            watcher(canonical(name))
 
     @staticmethod
     def _parts(name: str) -> list[str]:
@@ -26,6 +33,7 @@ class ParamStore:
             if not isinstance(value, dict):
                 raise ValueError("the root parameter '/' can only be set to a dictionary")
             self._root = copy.deepcopy(value)
+            self._notify(name)
             return
         node = self._root
         for p in parts[:-1]:
@@ -34,6 +42,7 @@ class ParamStore:
                 child = node[p] = {}
             node = child
         node[parts[-1]] = copy.deepcopy(value)
+        self._notify(name)
 
     def get(self, name: str, default: Any = _MISSING) -> Any:
         node: Any = self._root
@@ -53,6 +62,7 @@ class ParamStore:
         parts = self._parts(name)
         if not parts:
             self._root = {}
+            self._notify(name)
             return True
         node: Any = self._root
         for p in parts[:-1]:
@@ -61,6 +71,7 @@ class ParamStore:
             node = node[p]
         if isinstance(node, dict) and parts[-1] in node:
             del node[parts[-1]]
+            self._notify(name)
             return True
         return False
 
