@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import copy
+import logging
 from collections.abc import Callable
 from typing import Any
 
 from .names import canonical
 
 _MISSING = object()
+log = logging.getLogger(__name__)
 
 
 class ParamStore:
@@ -21,7 +23,10 @@ class ParamStore:
 
     def _notify(self, name: str) -> None:
         for watcher in list(self.watchers):
-            watcher(canonical(name))
+            try:
+                watcher(canonical(name))
+            except Exception:  # a watcher's bug must not fail the set that was made
+                log.exception("parameter watcher %r failed", watcher)
 
     @staticmethod
     def _parts(name: str) -> list[str]:
