@@ -40,6 +40,10 @@ ERRORS_PER_SECOND = 10
 """Most error statuses per second to one client; the rest of that second is summed up once."""
 MAX_TEXT_BYTES = 16 * 1024 * 1024
 """Largest JSON op accepted (ops are small; binary frames carry the data)."""
+MAX_CALLS = 64
+"""Most service calls of one client waiting for their provider at once."""
+MAX_REMEMBERED = 4096
+"""Channels/services remembered server-wide before those no longer on the bus are forgotten."""
 
 
 @dataclass
@@ -55,6 +59,16 @@ class FoxgloveShared:
     @classmethod
     def for_bus(cls, bus: Bus) -> FoxgloveShared:
         return cls(codec_for(bus.types))
+
+    def prune(self, bus: Bus) -> None:
+        """Forget channels and services gone from the bus once there are many (clients can
+        make topics and services of any name): a returning topic then gets a new id."""
+        if len(self._channels) > MAX_REMEMBERED:
+            live = {(t.name, t.type_name) for t in list(bus.topics.values())}
+            self._channels = {k: v for k, v in self._channels.items() if k in live}
+        if len(self._services) > MAX_REMEMBERED:
+            live = {(n, s.stype.name) for n, s in list(bus.services.items())}
+            self._services = {k: v for k, v in self._services.items() if k in live}
 
     def channel(self, topic: Topic) -> dict | None:
         """The channel of a topic (its id and schema), or None when it has no ROS 2 schema."""
@@ -111,7 +125,8 @@ class FoxgloveSession:
         self.codec = shared.codec
         self.peer = peer
         self.subprotocol = subprotocol
-        self.node = f"/hitrobot_foxglove_{settings.client_tag}{next(_client_ids)}"
+        # under the rosbridge clients' prefix, so diagnostics' /Bridge/Clients counts it too
+        self.node = f"/hitrobot_client_{settings.client_tag}foxglove_{next(_client_ids)}"
         self.origin = Origin(self.node)
         self.outbox = Outbox(settings.send_buffer_limit)
         self.closed = False
@@ -207,6 +222,7 @@ class FoxgloveSession:
         self._sync_handle = None
         if self.closed:
             return
+        self.shared.prune(self.bus)
         allowed = self.settings.topics_filter.allows
         current: dict[int, dict] = {}
         for topic in list(self.bus.topics.values()):
@@ -367,6 +383,10 @@ class FoxgloveSession:
             self._call_failed(req, f"unknown service id {req.service_id}")
             return
         name, stype = entry
+        if len(self._tasks) >= MAX_CALLS:
+            self._call_failed(req, f"{MAX_CALLS} calls of this client are already waiting for "
+                              "their answers")
+            return
         if req.encoding != fg.ENCODING:
             self._call_failed(req, f"encoding {req.encoding!r:.40} is not supported "
                               f"(only '{fg.ENCODING}')")

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from hitrobot_server.bus.cdr import codec_for
 from hitrobot_server.nodes.base import Node
 from hitrobot_server.protocol import foxglove as fg
-from hitrobot_server.session.foxglove import FoxgloveSession, FoxgloveShared
+from hitrobot_server.session.foxglove import MAX_CALLS, FoxgloveSession, FoxgloveShared
 from hitrobot_server.session.options import SessionOptions
 
 
@@ -295,3 +295,46 @@ async def test_fuzzed_frames_never_break_the_session_or_a_witness(hub, frames):
         "data": "still here"}
     fuzzer.session.close()
     witness.session.close()
+
+
+async def test_calls_waiting_at_once_are_bounded(hub):
+    node = Node(hub.bus, "/slow")
+    gate = asyncio.get_running_loop().create_future()
+
+    async def slow(req: dict) -> dict:
+        await gate
+        return {"sum": 0}
+
+    node.service("/fg/slow", "rospy_tutorials/AddTwoInts", slow)
+    fox = FoxClient(hub)
+    services = await fox.until(
+        lambda m: isinstance(m, dict) and m.get("op") == "advertiseServices"
+        and any(s["name"] == "/fg/slow" for s in m["services"]), "advertiseServices")
+    sid = next(s["id"] for s in services["services"] if s["name"] == "/fg/slow")
+    payload = fox.codec.encode({"a": 1, "b": 2}, hub.bus.types.srv("rospy_tutorials/AddTwoInts")
+                               .request)
+    for call_id in range(MAX_CALLS + 1):
+        fox.send(struct.pack("<BIII", 2, sid, call_id, 3) + b"cdr" + payload)
+    failure = await fox.op("serviceCallFailure")
+    assert failure["callId"] == MAX_CALLS and "already waiting" in failure["message"]
+    gate.set_result(None)
+    answered = set()
+    while len(answered) < MAX_CALLS:
+        frame = await fox.until(lambda m: isinstance(m, tuple) and m[0] == 3, "response")
+        answered.add(struct.unpack_from("<I", frame[1], 5)[0])
+    assert answered == set(range(MAX_CALLS))
+
+
+async def test_forgotten_channels_of_topics_gone_keep_the_table_bounded(hub, monkeypatch):
+    monkeypatch.setattr("hitrobot_server.session.foxglove.MAX_REMEMBERED", 3)
+    node = Node(hub.bus, "/churn")
+    fox = FoxClient(hub)
+    for i in range(6):
+        node.advertise(f"/fg/churn{i}", "std_msgs/String")
+        fox.shared.channel(hub.bus.topic(f"/fg/churn{i}"))
+        hub.bus.unadvertise(f"/fg/churn{i}", node)
+        hub.bus._expire(hub.bus.topic(f"/fg/churn{i}"))
+    fox.shared.prune(hub.bus)
+    names = {name for name, _type in fox.shared._channels}
+    assert names and names <= set(hub.bus.topics)
+    assert not any(name.startswith("/fg/churn") for name in names)
