@@ -15,7 +15,6 @@ import asyncio
 import functools
 import itertools
 import logging
-import time
 import uuid
 from collections.abc import Callable, Coroutine
 from dataclasses import dataclass, field
@@ -36,8 +35,6 @@ _client_ids = itertools.count(1)
 
 TIME_PERIOD = 0.1
 """Seconds between two ``time`` messages (the bus clock) to each client."""
-ERRORS_PER_SECOND = 10
-"""Most error statuses per second to one client; the rest of that second is summed up once."""
 MAX_TEXT_BYTES = 16 * 1024 * 1024
 """Largest JSON op accepted (ops are small; binary frames carry the data)."""
 MAX_CALLS = 64
@@ -141,8 +138,6 @@ class FoxgloveSession:
         self._tasks: set[asyncio.Task] = set()
         self._sync_handle: asyncio.Handle | None = None
         self._time_handle: asyncio.TimerHandle | None = None
-        self._errors_since = float("-inf")
-        self._errors = 0
         bus.register_node(self.node)
         log.info("foxglove client %s connected from %s (%s)", self.node, peer or "?", subprotocol)
         if settings.authenticate:
@@ -171,17 +166,12 @@ class FoxgloveSession:
         self.outbox.put(frames, droppable=True)
 
     def _status(self, level: int, message: str, status_id: str | None = None) -> None:
+        """A status goes through the bounded buffer like topic data: a client that floods
+        junk without reading loses its own oldest reports, and costs at most its bound."""
         if level == fg.ERROR:
             log.info("foxglove client %s: %s", self.node, message)
-            now = time.monotonic()
-            if now - self._errors_since >= 1.0:
-                self._errors_since, self._errors = now, 0
-            self._errors += 1
-            if self._errors > ERRORS_PER_SECOND:
-                if self._errors == ERRORS_PER_SECOND + 1:
-                    self._send(fg.status(fg.ERROR, "more errors this second; not reported"))
-                return
-        self._send(fg.status(level, message, status_id))
+        self.outbox.put([(fg.dumps(fg.status(level, message, status_id)), False)],
+                        droppable=True)
 
     # ------------------------------------------------------------------ input
     def receive(self, data: str | bytes, binary: bool = False) -> None:
