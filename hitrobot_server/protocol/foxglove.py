@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import base64
 import math
+import re
 import struct
 from dataclasses import dataclass
 from typing import Any
@@ -326,13 +327,32 @@ def status(level: int, message: str, status_id: str | None = None) -> dict:
     return out
 
 
+_ROS2_FIELD = re.compile(r"[a-z][a-z0-9_]*")
+_CAMEL = re.compile(r"(?<=[a-z0-9])(?=[A-Z])")
+
+
+def ros2_schema(definition: str) -> str:
+    """A definition as ROS 2's parser (Foxglove's ``ros2msg``) accepts it: field names with
+    upper-case letters (``maskAction`` of map_messages, a ROS 1 package) become snake_case.
+    CDR is positional, so the bytes on the wire do not change."""
+    lines = definition.split("\n")
+    for i, line in enumerate(lines):
+        parts = line.split(maxsplit=2)
+        if len(parts) < 2 or parts[0] == "MSG:" or "=" in parts[1]:
+            continue
+        name = parts[1]
+        if not _ROS2_FIELD.fullmatch(name):
+            lines[i] = " ".join([parts[0], _CAMEL.sub("_", name).lower(), *parts[2:]])
+    return "\n".join(lines)
+
+
 def channel(channel_id: int, topic: str, schema_name: str, schema: str) -> dict:
     return {
         "id": channel_id,
         "topic": topic,
         "encoding": ENCODING,
         "schemaName": schema_name,
-        "schema": schema,
+        "schema": ros2_schema(schema),
         "schemaEncoding": SCHEMA_ENCODING,
     }
 
@@ -355,7 +375,7 @@ def service(
 
     def part(schema: tuple[str, str]) -> dict:
         return {"encoding": ENCODING, "schemaName": schema[0],
-                "schemaEncoding": SCHEMA_ENCODING, "schema": schema[1]}
+                "schemaEncoding": SCHEMA_ENCODING, "schema": ros2_schema(schema[1])}
 
     return {
         "id": service_id,
@@ -363,8 +383,8 @@ def service(
         "type": type_name,
         "request": part(request),
         "response": part(response),
-        "requestSchema": request[1],
-        "responseSchema": response[1],
+        "requestSchema": ros2_schema(request[1]),
+        "responseSchema": ros2_schema(response[1]),
     }
 
 

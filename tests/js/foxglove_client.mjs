@@ -83,6 +83,32 @@ await check('channels_for_every_topic', async () => {
     JSON.stringify(channelOf(fox, '/fg/late')));
 });
 
+await check('every_channel_decodes', async () => {
+  // every schema parses, and whatever arrives on any channel within 2 s decodes with it
+  const readers = new Map([...fox.channels.values()].map((c) => [c.id, reader(c.schemaName, c.schema)]));
+  const decoded = new Map();
+  const failures = [];
+  const ids = [...fox.channels.values()].map((c) => {
+    const id = fox.client.subscribe(c.id);
+    fox.handlers.set(id, (m) => {
+      try {
+        readers.get(c.id).readMessage(m.data);
+        decoded.set(c.topic, (decoded.get(c.topic) || 0) + 1);
+      } catch (err) {
+        failures.push(`${c.topic} (${c.schemaName}): ${err.message}`);
+      }
+    });
+    return id;
+  });
+  await new Promise((r) => setTimeout(r, 2000)); // a sampling window, not a synchronisation
+  ids.forEach((id) => { fox.client.unsubscribe(id); fox.handlers.delete(id); });
+  assert(failures.length === 0, failures.slice(0, 5).join('; '));
+  for (const t of ['/odom', '/scan', '/tf', '/map', '/robot_pose', '/diagnostics_agg',
+    '/slamware_ros_sdk_server_node/robot_basic_state', '/cloud_registered']) {
+    assert(decoded.get(t) > 0, `nothing decoded on ${t}: ${JSON.stringify([...decoded.keys()])}`);
+  }
+});
+
 await check('odom_scan_map_tf_at_their_rates', async () => {
   // /map (the map manager's, latched) comes on change; the Slamware node's map every 0.2 s
   const topics = ['/odom', '/scan', '/map', '/slamware_ros_sdk_server_node/map', '/tf'];

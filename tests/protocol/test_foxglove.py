@@ -99,6 +99,14 @@ def test_server_binary_frames_have_the_spec_layout():
     assert fg.nanoseconds(1.5) == 1_500_000_000 and fg.nanoseconds(-1.0) == 0
 
 
+def test_ros2_schema_renames_only_field_names_ros2_forbids():
+    text = ("uint8 ADD=1\nuint8 maskAction\nstring mapLayer \"x\"\nfloat64[9] K\nint32 ok_name\n"
+            "====\nMSG: map_messages/Point\nfloat64 x\n")
+    assert fg.ros2_schema(text) == (
+        "uint8 ADD=1\nuint8 mask_action\nstring map_layer \"x\"\nfloat64[9] k\nint32 ok_name\n"
+        "====\nMSG: map_messages/Point\nfloat64 x\n")
+
+
 def test_service_description_carries_both_schema_spellings():
     desc = fg.service(4, "/s", "std_srvs/srv/Trigger", ("std_srvs/srv/Trigger_Request", ""),
                       ("std_srvs/srv/Trigger_Response", "bool success\nstring message\n"))
