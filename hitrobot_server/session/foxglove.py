@@ -273,10 +273,15 @@ class FoxgloveSession:
             if sub_id in self.subs:
                 self._status(fg.ERROR, f"subscribe: subscription id {sub_id} is already in use")
                 continue
-            self.subs[sub_id] = topic
+            self.subs[sub_id] = topic  # before subscribing: a latched topic delivers at once
+            try:
+                self.bus.subscribe(topic, None, (self, sub_id), self.node,
+                                   functools.partial(self._deliver, sub_id))
+            except BusError as exc:  # the topic went since it was advertised
+                del self.subs[sub_id]
+                self._status(fg.ERROR, f"subscribe: channel {channel_id}: {exc}")
+                continue
             given.append((sub_id, channel_id))
-            self.bus.subscribe(topic, None, (self, sub_id), self.node,
-                               functools.partial(self._deliver, sub_id))
         if self.subprotocol == fg.SUBPROTOCOL_SDK and given:
             self._send(fg.subscription_response(given))
 
@@ -351,7 +356,7 @@ class FoxgloveSession:
             raise fg.FoxgloveError(f"message data: unknown client channel id {frame.channel_id}"
                                    " (advertise it first)")
         try:
-            msg = self.codec.decode(frame.payload, chan.mtype)
+            msg = self._decode(frame.payload, chan.mtype)
         except Exception as exc:
             raise fg.FoxgloveError(
                 f"message data: channel {frame.channel_id} ({chan.topic}): the CDR does not "
@@ -361,6 +366,13 @@ class FoxgloveSession:
             self.bus.publish(chan.topic, msg, reply=self._reply, origin=self.origin)
         except BusError as exc:
             raise fg.FoxgloveError(f"message data: {exc}") from None
+
+    def _decode(self, payload: bytes, mtype: MsgType) -> dict:
+        """A message from CDR; a type without fields (``std_srvs/Trigger`` requests) needs no
+        bytes, since writers differ on the padding byte ROS 2 puts in an empty struct."""
+        if not mtype.fields:
+            return {}
+        return self.codec.decode(payload, mtype)
 
     def _reply(self, level: str, text: str) -> None:
         """A node's answer to a message this client published (refusals, successes)."""
@@ -382,7 +394,7 @@ class FoxgloveSession:
                               f"(only '{fg.ENCODING}')")
             return
         try:
-            request = self.codec.decode(req.payload, stype.request)
+            request = self._decode(req.payload, stype.request)
         except Exception as exc:
             self._call_failed(req, f"the request CDR does not match {stype.request.name}: {exc}")
             return

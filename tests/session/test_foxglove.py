@@ -182,6 +182,27 @@ async def test_service_call_and_its_failure(hub):
     assert failure["callId"] == 7 and "encoding" in failure["message"]
 
 
+async def test_an_empty_request_needs_no_bytes(hub):
+    calls = []
+
+    async def trigger(req: dict) -> dict:
+        calls.append(req)
+        return {"success": True, "message": "done"}
+
+    Node(hub.bus, "/srv").service("/fg/trigger", "std_srvs/Trigger", trigger)
+    fox = FoxClient(hub)
+    services = await fox.until(
+        lambda m: isinstance(m, dict) and m.get("op") == "advertiseServices"
+        and any(s["name"] == "/fg/trigger" for s in m["services"]), "advertiseServices")
+    sid = next(s["id"] for s in services["services"] if s["name"] == "/fg/trigger")
+    for call_id, payload in enumerate([b"\x00\x01\x00\x00", b"\x00\x01\x00\x00\x00"]):
+        fox.send(struct.pack("<BIII", 2, sid, call_id, 3) + b"cdr" + payload)
+        resp = await fox.until(lambda m: isinstance(m, tuple) and m[0] == 3, "response")
+        out = fox.codec.decode(resp[1][16:], hub.bus.types.srv("std_srvs/Trigger").response)
+        assert out == {"success": True, "message": "done"}
+    assert calls == [{}, {}]
+
+
 async def test_parameters_get_set_and_updates(hub):
     fox = FoxClient(hub)
     fox.send({"op": "subscribeParameterUpdates", "parameterNames": ["/fg/gain"]})
@@ -338,3 +359,19 @@ async def test_forgotten_channels_of_topics_gone_keep_the_table_bounded(hub, mon
     names = {name for name, _type in fox.shared._channels}
     assert names and names <= set(hub.bus.topics)
     assert not any(name.startswith("/fg/churn") for name in names)
+
+
+async def test_subscribing_a_channel_whose_topic_just_went_is_an_error(make_hub):
+    hub = await make_hub()
+    hub.bus.unregister_timeout = 0  # an unused topic goes at once
+    node = Node(hub.bus, "/brief")
+    node.advertise("/fg/brief", "std_msgs/String")
+    fox = FoxClient(hub)
+    cid = fox.channel("/fg/brief")["id"]
+    assert cid in fox.session.channels
+    node.close()  # gone from the bus; the client hears of it only after this step
+    fox.send({"op": "subscribe", "subscriptions": [{"id": 1, "channelId": cid}]})
+    assert "does not exist" in (await fox.error())["message"]
+    assert fox.session.subs == {}
+    gone = await fox.op("unadvertise")
+    assert cid in gone["channelIds"]
