@@ -147,7 +147,7 @@ class FoxgloveSession:
                          "'auth'; closing")
             self.outbox.close()
             return
-        self._send(fg.server_info("hitrobot-server", uuid.uuid4().hex, {"ROS_DISTRO": "jazzy"}))
+        self._send(fg.server_info(server_name, uuid.uuid4().hex, {"ROS_DISTRO": "jazzy"}))
         self._sync()
         bus.watchers.append(self._changed)
         bus.params.watchers.append(self._param_changed)
