@@ -424,9 +424,12 @@ class FoxgloveSession:
 
     # ------------------------------------------------------------------ parameters
     def _op_get_parameters(self, op: dict) -> None:
-        params = self.bus.params
+        """The values of the names asked (every leaf when none), those --params-glob allows
+        and that are set; any other name is left out, as the spec's reply allows."""
+        params, allowed = self.bus.params, self.settings.params_filter.allows
         names = op["parameterNames"] or params.names()
-        values = [fg.param_to_wire(n, params.get(n)) for n in names if params.has(n)]
+        values = [fg.param_to_wire(n, params.get(n)) for n in names
+                  if valid_name(n) and allowed(n) and params.has(n)]
         self._send(fg.parameter_values(values, op["id"]))
 
     def _op_set_parameters(self, op: dict) -> None:
@@ -435,6 +438,9 @@ class FoxgloveSession:
             if not valid_name(name) or canonical(name) == "/":
                 raise fg.FoxgloveError(f"setParameters: field 'name' {name!r:.80} is not a valid "
                                        "parameter name")
+            if not self.settings.params_filter.allows(name):
+                raise fg.FoxgloveError(f"setParameters: parameter '{canonical(name)}' is not "
+                                       "allowed by --params-glob")
         params = self.bus.params
         for name, value in pairs:
             if value is None:
@@ -455,9 +461,9 @@ class FoxgloveSession:
     def _param_changed(self, name: str) -> None:
         if not self.param_subs or self.closed:
             return
-        params = self.bus.params
-        hit = [n for n in self.param_subs
-               if n == name or n.startswith(name.rstrip("/") + "/") or name.startswith(n + "/")]
+        params, allowed = self.bus.params, self.settings.params_filter.allows
+        hit = [n for n in self.param_subs if allowed(n) and (
+               n == name or n.startswith(name.rstrip("/") + "/") or name.startswith(n + "/"))]
         if hit:
             self._send(fg.parameter_values(
                 [fg.param_to_wire(n, params.get(n)) if params.has(n) else {"name": n}

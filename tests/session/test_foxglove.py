@@ -375,3 +375,24 @@ async def test_subscribing_a_channel_whose_topic_just_went_is_an_error(make_hub)
     assert fox.session.subs == {}
     gone = await fox.op("unadvertise")
     assert cid in gone["channelIds"]
+
+
+async def test_params_glob_limits_foxglove_parameters(make_hub):
+    hub = await make_hub()
+    hub.bus.params.set("/open/gain", 1)
+    hub.bus.params.set("/secret/key", "x")
+    fox = FoxClient(hub, params_glob="/open/*")
+    fox.send({"op": "getParameters", "id": "all", "parameterNames": []})
+    got = await fox.op("parameterValues")
+    assert got["parameters"] == [{"name": "/open/gain", "value": 1}]
+    fox.send({"op": "getParameters", "id": "one", "parameterNames": ["/secret/key"]})
+    assert (await fox.op("parameterValues"))["parameters"] == []
+    fox.send({"op": "setParameters", "parameters": [{"name": "/open/gain", "value": 2},
+                                                    {"name": "/secret/key", "value": "y"}]})
+    assert "--params-glob" in (await fox.error())["message"]
+    assert hub.bus.params.get("/open/gain") == 1 and hub.bus.params.get("/secret/key") == "x"
+    fox.send({"op": "subscribeParameterUpdates", "parameterNames": ["/secret/key", "/open/gain"]})
+    hub.bus.params.set("/secret/key", "z")
+    hub.bus.params.set("/open/gain", 3)
+    update = await fox.op("parameterValues")
+    assert update["parameters"] == [{"name": "/open/gain", "value": 3}]
