@@ -396,3 +396,21 @@ async def test_params_glob_limits_foxglove_parameters(make_hub):
     hub.bus.params.set("/open/gain", 3)
     update = await fox.op("parameterValues")
     assert update["parameters"] == [{"name": "/open/gain", "value": 3}]
+
+
+async def test_a_message_that_cannot_be_cdr_is_skipped_with_one_warning(hub):
+    node = Node(hub.bus, "/odd")
+    node.advertise("/fg/odd", "std_msgs/Int32")
+    fox = FoxClient(hub)
+    cid = fox.channel("/fg/odd")["id"]
+    fox.send({"op": "subscribe", "subscriptions": [{"id": 4, "channelId": cid}]})
+    node.publish("/fg/odd", {"data": "not a number"})
+    node.publish("/fg/odd", {"data": "nor this"})
+    node.publish("/fg/odd", {"data": 7})
+    seen = []
+    data = await fox.until(lambda m: seen.append(m) or (isinstance(m, tuple) and m[0] == 1),
+                           "message data")
+    warnings = [m for m in seen if isinstance(m, dict) and m.get("op") == "status"]
+    assert len(warnings) == 1 and warnings[0]["level"] == fg.WARNING
+    assert "/fg/odd" in warnings[0]["message"]
+    assert fox.codec.decode(data[1][13:], hub.bus.types.msg("std_msgs/Int32")) == {"data": 7}
