@@ -48,24 +48,28 @@ class HitrobotServer:
         self.tcp_port: int | None = None
         self._rosout: RosoutHandler | None = None
 
-    def new_session(self, peer: str, transport: str) -> Session:
+    def _options(self) -> SessionOptions:
         if self._session_options is None:
             self._session_options = self.settings.session_options()
-        session = Session(
-            self.bus, self._session_options, peer=peer, transport=transport, shared=self.shared
-        )
+        return self._session_options
+
+    def _track(self, session: Session | FoxgloveSession) -> None:
         self.sessions.add(session)
         session.on_close.append(self.sessions.discard)
+
+    def new_session(self, peer: str, transport: str) -> Session:
+        session = Session(
+            self.bus, self._options(), peer=peer, transport=transport, shared=self.shared
+        )
+        self._track(session)
         return session
 
     def new_foxglove_session(self, peer: str, subprotocol: str) -> FoxgloveSession:
-        if self._session_options is None:
-            self._session_options = self.settings.session_options()
+        """A client that asked for a Foxglove subprotocol (PROTOCOL.md §18)."""
         session = FoxgloveSession(
-            self.bus, self._session_options, self.foxglove, peer=peer, subprotocol=subprotocol
+            self.bus, self._options(), self.foxglove, peer=peer, subprotocol=subprotocol
         )
-        self.sessions.add(session)
-        session.on_close.append(self.sessions.discard)
+        self._track(session)
         return session
 
     async def start(self) -> None:

@@ -1,5 +1,9 @@
 """WebSocket transport: frames in → Session.receive; Session.outbox → frames out.
 
+The subprotocol a client asks for picks its session: ``foxglove.websocket.v1`` or
+``foxglove.sdk.v1`` a :class:`FoxgloveSession`, anything else (or nothing) the rosbridge
+:class:`Session`, as before. Both have the same ``receive``/``outbox``/``close``.
+
 Plain HTTP GETs on the same port are answered by ``http_handler`` (the web UI), as
 decisions.md asks: one port for the page and the bridge.
 """
