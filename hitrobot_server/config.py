@@ -86,6 +86,7 @@ class Settings:
             call_service_timeout=self.call_service_timeout,
             topics_glob=self.topics_glob,
             services_glob=self.services_glob,
+            params_glob=self.params_glob,
         )
 
     def node_options(self) -> NodeOptions:

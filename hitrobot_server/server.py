@@ -14,6 +14,7 @@ from .nodes.assembly import start_nodes, stop_nodes
 from .nodes.base import Node
 from .protocol.auth import load_secret
 from .robot.factory import build_backend
+from .session.foxglove import FoxgloveSession, FoxgloveShared
 from .session.options import SessionOptions
 from .session.session import Session, Shared
 from .transport.http import StaticFiles, default_web_root, missing_libraries
@@ -36,7 +37,8 @@ class HitrobotServer:
         self.nodes: list[Node] = []
         self.link = None  # the ZenohLink with --bus zenoh
         self.backend = None  # the robot (RobotBackend) when one is attached
-        self.sessions: set[Session] = set()
+        self.sessions: set[Session | FoxgloveSession] = set()
+        self.foxglove = FoxgloveShared.for_bus(self.bus)
         self.shared = Shared.for_options(self.settings.session_options())
         self._session_options: SessionOptions | None = None  # built at start
         self._ws = None
@@ -46,14 +48,28 @@ class HitrobotServer:
         self.tcp_port: int | None = None
         self._rosout: RosoutHandler | None = None
 
-    def new_session(self, peer: str, transport: str) -> Session:
+    def _options(self) -> SessionOptions:
         if self._session_options is None:
             self._session_options = self.settings.session_options()
-        session = Session(
-            self.bus, self._session_options, peer=peer, transport=transport, shared=self.shared
-        )
+        return self._session_options
+
+    def _track(self, session: Session | FoxgloveSession) -> None:
         self.sessions.add(session)
         session.on_close.append(self.sessions.discard)
+
+    def new_session(self, peer: str, transport: str) -> Session:
+        session = Session(
+            self.bus, self._options(), peer=peer, transport=transport, shared=self.shared
+        )
+        self._track(session)
+        return session
+
+    def new_foxglove_session(self, peer: str, subprotocol: str) -> FoxgloveSession:
+        """A client that asked for a Foxglove subprotocol (PROTOCOL.md §18)."""
+        session = FoxgloveSession(
+            self.bus, self._options(), self.foxglove, peer=peer, subprotocol=subprotocol
+        )
+        self._track(session)
         return session
 
     async def start(self) -> None:
@@ -105,6 +121,7 @@ class HitrobotServer:
             ssl=tls,
             ping_interval=s.websocket_ping_interval,
             ping_timeout=s.websocket_ping_timeout,
+            new_foxglove=self.new_foxglove_session,
         )
         self.port = self._ws.sockets[0].getsockname()[1] if self._ws.sockets else s.port
         if s.tcp_port:

@@ -10,6 +10,7 @@ one side has is dropped, or filled with its zero value (``seq`` arrives as 0).
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable
 from typing import Any
 
@@ -54,6 +55,23 @@ def ros_type_name(dds: str) -> str | None:
     return f"{parts[0]}/{parts[1]}/{parts[3][:-1]}"
 
 
+_codecs: weakref.WeakKeyDictionary[TypeRegistry, Ros2Codec] = weakref.WeakKeyDictionary()
+
+
+def codec_for(types: TypeRegistry) -> Ros2Codec:
+    """The one codec of a registry, so the CDR cached on a message (key ``("cdr",)``) is the
+    same bytes for the Zenoh link and the Foxglove sessions."""
+    codec = _codecs.get(types)
+    if codec is None:
+        codec = _codecs[types] = Ros2Codec(types)
+    return codec
+
+
+def encode_message(codec: Ros2Codec, message: Any) -> bytes:
+    """A bus message's CDR, encoded once and cached on the message for every reader."""
+    return message.cached(("cdr",), lambda: codec.encode(message.msg, message.topic.mtype))
+
+
 class Ros2Codec:
     """CDR encode/decode and type hashes for the types of one :class:`TypeRegistry`."""
 
@@ -70,6 +88,7 @@ class Ros2Codec:
             ],
         )
         self._hashes: dict[str, str] = {}
+        self._definitions: dict[str, str] = {}
         self._enc: dict[str, Build] = {}
         self._dec: dict[str, Build] = {}
 
@@ -96,6 +115,15 @@ class Ros2Codec:
         if found is None:
             self._ensure(name)
             found = self._hashes[name] = self.store.hash_rihs01(name)
+        return found
+
+    def definition(self, name: str) -> str:
+        """The ROS 2 definition (``ros2msg``, dependencies as ``MSG:`` blocks) that the CDR of
+        :meth:`encode` follows: what a Foxglove channel carries as its schema."""
+        found = self._definitions.get(name)
+        if found is None:
+            self._ensure(name)
+            found = self._definitions[name] = self.store.generate_msgdef(name, ros_version=2)[0]
         return found
 
     def service_hash(self, name: str) -> str:

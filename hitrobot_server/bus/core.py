@@ -55,11 +55,19 @@ class Bus:
         self.nodes: dict[str, int] = {}  # node name -> registration count (for rosapi)
         self.log_names: dict[str, str] = {}  # logger (module) name -> node name (for /rosout)
         self.link: BusLink | None = None  # other processes (``--bus zenoh``), if joined
+        # Called with (kind, name) whenever a topic, service, action or node comes, goes or
+        # changes publishers/subscribers (the Foxglove sessions keep their channels current).
+        self.watchers: list[Callable[[str, str], None]] = []
 
     # ---------------------------------------------------------------- link hooks
     def _changed(self, kind: str, name: str) -> None:
         if self.link is not None:
             self.link.changed(kind, name)
+        for watcher in list(self.watchers):
+            try:
+                watcher(kind, name)
+            except Exception:
+                log.exception("bus watcher %r failed", watcher)
 
     def remote_graph(self) -> RemoteGraph:
         """What other processes joined to this bus have (empty without a link)."""

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import copy
+import logging
+from collections.abc import Callable
 from typing import Any
 
 from .names import canonical
 
 _MISSING = object()
+log = logging.getLogger(__name__)
 
 
 class ParamStore:
@@ -15,6 +18,15 @@ class ParamStore:
 
     def __init__(self) -> None:
         self._root: dict[str, Any] = {}
+        # Called with the name after every set/delete (Foxglove parameter subscriptions).
+        self.watchers: list[Callable[[str], None]] = []
+
+    def _notify(self, name: str) -> None:
+        for watcher in list(self.watchers):
+            try:
+                watcher(canonical(name))
+            except Exception:  # a watcher's bug must not fail the set that was made
+                log.exception("parameter watcher %r failed", watcher)
 
     @staticmethod
     def _parts(name: str) -> list[str]:
@@ -26,6 +38,7 @@ class ParamStore:
             if not isinstance(value, dict):
                 raise ValueError("the root parameter '/' can only be set to a dictionary")
             self._root = copy.deepcopy(value)
+            self._notify(name)
             return
         node = self._root
         for p in parts[:-1]:
@@ -34,6 +47,7 @@ class ParamStore:
                 child = node[p] = {}
             node = child
         node[parts[-1]] = copy.deepcopy(value)
+        self._notify(name)
 
     def get(self, name: str, default: Any = _MISSING) -> Any:
         node: Any = self._root
@@ -53,6 +67,7 @@ class ParamStore:
         parts = self._parts(name)
         if not parts:
             self._root = {}
+            self._notify(name)
             return True
         node: Any = self._root
         for p in parts[:-1]:
@@ -61,6 +76,7 @@ class ParamStore:
             node = node[p]
         if isinstance(node, dict) and parts[-1] in node:
             del node[parts[-1]]
+            self._notify(name)
             return True
         return False
 

@@ -34,7 +34,7 @@ import orjson
 import zenoh
 
 from ..types.registry import UnknownType
-from .cdr import Ros2Codec
+from .cdr import codec_for, encode_message
 from .core import Bus
 from .errors import ServiceError
 from .link import RemoteGraph
@@ -112,7 +112,7 @@ class ZenohLink:
         listen: Iterable[str] = (),
     ):
         self.bus = bus
-        self.codec = Ros2Codec(bus.types)
+        self.codec = codec_for(bus.types)
         self.domain = domain
         self._config = session_config(config_file, connect, listen)
         self.session: zenoh.Session | None = None
@@ -351,7 +351,7 @@ class ZenohLink:
         )
 
     def _encode(self, message: Message) -> bytes:
-        return message.cached(("cdr",), lambda: self.codec.encode(message.msg, message.topic.mtype))
+        return encode_message(self.codec, message)
 
     def _deliver(self, name: str, payload: bytes, latched: bool = False) -> None:
         topic = self.bus.topics.get(name)

@@ -23,10 +23,12 @@ class SessionOptions:
     call_service_timeout: float | None = None
     topics_glob: str | None = None
     services_glob: str | None = None
+    params_glob: str | None = None  # Foxglove's parameter ops (rosbridge's go through rosapi)
     topics_filter: GlobFilter = field(init=False, repr=False)
     services_filter: GlobFilter = field(init=False, repr=False)
+    params_filter: GlobFilter = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        self.topics_filter, self.services_filter, _ = access_filters(
-            self.topics_glob, self.services_glob
+        self.topics_filter, self.services_filter, self.params_filter = access_filters(
+            self.topics_glob, self.services_glob, self.params_glob
         )

@@ -1,5 +1,9 @@
 """WebSocket transport: frames in → Session.receive; Session.outbox → frames out.
 
+The subprotocol a client asks for picks its session: ``foxglove.websocket.v1`` or
+``foxglove.sdk.v1`` a :class:`FoxgloveSession`, anything else (or nothing) the rosbridge
+:class:`Session`, as before. Both have the same ``receive``/``outbox``/``close``.
+
 Plain HTTP GETs on the same port are answered by ``http_handler`` (the web UI), as
 decisions.md asks: one port for the page and the bridge.
 """
@@ -8,20 +12,25 @@ from __future__ import annotations
 
 import asyncio
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from ssl import SSLContext
 
 from websockets.asyncio.server import Server, ServerConnection, broadcast, serve
 from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request, Response
 from websockets.protocol import State
+from websockets.typing import Subprotocol
 
+from ..protocol.foxglove import SUBPROTOCOLS
+from ..session.foxglove import FoxgloveSession
 from ..session.session import Session
 from .http import QuietHttpLog
 
 log = logging.getLogger(__name__)
 
 SessionFactory = Callable[[str, str], Session]
+FoxgloveFactory = Callable[[str, str], FoxgloveSession]  # (peer, subprotocol)
+ClientSession = Session | FoxgloveSession
 HttpHandler = Callable[[ServerConnection, Request], Response | None]
 
 
@@ -33,7 +42,17 @@ DIRECT_WRITE_LIMIT = 256 * 1024
 CHUNK_BYTES = 1024 * 1024
 
 
-async def pump(session: Session, send_frame, delay: float) -> None:
+def choose_subprotocol(offered: Sequence[str], foxglove: bool) -> str | None:
+    """The first Foxglove subprotocol the client offers (when Foxglove is served), else none:
+    the rosbridge protocol, exactly as for a client that offers nothing."""
+    if foxglove:
+        for name in offered:
+            if name in SUBPROTOCOLS:
+                return name
+    return None
+
+
+async def pump(session: ClientSession, send_frame, delay: float) -> None:
     """Drain the session's outbox into the connection until it closes."""
     outbox = session.outbox
     try:
@@ -83,13 +102,20 @@ async def start_websocket(
     ssl: SSLContext | None = None,
     ping_interval: float = 0.0,
     ping_timeout: float = 30.0,
+    new_foxglove: FoxgloveFactory | None = None,
 ) -> Server:
     """Serve WebSocket (``wss://`` with ``ssl``); with ``ping_interval`` > 0 each client is
-    pinged that often and dropped when it does not answer within ``ping_timeout``."""
+    pinged that often and dropped when it does not answer within ``ping_timeout``. A client
+    asking for a Foxglove subprotocol gets a ``new_foxglove`` session, any other the rosbridge
+    protocol."""
 
     async def handler(ws: ServerConnection) -> None:
         peer = ws.remote_address[0] if ws.remote_address else ""
-        session = new_session(peer, "ws")
+        session: ClientSession
+        if new_foxglove is not None and ws.subprotocol in SUBPROTOCOLS:
+            session = new_foxglove(peer, ws.subprotocol)
+        else:
+            session = new_session(peer, "ws")
         if delay_between_messages <= 0:
             session.outbox.direct = direct_writer(ws)
 
@@ -121,6 +147,10 @@ async def start_websocket(
             return http_handler(ws, request)
         return ws.respond(426, "This is a WebSocket endpoint (hitrobot protocol).\n")
 
+    def select_subprotocol(ws: ServerConnection, offered: Sequence[Subprotocol]):
+        chosen = choose_subprotocol(offered, new_foxglove is not None)
+        return None if chosen is None else Subprotocol(chosen)
+
     return await serve(
         handler,
         host,
@@ -128,6 +158,7 @@ async def start_websocket(
         max_size=max_frame_size,
         compression="deflate" if compression else None,
         process_request=process_request,
+        select_subprotocol=select_subprotocol,
         logger=QuietHttpLog(logging.getLogger("websockets.server")),
         ping_interval=ping_interval or None,
         ping_timeout=ping_timeout,
@@ -136,7 +167,7 @@ async def start_websocket(
     )
 
 
-async def _read(ws: ServerConnection, session: Session) -> None:
+async def _read(ws: ServerConnection, session: ClientSession) -> None:
     try:
         async for frame in ws:
             pending = session.receive(frame, binary=isinstance(frame, bytes))

@@ -1,0 +1,67 @@
+"""One port, two protocols: the WebSocket subprotocol picks Foxglove's, anything else (nothing,
+or a subprotocol we do not speak) is the rosbridge protocol exactly as before; also over wss://,
+and refused (with the reason) under --authenticate."""
+
+from __future__ import annotations
+
+import json
+import ssl
+
+from websockets.asyncio.client import connect
+
+from hitrobot_server.transport.websocket import choose_subprotocol
+
+from ..helpers import WsClient
+from .test_tls import cert  # noqa: F401  (the certificate fixture)
+
+
+def test_the_first_offered_foxglove_subprotocol_wins():
+    assert choose_subprotocol(["x", "foxglove.sdk.v1", "foxglove.websocket.v1"], True) == (
+        "foxglove.sdk.v1")
+    assert choose_subprotocol(["rosbridge"], True) is None
+    assert choose_subprotocol([], True) is None
+    assert choose_subprotocol(["foxglove.websocket.v1"], False) is None
+
+
+async def first_json(ws) -> dict:
+    for _ in range(50):  # binary time frames may come first
+        frame = await ws.recv()
+        if isinstance(frame, str):
+            return json.loads(frame)
+    raise AssertionError("no JSON frame")
+
+
+async def test_subprotocol_selects_the_protocol(server):
+    async with connect(f"ws://127.0.0.1:{server.port}",
+                       subprotocols=["foxglove.websocket.v1"]) as ws:
+        assert ws.subprotocol == "foxglove.websocket.v1"
+        assert (await first_json(ws))["op"] == "serverInfo"
+    for offered in (None, ["rosbridge"]):
+        raw = await connect(f"ws://127.0.0.1:{server.port}", subprotocols=offered)
+        assert raw.subprotocol is None
+        ros = WsClient(raw)
+        assert (await ros.call("/rosapi/get_time"))["result"] is True
+        await ros.close()
+
+
+async def test_foxglove_over_wss(make_server, cert):  # noqa: F811
+    certfile, keyfile = cert
+    server = await make_server(ssl=True, certfile=certfile, keyfile=keyfile)
+    ctx = ssl.create_default_context(cafile=certfile)
+    async with connect(f"wss://127.0.0.1:{server.port}", ssl=ctx,
+                       subprotocols=["foxglove.websocket.v1"]) as ws:
+        assert (await first_json(ws))["op"] == "serverInfo"
+        assert (await first_json(ws))["op"] == "advertise"
+
+
+async def test_authenticate_refuses_foxglove_with_the_reason(make_server, tmp_path):
+    secret = tmp_path / "secret"
+    secret.write_text("0123456789abcdef")
+    server = await make_server(authenticate=True, auth_secret_file=str(secret))
+    async with connect(f"ws://127.0.0.1:{server.port}",
+                       subprotocols=["foxglove.websocket.v1"]) as ws:
+        status = await first_json(ws)
+        assert status["op"] == "status" and status["level"] == 2
+        assert "--authenticate" in status["message"]
+        frames = [frame async for frame in ws]  # the server closes: nothing else was served
+        assert frames == []
