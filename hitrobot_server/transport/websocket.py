@@ -83,9 +83,13 @@ async def start_websocket(
     ssl: SSLContext | None = None,
     ping_interval: float = 0.0,
     ping_timeout: float = 30.0,
+    reuse_port: bool = False,
+    headers: dict[str, str] | None = None,
 ) -> Server:
     """Serve WebSocket (``wss://`` with ``ssl``); with ``ping_interval`` > 0 each client is
-    pinged that often and dropped when it does not answer within ``ping_timeout``."""
+    pinged that often and dropped when it does not answer within ``ping_timeout``.
+    ``reuse_port``: share the port with other processes (SO_REUSEPORT, ``--workers``);
+    ``headers`` go on every response (handshake and HTTP)."""
 
     async def handler(ws: ServerConnection) -> None:
         peer = ws.remote_address[0] if ws.remote_address else ""
@@ -121,6 +125,9 @@ async def start_websocket(
             return http_handler(ws, request)
         return ws.respond(426, "This is a WebSocket endpoint (hitrobot protocol).\n")
 
+    def process_response(ws: ServerConnection, request: Request, response: Response) -> None:
+        response.headers.update(headers or {})
+
     return await serve(
         handler,
         host,
@@ -128,6 +135,8 @@ async def start_websocket(
         max_size=max_frame_size,
         compression="deflate" if compression else None,
         process_request=process_request,
+        process_response=process_response if headers else None,
+        reuse_port=reuse_port,
         logger=QuietHttpLog(logging.getLogger("websockets.server")),
         ping_interval=ping_interval or None,
         ping_timeout=ping_timeout,
