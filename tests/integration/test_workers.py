@@ -254,6 +254,17 @@ async def test_a_killed_worker_is_restarted_and_new_connections_work():
     assert all(_gone(p) for p in last)
 
 
+async def test_workers_stop_when_the_parent_is_killed():
+    server = ServerProcess("--workers", "2", "--log-level", "error")
+    pids = worker_pids(server.proc.pid)
+    server.proc.kill()  # no chance to stop them: they see their stdin close
+    server.proc.wait(10)
+    deadline = time.monotonic() + 20
+    while not all(_gone(p) for p in pids):
+        assert time.monotonic() < deadline, "the workers outlived their parent"
+        await asyncio.sleep(0.1)
+
+
 def _worker_index(pid: int) -> str:
     """The ``--worker-id`` on a worker's command line."""
     args = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
