@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import logging
 import sys
 
 from . import __version__
@@ -38,6 +39,8 @@ async def serve(settings: Settings) -> None:
     from .server import HitrobotServer
 
     server = HitrobotServer(settings)
+    loop = asyncio.get_running_loop()
+    logging.getLogger(__name__).info("event loop: %s", type(loop).__module__.split(".")[0])
     await server.start()
     ws, tcp = ("wss", "tcp+tls") if settings.ssl else ("ws", "tcp")
     print(
@@ -94,9 +97,12 @@ def main(argv: list[str] | None = None) -> int:
         from .workers import supervise
 
         return run_command(
-            "hitrobot-server", lambda: supervise(settings, argv), settings.log_level
+            "hitrobot-server", lambda: supervise(settings, argv), settings.log_level,
+            settings.event_loop,
         )
-    return run_command("hitrobot-server", lambda: serve(settings), settings.log_level)
+    return run_command(
+        "hitrobot-server", lambda: serve(settings), settings.log_level, settings.event_loop
+    )
 
 
 if __name__ == "__main__":

@@ -19,6 +19,7 @@ from .robot.options import RobotOptions
 from .session.options import SessionOptions
 
 STATUS_LEVELS = ("info", "warning", "error", "none")
+EVENT_LOOPS = ("auto", "uvloop", "asyncio")
 
 
 @dataclass
@@ -59,6 +60,7 @@ class Settings:
     zenoh_listen: str | None = None
     zenoh_domain: int = 0
     workers: str = "1"
+    event_loop: str = "auto"
     slamware: SlamwareParams = field(default_factory=SlamwareParams)
     auth_secret: str | None = field(default=None, repr=False)
     # Set by the server when it shares a bus: client node names stay unique across servers.
@@ -166,6 +168,7 @@ _HELP = {
     "zenoh_domain": "ROS domain id: the first chunk of every Zenoh key (as ROS_DOMAIN_ID)",
     "workers": "server processes behind the same ports (SO_REUSEPORT), joined over Zenoh "
     "(needs the [zenoh] extra); 'auto' = one per core; 1 = this process alone",
+    "event_loop": "'auto' (uvloop when installed, the [uvloop] extra), 'uvloop' or 'asyncio'",
     "map_dir": "folder of saved map folders (default: $XDG_DATA_HOME/hitrobot-server/maps)",
 }
 
@@ -206,6 +209,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         kwargs: dict[str, Any] = {"type": kind, "default": None, "help": text, "dest": f.name}
         if f.name == "status_level":
             kwargs["choices"] = STATUS_LEVELS
+        if f.name == "event_loop":
+            kwargs["choices"] = EVENT_LOOPS
         parser.add_argument(*flags, **kwargs)
     parser.add_argument("--worker-id", type=int, default=None, help=argparse.SUPPRESS)
 
@@ -246,6 +251,8 @@ def load(args: argparse.Namespace) -> Settings:
         settings.workers.isdigit() and int(settings.workers) >= 1
     ):
         raise ValueError("workers must be a whole number of at least 1, or auto")
+    if settings.event_loop not in EVENT_LOOPS:
+        raise ValueError(f"event_loop must be one of {', '.join(EVENT_LOOPS)}")
     if settings.status_level not in STATUS_LEVELS:
         raise ValueError(f"status_level must be one of {', '.join(STATUS_LEVELS)}")
     if settings.robot not in ROBOTS and not settings.robot.startswith(("http://", "https://")):

@@ -10,6 +10,8 @@ import pytest
 from hitrobot_server.cli import build_parser
 from hitrobot_server.config import load
 
+from .helpers import ServerProcess
+
 FLAGS = ["--port", "--address", "--tcp-port", "--authenticate", "--auth-secret-file",
          "--fragment-timeout", "--max-message-size", "--delay-between-messages",
          "--unregister-timeout", "--topics-glob", "--services-glob", "--params-glob",
@@ -71,3 +73,19 @@ def test_bad_zenoh_endpoint_is_a_clear_error():
                           "0", "--tcp-port", "0", "--bus", "zenoh", "--zenoh-listen", "bogus"],
                          capture_output=True, text=True, timeout=60)
     assert out.returncode == 1 and "zenoh endpoints" in out.stderr and "bogus" in out.stderr
+
+
+@pytest.mark.parametrize(("flag", "loop"),
+                         [((), "uvloop"), (("--event-loop", "asyncio"), "asyncio")])
+def test_the_server_runs_on_uvloop_when_installed_unless_told_otherwise(flag, loop):
+    server = ServerProcess("--log-level", "info", *flag)
+    try:
+        assert any(f"event loop: {loop}" in line for line in server.output), server.output
+    finally:
+        server.stop()
+
+
+def test_unknown_event_loop_is_refused():
+    out = subprocess.run([sys.executable, "-m", "hitrobot_server", "--event-loop", "trio"],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and "invalid choice" in out.stderr
