@@ -100,3 +100,14 @@ def test_more_workers_without_zenoh_is_a_clear_error():
                          timeout=60)
     assert out.returncode == 1
     assert "--workers above 1" in out.stderr and "hitrobot-server[zenoh]" in out.stderr
+
+
+def test_a_port_in_use_is_a_clear_error():
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        out = subprocess.run([sys.executable, "-m", "hitrobot_server", "--workers", "2",
+                              "--robot", "none", "--port", str(port), "--tcp-port", "0"],
+                             capture_output=True, text=True, timeout=60)
+    assert out.returncode == 1 and "in use" in out.stderr
