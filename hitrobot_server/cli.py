@@ -100,8 +100,9 @@ def main(argv: list[str] | None = None) -> int:
             "hitrobot-server", lambda: supervise(settings, argv), settings.log_level,
             settings.event_loop,
         )
+    tag = "" if settings.worker_id is None else f"[worker {settings.worker_id}]"
     return run_command(
-        "hitrobot-server", lambda: serve(settings), settings.log_level, settings.event_loop
+        "hitrobot-server", lambda: serve(settings), settings.log_level, settings.event_loop, tag
     )
 
 

@@ -28,9 +28,11 @@ def loop_factory(event_loop: str = "auto") -> Callable[[], asyncio.AbstractEvent
 
 
 def run_command(prog: str, main: Callable[[], Coroutine[Any, Any, None]], log_level: str,
-                event_loop: str = "asyncio") -> int:
-    """Run ``main()`` until it returns; the exit code of the command."""
-    logging.basicConfig(level=log_level.upper(), format=LOG_FORMAT)
+                event_loop: str = "asyncio", log_tag: str = "") -> int:
+    """Run ``main()`` until it returns; the exit code of the command. ``log_tag`` goes in
+    front of every log record (``[worker 1]``: which process of ``--workers`` said it)."""
+    log_format = LOG_FORMAT.replace("%(name)s", f"{log_tag} %(name)s") if log_tag else LOG_FORMAT
+    logging.basicConfig(level=log_level.upper(), format=log_format)
     try:
         with asyncio.Runner(loop_factory=loop_factory(event_loop)) as runner:
             runner.run(main())

@@ -7,6 +7,8 @@ from __future__ import annotations
 import asyncio
 import os
 import signal
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -78,39 +80,54 @@ def worker_pids(parent: int) -> list[int]:
     return [int(pid) for pid in children]
 
 
-async def test_sixteen_clients_on_one_port_land_on_both_workers(workers):
-    opened = [await open_ws(workers.port) for _ in range(16)]
+def test_each_worker_logs_with_its_index():
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "hitrobot_server", "--workers", "2", "--port", "0",
+         "--tcp-port", "0", "--robot", "none", "--log-level", "info"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines: list[str] = []
     try:
-        assert {served_by for _c, served_by in opened} == {"0", "1"}
-        for client, _ in opened:  # and each is a working connection
-            await round_trip(client)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and (line := proc.stdout.readline()):
+            lines.append(line)
+            if "(2 workers)" in line:  # the parent's address line: every worker is serving
+                break
     finally:
-        for client, _ in opened:
-            await client.close()
+        proc.terminate()
+        proc.wait(20)
+    text = "".join(lines)
+    assert "(2 workers)" in lines[-1], text
+    assert "[worker 0] hitrobot_server.server" in text
+    assert "[worker 1] hitrobot_server.server" in text
 
 
-async def test_each_publish_reaches_every_subscriber(workers, clients):
-    a, b = await clients()
-    subs = [a, b, *await clients()]
-    for s in subs:
-        await s.send({"op": "subscribe", "topic": "/wt/chatter", "type": "std_msgs/String"})
-    for s in subs:
-        await round_trip(s)
-    for pub in (a, b):
-        await pub.send({"op": "advertise", "topic": "/wt/chatter", "type": "std_msgs/String"})
+async def test_sixteen_clients_land_on_both_workers_and_each_publish_reaches_all(workers):
+    opened = [await open_ws(workers.port) for _ in range(16)]
+    clients = [c for c, _ in opened]
+    try:
+        served = {served_by for _c, served_by in opened}
+        assert served == {"0", "1"}
+        for c in clients:
+            await c.send({"op": "subscribe", "topic": "/wt/chatter", "type": "std_msgs/String"})
+            await c.send({"op": "advertise", "topic": "/wt/chatter", "type": "std_msgs/String"})
+        one_each = [next(c for c, w in opened if w == worker) for worker in sorted(served)]
 
-    async def everyone_subscribed() -> bool:  # the link knows the other worker's subscribers
-        counts = [len((await rosapi(c, "subscribers", topic="/wt/chatter"))["subscribers"])
-                  for c in (a, b)]
-        return counts == [4, 4]
+        async def everyone_subscribed() -> bool:  # the link told each worker the other's
+            counts = [len((await rosapi(c, "subscribers", topic="/wt/chatter"))["subscribers"])
+                      for c in one_each]
+            return counts == [16, 16]
 
-    await until(everyone_subscribed, 15, "four subscribers seen from both workers")
-    await a.send({"op": "publish", "topic": "/wt/chatter", "msg": {"data": "from 0"}})
-    await b.send({"op": "publish", "topic": "/wt/chatter", "msg": {"data": "from 1"}})
-    for s in subs:
-        got = {(await s.expect(op="publish", topic="/wt/chatter"))["msg"]["data"]
-               for _ in range(2)}
-        assert got == {"from 0", "from 1"}
+        await until(everyone_subscribed, 20, "16 subscribers seen from both workers")
+        for i, c in enumerate(clients):
+            await c.send({"op": "publish", "topic": "/wt/chatter", "msg": {"data": f"from {i}"}})
+        sent = {f"from {i}" for i in range(16)}
+        for c in clients:
+            got = {(await c.expect(op="publish", topic="/wt/chatter"))["msg"]["data"]
+                   for _ in range(16)}
+            assert got == sent
+    finally:
+        for c in clients:
+            await c.close()
 
 
 async def test_services_actions_params_and_rosapi_answer_the_same_from_both(workers, clients):
