@@ -25,7 +25,7 @@ import socket
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 from . import __version__
@@ -92,7 +92,6 @@ class Worker:
     started: float = 0.0
     quick_exits: int = 0
     socket_path: str = ""
-    output: list[str] = field(default_factory=list)
 
 
 class Supervisor:
@@ -182,53 +181,32 @@ class Supervisor:
         return ""
 
     async def _watch(self, worker: Worker, proc: asyncio.subprocess.Process) -> None:
+        """Wait for the worker to exit; unless stopping, start it again (bounded)."""
         assert proc.stdout is not None
         while await proc.stdout.readline():  # keep its pipe drained
             pass
-        code = await proc.wait()
-        if self.stopping:
-            return
-        quick = time.monotonic() - worker.started < QUICK_EXIT
-        worker.quick_exits = worker.quick_exits + 1 if quick else 0
-        if worker.quick_exits >= MAX_QUICK_EXITS:
-            self.failed = (f"worker {worker.index} keeps exiting (code {code}, "
-                           f"{MAX_QUICK_EXITS} times in a row); stopping")
-            log.error("%s", self.failed)
-            self._gave_up.set()
-            return
-        pause = min(RESTART_PAUSE[0] * 2 ** worker.quick_exits, RESTART_PAUSE[1])
-        log.warning("worker %d (pid %d) exited with code %s; restarting it in %.1f s",
-                    worker.index, proc.pid, code, pause)
-        await asyncio.sleep(pause)
-        if self.stopping:
-            return
-        try:
-            await self._spawn(worker)
-        except OSError as exc:
-            log.error("%s", exc)
-            worker.started = time.monotonic()
-            asyncio.get_running_loop().call_soon(self._restart_later, worker)
-
-    def _restart_later(self, worker: Worker) -> None:
-        """A restart that failed to start counts as a quick exit; try again (bounded)."""
-        worker.quick_exits += 1
-        if worker.quick_exits >= MAX_QUICK_EXITS:
-            self.failed = f"worker {worker.index} cannot be restarted; stopping"
-            self._gave_up.set()
-            return
-        task = asyncio.create_task(self._retry(worker))
-        self._watchers.add(task)
-        task.add_done_callback(self._watchers.discard)
-
-    async def _retry(self, worker: Worker) -> None:
-        await asyncio.sleep(RESTART_PAUSE[1])
-        if self.stopping:
-            return
-        try:
-            await self._spawn(worker)
-        except OSError as exc:
-            log.error("%s", exc)
-            self._restart_later(worker)
+        code = f"exit code {await proc.wait()}"
+        while not self.stopping:
+            quick = time.monotonic() - worker.started < QUICK_EXIT
+            worker.quick_exits = worker.quick_exits + 1 if quick else 0
+            if worker.quick_exits >= MAX_QUICK_EXITS:
+                self.failed = (f"worker {worker.index} keeps exiting ({code}, "
+                               f"{MAX_QUICK_EXITS} times in a row); stopping")
+                log.error("%s", self.failed)
+                self._gave_up.set()
+                return
+            pause = min(RESTART_PAUSE[0] * 2**worker.quick_exits, RESTART_PAUSE[1])
+            log.warning("worker %d exited (%s); restarting it in %.1f s",
+                        worker.index, code, pause)
+            await asyncio.sleep(pause)
+            if self.stopping:
+                return
+            try:
+                await self._spawn(worker)  # which watches the new process
+                return
+            except OSError as exc:
+                log.error("%s", exc)
+                code = "it did not start"
 
     async def wait(self) -> None:
         """Until Ctrl-C/SIGTERM, or until a worker cannot be kept running."""
