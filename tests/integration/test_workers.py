@@ -186,6 +186,30 @@ async def test_services_actions_params_and_rosapi_answer_the_same_from_both(work
     assert services.count("/rosapi/get_param") == 1 and "/wt/toggle" in services
 
 
+async def test_diagnostics_list_the_clients_of_every_worker(workers, clients):
+    a, b = await clients()
+    for c, topic in ((a, "/wt/diag_a"), (b, "/wt/diag_b")):  # their node names, via rosapi
+        await c.send({"op": "advertise", "topic": topic, "type": "std_msgs/String"})
+    names: set[str] = set()
+
+    async def both_known() -> bool:
+        names.clear()
+        for topic in ("/wt/diag_a", "/wt/diag_b"):
+            names.update((await rosapi(b, "publishers", topic=topic))["publishers"])
+        return len(names) == 2
+
+    await until(both_known, 15, "both clients' node names")
+    await b.send({"op": "subscribe", "topic": "/diagnostics_agg"})  # published by worker 0
+
+    async def listed_both() -> bool:
+        msg = await b.expect(op="publish", topic="/diagnostics_agg", timeout=5)
+        item = next(s for s in msg["msg"]["status"] if s["name"] == "/Bridge/Clients")
+        values = {v["key"]: v["value"] for v in item["values"]}
+        return names <= set(values["client names"].split())
+
+    await until(listed_both, 20, "worker 0's diagnostics listing the clients of both workers")
+
+
 async def test_bad_input_gets_the_same_status_on_every_worker(workers, clients):
     a, b = await clients()
     bad = ["{not json", '{"op": "warp"}', '{"op": "publish", "id": "p1", "msg": {}}',
