@@ -431,8 +431,8 @@ class ZenohLink:
 
     def _sync_service(self, name: str) -> None:
         service = self.bus.services.get(name)
-        if service is None:
-            self._serve(name, [], None)
+        if service is None:  # withdrawn: its queryable and its token go (as an action's do)
+            self._serve(name, [(name, "", None)] if name in self._served else [], None)
             return
         stype = service.stype
 
