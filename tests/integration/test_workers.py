@@ -180,7 +180,7 @@ async def test_services_actions_params_and_rosapi_answer_the_same_from_both(work
         got = [(await rosapi(c, listing))[listing] for c in (a, b)]
         return got[0] == got[1]
 
-    for listing in ("topics", "services", "action_servers"):
+    for listing in ("topics", "services", "action_servers", "nodes"):
         await until(lambda listing=listing: same(listing), 15, f"the same {listing}")
     services = (await rosapi(a, "services"))["services"]
     assert services.count("/rosapi/get_param") == 1 and "/wt/toggle" in services
