@@ -59,6 +59,18 @@ class HitrobotServer:
         return session
 
     async def start(self) -> None:
+        """Start everything; on a failure, stop what was started (the Zenoh session's threads
+        would otherwise keep the process alive) and raise."""
+        try:
+            await self._start()
+        except BaseException:
+            try:
+                await self.stop()
+            except Exception:
+                log.exception("stopping after a failed start")
+            raise
+
+    async def _start(self) -> None:
         s = self.settings
         if s.authenticate:
             if not s.auth_secret_file:

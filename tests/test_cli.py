@@ -89,3 +89,12 @@ def test_unknown_event_loop_is_refused():
     out = subprocess.run([sys.executable, "-m", "hitrobot_server", "--event-loop", "trio"],
                          capture_output=True, text=True, timeout=60)
     assert out.returncode == 2 and "invalid choice" in out.stderr
+
+
+def test_a_failed_start_on_zenoh_exits_instead_of_hanging(tmp_path):
+    """The Zenoh session is closed again when the server cannot start (its threads kept the
+    process alive after the error before)."""
+    out = subprocess.run([sys.executable, "-m", "hitrobot_server", "--port", "0", "--tcp-port",
+                          "0", "--bus", "zenoh", "--world", str(tmp_path / "absent.yaml")],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 1 and "absent.yaml" in out.stderr

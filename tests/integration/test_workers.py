@@ -306,9 +306,15 @@ async def test_workers_stop_when_the_parent_is_killed():
         await asyncio.sleep(0.1)
 
 
-def _worker_index(pid: int) -> str:
-    """The ``--worker-id`` on a worker's command line."""
-    args = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+def _worker_index(pid: int) -> str | None:
+    """The ``--worker-id`` on a worker's command line (None just after the fork, before the
+    worker's own command line is in place, or once it is gone)."""
+    try:
+        args = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+    except OSError:
+        return None
+    if b"--worker-id" not in args:
+        return None
     return args[args.index(b"--worker-id") + 1].decode()
 
 
@@ -317,3 +323,38 @@ def _gone(pid: int) -> bool:
         return Path(f"/proc/{pid}/stat").read_text().split()[2] == "Z"
     except FileNotFoundError:
         return True
+
+
+async def test_a_worker_that_keeps_dying_stops_the_server():
+    """Killed five times, each within moments of its start, worker 1 is given up: the parent
+    stops worker 0 too and exits 1 saying why (restarts are bounded, not endless)."""
+    server = ServerProcess("--workers", "2", "--log-level", "warning")
+    killed: set[int] = set()
+    try:
+        for _ in range(5):
+            deadline = time.monotonic() + 30
+            while True:  # bounded: the next incarnation of worker 1
+                if server.proc.poll() is not None:
+                    break
+                fresh = [p for p in worker_pids(server.proc.pid)
+                         if p not in killed and _worker_index(p) == "1"]
+                if fresh:
+                    os.kill(fresh[0], signal.SIGKILL)
+                    killed.add(fresh[0])
+                    break
+                assert time.monotonic() < deadline, "worker 1 was not restarted"
+                await asyncio.sleep(0.05)
+        code = await asyncio.to_thread(server.proc.wait, 60)
+        rest = server.proc.stdout.read()
+    finally:
+        server.stop()
+    assert code == 1
+    assert "worker 1 keeps exiting" in rest
+
+
+def test_a_worker_that_cannot_start_is_a_clear_error(tmp_path):
+    out = subprocess.run(
+        [sys.executable, "-m", "hitrobot_server", "--workers", "2", "--port", "0",
+         "--tcp-port", "0", "--robot", "sim", "--world", str(tmp_path / "absent.yaml")],
+        capture_output=True, text=True, timeout=90)
+    assert out.returncode == 1 and "worker 0 did not start" in out.stderr
