@@ -77,7 +77,7 @@ def without_workers_flag(argv: list[str]) -> list[str]:
     for arg in argv:
         if skip:
             skip = False
-        elif arg in ("--workers",):
+        elif arg == "--workers":
             skip = True
         elif not arg.startswith("--workers="):
             out.append(arg)
@@ -86,6 +86,8 @@ def without_workers_flag(argv: list[str]) -> list[str]:
 
 @dataclass
 class Worker:
+    """One worker slot: its current process and how often it died right after starting."""
+
     index: int
     generation: int = 0
     proc: asyncio.subprocess.Process | None = None
