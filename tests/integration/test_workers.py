@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import asyncio
 import os
+import re
 import signal
+import ssl
 import subprocess
 import sys
 import time
@@ -19,6 +21,7 @@ from websockets.asyncio.client import connect
 from hitrobot_server.server import WORKER_HEADER
 
 from ..helpers import ServerProcess, TcpClient, WsClient, round_trip
+from ..transport.test_tls import cert  # noqa: F401  (the self-signed certificate fixture)
 from .test_zenoh_scale_out import rosapi, until, until_listed
 
 MAX_TRIES = 64  # connections opened at most to find a given worker
@@ -358,3 +361,33 @@ def test_a_worker_that_cannot_start_is_a_clear_error(tmp_path):
          "--tcp-port", "0", "--robot", "sim", "--world", str(tmp_path / "absent.yaml")],
         capture_output=True, text=True, timeout=90)
     assert out.returncode == 1 and "worker 0 did not start" in out.stderr
+
+
+async def test_workers_serve_wss_on_one_port(cert):  # noqa: F811  (the fixture)
+    """--ssl: every worker loads the certificate; wss:// connections land on both."""
+    certfile, keyfile = cert
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "hitrobot_server", "--workers", "2", "--port", "0",
+         "--tcp-port", "0", "--robot", "none", "--log-level", "warning", "--ssl",
+         "--certfile", certfile, "--keyfile", keyfile],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        port = None
+        deadline = time.monotonic() + 60
+        while port is None and time.monotonic() < deadline and (line := proc.stdout.readline()):
+            if m := re.search(r"wss://[\d.]+:(\d+).*\(2 workers\)", line):
+                port = int(m.group(1))
+        assert port is not None, "the parent did not print its wss:// address"
+        context = ssl.create_default_context(cafile=certfile)
+        served = set()
+        for _ in range(16):
+            ws = await connect(f"wss://127.0.0.1:{port}", ssl=context)
+            try:
+                served.add(ws.response.headers[WORKER_HEADER])
+                assert (await WsClient(ws).call("/rosapi/get_time"))["result"] is True
+            finally:
+                await ws.close()
+        assert served == {"0", "1"}
+    finally:
+        proc.terminate()
+        proc.wait(20)
