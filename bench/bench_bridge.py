@@ -39,6 +39,7 @@ import platform
 import random
 import re
 import resource
+import shlex
 import signal
 import subprocess
 import sys
@@ -57,6 +58,7 @@ except ImportError:  # pure-Python fallback
     from websockets.utils import apply_mask
 
 HOST = "127.0.0.1"
+SERVER_ARGS: list[str] = []  # --server-args: more flags for every hitrobot-server started
 ROOT = Path(__file__).resolve().parent.parent
 perf = time.perf_counter
 
@@ -334,6 +336,7 @@ def start_ours(profile_dir: str | None, tag: str) -> ServerProc:
         "warning",
         "--robot",  # the bridge alone: no simulator competing for the core
         "none",
+        *SERVER_ARGS,
     ]
     if profile_dir:
         Path(profile_dir).mkdir(parents=True, exist_ok=True)
@@ -1622,6 +1625,12 @@ def main() -> int:
         metavar="DIR",
         help="run each hitrobot-server under cProfile, writing DIR/<run>.prof",
     )
+    parser.add_argument(
+        "--server-args",
+        default="",
+        metavar="ARGS",
+        help="more flags for each hitrobot-server, e.g. '--event-loop asyncio'",
+    )
     parser.add_argument("--ceiling-server", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--probe-client", type=int, metavar="PORT", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -1636,6 +1645,7 @@ def main() -> int:
         resource.setrlimit(resource.RLIMIT_NOFILE, (max(soft, min(hard, 8192)), hard))
     cfg = config(args.quick)
     cfg.profile = args.profile_server
+    SERVER_ARGS.extend(shlex.split(args.server_args))
     asyncio.run(run(cfg, set(args.sections)))
     return 0
 

@@ -6,6 +6,7 @@ and time; servers run as separate processes with ``--robot none``.
 
     .venv/bin/python bench/bench_zenoh.py            # about 1.5 minutes on 2 cores
     .venv/bin/python bench/bench_zenoh.py --quick    # about 30 s
+    .venv/bin/python bench/bench_zenoh.py --quick --link unixsock   # as --workers joins them
 
 Sections:
   1. fan-out   LaserScan (720 ranges) published as fast as taken, to 200 clients on one server,
@@ -22,6 +23,7 @@ import argparse
 import asyncio
 import socket
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -55,10 +57,16 @@ def start(*extra: str) -> ServerProc:
     return ServerProc(argv, r"ws://[\d.]+:(\d+)", "hitrobot-server")
 
 
+LINK = ["tcp"]  # --link: how A and B are joined
+
+
 def start_pair() -> tuple[ServerProc, ServerProc]:
-    port = free_port()
-    a = start("--bus", "zenoh", "--zenoh-listen", f"tcp/{HOST}:{port}")
-    b = start("--bus", "zenoh", "--zenoh-connect", f"tcp/{HOST}:{port}")
+    if LINK[0] == "unixsock":  # as the workers of --workers are joined
+        endpoint = f"unixsock-stream/{tempfile.mkdtemp(prefix='bench-zenoh-')}/a.sock"
+    else:
+        endpoint = f"tcp/{HOST}:{free_port()}"
+    a = start("--bus", "zenoh", "--zenoh-listen", endpoint)
+    b = start("--bus", "zenoh", "--zenoh-connect", endpoint)
     return a, b
 
 
@@ -239,7 +247,10 @@ async def run(cfg) -> None:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="shorter runs")
+    parser.add_argument("--link", choices=("tcp", "unixsock"), default="tcp",
+                        help="join A and B over loopback TCP (default) or a Unix socket")
     args = parser.parse_args()
+    LINK[0] = args.link
     asyncio.run(run(config(args.quick)))
     return 0
 

@@ -4,6 +4,8 @@
 from __future__ import annotations
 
 import argparse
+import asyncio
+import logging
 import sys
 
 from . import __version__
@@ -37,6 +39,8 @@ async def serve(settings: Settings) -> None:
     from .server import HitrobotServer
 
     server = HitrobotServer(settings)
+    loop = asyncio.get_running_loop()
+    logging.getLogger(__name__).info("event loop: %s", type(loop).__module__.split(".")[0])
     await server.start()
     ws, tcp = ("wss", "tcp+tls") if settings.ssl else ("ws", "tcp")
     print(
@@ -45,9 +49,36 @@ async def serve(settings: Settings) -> None:
         flush=True,
     )
     try:
-        await until_terminated()
+        if settings.worker_id is None:
+            await until_terminated()
+        else:  # one of --workers: also stop when the parent is gone
+            await _first(until_terminated(), until_stdin_closed())
     finally:
         await server.stop()
+
+
+async def _first(*waits) -> None:
+    tasks = [asyncio.ensure_future(w) for w in waits]
+    try:
+        await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+    finally:
+        for task in tasks:
+            task.cancel()
+
+
+async def until_stdin_closed() -> None:
+    """Return when stdin reaches its end: a worker's stdin is a pipe from its parent."""
+    closed = asyncio.Event()
+
+    class Watch(asyncio.Protocol):
+        def connection_lost(self, exc: Exception | None) -> None:
+            closed.set()
+
+    transport, _ = await asyncio.get_running_loop().connect_read_pipe(Watch, sys.stdin)
+    try:
+        await closed.wait()
+    finally:
+        transport.close()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -62,7 +93,17 @@ def main(argv: list[str] | None = None) -> int:
     except (OSError, ValueError) as exc:
         print(f"hitrobot-server: {exc}", file=sys.stderr)
         return 2
-    return run_command("hitrobot-server", lambda: serve(settings), settings.log_level)
+    if settings.worker_id is None and settings.worker_count > 1:
+        from .workers import supervise
+
+        return run_command(
+            "hitrobot-server", lambda: supervise(settings, argv), settings.log_level,
+            settings.event_loop,
+        )
+    tag = "" if settings.worker_id is None else f"[worker {settings.worker_id}]"
+    return run_command(
+        "hitrobot-server", lambda: serve(settings), settings.log_level, settings.event_loop, tag
+    )
 
 
 if __name__ == "__main__":

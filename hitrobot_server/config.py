@@ -19,6 +19,7 @@ from .robot.options import RobotOptions
 from .session.options import SessionOptions
 
 STATUS_LEVELS = ("info", "warning", "error", "none")
+EVENT_LOOPS = ("auto", "uvloop", "asyncio")
 
 
 @dataclass
@@ -58,10 +59,26 @@ class Settings:
     zenoh_connect: str | None = None
     zenoh_listen: str | None = None
     zenoh_domain: int = 0
+    workers: str = "1"
+    event_loop: str = "auto"
     slamware: SlamwareParams = field(default_factory=SlamwareParams)
     auth_secret: str | None = field(default=None, repr=False)
     # Set by the server when it shares a bus: client node names stay unique across servers.
     client_tag: str = field(default="", repr=False)
+    # Set by the --workers parent for each worker it starts (hidden --worker-id flag): the
+    # worker binds its ports with SO_REUSEPORT; worker 0 runs the robot and the nodes.
+    worker_id: int | None = field(default=None, repr=False)
+
+    @property
+    def worker_count(self) -> int:
+        """``--workers`` as a number: ``auto`` is the number of cores."""
+        return (os.cpu_count() or 1) if self.workers == "auto" else int(self.workers)
+
+    @property
+    def primary(self) -> bool:
+        """Runs the robot and the nodes: a lone server, or worker 0 of ``--workers``."""
+        return self.worker_id in (None, 0)
+
     @property
     def map_store(self) -> Path:
         """Where map folders are saved: ``--map-dir`` or the per-user data directory."""
@@ -150,10 +167,13 @@ _HELP = {
     "zenoh_connect": "comma-separated Zenoh endpoints to connect to, e.g. tcp/127.0.0.1:7447",
     "zenoh_listen": "comma-separated Zenoh endpoints to listen on, e.g. tcp/127.0.0.1:7447",
     "zenoh_domain": "ROS domain id: the first chunk of every Zenoh key (as ROS_DOMAIN_ID)",
+    "workers": "server processes behind the same ports (SO_REUSEPORT), joined over Zenoh "
+    "(needs the [zenoh] extra); 'auto' = one per core; 1 = this process alone",
+    "event_loop": "'auto' (uvloop when installed, the [uvloop] extra), 'uvloop' or 'asyncio'",
     "map_dir": "folder of saved map folders (default: $XDG_DATA_HOME/hitrobot-server/maps)",
 }
 
-_SKIP = {"auth_secret", "client_tag", "slamware"}
+_SKIP = {"auth_secret", "client_tag", "slamware", "worker_id"}
 ROBOTS = ("sim", "none")
 BUSES = ("local", "zenoh")
 
@@ -190,7 +210,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         kwargs: dict[str, Any] = {"type": kind, "default": None, "help": text, "dest": f.name}
         if f.name == "status_level":
             kwargs["choices"] = STATUS_LEVELS
+        if f.name == "event_loop":
+            kwargs["choices"] = EVENT_LOOPS
         parser.add_argument(*flags, **kwargs)
+    parser.add_argument("--worker-id", type=int, default=None, help=argparse.SUPPRESS)
 
 
 def _kind(annotation: Any):
@@ -223,6 +246,14 @@ def load(args: argparse.Namespace) -> Settings:
         if value is not None:
             values[f.name] = value
     settings = Settings(**values)
+    settings.worker_id = getattr(args, "worker_id", None)
+    settings.workers = str(settings.workers)
+    if settings.workers != "auto" and not (
+        settings.workers.isdigit() and int(settings.workers) >= 1
+    ):
+        raise ValueError("workers must be a whole number of at least 1, or auto")
+    if settings.event_loop not in EVENT_LOOPS:
+        raise ValueError(f"event_loop must be one of {', '.join(EVENT_LOOPS)}")
     if settings.status_level not in STATUS_LEVELS:
         raise ValueError(f"status_level must be one of {', '.join(STATUS_LEVELS)}")
     if settings.robot not in ROBOTS and not settings.robot.startswith(("http://", "https://")):

@@ -9,8 +9,9 @@ import ssl
 
 from .bus.core import Bus
 from .bus.rosout import RosoutHandler
+from .bus.zenoh_keys import endpoints
 from .config import Settings
-from .nodes.assembly import start_nodes, stop_nodes
+from .nodes.assembly import start_bridge_nodes, start_nodes, stop_nodes
 from .nodes.base import Node
 from .protocol.auth import load_secret
 from .robot.factory import build_backend
@@ -24,6 +25,7 @@ from .types.registry import TypeRegistry
 
 log = logging.getLogger(__name__)
 PACKAGE_LOGGER = "hitrobot_server"  # every record of ours goes to /rosout too
+WORKER_HEADER = "X-Hitrobot-Worker"  # which worker of --workers answered (handshake, HTTP)
 
 
 class HitrobotServer:
@@ -73,6 +75,18 @@ class HitrobotServer:
         return session
 
     async def start(self) -> None:
+        """Start everything; on a failure, stop what was started (the Zenoh session's threads
+        would otherwise keep the process alive) and raise."""
+        try:
+            await self._start()
+        except BaseException:
+            try:
+                await self.stop()
+            except Exception:
+                log.exception("stopping after a failed start")
+            raise
+
+    async def _start(self) -> None:
         s = self.settings
         if s.authenticate:
             if not s.auth_secret_file:
@@ -82,7 +96,7 @@ class HitrobotServer:
         logging.getLogger(PACKAGE_LOGGER).addHandler(self._rosout)
         if s.bus == "zenoh":
             try:  # imported only when asked for: the default bus never loads Zenoh
-                from .bus.zenoh_link import ZenohLink, endpoints
+                from .bus.zenoh_link import ZenohLink
             except ImportError as exc:
                 raise ValueError(
                     f"--bus zenoh needs the eclipse-zenoh package ({exc}); "
@@ -95,6 +109,7 @@ class HitrobotServer:
                 config_file=s.zenoh_config,
                 connect=endpoints(s.zenoh_connect),
                 listen=endpoints(s.zenoh_listen),
+                shared_params=s.worker_id is not None,
             )
             await self.link.start()
             s.client_tag = f"{self.link.zid[:8]}_"
@@ -102,7 +117,10 @@ class HitrobotServer:
         self.backend = build_backend(s.robot_options())
         if self.backend is not None:
             await self.backend.start()
-        self.nodes = await start_nodes(self.bus, s.node_options(), self.backend)
+        if s.primary:
+            self.nodes = await start_nodes(self.bus, s.node_options(), self.backend)
+        else:
+            self.nodes = await start_bridge_nodes(self.bus, s.node_options())
 
         def factory(peer: str, transport: str) -> Session:
             return self.new_session(peer, transport)
@@ -110,6 +128,7 @@ class HitrobotServer:
         tls = _tls_context(s) if s.ssl else None
         console = _web_console()
         self._ws_console = console is not None
+        worker = s.worker_id is not None  # one of --workers: the ports are shared
         self._ws = await start_websocket(
             factory,
             s.address,
@@ -122,6 +141,8 @@ class HitrobotServer:
             ping_interval=s.websocket_ping_interval,
             ping_timeout=s.websocket_ping_timeout,
             new_foxglove=self.new_foxglove_session,
+            reuse_port=worker,
+            headers={WORKER_HEADER: str(s.worker_id)} if worker else None,
         )
         self.port = self._ws.sockets[0].getsockname()[1] if self._ws.sockets else s.port
         if s.tcp_port:
@@ -132,6 +153,7 @@ class HitrobotServer:
                 max_frame_size=s.max_frame_size,
                 delay_between_messages=s.delay_between_messages,
                 ssl=tls,
+                reuse_port=worker,
             )
             self.tcp_port = self._tcp.sockets[0].getsockname()[1]
         log.info("hitrobot-server: ws://%s:%s tcp:%s", s.address, self.port, self.tcp_port)

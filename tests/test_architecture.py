@@ -29,7 +29,8 @@ ALLOWED: dict[str, set[str]] = {
     "config": {"session", "bus", "nodes", "robot", "protocol", "types"},
     "server": {"config", "transport", "session", "bus", "nodes", "robot", "protocol", "types"},
     "commands": {"robot", "signals", "config", "types"},
-    "cli": {"config", "server", "signals", "conformance", "commands"},
+    "workers": {"config", "signals", "bus"},  # the --workers parent (bus: endpoint parsing)
+    "cli": {"config", "server", "signals", "conformance", "commands", "workers"},
     "__main__": {"cli"},
 }
 

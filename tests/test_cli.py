@@ -10,6 +10,8 @@ import pytest
 from hitrobot_server.cli import build_parser
 from hitrobot_server.config import load
 
+from .helpers import ServerProcess
+
 FLAGS = ["--port", "--address", "--tcp-port", "--authenticate", "--auth-secret-file",
          "--fragment-timeout", "--max-message-size", "--delay-between-messages",
          "--unregister-timeout", "--topics-glob", "--services-glob", "--params-glob",
@@ -53,7 +55,7 @@ def test_bus_settings_from_toml_and_flags(tmp_path):
     s = load(build_parser().parse_args(["--config", str(cfg),
                                         "--zenoh-listen", "tcp/127.0.0.1:7500"]))
     assert (s.bus, s.zenoh_domain, s.zenoh_listen) == ("zenoh", 3, "tcp/127.0.0.1:7500")
-    from hitrobot_server.bus.zenoh_link import endpoints
+    from hitrobot_server.bus.zenoh_keys import endpoints
 
     assert endpoints(s.zenoh_connect) == ["tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"]
     assert endpoints("tcp/127.0.0.1:1, tcp/127.0.0.1:2") == ["tcp/127.0.0.1:1", "tcp/127.0.0.1:2"]
@@ -71,3 +73,28 @@ def test_bad_zenoh_endpoint_is_a_clear_error():
                           "0", "--tcp-port", "0", "--bus", "zenoh", "--zenoh-listen", "bogus"],
                          capture_output=True, text=True, timeout=60)
     assert out.returncode == 1 and "zenoh endpoints" in out.stderr and "bogus" in out.stderr
+
+
+@pytest.mark.parametrize(("flag", "loop"),
+                         [((), "uvloop"), (("--event-loop", "asyncio"), "asyncio")])
+def test_the_server_runs_on_uvloop_when_installed_unless_told_otherwise(flag, loop):
+    server = ServerProcess("--log-level", "info", *flag)
+    try:
+        assert any(f"event loop: {loop}" in line for line in server.output), server.output
+    finally:
+        server.stop()
+
+
+def test_unknown_event_loop_is_refused():
+    out = subprocess.run([sys.executable, "-m", "hitrobot_server", "--event-loop", "trio"],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and "invalid choice" in out.stderr
+
+
+def test_a_failed_start_on_zenoh_exits_instead_of_hanging(tmp_path):
+    """The Zenoh session is closed again when the server cannot start (its threads kept the
+    process alive after the error before)."""
+    out = subprocess.run([sys.executable, "-m", "hitrobot_server", "--port", "0", "--tcp-port",
+                          "0", "--bus", "zenoh", "--world", str(tmp_path / "absent.yaml")],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 1 and "absent.yaml" in out.stderr

@@ -42,6 +42,21 @@ def _seconds(stamp: dict) -> float:
     return stamp["secs"] + stamp["nsecs"] * 1e-9
 
 
+def hidden_names(action: str, atype: str) -> tuple[dict[str, str], dict[str, str]]:
+    """The services and topics (name -> type) ROS 2 gives the action ``action``."""
+    prefix = f"{action}/_action"
+    services = {
+        f"{prefix}/send_goal": f"{atype}_SendGoal",
+        f"{prefix}/cancel_goal": "action_msgs/CancelGoal",
+        f"{prefix}/get_result": f"{atype}_GetResult",
+    }
+    topics = {
+        f"{prefix}/status": "action_msgs/GoalStatusArray",
+        f"{prefix}/feedback": f"{atype}_FeedbackMessage",
+    }
+    return services, topics
+
+
 class ActionInterfaces:
     """``<action>/_action/*`` for one bus action; :meth:`close` removes them again."""
 
@@ -55,22 +70,18 @@ class ActionInterfaces:
         self.outcomes: dict[bytes, GoalOutcome] = {}
         self._waiters: dict[bytes, list[asyncio.Future]] = {}
         self._services: list[str] = []
-        atype = action.type_name
-        for suffix, stype, handler in (
-            ("send_goal", f"{atype}_SendGoal", self._send_goal),
-            ("cancel_goal", "action_msgs/CancelGoal", self._cancel_goal),
-            ("get_result", f"{atype}_GetResult", self._get_result),
-        ):
-            name = f"{self.prefix}/{suffix}"
+        services, topics = hidden_names(action.name, action.type_name)
+        handlers = (self._send_goal, self._cancel_goal, self._get_result)
+        for (name, stype), handler in zip(services.items(), handlers, strict=True):
             try:
                 bus.advertise_service(name, stype, self, action.node, handler)
             except BusError as exc:  # e.g. a client already serves that name
                 log.warning("action %s: %s not offered: %s", action.name, name, exc)
                 continue
             self._services.append(name)
-        bus.advertise(self.status_topic, "action_msgs/GoalStatusArray", self, action.node,
+        bus.advertise(self.status_topic, topics[self.status_topic], self, action.node,
                       latch=True)
-        bus.advertise(self.feedback_topic, f"{atype}_FeedbackMessage", self, action.node)
+        bus.advertise(self.feedback_topic, topics[self.feedback_topic], self, action.node)
         action.watchers.append(self)
 
     def close(self) -> None:

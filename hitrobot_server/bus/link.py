@@ -13,6 +13,13 @@ from typing import Protocol
 from .services import Action, Service
 from .topics import Message
 
+# rosapi's parameter services: per process, except between the workers of one server.
+PARAM_SERVICES = frozenset(
+    f"/rosapi/{name}"
+    for name in ("get_param", "set_param", "has_param", "delete_param", "search_param",
+                 "get_param_names")
+)
+
 
 @dataclass
 class RemoteGraph:

@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import struct
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from .cdr import dds_type_name, ros_type_name
@@ -123,3 +124,12 @@ def unpack_attachment(data: bytes) -> tuple[int, int, bytes]:
     if size != GID_SIZE:
         raise ValueError(f"attachment gid length {size}, expected {GID_SIZE}")
     return seq, stamp, bytes(data[_ATTACHMENT.size :])
+
+
+def endpoints(value: str | Iterable[str] | None) -> list[str]:
+    """A comma-separated flag value or a TOML list → endpoint strings."""
+    if not value:
+        return []
+    if isinstance(value, str):
+        value = value.split(",")
+    return [v.strip() for v in value if v and v.strip()]

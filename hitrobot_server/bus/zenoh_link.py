@@ -34,10 +34,11 @@ import orjson
 import zenoh
 
 from ..types.registry import UnknownType
+from .action_interfaces import hidden_names
 from .cdr import codec_for, encode_message
 from .core import Bus
 from .errors import ServiceError
-from .link import RemoteGraph
+from .link import PARAM_SERVICES, RemoteGraph
 from .services import (
     STATUS_ABORTED,
     STATUS_CANCELED,
@@ -90,15 +91,6 @@ def session_config(
     return config
 
 
-def endpoints(value: str | Iterable[str] | None) -> list[str]:
-    """A comma-separated flag value or a TOML list → endpoint strings."""
-    if not value:
-        return []
-    if isinstance(value, str):
-        value = value.split(",")
-    return [v.strip() for v in value if v and v.strip()]
-
-
 class ZenohLink:
     """Implements :class:`~hitrobot_server.bus.link.BusLink` over one Zenoh session."""
 
@@ -110,9 +102,11 @@ class ZenohLink:
         config_file: str | None = None,
         connect: Iterable[str] = (),
         listen: Iterable[str] = (),
+        shared_params: bool = False,
     ):
         self.bus = bus
         self.codec = codec_for(bus.types)
+        self.shared_params = shared_params
         self.domain = domain
         self._config = session_config(config_file, connect, listen)
         self.session: zenoh.Session | None = None
@@ -218,6 +212,12 @@ class ZenohLink:
                         )
                     elif "/_action/" not in e.name:
                         g.services[e.name] = (e.type_name, e.node)
+            for action, (atype, node) in g.actions.items():  # listed as the local ones are
+                services, topics = hidden_names(action, atype)
+                g.services.update((n, (t, node)) for n, t in services.items())
+                g.topics.update(topics)
+                for topic in topics:
+                    g.publishers.setdefault(topic, set()).add(node)
             self._graph = g
         return self._graph
 
@@ -253,9 +253,16 @@ class ZenohLink:
         for node in nodes:
             self._declare_token(kind, name, node, **endpoint)
 
+    def _local_only(self, name: str) -> bool:
+        """Names that never cross: rosapi, except the parameters when they are shared (the
+        workers of one ``--workers`` server: the process serving them keeps the only store)."""
+        if self.shared_params and name in PARAM_SERVICES:
+            return False
+        return name.startswith(LOCAL_ONLY)
+
     # ------------------------------------------------------------------ local changes
     def changed(self, kind: str, name: str) -> None:
-        if self.session is None or name.startswith(LOCAL_ONLY):
+        if self.session is None or self._local_only(name):
             return
         if kind in ("topic", "service") and "/_action/" in name:
             return  # an action's own services/topics: the link exports the action itself
@@ -424,8 +431,8 @@ class ZenohLink:
 
     def _sync_service(self, name: str) -> None:
         service = self.bus.services.get(name)
-        if service is None:
-            self._serve(name, [], None)
+        if service is None:  # withdrawn: its queryable and its token go (as an action's do)
+            self._serve(name, [(name, "", None)] if name in self._served else [], None)
             return
         stype = service.stype
 
@@ -475,7 +482,7 @@ class ZenohLink:
 
     def remote_service(self, name: str) -> Service | None:
         entity = self._provider(name)
-        if entity is None or name.startswith(LOCAL_ONLY):
+        if entity is None or self._local_only(name):
             return None
         try:
             stype = self.bus.types.srv(entity.type_name)

@@ -12,11 +12,30 @@ from typing import Any
 LOG_FORMAT = "%(asctime)s %(levelname)s %(name)s: %(message)s"
 
 
-def run_command(prog: str, main: Callable[[], Coroutine[Any, Any, None]], log_level: str) -> int:
-    """Run ``main()`` until it returns; the exit code of the command."""
-    logging.basicConfig(level=log_level.upper(), format=LOG_FORMAT)
+def loop_factory(event_loop: str = "auto") -> Callable[[], asyncio.AbstractEventLoop] | None:
+    """uvloop's event loop when asked for, or by default when it is installed (the
+    ``[uvloop]`` extra); None = asyncio's own."""
+    if event_loop == "asyncio":
+        return None
     try:
-        asyncio.run(main())
+        import uvloop
+    except ImportError:
+        if event_loop == "uvloop":
+            raise ValueError("--event-loop uvloop needs the uvloop package; install it with: "
+                             "pip install 'hitrobot-server[uvloop]'") from None
+        return None
+    return uvloop.new_event_loop
+
+
+def run_command(prog: str, main: Callable[[], Coroutine[Any, Any, None]], log_level: str,
+                event_loop: str = "asyncio", log_tag: str = "") -> int:
+    """Run ``main()`` until it returns; the exit code of the command. ``log_tag`` goes in
+    front of every log record (``[worker 1]``: which process of ``--workers`` said it)."""
+    log_format = LOG_FORMAT.replace("%(name)s", f"{log_tag} %(name)s") if log_tag else LOG_FORMAT
+    logging.basicConfig(level=log_level.upper(), format=log_format)
+    try:
+        with asyncio.Runner(loop_factory=loop_factory(event_loop)) as runner:
+            runner.run(main())
     except (OSError, ValueError) as exc:
         print(f"{prog}: {exc}", file=sys.stderr)
         return 1

@@ -38,6 +38,12 @@ async def start_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend | N
     return nodes
 
 
+async def start_bridge_nodes(bus: Bus, settings: NodeOptions) -> list[Node]:
+    """A secondary worker of ``--workers``: its own rosapi only (lists, types, time); the
+    parameters, the robot and every other node live in worker 0, reached over the link."""
+    return [Rosapi(bus, settings, params=False)]
+
+
 def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend) -> list[Node]:
     """The robot-facing nodes, in start order. All of them drive the robot through the
     locomotion gate, so a sitting robot refuses motion whichever interface asks."""

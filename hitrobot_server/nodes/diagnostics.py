@@ -77,7 +77,9 @@ class DiagnosticsNode(RobotNode):
 
     def bridge_items(self) -> list[dict]:
         bus = self.bus
-        clients = sorted(n for n in bus.nodes if n.startswith(CLIENT_PREFIX))
+        # every server's clients (other workers of --workers, servers joined over Zenoh)
+        nodes = set(bus.nodes) | bus.remote_graph().nodes
+        clients = sorted(n for n in nodes if n.startswith(CLIENT_PREFIX))
         return [status(
             "/Bridge/Clients", OK,
             f"{len(clients)} client{'' if len(clients) == 1 else 's'} connected",

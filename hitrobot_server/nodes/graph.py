@@ -20,8 +20,7 @@ import asyncio
 import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
-
-import networkx as nx
+from typing import TYPE_CHECKING
 
 from ..bus.core import Bus
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
@@ -36,6 +35,9 @@ PKG = "hitrobot_msgs"
 CURRENT_TOPIC = "/graph/current"
 MAX_NODES = 10_000
 INT32 = (-(2**31), 2**31 - 1)
+
+if TYPE_CHECKING:
+    import networkx as nx
 
 
 class GraphError(ValueError):
@@ -125,7 +127,10 @@ def decode_graph(data: bytes, what: str = "graph file") -> Graph:
 
 def network(graph: Graph) -> nx.Graph:
     """The graph for networkx: edge weight = its cost (0 → the distance); parallel edges keep
-    the cheapest."""
+    the cheapest. networkx is imported on first use: 12 MB that a server without graphs (every
+    worker of ``--workers`` but one) need not hold."""
+    import networkx as nx
+
     g = nx.Graph()
     where = {}
     for n in graph.nodes:
@@ -145,6 +150,8 @@ def nearest_node(graph: Graph, x: float, y: float) -> GraphNode:
 
 def shortest_path(graph: Graph, start: int, goal: int) -> list[int]:
     """Node ids from ``start`` to ``goal`` along the edges; GraphError when there is none."""
+    import networkx as nx
+
     try:
         return nx.dijkstra_path(network(graph), start, goal, weight="weight")
     except nx.NodeNotFound as exc:

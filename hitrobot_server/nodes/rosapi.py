@@ -12,6 +12,7 @@ import orjson
 
 from ..bus.core import Bus
 from ..bus.errors import ServiceError
+from ..bus.link import PARAM_SERVICES
 from ..bus.names import canonical
 from ..types.registry import UnknownType
 from ..types.typedef import srv_request_typedefs, srv_response_typedefs, typedefs
@@ -22,7 +23,10 @@ ACTIONLIB_SUFFIXES = ("goal", "cancel", "status", "feedback", "result")
 
 
 class Rosapi(Node):
-    def __init__(self, bus: Bus, settings: NodeOptions):
+    """``params=False``: leave the parameter services to the process that keeps the store
+    (a secondary worker of ``--workers``; its calls reach worker 0's over the link)."""
+
+    def __init__(self, bus: Bus, settings: NodeOptions, *, params: bool = True):
         super().__init__(bus, "/rosapi")
         self.settings = settings
         handlers: dict[str, tuple[str, Callable[[dict], Awaitable[dict]]]] = {
@@ -53,6 +57,8 @@ class Rosapi(Node):
             "get_time": ("rosapi/GetTime", self.get_time),
         }
         for name, (type_name, handler) in handlers.items():
+            if not params and f"/rosapi/{name}" in PARAM_SERVICES:
+                continue
             self.service(f"/rosapi/{name}", type_name, handler)
 
     # ------------------------------------------------------------------ helpers

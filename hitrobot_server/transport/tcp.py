@@ -22,7 +22,10 @@ async def start_tcp(
     max_frame_size: int,
     delay_between_messages: float = 0.0,
     ssl: SSLContext | None = None,
+    reuse_port: bool = False,
 ) -> asyncio.Server:
+    """Serve raw TCP; ``reuse_port`` shares the port with other processes (``--workers``)."""
+
     async def handler(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         peer = writer.get_extra_info("peername")
         session = new_session(peer[0] if peer else "", "tcp")
@@ -55,7 +58,8 @@ async def start_tcp(
             with contextlib.suppress(ConnectionError, OSError):
                 await writer.wait_closed()
 
-    return await asyncio.start_server(handler, host, port, reuse_address=True, ssl=ssl)
+    return await asyncio.start_server(handler, host, port, reuse_address=True, ssl=ssl,
+                                      reuse_port=reuse_port)
 
 
 async def _read(reader: asyncio.StreamReader, session, max_frame_size: int) -> None:

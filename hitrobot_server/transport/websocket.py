@@ -103,11 +103,14 @@ async def start_websocket(
     ping_interval: float = 0.0,
     ping_timeout: float = 30.0,
     new_foxglove: FoxgloveFactory | None = None,
+    reuse_port: bool = False,
+    headers: dict[str, str] | None = None,
 ) -> Server:
     """Serve WebSocket (``wss://`` with ``ssl``); with ``ping_interval`` > 0 each client is
     pinged that often and dropped when it does not answer within ``ping_timeout``. A client
     asking for a Foxglove subprotocol gets a ``new_foxglove`` session, any other the rosbridge
-    protocol."""
+    protocol. ``reuse_port``: share the port with other processes (SO_REUSEPORT,
+    ``--workers``); ``headers`` go on every response (handshake and HTTP)."""
 
     async def handler(ws: ServerConnection) -> None:
         peer = ws.remote_address[0] if ws.remote_address else ""
@@ -150,6 +153,8 @@ async def start_websocket(
     def select_subprotocol(ws: ServerConnection, offered: Sequence[Subprotocol]):
         chosen = choose_subprotocol(offered, new_foxglove is not None)
         return None if chosen is None else Subprotocol(chosen)
+    def process_response(ws: ServerConnection, request: Request, response: Response) -> None:
+        response.headers.update(headers or {})
 
     return await serve(
         handler,
@@ -159,6 +164,8 @@ async def start_websocket(
         compression="deflate" if compression else None,
         process_request=process_request,
         select_subprotocol=select_subprotocol,
+        process_response=process_response if headers else None,
+        reuse_port=reuse_port,
         logger=QuietHttpLog(logging.getLogger("websockets.server")),
         ping_interval=ping_interval or None,
         ping_timeout=ping_timeout,

@@ -215,6 +215,23 @@ async def test_service_on_a_called_from_b(pair, clients):
     assert not reply["result"] and "does not exist" in reply["values"]
 
 
+async def test_a_withdrawn_service_leaves_the_other_servers_lists(pair, clients):
+    a, b = pair
+    provider, watcher = await clients(a), await clients(b)
+    await provider.send({"op": "advertise_service", "service": "/zt/gone",
+                         "type": "std_srvs/SetBool"})
+    await until_listed(watcher, "services", "/zt/gone", 10)
+    node = (await rosapi(watcher, "service_node", service="/zt/gone"))["node"]
+    assert node in (await rosapi(watcher, "nodes"))["nodes"]
+    await provider.close()  # the client goes, and its service with it
+
+    async def gone() -> bool:
+        services = (await rosapi(watcher, "services"))["services"]
+        return "/zt/gone" not in services and node not in (await rosapi(watcher, "nodes"))["nodes"]
+
+    await until(gone, 10, "the service and its node gone from B's lists")
+
+
 async def test_client_action_on_a_with_goal_feedback_and_cancel_from_b(pair, clients):
     a, b = pair
     provider, caller = await clients(a), await clients(b)

@@ -1,0 +1,262 @@
+"""``--workers N``: N server processes behind the same WebSocket and TCP ports.
+
+The parent reserves the ports (a bound, never listening SO_REUSEPORT socket each, so ``0``
+becomes one fixed port and nobody else takes it), then starts the workers one after another:
+``python -m hitrobot_server <the same flags> --worker-id I``. Each worker listens on the shared
+ports with SO_REUSEPORT, so the kernel spreads new connections over them, and joins the others
+over the Zenoh link (``--bus zenoh``) on Unix sockets in a private folder: each listens on its
+own socket and connects to those of the workers already running, so a restarted worker joins
+the rest by itself. Worker 0 runs the robot and every node, and keeps the parameters (their
+rosapi services cross the link); the others run the bridge and their own rosapi.
+
+A worker that exits on its own is started again (after a pause that grows while it keeps
+failing at once); Ctrl-C or SIGTERM to the parent stops them all. Each worker's stdin is a pipe
+from the parent: when the parent is gone (even killed), the workers stop too.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import shutil
+import signal
+import socket
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from . import __version__
+from .bus.zenoh_keys import endpoints
+from .config import Settings
+from .signals import until_terminated
+
+log = logging.getLogger(__name__)
+
+START_TIMEOUT = 60.0  # seconds a worker has to print its address
+STOP_TIMEOUT = 10.0  # seconds a worker has to stop after SIGTERM before it is killed
+QUICK_EXIT = 10.0  # a worker that dies sooner than this after starting is failing at once
+MAX_QUICK_EXITS = 5  # ... this many times in a row: give up and stop everything
+RESTART_PAUSE = (0.2, 5.0)  # the first pause before a restart, and the longest
+
+
+def check_zenoh() -> None:
+    """``--workers`` > 1 joins the workers over Zenoh: say so clearly when it is missing."""
+    try:
+        import zenoh  # noqa: F401  (the workers import it; the parent only checks)
+    except ImportError:
+        raise ValueError(
+            "--workers above 1 joins the workers over Zenoh and needs the eclipse-zenoh "
+            "package; install it with: pip install 'hitrobot-server[zenoh]'"
+        ) from None
+
+
+def reserve_port(address: str, port: int) -> socket.socket:
+    """A bound SO_REUSEPORT socket that never listens: it holds ``port`` (0 = a free one) for
+    the workers, which bind it too, and receives no connection itself."""
+    family, kind, proto, _name, addr = socket.getaddrinfo(
+        address or None, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE
+    )[0]
+    sock = socket.socket(family, kind, proto)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
+    try:
+        sock.bind(addr)
+    except OSError:
+        sock.close()
+        raise
+    return sock
+
+
+def without_workers_flag(argv: list[str]) -> list[str]:
+    """The command line minus ``--workers N`` (the parent's own flag)."""
+    out: list[str] = []
+    skip = False
+    for arg in argv:
+        if skip:
+            skip = False
+        elif arg == "--workers":
+            skip = True
+        elif not arg.startswith("--workers="):
+            out.append(arg)
+    return out
+
+
+@dataclass
+class Worker:
+    """One worker slot: its current process and how often it died right after starting."""
+
+    index: int
+    generation: int = 0
+    proc: asyncio.subprocess.Process | None = None
+    started: float = 0.0
+    quick_exits: int = 0
+    socket_path: str = ""
+
+
+class Supervisor:
+    """Starts, watches and stops the workers of one ``--workers`` server."""
+
+    def __init__(self, settings: Settings, argv: list[str]):
+        self.settings = settings
+        self.count = settings.worker_count
+        self.argv = without_workers_flag(argv)
+        self.workers = [Worker(i) for i in range(self.count)]
+        self.stopping = False
+        self.failed: str | None = None
+        self.port = 0
+        self.tcp_port = 0
+        self._reserved: list[socket.socket] = []
+        self._dir = ""
+        self._watchers: set[asyncio.Task] = set()
+        self._gave_up = asyncio.Event()
+
+    async def start(self) -> None:
+        s = self.settings
+        ws = reserve_port(s.address, s.port)
+        self._reserved.append(ws)
+        self.port = ws.getsockname()[1]
+        if s.tcp_port:
+            tcp = reserve_port(s.address, s.tcp_port if s.tcp_port > 0 else 0)
+            self._reserved.append(tcp)
+            self.tcp_port = tcp.getsockname()[1]
+        self._dir = tempfile.mkdtemp(prefix="hitrobot-workers-")
+        for worker in self.workers:  # one by one: each connects to those already listening
+            await self._spawn(worker)
+
+    def _command(self, worker: Worker) -> list[str]:
+        s = self.settings
+        worker.generation += 1
+        worker.socket_path = str(Path(self._dir) / f"w{worker.index}-{worker.generation}.sock")
+        listen = [f"unixsock-stream/{worker.socket_path}"]
+        if worker.index == 0:
+            listen += endpoints(s.zenoh_listen)  # other servers join the robot's worker
+        peers = [
+            f"unixsock-stream/{w.socket_path}" for w in self.workers
+            if w is not worker and w.proc is not None and w.proc.returncode is None
+        ]
+        args = [
+            sys.executable, "-m", "hitrobot_server", *self.argv,
+            "--workers", "1", "--worker-id", str(worker.index),
+            "--port", str(self.port), "--tcp-port", str(self.tcp_port),
+            "--bus", "zenoh", "--zenoh-listen", ",".join(listen),
+        ]
+        connect = peers + endpoints(s.zenoh_connect)
+        if connect:
+            args += ["--zenoh-connect", ",".join(connect)]
+        if worker.index:
+            args += ["--robot", "none"]
+        return args
+
+    async def _spawn(self, worker: Worker) -> None:
+        proc = await asyncio.create_subprocess_exec(
+            *self._command(worker),
+            stdin=asyncio.subprocess.PIPE,
+            stdout=asyncio.subprocess.PIPE,
+            start_new_session=True,  # Ctrl-C reaches the parent, which stops the workers
+        )
+        worker.proc = proc
+        worker.started = time.monotonic()
+        assert proc.stdout is not None
+        try:
+            line = await asyncio.wait_for(self._ready_line(proc), START_TIMEOUT)
+        except TimeoutError:
+            line = ""
+        if not line:
+            await _terminate(proc)
+            raise OSError(f"worker {worker.index} did not start (exit code {proc.returncode})")
+        log.info("worker %d (pid %d) is serving", worker.index, proc.pid)
+        task = asyncio.create_task(self._watch(worker, proc))
+        self._watchers.add(task)
+        task.add_done_callback(self._watchers.discard)
+
+    @staticmethod
+    async def _ready_line(proc: asyncio.subprocess.Process) -> str:
+        """The worker's first line on stdout is its address: it is serving."""
+        assert proc.stdout is not None
+        while raw := await proc.stdout.readline():
+            line = raw.decode(errors="replace")
+            if "://" in line:
+                return line
+        return ""
+
+    async def _watch(self, worker: Worker, proc: asyncio.subprocess.Process) -> None:
+        """Wait for the worker to exit; unless stopping, start it again (bounded)."""
+        assert proc.stdout is not None
+        while await proc.stdout.readline():  # keep its pipe drained
+            pass
+        code = f"exit code {await proc.wait()}"
+        while not self.stopping:
+            quick = time.monotonic() - worker.started < QUICK_EXIT
+            worker.quick_exits = worker.quick_exits + 1 if quick else 0
+            if worker.quick_exits >= MAX_QUICK_EXITS:
+                self.failed = (f"worker {worker.index} keeps exiting ({code}, "
+                               f"{MAX_QUICK_EXITS} times in a row); stopping")
+                log.error("%s", self.failed)
+                self._gave_up.set()
+                return
+            pause = min(RESTART_PAUSE[0] * 2**worker.quick_exits, RESTART_PAUSE[1])
+            log.warning("worker %d exited (%s); restarting it in %.1f s",
+                        worker.index, code, pause)
+            await asyncio.sleep(pause)
+            if self.stopping:
+                return
+            try:
+                await self._spawn(worker)  # which watches the new process
+                return
+            except OSError as exc:
+                log.error("%s", exc)
+                code = "it did not start"
+
+    async def wait(self) -> None:
+        """Until Ctrl-C/SIGTERM, or until a worker cannot be kept running."""
+        stop = asyncio.create_task(until_terminated())
+        gave_up = asyncio.create_task(self._gave_up.wait())
+        await asyncio.wait({stop, gave_up}, return_when=asyncio.FIRST_COMPLETED)
+        for task in (stop, gave_up):
+            task.cancel()
+
+    async def stop(self) -> None:
+        self.stopping = True
+        procs = [w.proc for w in self.workers if w.proc is not None]
+        await asyncio.gather(*(_terminate(p) for p in procs))
+        for task in list(self._watchers):
+            task.cancel()
+        for sock in self._reserved:
+            sock.close()
+        self._reserved.clear()
+        if self._dir:
+            shutil.rmtree(self._dir, ignore_errors=True)
+
+
+async def _terminate(proc: asyncio.subprocess.Process) -> None:
+    """SIGTERM, then SIGKILL if the worker has not stopped in time."""
+    if proc.returncode is None:
+        with contextlib.suppress(ProcessLookupError):
+            proc.send_signal(signal.SIGTERM)
+        try:
+            await asyncio.wait_for(proc.wait(), STOP_TIMEOUT)
+        except TimeoutError:
+            with contextlib.suppress(ProcessLookupError):
+                proc.kill()
+            await proc.wait()
+
+
+async def supervise(settings: Settings, argv: list[str]) -> None:
+    """Run ``--workers N`` until Ctrl-C/SIGTERM; raises when the workers cannot run."""
+    check_zenoh()
+    supervisor = Supervisor(settings, argv)
+    try:
+        await supervisor.start()
+        ws, tcp = ("wss", "tcp+tls") if settings.ssl else ("ws", "tcp")
+        address = settings.address
+        tcp_text = f"  {tcp}://{address}:{supervisor.tcp_port}" if supervisor.tcp_port else ""
+        print(f"hitrobot-server {__version__}: {ws}://{address}:{supervisor.port}{tcp_text}"
+              f"  ({supervisor.count} workers)", flush=True)
+        await supervisor.wait()
+    finally:
+        await supervisor.stop()
+    if supervisor.failed:
+        raise OSError(supervisor.failed)
