@@ -22,7 +22,7 @@ class ClientOp:
     name: str  # the topic, service or action
     type_name: str
     node: str  # the client's node name
-    peer: str  # the connection's address ("host:port")
+    peer: str  # the connection's address
     auth_level: str | None
     stamp: float  # bus clock, seconds
 
