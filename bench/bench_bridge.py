@@ -34,6 +34,7 @@ import asyncio
 import base64
 import contextlib
 import io
+import itertools
 import os
 import platform
 import random
@@ -42,6 +43,7 @@ import resource
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from collections.abc import Callable
@@ -320,6 +322,10 @@ class ServerProc:
                 self.proc.wait(5)
 
 
+RECORD_DIR: str | None = None  # set by --record
+_record_runs = itertools.count()
+
+
 def start_ours(profile_dir: str | None, tag: str) -> ServerProc:
     args = [
         "-m",
@@ -335,6 +341,8 @@ def start_ours(profile_dir: str | None, tag: str) -> ServerProc:
         "--robot",  # the bridge alone: no simulator competing for the core
         "none",
     ]
+    if RECORD_DIR:  # --record: every server also records everything it carries
+        args += ["--record", str(Path(RECORD_DIR) / f"{tag}_{next(_record_runs)}.mcap")]
     if profile_dir:
         Path(profile_dir).mkdir(parents=True, exist_ok=True)
         args = ["-m", "cProfile", "-o", str(Path(profile_dir) / f"{tag}.prof"), *args]
@@ -1622,6 +1630,12 @@ def main() -> int:
         metavar="DIR",
         help="run each hitrobot-server under cProfile, writing DIR/<run>.prof",
     )
+    parser.add_argument(
+        "--record",
+        action="store_true",
+        help="run every hitrobot-server with --record (into a temporary folder), to compare "
+        "the figures with and without recording",
+    )
     parser.add_argument("--ceiling-server", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--probe-client", type=int, metavar="PORT", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -1636,7 +1650,12 @@ def main() -> int:
         resource.setrlimit(resource.RLIMIT_NOFILE, (max(soft, min(hard, 8192)), hard))
     cfg = config(args.quick)
     cfg.profile = args.profile_server
-    asyncio.run(run(cfg, set(args.sections)))
+    global RECORD_DIR
+    with tempfile.TemporaryDirectory(prefix="bench-record-") as folder:
+        RECORD_DIR = folder if args.record else None
+        if args.record:
+            print(f"every server records (--record) into {folder}")
+        asyncio.run(run(cfg, set(args.sections)))
     return 0
 
 
