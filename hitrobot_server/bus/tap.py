@@ -29,7 +29,8 @@ class ClientOp:
 
 class BusTap(Protocol):
     def message(self, message: Message) -> None:
-        """A message published on the bus (local publishers; Zenoh-delivered ones are not)."""
+        """A message published on the bus, or delivered to it by the Zenoh link (those only
+        for topics someone in this process uses: the link brings nothing else)."""
 
     def client_op(self, op: ClientOp) -> None:
         """A client op that changes the robot (see :class:`ClientOp`)."""
