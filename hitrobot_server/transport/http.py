@@ -14,6 +14,7 @@ import asyncio
 import email.utils
 import http
 import logging
+from collections.abc import Callable
 from pathlib import Path
 from urllib.parse import quote, unquote
 
@@ -109,12 +110,9 @@ class StaticFiles:
         return candidate
 
     def __call__(self, ws, request: Request) -> Response:
-        method = getattr(request, "method", "GET")
-        if method not in ("GET", "HEAD"):
-            return _response(405, b"Method not allowed\n", [("Allow", "GET, HEAD")])
-        file = self.resolve(request.path)
-        if file is None:
-            return _response(404, b"Not found\n", head=method == "HEAD")
+        method, file = _lookup(request, self.resolve)
+        if isinstance(file, Response):
+            return file
         try:
             stat = file.stat()
             body = b"" if method == "HEAD" else file.read_bytes()
@@ -164,12 +162,9 @@ class WithRecordings:
             if self.static is None:
                 return ws.respond(426, "This is a WebSocket endpoint (hitrobot protocol).\n")
             return self.static(ws, request)
-        method = getattr(request, "method", "GET")
-        if method not in ("GET", "HEAD"):
-            return _response(405, b"Method not allowed\n", [("Allow", "GET, HEAD")])
-        file = self.resolve(request.path)
-        if file is None:
-            return _response(404, b"Not found\n", head=method == "HEAD")
+        method, file = _lookup(request, self.resolve)
+        if isinstance(file, Response):
+            return file
         try:
             size = file.stat().st_size if method == "HEAD" else None
             body = b"" if method == "HEAD" else await asyncio.to_thread(file.read_bytes)
@@ -178,6 +173,19 @@ class WithRecordings:
         headers = [("Content-Type", "application/octet-stream"), ("Cache-Control", "no-store"),
                    ("Content-Disposition", f"attachment; filename*=UTF-8''{quote(file.name)}")]
         return _response(200, body, headers, head=method == "HEAD", size=size)
+
+
+def _lookup(request: Request, resolve: Callable[[str], Path | None]
+            ) -> tuple[str, Path | Response]:
+    """The request's method and the file it names, or the refusal: 405 for a method other
+    than GET/HEAD, 404 when nothing is served at that path."""
+    method = getattr(request, "method", "GET")
+    if method not in ("GET", "HEAD"):
+        return method, _response(405, b"Method not allowed\n", [("Allow", "GET, HEAD")])
+    file = resolve(request.path)
+    if file is None:
+        return method, _response(404, b"Not found\n", head=method == "HEAD")
+    return method, file
 
 
 def _etags(header: str) -> set[str]:
