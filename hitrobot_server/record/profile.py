@@ -33,16 +33,16 @@ AUDIT_SCHEMA = json.dumps({
     "required": ["op", "name", "type", "client", "address", "time"],
 }).encode()
 
-# rosbag2's QoS profile YAML (enum values as rmw numbers): 1 = keep last / reliable /
-# transient local (latched), 2 = volatile; "infinite" durations as rmw spells them.
-_QOS = """- history: 1
+# The ros2 profile's required channel metadata: the offered QoS as a YAML sequence of policies
+# (the MCAP registry's spelling); a latched topic is transient local, as ROS 2 latches.
+_QOS = """- history: keep_last
   depth: {depth}
-  reliability: 1
+  reliability: reliable
   durability: {durability}
-  deadline: {{sec: 2147483647, nsec: 4294967295}}
-  lifespan: {{sec: 2147483647, nsec: 4294967295}}
-  liveliness: 1
-  liveliness_lease_duration: {{sec: 2147483647, nsec: 4294967295}}
+  deadline: {{sec: 0, nsec: 0}}
+  lifespan: {{sec: 0, nsec: 0}}
+  liveliness: automatic
+  liveliness_lease_duration: {{sec: 0, nsec: 0}}
   avoid_ros_namespace_conventions: false
 """
 
@@ -62,14 +62,15 @@ def schema_text(codec: Ros2Codec, type_name: str) -> bytes:
 
 def channel_metadata(latched: bool) -> dict[str, str]:
     return {
-        "offered_qos_profiles": _QOS.format(depth=1 if latched else 10,
-                                            durability=1 if latched else 2),
+        "offered_qos_profiles": _QOS.format(
+            depth=1 if latched else 10, durability="transient_local" if latched else "volatile"),
         "latching": "1" if latched else "0",
     }
 
 
 def is_latched(metadata: dict[str, str]) -> bool:
-    """A latched (transient local) channel, by our key or by rosbag2's QoS YAML."""
+    """A latched (transient local) channel, by our key or by the QoS YAML (rosbag2 writes
+    the durability as a name or as rmw's number, 1)."""
     if "latching" in metadata:
         return metadata["latching"] == "1"
     try:

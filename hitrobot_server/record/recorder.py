@@ -205,9 +205,9 @@ class Recorder:
         self.files.append(path)
         self._writer = Writer(file, compression=CompressionType.ZSTD)
         self._writer.start(profile=PROFILE, library=f"hitrobot-server {__version__}")
-        self._writer.add_metadata("ROS_DISTRO", {"ROS_DISTRO": ROS_DISTRO})
         self._writer.add_metadata("hitrobot-server", {
             "version": __version__,
+            "ROS_DISTRO": ROS_DISTRO,
             "started": datetime.datetime.now(datetime.UTC).isoformat(),
             "part": str(index),
         })

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import jsonschema
 import roslibpy
+import yaml
 from mcap.exceptions import McapError
 from mcap.reader import NonSeekingReader, make_reader
 from mcap_ros2.decoder import DecoderFactory
@@ -43,7 +44,8 @@ def test_the_recording_reads_back_with_the_reference_readers(drive):
         reader = make_reader(f)
         assert reader.get_header().profile == "ros2"
         metadata = {m.name: m.metadata for m in reader.iter_metadata()}
-    assert metadata["ROS_DISTRO"] == {"ROS_DISTRO": "jazzy"}
+    assert metadata["hitrobot-server"]["ROS_DISTRO"] == "jazzy"
+    durability = {}
     for channel in summary.channels.values():
         schema = summary.schemas[channel.schema_id]
         if channel.topic == AUDIT_TOPIC:
@@ -51,6 +53,9 @@ def test_the_recording_reads_back_with_the_reference_readers(drive):
         else:
             assert (schema.encoding, channel.message_encoding) == ("ros2msg", "cdr")
             assert schema.name.split("/")[1] == "msg"
+            qos = yaml.safe_load(channel.metadata["offered_qos_profiles"])
+            durability[channel.topic] = qos[0]["durability"]
+    assert durability["/map"] == "transient_local" and durability[SCAN] == "volatile"
     for topic in ("/tf", "/map", SCAN, ODOM, "/slamware_ros_sdk_server_node/scan",
                   "/slamware_ros_sdk_server_node/odom"):
         assert decoded.get(topic), f"{topic} not recorded"
