@@ -26,6 +26,7 @@ from rosbags.typesys import get_types_from_msg
 
 from ..bus.cdr import Ros2Codec
 from ..bus.core import Bus
+from ..bus.errors import BusError
 from ..types.registry import MsgType, TypeRegistry, UnknownType
 from .profile import AUDIT_TOPIC, is_latched
 
@@ -36,6 +37,9 @@ STATE_TOPIC = "/replay/state"
 STATE_PERIOD = 0.25
 MAX_SPEED = 100.0
 MAGIC = b"\x89MCAP0\r\n"
+# the audit trail, and the state of a recorder or player at the time: the replaying server
+# has its own
+NOT_REPLAYED = frozenset({AUDIT_TOPIC, STATE_TOPIC, "/record/state"})
 
 
 class RecordingError(ValueError):
@@ -104,7 +108,7 @@ def load_recording(path: Path | str, types: TypeRegistry) -> Recording:
                 elif isinstance(record, Channel):
                     if record.id in tracks or record.id in skipped:
                         continue
-                    if record.topic == AUDIT_TOPIC:
+                    if record.topic in NOT_REPLAYED:
                         skipped.add(record.id)
                         continue
                     tracks[record.id] = _track(codec, types, record, schemas.get(record.schema_id))
@@ -167,6 +171,7 @@ class Player:
         self._start = start
         self._changed = asyncio.Event()
         self._tasks: list[asyncio.Task] = []
+        self._skipped: set[int] = set()  # channels whose topic the bus refused
 
     # ------------------------------------------------------------------ position
     @property
@@ -186,8 +191,12 @@ class Player:
     async def start(self) -> None:
         bus = self.bus
         bus.register_node(NODE)
-        for track in self.recording.tracks.values():
-            bus.advertise(track.topic, track.mtype.name, self, NODE, latch=track.latched)
+        for channel, track in list(self.recording.tracks.items()):
+            try:
+                bus.advertise(track.topic, track.mtype.name, self, NODE, latch=track.latched)
+            except BusError as exc:  # this server already has the topic with another type
+                log.warning("replay: %s is not replayed: %s", track.topic, exc)
+                self._skipped.add(channel)
         bus.advertise(STATE_TOPIC, "hitrobot_msgs/ReplayState", self, NODE, latch=True)
         bus.advertise_service("/replay/pause", "std_srvs/Trigger", self, NODE, self._pause)
         bus.advertise_service("/replay/resume", "std_srvs/Trigger", self, NODE, self._resume)
@@ -209,6 +218,8 @@ class Player:
     # ------------------------------------------------------------------ playing
     def _publish(self, index: int) -> None:
         channel, log_time, data = self.recording.messages[index]
+        if channel in self._skipped:
+            return
         track = self.recording.tracks[channel]
         try:
             msg = self.codec.decode(data, track.mtype)
