@@ -88,8 +88,16 @@ class RecordingControl:
     async def _report(self) -> None:
         while True:
             await asyncio.sleep(STATE_PERIOD)
-            if self.recorder is not None:
-                self._publish_state()
+            if self.recorder is None:
+                continue
+            if not self.recorder.alive:
+                async with self._busy:
+                    recorder, self.recorder = self.recorder, None
+                    if recorder is not None:
+                        log.error("recording to %s stopped: its writer process ended (exit "
+                                  "code %s)", recorder.path, recorder.exit_code)
+                        await recorder.stop()
+            self._publish_state()
 
     def _publish_state(self) -> None:
         r = self.recorder

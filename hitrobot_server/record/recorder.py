@@ -86,6 +86,15 @@ class Recorder:
         return self._process is not None
 
     @property
+    def alive(self) -> bool:
+        """False once the writer process has ended by itself (a write failed, it was killed)."""
+        return self._process is not None and self._process.is_alive()
+
+    @property
+    def exit_code(self) -> int | None:
+        return self._process.exitcode if self._process is not None else None
+
+    @property
     def files(self) -> list[Path]:
         return [split_name(self.path, i) for i in range(self._counters.parts.value)]
 
@@ -133,7 +142,10 @@ class Recorder:
         if self in self.bus.taps:
             self.bus.taps.remove(self)
         process, self._process = self._process, None
-        self._queue.put(None)
+        if process.is_alive():
+            self._queue.put(None)
+        else:  # nobody reads the queue any more: do not wait for it to be written
+            self._queue.cancel_join_thread()
         self._queue.close()
         await asyncio.to_thread(self._queue.join_thread)
         await asyncio.to_thread(process.join)

@@ -4,6 +4,7 @@ the download of a recording over HTTP on the same port (only the recordings fold
 from __future__ import annotations
 
 import os
+import signal
 
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
@@ -87,3 +88,23 @@ async def test_download_refuses_traversal_and_other_files(make_server, tmp_path)
         assert status == 404 and b"secret" not in body, path
     status, _h, _b = await http(server.port, "POST", "/recordings/ok.mcap")
     assert status == 405
+
+
+async def test_a_writer_that_dies_ends_the_recording_visibly(make_server, tmp_path, caplog):
+    server = await make_server(record_dir=str(tmp_path))
+    client = await WsClient.open(server.port)
+    try:
+        await client.send({"op": "subscribe", "topic": "/record/state"})
+        assert (await client.call("/record/start", {"name": "doomed"}))["values"]["success"]
+        await client.expect(lambda m: m.get("topic") == "/record/state"
+                            and m["msg"]["recording"])
+        os.kill(server.recording.recorder._process.pid, signal.SIGKILL)
+        await client.expect(lambda m: m.get("topic") == "/record/state"
+                            and not m["msg"]["recording"], timeout=10)
+        assert server.recording.recorder is None
+        assert "its writer process ended" in caplog.text
+        again = await client.call("/record/start", {"name": "next"})
+        assert again["values"]["success"], again
+        assert (await client.call("/record/stop"))["values"]["success"]
+    finally:
+        await client.close()
