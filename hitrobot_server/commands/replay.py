@@ -37,6 +37,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 async def serve(args: argparse.Namespace) -> None:
     settings = load(args)
+    if args.robot not in (None, "none"):
+        raise ValueError("replay serves the recording in place of a robot: --robot cannot be "
+                         "used with it")
     settings.robot = "none"
     server = HitrobotServer(settings)
     recording = await asyncio.to_thread(load_recording, args.file, server.bus.types)

@@ -206,3 +206,11 @@ async def test_replay_speed_out_of_range_exits_non_zero(drive):
         "--port", "0", "--tcp-port", "0", stderr=asyncio.subprocess.PIPE)
     _out, err = await asyncio.wait_for(proc.communicate(), 60)
     assert proc.returncode != 0 and b"--speed" in err
+
+
+def test_replay_refuses_a_robot_too(drive):
+    path, _live = drive
+    done = subprocess.run(
+        [sys.executable, "-m", "hitrobot_server", "replay", str(path), "--robot", "sim",
+         "--port", "0", "--tcp-port", "0"], capture_output=True, text=True, timeout=60)
+    assert done.returncode != 0 and "--robot cannot be used" in done.stderr
