@@ -248,7 +248,7 @@ class Player:
         while True:
             self._changed.clear()
             if self._index >= len(times):
-                if self.loop:
+                if self.loop and self.recording.duration > 0:  # (a single instant: once)
                     self._seek_to(0.0)
                     continue
                 if not self.paused:
