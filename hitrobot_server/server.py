@@ -110,7 +110,7 @@ class HitrobotServer:
             max_frame_size=s.max_frame_size,
             delay_between_messages=s.delay_between_messages,
             compression=s.use_compression,
-            http_handler=WithRecordings(console, s.recordings),
+            http_handler=WithRecordings(console, None if s.authenticate else s.recordings),
             ssl=tls,
             ping_interval=s.websocket_ping_interval,
             ping_timeout=s.websocket_ping_timeout,

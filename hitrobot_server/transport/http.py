@@ -142,11 +142,15 @@ class WithRecordings:
     as a download. Only plain ``*.mcap`` names directly in that folder are served (no
     subfolders, no hidden files, nothing outside it after symlinks); anything else is 404."""
 
-    def __init__(self, static: StaticFiles | None, folder: Path):
+    def __init__(self, static: StaticFiles | None, folder: Path | None):
+        """``folder`` None: downloads are off (``--authenticate``: HTTP has no rosauth, and a
+        recording is the robot's data)."""
         self.static = static
         self.folder = folder
 
     def resolve(self, raw_path: str) -> Path | None:
+        if self.folder is None:
+            return None
         name = unquote(raw_path.split("?", 1)[0].split("#", 1)[0]).removeprefix(RECORDINGS_PREFIX)
         if not name.endswith(".mcap") or name.startswith(".") or any(c in name for c in "/\\\0"):
             return None

@@ -108,3 +108,16 @@ async def test_a_writer_that_dies_ends_the_recording_visibly(make_server, tmp_pa
         assert (await client.call("/record/stop"))["values"]["success"]
     finally:
         await client.close()
+
+
+async def test_no_downloads_with_authenticate(make_server, tmp_path):
+    """HTTP has no rosauth: with --authenticate a recording is not served to anyone."""
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    (folder / "ok.mcap").write_bytes(b"\x89MCAP0\r\n")
+    secret = tmp_path / "secret"
+    secret.write_text("relaxthisisasecr\n")
+    server = await make_server(authenticate=True, auth_secret_file=str(secret),
+                               record_dir=str(folder))
+    status, _h, body = await http(server.port, "GET", "/recordings/ok.mcap")
+    assert status == 404 and b"MCAP" not in body
