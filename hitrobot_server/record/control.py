@@ -11,6 +11,7 @@ import logging
 from pathlib import Path
 
 from ..bus.core import Bus
+from ..bus.errors import ServiceError
 from .recorder import Recorder
 
 log = logging.getLogger(__name__)
@@ -112,8 +113,7 @@ class RecordingControl:
     async def _start(self, request: dict) -> dict:
         async with self._busy:
             if self.recorder is not None:
-                return {"success": False, "file": "",
-                        "message": f"already recording to {self.recorder.path.name}"}
+                raise ServiceError(f"already recording to {self.recorder.path.name}")
             try:
                 name = recording_name(str(request.get("name", "")))
                 path = self.folder / name
@@ -121,7 +121,7 @@ class RecordingControl:
                     raise ValueError(f"{name} already exists in the recordings folder")
                 self.start_recording(path)
             except ValueError as exc:
-                return {"success": False, "file": "", "message": str(exc)}
+                raise ServiceError(str(exc)) from None
             self._publish_state()
             return {"success": True, "file": name, "message": f"recording to {name}"}
 
@@ -129,7 +129,7 @@ class RecordingControl:
         async with self._busy:
             recorder = self.recorder
             if recorder is None:
-                return {"success": False, "message": "not recording"}
+                raise ServiceError("not recording")
             await recorder.stop()
             self.recorder = None
             self._publish_state()

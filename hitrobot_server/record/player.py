@@ -26,7 +26,7 @@ from rosbags.typesys import get_types_from_msg
 
 from ..bus.cdr import Ros2Codec
 from ..bus.core import Bus
-from ..bus.errors import BusError
+from ..bus.errors import BusError, ServiceError
 from ..types.registry import MsgType, TypeRegistry, UnknownType
 from .profile import AUDIT_TOPIC, is_latched
 
@@ -309,9 +309,8 @@ class Player:
         duration = self.recording.duration
         if not isinstance(position, int | float) or not (
                 math.isfinite(position) and 0 <= position <= duration):
-            return {"success": False,
-                    "message": f"field 'position' must be between 0 and {duration:.3f} s, "
-                               f"got {position!r}"}
+            raise ServiceError(f"field 'position' must be between 0 and {duration:.3f} s, "
+                               f"got {position!r}")
         self._seek_to(float(position))
         return {"success": True, "message": f"at {position:.3f} s"}
 
@@ -319,9 +318,8 @@ class Player:
         speed = request.get("speed")
         if not isinstance(speed, int | float) or not (
                 math.isfinite(speed) and 0 < speed <= MAX_SPEED):
-            return {"success": False,
-                    "message": f"field 'speed' must be above 0 and at most {MAX_SPEED:g}, "
-                               f"got {speed!r}"}
+            raise ServiceError(f"field 'speed' must be above 0 and at most {MAX_SPEED:g}, "
+                               f"got {speed!r}")
         if not self.paused:
             self._origin, self._wall = self.position, time.monotonic()
         self.speed = float(speed)

@@ -27,14 +27,17 @@ async def test_start_list_download_and_stop_a_recording(make_server, tmp_path):
         state = await client.expect(op="publish", topic="/record/state")
         assert state["msg"]["recording"] and state["msg"]["file"] == "first.mcap"
         again = await client.call("/record/start", {"name": "second"})
-        assert not again["values"]["success"] and "already recording" in again["values"]["message"]
+        assert not again["result"] and "already recording to first.mcap" in again["values"]
+        status = await client.expect(op="status")
+        assert status["level"] == "error" and "already recording" in status["msg"]
 
         await client.send({"op": "advertise", "topic": "/chatter", "type": "std_msgs/String"})
         for i in range(5):
             await client.send({"op": "publish", "topic": "/chatter", "msg": {"data": f"hi {i}"}})
         stopped = await client.call("/record/stop")
         assert stopped["values"]["success"], stopped
-        assert not (await client.call("/record/stop"))["values"]["success"]
+        refused = await client.call("/record/stop")
+        assert not refused["result"] and refused["values"] == "not recording"
         listed = (await client.call("/record/list"))["values"]
         assert listed["files"] == ["first.mcap"]
         assert listed["sizes"] == [(folder / "first.mcap").stat().st_size]
@@ -59,8 +62,10 @@ async def test_bad_names_are_refused_and_nothing_is_written(make_server, tmp_pat
     client = await WsClient.open(server.port)
     try:
         for name in ("../escape", "sub/dir", ".hidden", "x" * 80):
-            reply = (await client.call("/record/start", {"name": name}))["values"]
-            assert not reply["success"] and "field 'name'" in reply["message"], name
+            reply = await client.call("/record/start", {"name": name})
+            assert not reply["result"] and "field 'name'" in reply["values"], name
+            status = await client.expect(op="status", id=reply["id"])
+            assert status["level"] == "error" and "field 'name'" in status["msg"]
         assert not folder.exists() or not any(folder.iterdir())
         assert server.recording.recorder is None
     finally:
