@@ -15,6 +15,7 @@ import bisect
 import contextlib
 import logging
 import math
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -118,10 +119,10 @@ def load_recording(path: Path | str, types: TypeRegistry) -> Recording:
                     complete = True
         except RecordingError:
             raise
-        except EndOfFile:
-            raise RecordingError(f"{path} is truncated: it ends in the middle of a record (a "
-                                 "recording that was cut off)") from None
         except Exception as exc:
+            if isinstance(exc, EndOfFile) or file.tell() >= os.fstat(file.fileno()).st_size:
+                raise RecordingError(f"{path} is truncated: it ends in the middle of a record "
+                                     "(a recording that was cut off)") from None
             raise RecordingError(
                 f"{path} is corrupt ({type(exc).__name__}: {exc or 'bad record'})") from None
     if not complete:

@@ -176,12 +176,9 @@ class Recorder:
                        None if cdr is not None else message.msg, cdr, size))
 
     def _put(self, item: Item) -> None:
-        queued = self._counters.queued_bytes
-        with queued.get_lock():
-            room = queued.value + item.size <= self.max_queued_bytes
-            if room:
-                queued.value += item.size
-        if room:
+        counters = self._counters
+        if counters.queued.value - counters.taken.value + item.size <= self.max_queued_bytes:
+            counters.queued.value += item.size
             self._queue.put_nowait(item)
             return
         self.dropped += 1

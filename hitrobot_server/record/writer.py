@@ -17,6 +17,7 @@ import logging
 import multiprocessing
 import os
 import queue
+import threading
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -61,9 +62,11 @@ class Item:
 
 @dataclass
 class Counters:
-    """Shared with the server: it adds what it queues, the writer what it took and wrote."""
+    """Shared with the server. Each is written by one side only, so no lock is shared (a
+    server killed while holding one would leave the writer waiting forever)."""
 
-    queued_bytes: Any  # multiprocessing.Value('q')
+    queued: Any  # server: sizes of the items it queued (multiprocessing.Value('q'))
+    taken: Any  # writer: sizes of the items it took; queued - taken is in the queue
     messages: Any
     failed: Any
     parts: Any  # files started
@@ -71,7 +74,7 @@ class Counters:
 
     @classmethod
     def create(cls, ctx) -> Counters:
-        return cls(ctx.Value("q", 0), *(ctx.Value("q", 0, lock=False) for _ in range(4)))
+        return cls(*(ctx.Value("q", 0, lock=False) for _ in range(6)))
 
 
 def split_name(path: Path, index: int) -> Path:
@@ -82,9 +85,11 @@ def split_name(path: Path, index: int) -> Path:
 class McapFiles:
     """The MCAP files of one recording, written in order (split at ``split_size`` bytes)."""
 
-    def __init__(self, path: Path, split_size: int, counters: Counters):
+    def __init__(self, path: Path, split_size: int, counters: Counters, chunk_span: float):
         self.path = path
         self.split_size = split_size
+        self.chunk_span = int(chunk_span * 1e9)  # a chunk covers at most this much log time
+        self.chunk_start: int | None = None  # log time of the current chunk's first message
         self.counters = counters
         self.codec = Ros2Codec(TypeRegistry.default())
         self.latched: dict[str, Item] = {}  # each topic's latest, to open the next file with
@@ -111,6 +116,7 @@ class McapFiles:
     def flush(self) -> None:
         """Close the chunk in progress and hand it to the OS; roll over when the file is full."""
         self.writer.flush()
+        self.chunk_start = None
         size = self.file.tell()
         self.counters.bytes.value = self.closed_bytes + size
         if self.split_size and size >= self.split_size:
@@ -134,6 +140,11 @@ class McapFiles:
             self.write(item)
 
     def write(self, item: Item) -> None:
+        if self.chunk_start is None:
+            self.chunk_start = item.log_time
+        elif abs(item.log_time - self.chunk_start) >= self.chunk_span:
+            self.flush()  # a backlog (writer starting, disk slow) still makes short chunks
+            self.chunk_start = item.log_time
         try:
             channel = self._channel(item)
             data = item.data if item.data is not None else self.codec.encode(
@@ -169,13 +180,26 @@ class McapFiles:
 
 def run_writer(path: str, split_size: int, flush_period: float, items: Any,
                counters: Counters) -> None:
-    """The writer process: take items until ``None`` (or the server's death), then finish."""
+    """The writer process: take items until ``None``, then finish the file. If the server
+    dies first, a watchdog thread finishes it (the main thread may then be stuck reading a
+    message the server was cut off in the middle of)."""
     with contextlib.suppress(OSError, AttributeError):
         os.nice(WRITER_NICENESS)
     logging.basicConfig(level=logging.WARNING, format="%(asctime)s %(levelname)s %(name)s: "
                         "%(message)s")
-    files = McapFiles(Path(path), split_size, counters)
-    parent = multiprocessing.parent_process()
+    files = McapFiles(Path(path), split_size, counters, flush_period)
+    lock = threading.Lock()  # held while the file is touched
+
+    def watch_server() -> None:
+        server = multiprocessing.parent_process()
+        if server is None:
+            return
+        server.join()
+        with lock:
+            files.finish()
+        os._exit(0)
+
+    threading.Thread(target=watch_server, name="watch-server", daemon=True).start()
     next_flush = time.monotonic() + flush_period
     try:
         while True:
@@ -183,18 +207,15 @@ def run_writer(path: str, split_size: int, flush_period: float, items: Any,
                 item = items.get(timeout=max(0.0, next_flush - time.monotonic()))
             except queue.Empty:
                 item = ...
-            except (EOFError, OSError):  # the server died mid-message
-                break
             if item is None:
                 break
-            if item is not ...:
-                with counters.queued_bytes.get_lock():
-                    counters.queued_bytes.value -= item.size
-                files.write(item)
-            if time.monotonic() >= next_flush:
-                files.flush()
-                next_flush = time.monotonic() + flush_period
-                if parent is not None and not parent.is_alive():
-                    break  # the server is gone: finish what it sent
+            with lock:
+                if item is not ...:
+                    counters.taken.value += item.size
+                    files.write(item)
+                if time.monotonic() >= next_flush:
+                    files.flush()
+                    next_flush = time.monotonic() + flush_period
     finally:
-        files.finish()
+        with lock:
+            files.finish()

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import signal
 import subprocess
 import sys
 import threading
+import time
 from collections import defaultdict
 from pathlib import Path
 
@@ -97,6 +99,19 @@ def test_the_audit_channel_names_who_changed_the_robot(drive):
     assert all(e["client"].startswith("/hitrobot_client_") for e in entries)
 
 
+def children(pid: int) -> list[int]:
+    tasks = Path(f"/proc/{pid}/task")
+    return [int(c) for t in tasks.iterdir() for c in (t / "children").read_text().split()]
+
+
+def running(pid: int) -> bool:
+    """Alive and not a zombie (an orphan's exit may wait for a reaper in a container)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
 def test_a_recording_cut_by_sigkill_reads_back_to_its_last_second(tmp_path):
     path = tmp_path / "killed.mcap"
     server = record_server(tmp_path, path)
@@ -112,7 +127,11 @@ def test_a_recording_cut_by_sigkill_reads_back_to_its_last_second(tmp_path):
 
         roslibpy.Topic(ros, ODOM, "nav_msgs/Odometry").subscribe(on_odom)
         assert enough.wait(20)
-        server.proc.send_signal(signal.SIGKILL)
+        # the worst case: the server and its writer process die at once (a power loss)
+        pids = [server.proc.pid, *children(server.proc.pid)]
+        assert len(pids) > 1, "no writer process"
+        for pid in pids:
+            os.kill(pid, signal.SIGKILL)
         server.proc.wait(10)
         last_live = stamps[-1]
         ros.close()
@@ -141,3 +160,37 @@ def test_an_unwritable_recording_path_is_refused_at_start(tmp_path):
     assert done.returncode != 0
     assert "cannot record to" in done.stderr and "x.mcap" in done.stderr
     assert "ws://" not in done.stdout
+
+
+def test_a_killed_server_leaves_its_writer_to_finish_the_file(tmp_path):
+    path = tmp_path / "finished.mcap"
+    server = record_server(tmp_path, path)
+    seen: list[dict] = []
+    enough = threading.Event()
+
+    def on_odom(msg):
+        seen.append(msg)
+        if len(seen) >= 40:
+            enough.set()
+
+    try:
+        ros = connect_roslibpy(server.port)
+        roslibpy.Topic(ros, ODOM, "nav_msgs/Odometry").subscribe(on_odom)
+        assert enough.wait(20)
+        writers = [pid for pid in children(server.proc.pid)
+                   if b"spawn_main" in Path(f"/proc/{pid}/cmdline").read_bytes()]
+        assert writers, "no writer process"
+        server.proc.send_signal(signal.SIGKILL)
+        server.proc.wait(10)
+        ros.close()
+    finally:
+        server.stop()
+    deadline = time.monotonic() + 15
+    while any(running(pid) for pid in writers):  # bounded: 15 s
+        assert time.monotonic() < deadline, "the writer did not finish"
+        time.sleep(0.05)
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        assert reader.get_summary() is not None  # finished: summary and index
+        odom = [m for _s, _c, _m, m in reader.iter_decoded_messages(topics=[ODOM])]
+    assert len(odom) >= 20
