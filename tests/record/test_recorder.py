@@ -101,3 +101,33 @@ def test_estimate_size_counts_arrays():
     assert estimate_size({"data": np.zeros(1000, np.int8)}) >= 1000
     assert estimate_size({"data": list(range(100))}) >= 800
     assert estimate_size({"data": b"x" * 50}) >= 50
+
+
+async def test_service_calls_and_goals_of_clients_are_audited(tmp_path):
+    bus = make_bus()
+
+    async def serve(request):
+        return {}
+
+    async def run(handle):
+        return None
+
+    bus.advertise_service("/robot/do", "std_srvs/Trigger", "node", "/robot", serve)
+    bus.advertise_service("/rosapi/topics", "std_srvs/Trigger", "rosapi", "/rosapi", serve)
+    bus.advertise_service("/client/srv", "std_srvs/Trigger", "c", "/hitrobot_client_2", serve,
+                          client=True)
+    bus.advertise_action("/robot/go", "nav2_msgs/FollowPath", "node", "/robot", run)
+    recorder = Recorder(bus, tmp_path / "r.mcap")
+    recorder.start()
+    client = Origin("/hitrobot_client_1", "admin", peer="10.0.0.7")
+    for op, name in (("call_service", "/robot/do"), ("call_service", "/rosapi/topics"),
+                     ("call_service", "/client/srv"), ("send_action_goal", "/robot/go"),
+                     ("send_action_goal", "/missing")):
+        bus.client_called(op, name, client)
+    await recorder.stop()
+    with open(tmp_path / "r.mcap", "rb") as f:
+        entries = [json.loads(m.data) for _s, _c, m in
+                   make_reader(f).iter_messages(topics=[AUDIT_TOPIC])]
+    assert [(e["op"], e["name"], e["type"], e["auth_level"], e["address"]) for e in entries] == [
+        ("call_service", "/robot/do", "std_srvs/srv/Trigger", "admin", "10.0.0.7"),
+        ("send_action_goal", "/robot/go", "nav2_msgs/action/FollowPath", "admin", "10.0.0.7")]
