@@ -72,10 +72,16 @@ async def test_bad_names_are_refused_and_nothing_is_written(make_server, tmp_pat
         await client.close()
 
 
-async def test_download_refuses_traversal_and_other_files(make_server, tmp_path):
+def folder_with_one(tmp_path):
+    """A recordings folder holding ok.mcap (just the magic)."""
     folder = tmp_path / "recordings"
     folder.mkdir()
     (folder / "ok.mcap").write_bytes(b"\x89MCAP0\r\n")
+    return folder
+
+
+async def test_download_refuses_traversal_and_other_files(make_server, tmp_path):
+    folder = folder_with_one(tmp_path)
     (tmp_path / "secret.mcap").write_bytes(b"secret")
     (folder / "notes.txt").write_text("no")
     (folder / "sub").mkdir()
@@ -117,9 +123,7 @@ async def test_a_writer_that_dies_ends_the_recording_visibly(make_server, tmp_pa
 
 async def test_no_downloads_with_authenticate(make_server, tmp_path):
     """HTTP has no rosauth: with --authenticate a recording is not served to anyone."""
-    folder = tmp_path / "recordings"
-    folder.mkdir()
-    (folder / "ok.mcap").write_bytes(b"\x89MCAP0\r\n")
+    folder = folder_with_one(tmp_path)
     secret = tmp_path / "secret"
     secret.write_text("relaxthisisasecr\n")
     server = await make_server(authenticate=True, auth_secret_file=str(secret),
