@@ -82,10 +82,6 @@ class Recorder:
 
     # ------------------------------------------------------------------ what it has done
     @property
-    def running(self) -> bool:
-        return self._process is not None
-
-    @property
     def alive(self) -> bool:
         """False once the writer process has ended by itself (a write failed, it was killed)."""
         return self._process is not None and self._process.is_alive()
@@ -149,8 +145,8 @@ class Recorder:
         self._queue.close()
         await asyncio.to_thread(self._queue.join_thread)
         await asyncio.to_thread(process.join)
-        log.info("recording finished: %s (%d messages, %d dropped)",
-                 ", ".join(map(str, self.files)), self.messages, self.dropped)
+        log.info("recording finished: %s (%d messages, %d dropped, %d not encodable)",
+                 ", ".join(map(str, self.files)), self.messages, self.dropped, self.failed)
 
     def message(self, message: Message) -> None:
         allowed = self._allowed.get(message.topic.name)
