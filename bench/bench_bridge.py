@@ -34,6 +34,7 @@ import asyncio
 import base64
 import contextlib
 import io
+import itertools
 import os
 import platform
 import random
@@ -43,6 +44,7 @@ import shlex
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from collections.abc import Callable
@@ -322,6 +324,10 @@ class ServerProc:
                 self.proc.wait(5)
 
 
+RECORD_DIR: str | None = None  # set by --record
+_record_runs = itertools.count()
+
+
 def start_ours(profile_dir: str | None, tag: str) -> ServerProc:
     args = [
         "-m",
@@ -338,6 +344,8 @@ def start_ours(profile_dir: str | None, tag: str) -> ServerProc:
         "none",
         *SERVER_ARGS,
     ]
+    if RECORD_DIR:  # --record: every server also records everything it carries
+        args += ["--record", str(Path(RECORD_DIR) / f"{tag}_{next(_record_runs)}.mcap")]
     if profile_dir:
         Path(profile_dir).mkdir(parents=True, exist_ok=True)
         args = ["-m", "cProfile", "-o", str(Path(profile_dir) / f"{tag}.prof"), *args]
@@ -1631,6 +1639,12 @@ def main() -> int:
         metavar="ARGS",
         help="more flags for each hitrobot-server, e.g. '--event-loop asyncio'",
     )
+    parser.add_argument(
+        "--record",
+        action="store_true",
+        help="run every hitrobot-server with --record (into a temporary folder), to compare "
+        "the figures with and without recording",
+    )
     parser.add_argument("--ceiling-server", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--probe-client", type=int, metavar="PORT", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -1646,7 +1660,12 @@ def main() -> int:
     cfg = config(args.quick)
     cfg.profile = args.profile_server
     SERVER_ARGS.extend(shlex.split(args.server_args))
-    asyncio.run(run(cfg, set(args.sections)))
+    global RECORD_DIR
+    with tempfile.TemporaryDirectory(prefix="bench-record-") as folder:
+        RECORD_DIR = folder if args.record else None
+        if args.record:
+            print(f"every server records (--record) into {folder}")
+        asyncio.run(run(cfg, set(args.sections)))
     return 0
 
 

@@ -16,6 +16,7 @@ from .signals import until_terminated
 TOOLS = {
     "conformance": "hitrobot_server.conformance.runner",
     "sim-device": "hitrobot_server.commands.sim_device",
+    "replay": "hitrobot_server.commands.replay",
 }
 
 
@@ -27,7 +28,8 @@ def build_parser() -> argparse.ArgumentParser:
             "in-process topic/service/action bus. Tools: 'hitrobot-server conformance --url "
             "ws://HOST:PORT' runs the protocol conformance vectors against any server; "
             "'hitrobot-server sim-device --port 1448' serves the simulated robot over the "
-            "Slamware REST API (for --robot http://127.0.0.1:1448)."
+            "Slamware REST API (for --robot http://127.0.0.1:1448); 'hitrobot-server replay "
+            "FILE.mcap' serves a recording (--record) on the bus instead of a robot."
         ),
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
@@ -42,12 +44,7 @@ async def serve(settings: Settings) -> None:
     loop = asyncio.get_running_loop()
     logging.getLogger(__name__).info("event loop: %s", type(loop).__module__.split(".")[0])
     await server.start()
-    ws, tcp = ("wss", "tcp+tls") if settings.ssl else ("ws", "tcp")
-    print(
-        f"hitrobot-server {__version__}: {ws}://{settings.address}:{server.port}"
-        + (f"  {tcp}://{settings.address}:{server.tcp_port}" if server.tcp_port else ""),
-        flush=True,
-    )
+    print(server.banner(), flush=True)
     try:
         if settings.worker_id is None:
             await until_terminated()

@@ -61,6 +61,10 @@ class Settings:
     zenoh_domain: int = 0
     workers: str = "1"
     event_loop: str = "auto"
+    record: str | None = None
+    record_topics: str | None = None
+    record_split_size: int = 0
+    record_dir: str | None = None
     slamware: SlamwareParams = field(default_factory=SlamwareParams)
     auth_secret: str | None = field(default=None, repr=False)
     # Set by the server when it shares a bus: client node names stay unique across servers.
@@ -86,6 +90,15 @@ class Settings:
             return Path(self.map_dir)
         base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
         return Path(base) / "hitrobot-server" / "maps"
+
+    @property
+    def recordings(self) -> Path:
+        """Where ``/record/start`` writes and HTTP serves recordings from: ``--record-dir``
+        or the per-user data directory."""
+        if self.record_dir:
+            return Path(self.record_dir)
+        base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
+        return Path(base) / "hitrobot-server" / "recordings"
 
     def session_options(self) -> SessionOptions:
         """What each client session gets (built when a client connects, so the secret and
@@ -170,6 +183,13 @@ _HELP = {
     "workers": "server processes behind the same ports (SO_REUSEPORT), joined over Zenoh "
     "(needs the [zenoh] extra); 'auto' = one per core; 1 = this process alone",
     "event_loop": "'auto' (uvloop when installed, the [uvloop] extra), 'uvloop' or 'asyncio'",
+    "record": "record every bus message into this MCAP file (ROS 2 profile: CDR messages, "
+    "ros2msg schemas, zstd chunks) while serving, with an audit channel of client ops",
+    "record_topics": "comma-separated fnmatch patterns of topics to record (default: all)",
+    "record_split_size": "start a new file (NAME_1.mcap, ...) when a recording reaches this many "
+    "MiB (0 = never)",
+    "record_dir": "folder of /record/start's recordings, downloadable at /recordings/NAME "
+    "(default: $XDG_DATA_HOME/hitrobot-server/recordings)",
     "map_dir": "folder of saved map folders (default: $XDG_DATA_HOME/hitrobot-server/maps)",
 }
 
@@ -267,6 +287,8 @@ def load(args: argparse.Namespace) -> Settings:
     if settings.websocket_ping_interval < 0 or settings.websocket_ping_timeout <= 0:
         raise ValueError("websocket_ping_interval must be 0 or more and "
                          "websocket_ping_timeout positive")
+    if settings.record_split_size < 0:
+        raise ValueError("record_split_size must be 0 or more (MiB)")
     if settings.fragment_memory_limit < 1:
         raise ValueError("fragment_memory_limit must be positive")
     return settings

@@ -6,7 +6,9 @@ import asyncio
 import contextlib
 import logging
 import ssl
+from pathlib import Path
 
+from . import __version__
 from .bus.core import Bus
 from .bus.rosout import RosoutHandler
 from .bus.zenoh_keys import endpoints
@@ -14,11 +16,12 @@ from .config import Settings
 from .nodes.assembly import start_bridge_nodes, start_nodes, stop_nodes
 from .nodes.base import Node
 from .protocol.auth import load_secret
+from .record.control import RecordingControl
 from .robot.factory import build_backend
 from .session.foxglove import FoxgloveSession, FoxgloveShared
 from .session.options import SessionOptions
 from .session.session import Session, Shared
-from .transport.http import StaticFiles, default_web_root, missing_libraries
+from .transport.http import StaticFiles, WithRecordings, default_web_root, missing_libraries
 from .transport.tcp import start_tcp
 from .transport.websocket import start_websocket
 from .types.registry import TypeRegistry
@@ -49,6 +52,7 @@ class HitrobotServer:
         self.port: int | None = None
         self.tcp_port: int | None = None
         self._rosout: RosoutHandler | None = None
+        self.recording: RecordingControl | None = None
 
     def _options(self) -> SessionOptions:
         if self._session_options is None:
@@ -92,6 +96,11 @@ class HitrobotServer:
             if not s.auth_secret_file:
                 raise ValueError("--authenticate needs --auth-secret-file")
             s.auth_secret = load_secret(s.auth_secret_file)
+        self.recording = RecordingControl(self.bus, s.recordings, topics=s.record_topics,
+                                          split_size=s.record_split_size * 1024 * 1024)
+        if s.record:  # first: an unwritable path is refused before anything starts
+            self.recording.start_recording(Path(s.record))
+        await self.recording.start()
         self._rosout = RosoutHandler(self.bus, s.log_level.upper())
         logging.getLogger(PACKAGE_LOGGER).addHandler(self._rosout)
         if s.bus == "zenoh":
@@ -136,7 +145,7 @@ class HitrobotServer:
             max_frame_size=s.max_frame_size,
             delay_between_messages=s.delay_between_messages,
             compression=s.use_compression,
-            http_handler=console,
+            http_handler=WithRecordings(console, None if s.authenticate else s.recordings),
             ssl=tls,
             ping_interval=s.websocket_ping_interval,
             ping_timeout=s.websocket_ping_timeout,
@@ -160,6 +169,13 @@ class HitrobotServer:
         if self._ws_console:
             log.info("web console: %s", console_url(s.address, self.port, tls=s.ssl))
 
+    def banner(self) -> str:
+        """The line printed once the server listens (tests and scripts parse it)."""
+        s = self.settings
+        ws, tcp = ("wss", "tcp+tls") if s.ssl else ("ws", "tcp")
+        return (f"hitrobot-server {__version__}: {ws}://{s.address}:{self.port}"
+                + (f"  {tcp}://{s.address}:{self.tcp_port}" if self.tcp_port else ""))
+
     async def stop(self) -> None:
         if self._tcp is not None:
             self._tcp.close()
@@ -174,6 +190,9 @@ class HitrobotServer:
             session.close()
         await stop_nodes(self.nodes)
         self.nodes.clear()
+        if self.recording is not None:  # after the nodes: their last messages are kept
+            await self.recording.stop()
+            self.recording = None
         if self.backend is not None:
             await self.backend.stop()
             self.backend = None

@@ -171,10 +171,11 @@ class TcpClient:
 class ServerProcess:
     """``hitrobot-server`` run for real as a subprocess on ephemeral loopback ports."""
 
-    def __init__(self, *args: str, robot: str = "none"):
+    def __init__(self, *args: str, robot: str = "none", command: tuple[str, ...] = ()):
+        """``command``: a tool that serves like the server (``("replay", FILE)``)."""
         env = {**os.environ, "PYTHONUNBUFFERED": "1"}
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "hitrobot_server", "--port", "0", "--tcp-port", "-1",
+            [sys.executable, "-m", "hitrobot_server", *command, "--port", "0", "--tcp-port", "-1",
              "--address", "127.0.0.1", "--robot", robot, *args],
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
         )

@@ -24,11 +24,13 @@ ALLOWED: dict[str, set[str]] = {
     "session": {"bus", "protocol", "types"},
     "transport": {"session", "protocol", "types"},
     "nodes": {"bus", "robot", "protocol", "types", "tf_buffer"},
+    "record": {"bus", "protocol", "types"},  # a bus tap and a player, like a node without robot
     "conformance": {"protocol", "types"},  # a client tool: it talks to servers over sockets
     # the top: assembles the floors, so it may import any of them
     "config": {"session", "bus", "nodes", "robot", "protocol", "types"},
-    "server": {"config", "transport", "session", "bus", "nodes", "robot", "protocol", "types"},
-    "commands": {"robot", "signals", "config", "types"},
+    "server": {"config", "transport", "session", "bus", "nodes", "robot", "record", "protocol",
+               "types"},
+    "commands": {"robot", "signals", "config", "types", "server", "record"},
     "workers": {"config", "signals", "bus"},  # the --workers parent (bus: endpoint parsing)
     "cli": {"config", "server", "signals", "conformance", "commands", "workers"},
     "__main__": {"cli"},

@@ -17,6 +17,7 @@ import {
 } from './overlays.js';
 import { Patrol } from './patrol.js';
 import { Pois } from './pois.js';
+import { Recordings, ReplayTimeline } from './recordings.js';
 import { RobotActions } from './robotpanel.js';
 import { RobotState } from './robotstate.js';
 import { Shell } from './shell.js';
@@ -236,6 +237,9 @@ function main() {
   window.hitrobot = { ros, view, navigator, pois, shell, teleop, robotState, robotActions, tools,
     layers, editor, patrol, maps, diagnostics, inspector, showTab, robot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
       easeljs: createjs.EaselJS && createjs.EaselJS.version } };
+  // record and replay (recordings.js): a panel in the Status tab, a timeline over the map
+  window.hitrobot.recordings = new Recordings({ ros, parent: document.querySelector('[data-tab-panel=status]') });
+  window.hitrobot.timeline = new ReplayTimeline({ ros, parent: document.querySelector('.map-pane') });
 }
 
 main();

@@ -17,7 +17,7 @@ from .action_interfaces import ActionInterfaces
 from .clock import wall_clock
 from .errors import ActionError, BusError, ServiceError
 from .link import BusLink, RemoteGraph
-from .names import canonical
+from .names import CLIENT_NODE_PREFIX, canonical
 from .params import ParamStore
 from .services import (
     STATUS_ABORTED,
@@ -30,6 +30,7 @@ from .services import (
     Service,
     ServiceHandler,
 )
+from .tap import BusTap, ClientOp
 from .topics import Message, Origin, Reply, Subscriber, Topic
 
 log = logging.getLogger(__name__)
@@ -58,6 +59,7 @@ class Bus:
         # Called with (kind, name) whenever a topic, service, action or node comes, goes or
         # changes publishers/subscribers (the Foxglove sessions keep their channels current).
         self.watchers: list[Callable[[str, str], None]] = []
+        self.taps: list[BusTap] = []  # observers of every publish (the recorder)
 
     # ---------------------------------------------------------------- link hooks
     def _changed(self, kind: str, name: str) -> None:
@@ -140,7 +142,37 @@ class Bus:
         topic.fan_out(message)
         if self.link is not None:
             self.link.published(message)
+        for tap in self.taps:
+            tap.message(message)
+            if origin is not None and any(
+                not node.startswith(CLIENT_NODE_PREFIX) for node, _cb in topic.subscribers.values()
+            ):
+                tap.client_op(self._client_op("publish", topic.name, topic.type_name, origin))
         return message
+
+    def _client_op(self, op: str, name: str, type_name: str, origin: Origin) -> ClientOp:
+        return ClientOp(op, name, type_name, origin.node, origin.peer, origin.auth_level,
+                        self.clock())
+
+    def client_called(self, op: str, name: str, origin: Origin) -> None:
+        """Tell the taps about a client's ``call_service`` / ``send_action_goal`` when it
+        reaches the robot: a server node's service (rosapi's read-only ones aside) or any
+        action goal."""
+        if not self.taps:
+            return
+        if op == "call_service":
+            service = self.service(name)
+            if service is None or service.client or service.name.startswith("/rosapi/"):
+                return
+            type_name = service.stype.name
+        else:
+            action = self.action(name)
+            if action is None:
+                return
+            type_name = action.atype.name
+        entry = self._client_op(op, canonical(name), type_name, origin)
+        for tap in self.taps:
+            tap.client_op(entry)
 
     def subscribe(
         self,

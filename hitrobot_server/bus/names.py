@@ -9,6 +9,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 from fnmatch import fnmatchcase
 
+CLIENT_NODE_PREFIX = "/hitrobot_client_"  # every bridge client's node name starts so
+
 
 def canonical(name: str) -> str:
     """Absolute form of a ROS graph name: leading slash, no trailing slash."""

@@ -68,6 +68,7 @@ class Origin:
 
     node: str
     auth_level: str | None = None  # the rosauth level a client authenticated with
+    peer: str = ""  # the client's address (host:port), for the recorder's audit channel
 
 
 class RequestRejected(Exception):

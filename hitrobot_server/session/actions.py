@@ -83,6 +83,7 @@ class ActionOps:
             if want_feedback:
                 s.send({"op": "action_feedback", **base, "values": values}, fragment_size=frag)
 
+        s.bus.client_called("send_action_goal", name, s.origin)
         try:
             handle, task = s.bus.start_goal(name, goal, on_feedback)
         except ActionError as exc:

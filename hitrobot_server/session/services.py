@@ -102,6 +102,8 @@ class ServiceOps:
         if timeout is None:
             timeout = s.settings.call_service_timeout
 
+        s.bus.client_called("call_service", name, s.origin)
+
         async def run() -> None:
             try:
                 values = await s.bus.call_service(name, request, timeout)

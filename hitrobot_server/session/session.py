@@ -19,6 +19,7 @@ from typing import Any
 
 from ..bus.core import Bus
 from ..bus.errors import BusError
+from ..bus.names import CLIENT_NODE_PREFIX
 from ..bus.topics import Origin
 from ..protocol import auth, bulk, cbor, ops, png
 from ..protocol.errors import ProtocolError, message_id, status_op
@@ -74,7 +75,7 @@ class Session:
         self.peer = peer
         self.transport = transport
         self.client_id = next(_client_ids)
-        self.node = f"/hitrobot_client_{settings.client_tag}{self.client_id}"
+        self.node = f"{CLIENT_NODE_PREFIX}{settings.client_tag}{self.client_id}"
         self.outbox = Outbox(settings.send_buffer_limit)
         self.status_level = settings.status_level
         self.authenticated = not settings.authenticate
@@ -117,7 +118,7 @@ class Session:
             "action_feedback": self.action_ops.action_feedback,
             "action_result": self.action_ops.action_result,
         }
-        self.origin = Origin(self.node)
+        self.origin = Origin(self.node, peer=peer)
         bus.register_node(self.node)
         log.info("client %s connected from %s over %s", self.node, peer or "?", transport)
 
@@ -272,7 +273,7 @@ class Session:
         else:
             self.authenticated = True
             self.auth_level = msg.get("level")
-            self.origin = Origin(self.node, self.auth_level)
+            self.origin = Origin(self.node, self.auth_level, peer=self.peer)
             self.status("info", f"authenticated at level {self.auth_level!r}", msg.get("id"))
 
     def _reject_unauthenticated(self, what: str, op_id: Any) -> None:

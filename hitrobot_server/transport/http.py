@@ -10,11 +10,13 @@ Files are sent with ``Cache-Control: no-cache`` and an ``ETag``, so browsers rev
 
 from __future__ import annotations
 
+import asyncio
 import email.utils
 import http
 import logging
+from collections.abc import Callable
 from pathlib import Path
-from urllib.parse import unquote
+from urllib.parse import quote, unquote
 
 from websockets.datastructures import Headers
 from websockets.http11 import Request, Response
@@ -108,12 +110,9 @@ class StaticFiles:
         return candidate
 
     def __call__(self, ws, request: Request) -> Response:
-        method = getattr(request, "method", "GET")
-        if method not in ("GET", "HEAD"):
-            return _response(405, b"Method not allowed\n", [("Allow", "GET, HEAD")])
-        file = self.resolve(request.path)
-        if file is None:
-            return _response(404, b"Not found\n", head=method == "HEAD")
+        method, file = _lookup(request, self.resolve)
+        if isinstance(file, Response):
+            return file
         try:
             stat = file.stat()
             body = b"" if method == "HEAD" else file.read_bytes()
@@ -133,6 +132,64 @@ class StaticFiles:
         if content_type.startswith("text/html"):
             headers.append(("Content-Security-Policy", CSP))
         return _response(200, body, headers, head=method == "HEAD", size=stat.st_size)
+
+
+RECORDINGS_PREFIX = "/recordings/"
+
+
+class WithRecordings:
+    """The console's files, and ``GET /recordings/NAME.mcap``: a file of the recordings folder
+    as a download. Only plain ``*.mcap`` names directly in that folder are served (no
+    subfolders, no hidden files, nothing outside it after symlinks); anything else is 404."""
+
+    def __init__(self, static: StaticFiles | None, folder: Path | None):
+        """``folder`` None: downloads are off (``--authenticate``: HTTP has no rosauth, and a
+        recording is the robot's data)."""
+        self.static = static
+        self.folder = folder
+
+    def resolve(self, raw_path: str) -> Path | None:
+        if self.folder is None:
+            return None
+        name = unquote(raw_path.split("?", 1)[0].split("#", 1)[0]).removeprefix(RECORDINGS_PREFIX)
+        if not name.endswith(".mcap") or name.startswith(".") or any(c in name for c in "/\\\0"):
+            return None
+        try:
+            root = self.folder.resolve(strict=True)
+            file = (root / name).resolve(strict=True)
+        except (OSError, RuntimeError):
+            return None
+        return file if file.parent == root and file.is_file() else None
+
+    async def __call__(self, ws, request: Request) -> Response:
+        if not request.path.startswith(RECORDINGS_PREFIX):
+            if self.static is None:
+                return ws.respond(426, "This is a WebSocket endpoint (hitrobot protocol).\n")
+            return self.static(ws, request)
+        method, file = _lookup(request, self.resolve)
+        if isinstance(file, Response):
+            return file
+        try:
+            size = file.stat().st_size if method == "HEAD" else None
+            body = b"" if method == "HEAD" else await asyncio.to_thread(file.read_bytes)
+        except OSError:
+            return _response(404, b"Not found\n", head=method == "HEAD")
+        headers = [("Content-Type", "application/octet-stream"), ("Cache-Control", "no-store"),
+                   ("Content-Disposition", f"attachment; filename*=UTF-8''{quote(file.name)}")]
+        return _response(200, body, headers, head=method == "HEAD", size=size)
+
+
+def _lookup(request: Request, resolve: Callable[[str], Path | None]
+            ) -> tuple[str, Path | Response]:
+    """The request's method and the file it names, or the refusal: 405 for a method other
+    than GET/HEAD, 404 when nothing is served at that path."""
+    method = getattr(request, "method", "GET")
+    if method not in ("GET", "HEAD"):
+        return method, _response(405, b"Method not allowed\n", [("Allow", "GET, HEAD")])
+    file = resolve(request.path)
+    if file is None:
+        return method, _response(404, b"Not found\n", head=method == "HEAD")
+    return method, file
 
 
 def _etags(header: str) -> set[str]:

@@ -11,8 +11,9 @@ decisions.md asks: one port for the page and the bridge.
 from __future__ import annotations
 
 import asyncio
+import inspect
 import logging
-from collections.abc import Callable, Sequence
+from collections.abc import Awaitable, Callable, Sequence
 from ssl import SSLContext
 
 from websockets.asyncio.server import Server, ServerConnection, broadcast, serve
@@ -31,7 +32,7 @@ log = logging.getLogger(__name__)
 SessionFactory = Callable[[str, str], Session]
 FoxgloveFactory = Callable[[str, str], FoxgloveSession]  # (peer, subprotocol)
 ClientSession = Session | FoxgloveSession
-HttpHandler = Callable[[ServerConnection, Request], Response | None]
+HttpHandler = Callable[[ServerConnection, Request], Response | Awaitable[Response] | None]
 
 
 # Above this many bytes in a socket's write buffer, frames wait in the outbox instead.
@@ -143,11 +144,12 @@ async def start_websocket(
                 writer.cancel()
             await ws.close()
 
-    def process_request(ws: ServerConnection, request: Request) -> Response | None:
+    async def process_request(ws: ServerConnection, request: Request) -> Response | None:
         if request.headers.get("Upgrade", "").lower() == "websocket":
             return None
         if http_handler is not None:
-            return http_handler(ws, request)
+            response = http_handler(ws, request)
+            return await response if inspect.isawaitable(response) else response
         return ws.respond(426, "This is a WebSocket endpoint (hitrobot protocol).\n")
 
     def select_subprotocol(ws: ServerConnection, offered: Sequence[Subprotocol]):

@@ -39,10 +39,11 @@ async def test_roslibjs_client_suite(make_server, node_modules):
     await run_checks(node_modules / "roslibjs_client.mjs", server.port, CHECKS, 90)
 
 
-async def run_checks(script: Path, port: int, checks: list[str], timeout: float) -> None:
+async def run_checks(script: Path, port: int, checks: list[str], timeout: float,
+                     extra: list[str] = ()) -> None:
     """Run a Node script of checks against the server; every named check must say ok."""
     proc = await asyncio.create_subprocess_exec(
-        "node", str(script), f"ws://127.0.0.1:{port}",
+        "node", str(script), f"ws://127.0.0.1:{port}", *extra,
         stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.STDOUT, cwd=script.parent,
     )
     out, _ = await asyncio.wait_for(proc.communicate(), timeout)

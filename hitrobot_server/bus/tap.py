@@ -1,0 +1,36 @@
+"""Observers of everything on the bus (the recorder): every published message, and every
+client op that changes the robot, with who sent it.
+
+A tap is called on the event loop for each publish, so it must only hand the message on (to a
+queue, a worker); it never blocks and never raises into the bus.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+from .topics import Message
+
+
+@dataclass(frozen=True, slots=True)
+class ClientOp:
+    """A client's op that reaches the robot: a publish to a topic a server node subscribes, a
+    call of a server node's service, or an action goal."""
+
+    op: str  # publish, call_service or send_action_goal
+    name: str  # the topic, service or action
+    type_name: str
+    node: str  # the client's node name
+    peer: str  # the connection's address
+    auth_level: str | None
+    stamp: float  # bus clock, seconds
+
+
+class BusTap(Protocol):
+    def message(self, message: Message) -> None:
+        """A message published on the bus, or delivered to it by the Zenoh link (those only
+        for topics someone in this process uses: the link brings nothing else)."""
+
+    def client_op(self, op: ClientOp) -> None:
+        """A client op that changes the robot (see :class:`ClientOp`)."""

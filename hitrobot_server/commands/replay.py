@@ -1,0 +1,65 @@
+"""``hitrobot-server replay FILE.mcap``: serve a recording on the bus with no robot, to every
+rosbridge client and the console, until terminated (:mod:`hitrobot_server.record.player`)."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import sys
+
+from ..config import add_arguments, load
+from ..record.player import MAX_SPEED, Player, load_recording
+from ..server import HitrobotServer
+from ..signals import until_terminated
+from . import run_command
+
+PROG = "hitrobot-server replay"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description="Serve an MCAP recording (hitrobot-server --record, ROS 2 profile) on the "
+        "bus instead of a robot: its topics in order with their recorded contents and stamps, "
+        "latched ones latched; /replay/state and the services /replay/pause, /replay/resume, "
+        "/replay/seek and /replay/set_speed control it. Every server flag applies.",
+    )
+    parser.add_argument("file", metavar="FILE", help="the recording (.mcap)")
+    parser.add_argument("--speed", type=float, default=1.0,
+                        help=f"recorded seconds per wall-clock second, up to {MAX_SPEED:g} "
+                        "(default: 1)")
+    parser.add_argument("--loop", action="store_true", help="start again at the end")
+    parser.add_argument("--start", type=float, default=0.0, metavar="SECONDS",
+                        help="begin this many seconds into the recording (default: 0)")
+    add_arguments(parser)
+    return parser
+
+
+async def serve(args: argparse.Namespace) -> None:
+    settings = load(args)
+    if args.robot not in (None, "none"):
+        raise ValueError("replay serves the recording in place of a robot: --robot cannot be "
+                         "used with it")
+    settings.robot = "none"
+    server = HitrobotServer(settings)
+    recording = await asyncio.to_thread(load_recording, args.file, server.bus.types)
+    player = Player(server.bus, recording, speed=args.speed, loop=args.loop, start=args.start)
+    await server.start()
+    try:
+        await player.start()
+        print(server.banner(), flush=True)
+        print(f"{PROG}: {recording.path.name}, {recording.duration:.1f} s, "
+              f"{len(recording.messages)} messages on {len(recording.tracks)} topics", flush=True)
+        await until_terminated()
+    finally:
+        await player.stop()
+        await server.stop()
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    return run_command(PROG, lambda: serve(args), getattr(args, "log_level", None) or "info")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,133 @@
+"""The recorder on a bus, without sockets: topic filter, bounded queue, split files, latched
+messages first, the audit entries of client ops."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+
+from hitrobot_server.bus.core import Bus
+from hitrobot_server.bus.topics import Origin
+from hitrobot_server.record.profile import AUDIT_TOPIC
+from hitrobot_server.record.recorder import Recorder, estimate_size, split_name
+from hitrobot_server.types.registry import TypeRegistry
+
+from ..helpers import until
+
+
+def decoded(path):
+    out = []
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        topics = [c.topic for c in reader.get_summary().channels.values()
+                  if c.message_encoding == "cdr"]
+        for _s, channel, _m, msg in reader.iter_decoded_messages(topics=topics):
+            out.append((channel.topic, msg))
+    return out
+
+
+def make_bus() -> Bus:
+    bus = Bus(TypeRegistry.default())
+    bus.advertise("/keep", "std_msgs/String", "node", "/node")
+    bus.advertise("/skip", "std_msgs/String", "node", "/node")
+    bus.advertise("/latched", "std_msgs/String", "node", "/node", latch=True)
+    return bus
+
+
+async def test_topic_filter_and_latched_messages_first(tmp_path):
+    bus = make_bus()
+    bus.publish("/latched", {"data": "before"})
+    recorder = Recorder(bus, tmp_path / "r.mcap", topics="/keep*,/latched")
+    recorder.start()
+    bus.publish("/keep", {"data": "a"})
+    bus.publish("/skip", {"data": "b"})
+    await recorder.stop()
+    assert [(t, m.data) for t, m in decoded(tmp_path / "r.mcap")] == [
+        ("/latched", "before"), ("/keep", "a")]
+    assert bus.taps == []
+
+
+async def test_a_full_queue_drops_and_counts(tmp_path, caplog):
+    bus = make_bus()
+    recorder = Recorder(bus, tmp_path / "r.mcap", max_queued_bytes=0)
+    recorder.start()
+    for i in range(10):
+        bus.publish("/keep", {"data": str(i)})
+    await recorder.stop()
+    assert recorder.dropped == 10 and recorder.messages == 0
+    assert "cannot keep up: 1 messages dropped" in caplog.text
+
+
+async def test_split_files_each_open_with_the_latched_messages(tmp_path):
+    bus = make_bus()
+    bus.publish("/latched", {"data": "map"})
+    recorder = Recorder(bus, tmp_path / "run.mcap", split_size=1, flush_period=0.01)
+    recorder.start()
+    bus.publish("/keep", {"data": "one"})
+    await until(lambda: len(recorder.files) >= 2, "a second file", 5)
+    bus.publish("/keep", {"data": "two"})
+    await until(lambda: recorder.messages >= 4, "the second message written", 5)
+    await recorder.stop()
+    assert recorder.files[:2] == [tmp_path / "run.mcap", tmp_path / "run_1.mcap"]
+    assert decoded(recorder.files[0])[0][1].data == "map"
+    parts = [decoded(f) for f in recorder.files]
+    assert all(p and p[0] == ("/latched", p[0][1]) and p[0][1].data == "map" for p in parts)
+    assert [m.data for p in parts for t, m in p if t == "/keep"] == ["one", "two"]
+    assert split_name(tmp_path / "a.mcap", 3) == tmp_path / "a_3.mcap"
+
+
+async def test_client_ops_that_reach_a_node_are_audited(tmp_path):
+    bus = make_bus()
+    bus.subscribe("/keep", None, "sub", "/some_node", lambda m: None)
+    bus.subscribe("/skip", None, "sub", "/hitrobot_client_9", lambda m: None)
+    recorder = Recorder(bus, tmp_path / "r.mcap")
+    recorder.start()
+    client = Origin("/hitrobot_client_1", None, peer="127.0.0.1")
+    bus.publish("/keep", {"data": "to a node"}, origin=client)
+    bus.publish("/skip", {"data": "to a client"}, origin=client)
+    bus.publish("/keep", {"data": "from a node"})
+    await recorder.stop()
+    with open(tmp_path / "r.mcap", "rb") as f:
+        entries = [json.loads(m.data) for _s, _c, m in
+                   make_reader(f).iter_messages(topics=[AUDIT_TOPIC])]
+    assert [(e["op"], e["name"], e["client"], e["address"]) for e in entries] == [
+        ("publish", "/keep", "/hitrobot_client_1", "127.0.0.1")]
+
+
+def test_estimate_size_counts_arrays():
+    assert estimate_size({"data": np.zeros(1000, np.int8)}) >= 1000
+    assert estimate_size({"data": list(range(100))}) >= 800
+    assert estimate_size({"data": b"x" * 50}) >= 50
+
+
+async def test_service_calls_and_goals_of_clients_are_audited(tmp_path):
+    bus = make_bus()
+
+    async def serve(request):
+        return {}
+
+    async def run(handle):
+        return None
+
+    bus.advertise_service("/robot/do", "std_srvs/Trigger", "node", "/robot", serve)
+    bus.advertise_service("/rosapi/topics", "std_srvs/Trigger", "rosapi", "/rosapi", serve)
+    bus.advertise_service("/client/srv", "std_srvs/Trigger", "c", "/hitrobot_client_2", serve,
+                          client=True)
+    bus.advertise_action("/robot/go", "nav2_msgs/FollowPath", "node", "/robot", run)
+    recorder = Recorder(bus, tmp_path / "r.mcap")
+    recorder.start()
+    client = Origin("/hitrobot_client_1", "admin", peer="10.0.0.7")
+    for op, name in (("call_service", "/robot/do"), ("call_service", "/rosapi/topics"),
+                     ("call_service", "/client/srv"), ("send_action_goal", "/robot/go"),
+                     ("send_action_goal", "/missing")):
+        bus.client_called(op, name, client)
+    await recorder.stop()
+    with open(tmp_path / "r.mcap", "rb") as f:
+        entries = [json.loads(m.data) for _s, _c, m in
+                   make_reader(f).iter_messages(topics=[AUDIT_TOPIC])]
+    assert [(e["op"], e["name"], e["type"], e["auth_level"], e["address"]) for e in entries] == [
+        ("call_service", "/robot/do", "std_srvs/srv/Trigger", "admin", "10.0.0.7"),
+        ("send_action_goal", "/robot/go", "nav2_msgs/action/FollowPath", "admin", "10.0.0.7")]

@@ -1,0 +1,141 @@
+// Record and replay in the console.
+// Recordings (Status tab): start/stop a recording on the server (/record/start, /record/stop),
+// its size growing (/record/state), the recordings folder (/record/list) with download links
+// (/recordings/NAME on this server's port).
+// ReplayTimeline (over the map): shown when the server replays a file (`hitrobot-server
+// replay`): play/pause, a seek bar, position/duration and the speed, from /replay/state.
+/* global ROSLIB */
+import { log } from './log.js';
+import { el } from './util.js';
+
+const SPEEDS = [0.25, 0.5, 1, 2, 4, 8];
+
+function formatBytes(n) {
+  if (n >= 1e9) return `${(n / 1e9).toFixed(2)} GB`;
+  if (n >= 1e6) return `${(n / 1e6).toFixed(1)} MB`;
+  if (n >= 1e3) return `${(n / 1e3).toFixed(0)} kB`;
+  return `${n} B`;
+}
+
+function formatTime(s) {
+  const m = Math.floor(s / 60);
+  return `${m}:${(s - m * 60).toFixed(1).padStart(4, '0')}`;
+}
+
+function caller(ros, name, serviceType) {
+  const service = new ROSLIB.Service({ ros, name, serviceType });
+  return (args = {}) => new Promise((resolve) => {
+    service.callService(new ROSLIB.ServiceRequest(args), (reply) => {
+      if (reply.success === false) log('error', `${name}: ${reply.message}`);
+      resolve(reply);
+    }, (error) => {
+      log('error', `${name} failed: ${error}`);
+      resolve(null);
+    });
+  });
+}
+
+export class Recordings {
+  constructor({ ros, parent }) {
+    this.start = caller(ros, '/record/start', 'hitrobot_msgs/RecordStart');
+    this.stop = caller(ros, '/record/stop', 'std_srvs/Trigger');
+    this.listService = caller(ros, '/record/list', 'hitrobot_msgs/ListRecordings');
+    this.state = el('div', { class: 'record-state', id: 'record-state', dataset: { recording: 'unknown' } }, 'recorder –');
+    this.startButton = el('button', { type: 'button', id: 'record-start', title: 'Record every topic into a new file in the recordings folder (/record/start)', onclick: () => this.onStart() }, 'Start recording');
+    this.stopButton = el('button', { type: 'button', id: 'record-stop', class: 'danger', disabled: true, onclick: () => this.onStop() }, 'Stop');
+    this.list = el('ul', { class: 'recordings', id: 'recording-list' }, el('li', { class: 'empty' }, '–'));
+    this.panel = el('section', { class: 'panel', id: 'recordings-panel' },
+      el('h2', {}, 'Recordings ', el('button', { type: 'button', class: 'small', id: 'recordings-refresh', title: 'List again', onclick: () => this.refresh() }, '↻')),
+      this.state, el('div', { class: 'buttons' }, this.startButton, this.stopButton), this.list);
+    parent.append(this.panel);
+    new ROSLIB.Topic({ ros, name: '/record/state', messageType: 'hitrobot_msgs/RecordState' })
+      .subscribe((s) => this.show(s));
+  }
+
+  show(s) {
+    const first = this.state.dataset.recording === 'unknown';
+    this.state.dataset.recording = String(s.recording);
+    this.state.textContent = s.recording
+      ? `recording ${s.file}: ${formatBytes(Number(s.bytes))}, ${s.messages} messages` +
+        (Number(s.dropped) ? `, ${s.dropped} dropped` : '')
+      : 'not recording';
+    this.startButton.disabled = s.recording;
+    this.stopButton.disabled = !s.recording;
+    if (first) this.refresh();
+  }
+
+  async onStart() {
+    const reply = await this.start({ name: '' });
+    if (reply && reply.success) log('info', reply.message);
+  }
+
+  async onStop() {
+    const reply = await this.stop();
+    if (reply && reply.success) log('info', reply.message);
+    await this.refresh();
+  }
+
+  async refresh() {
+    const reply = await this.listService();
+    if (!reply) return;
+    const files = reply.files || [];
+    this.list.replaceChildren(...(files.length ? files.map((name, i) => el('li', { dataset: { name } },
+      el('a', { href: `recordings/${encodeURIComponent(name)}`, download: name, title: `Download ${name}` }, name),
+      el('small', {}, ` ${formatBytes(Number(reply.sizes[i]))}`)))
+      : [el('li', { class: 'empty' }, 'no recordings yet')]));
+  }
+}
+
+export class ReplayTimeline {
+  constructor({ ros, parent }) {
+    this.pause = caller(ros, '/replay/pause', 'std_srvs/Trigger');
+    this.resume = caller(ros, '/replay/resume', 'std_srvs/Trigger');
+    this.seek = caller(ros, '/replay/seek', 'hitrobot_msgs/ReplaySeek');
+    this.setSpeed = caller(ros, '/replay/set_speed', 'hitrobot_msgs/ReplaySetSpeed');
+    this.dragging = false;
+    this.play = el('button', { type: 'button', class: 'play', title: 'Play / pause the replay', onclick: () => this.toggle() }, '❚❚');
+    this.slider = el('input', { type: 'range', class: 'seek', min: '0', max: '0', step: '0.1', value: '0', 'aria-label': 'Replay position' });
+    this.slider.addEventListener('input', () => { this.dragging = true; this.showTime(Number(this.slider.value)); });
+    this.slider.addEventListener('change', async () => {
+      await this.seek({ position: Number(this.slider.value) });
+      this.dragging = false;
+    });
+    this.time = el('span', { class: 'time' }, '–');
+    this.speed = el('select', { class: 'speed', title: 'Replay speed', 'aria-label': 'Replay speed' },
+      ...SPEEDS.map((v) => el('option', { value: String(v) }, `${v}×`)));
+    this.speed.value = '1';
+    this.speed.addEventListener('change', () => this.setSpeed({ speed: Number(this.speed.value) }));
+    this.file = el('span', { class: 'file' });
+    this.bar = el('div', { class: 'replay-bar', id: 'replay-bar', hidden: true, dataset: { paused: 'unknown' } },
+      this.play, this.slider, this.time, this.speed, this.file);
+    parent.append(this.bar);
+    new ROSLIB.Topic({ ros, name: '/replay/state', messageType: 'hitrobot_msgs/ReplayState' })
+      .subscribe((s) => this.show(s));
+  }
+
+  show(s) {
+    this.state = s;
+    this.bar.hidden = false;
+    this.bar.dataset.paused = String(s.paused);
+    this.bar.dataset.position = s.position.toFixed(3);
+    this.bar.dataset.speed = String(s.speed);
+    this.play.textContent = s.paused ? '▶' : '❚❚';
+    this.slider.max = String(s.duration);
+    this.file.textContent = s.file + (s.loop ? ' ⟳' : '');
+    if (SPEEDS.includes(s.speed)) this.speed.value = String(s.speed);
+    if (!this.dragging) {
+      this.slider.value = String(s.position);
+      this.showTime(s.position);
+    }
+  }
+
+  showTime(position) {
+    this.time.textContent = `${formatTime(position)} / ${formatTime(this.state ? this.state.duration : 0)}`;
+  }
+
+  toggle() {
+    if (!this.state) return;
+    if (this.state.paused) this.resume();
+    else this.pause();
+  }
+}
