@@ -18,7 +18,7 @@ from __future__ import annotations
 import hashlib
 import math
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -113,9 +113,15 @@ class SimConfig:
 class Simulator:
     """One simulated robot in one world. Not thread-safe; drive it from one thread/loop."""
 
-    def __init__(self, world: World, seed: int = 0, config: SimConfig | None = None) -> None:
+    def __init__(self, world: World, seed: int = 0, config: SimConfig | None = None,
+                 start: Pose2D | None = None,
+                 others: Callable[[Simulator], Sequence[Pose2D]] | None = None) -> None:
         cfg = config or SimConfig()
         self.world = world
+        self.start = start or world.start_pose
+        self._others = others
+        """The true poses of the other robots in a shared world (they see and bump into each
+        other; see :mod:`~hitrobot_server.robot.sim.shared`)."""
         self.config = cfg
         self.seed = seed
         self._rng = np.random.default_rng(seed)
@@ -126,7 +132,7 @@ class Simulator:
         self._caster = RayCaster(spec, world.solid)
         self._lidar = Lidar(self._caster, cfg.lidar, self._rng)
         self._sensors = SensorSuite(self._caster, cfg.drive.radius)
-        self._drive = DiffDrive(world.start_pose, cfg.drive, self._clearance)
+        self._drive = DiffDrive(self.start, cfg.drive, self._clearance)
         self._mapper = ExploreMapper(spec)
         if cfg.prebuilt_map:
             self._mapper.seed(world.occupied, world.free)
@@ -142,7 +148,7 @@ class Simulator:
         self._blocked_revision = 0
         self._home = world.dock_pose
         self._costmap: Costmap | None = None
-        self._costmap_key: tuple[int, int, int] | None = None
+        self._costmap_key: tuple | None = None
         self._current: Action | None = None
         self._history: OrderedDict[int, Action] = OrderedDict()
         self._next_action_id = 1
@@ -202,6 +208,11 @@ class Simulator:
     def _sense(self) -> None:
         true_pose = self._drive.pose
         ranges = self._lidar.measure(true_pose)
+        others = self.others()
+        if others:
+            ranges = np.minimum(ranges, discs_along_rays(
+                true_pose, self._lidar.angles, others, self.config.drive.radius,
+                self.config.lidar.max_range))
         ranges.flags.writeable = False  # handed out in LaserScan; shared by every reader
         believed = self._localizer.believed(true_pose)
         angles = self._lidar.angles
@@ -219,7 +230,20 @@ class Simulator:
         ix, iy = spec.cell(x, y)
         if not spec.contains(ix, iy):
             return 0.0
-        return (float(self._true_field[iy, ix]) - 0.5) * spec.resolution
+        clearance = (float(self._true_field[iy, ix]) - 0.5) * spec.resolution
+        for other in self.others():  # another robot's disc is an obstacle too
+            clearance = min(clearance, math.hypot(x - other.x, y - other.y) - self.drive.radius)
+        return clearance
+
+    def others(self) -> Sequence[Pose2D]:
+        """The true poses of the other robots sharing this world (none when alone)."""
+        return self._others(self) if self._others is not None else ()
+
+    def restarted(self) -> Simulator:
+        """A fresh simulator in its start-up state (a reboot): same world, seed, configuration,
+        start pose and neighbours."""
+        return Simulator(self.world, seed=self.seed, config=self.config, start=self.start,
+                         others=self._others)
 
     # --- what actions see (ActionContext) ----------------------------------------------------
 
@@ -262,20 +286,30 @@ class Simulator:
         return self._scan
 
     def costmap(self) -> Costmap:
-        key = (self._mapper.revision, self._lines.revision, self._blocked_revision)
+        """The planner's map; other robots in lidar range are obstacles in it (rebuilt when one
+        moved by a quarter metre)."""
+        seen = self._seen_robots()
+        key = (self._mapper.revision, self._lines.revision, self._blocked_revision,
+               tuple((round(p.x * 4), round(p.y * 4)) for p in seen))
         if self._costmap is None or key != self._costmap_key:
             cells = self._mapper.cells()
+            radius = self.config.drive.radius
             self._costmap = build_costmap(
                 self.world.spec,
                 cells >= 128,
                 cells == 0,
                 self.config.costmap,
                 walls=self._lines.get(ArtifactUsage.VIRTUAL_WALL),
-                blocked=self._blocked,
+                blocked=(*self._blocked, *(disc_polygon(p, radius) for p in seen)),
                 tracks=self._lines.get(ArtifactUsage.VIRTUAL_TRACK),
             )
             self._costmap_key = key
         return self._costmap
+
+    def _seen_robots(self) -> list[Pose2D]:
+        me = self._drive.pose
+        reach = self.config.lidar.max_range
+        return [p for p in self.others() if math.hypot(p.x - me.x, p.y - me.y) <= reach]
 
     def start_relocalization(self, area: Rect | None) -> RelocalizationSearch:
         scan = self._scan
@@ -561,6 +595,32 @@ class Simulator:
         self._lines.replace_all(ArtifactUsage.VIRTUAL_TRACK, cmap.tracks)
         self._home = cmap.home
         self.set_pose(pose)
+
+
+def discs_along_rays(origin: Pose2D, angles: np.ndarray, centres: Sequence[Pose2D],
+                     radius: float, max_range: float) -> np.ndarray:
+    """Per beam (angles relative to ``origin``'s heading): the distance to the first disc of
+    ``radius`` around any of ``centres``, or ``inf``."""
+    world = np.asarray(angles) + origin.yaw
+    ux, uy = np.cos(world), np.sin(world)
+    out = np.full(world.shape, np.inf)
+    for c in centres:
+        cx, cy = c.x - origin.x, c.y - origin.y
+        along = ux * cx + uy * cy
+        miss2 = (cx * cx + cy * cy) - along * along
+        inside = radius * radius - miss2
+        t = along - np.sqrt(np.maximum(inside, 0.0))
+        hit = (inside >= 0.0) & (t > 0.0) & (t <= max_range)
+        out = np.where(hit, np.minimum(out, t), out)
+    return out
+
+
+def disc_polygon(centre: Pose2D, radius: float, sides: int = 12) -> tuple[Point2D, ...]:
+    """A polygon around a disc (its corners on a circle slightly larger than the disc)."""
+    outer = radius / math.cos(math.pi / sides)
+    return tuple(Point2D(centre.x + outer * math.cos(2 * math.pi * k / sides),
+                         centre.y + outer * math.sin(2 * math.pi * k / sides))
+                 for k in range(sides))
 
 
 def _checked_pose(pose: Pose2D) -> Pose2D:
