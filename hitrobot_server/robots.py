@@ -78,7 +78,8 @@ async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
             view.params.set(ROBOT_ID_PARAM, entry.name)
             unit.bus = view
             unit.nodes = await start_robot_nodes(
-                view, robot_node_options(settings, entry), backend, site_map)  # type: ignore[arg-type]
+                view, entry.name, robot_node_options(settings, entry), backend,  # type: ignore[arg-type]
+                site_map)
     except BaseException:
         await stop_robot(unit)
         raise

@@ -8,6 +8,7 @@ from ..robot.locomotion import STAND_UP_SECONDS, LocomotionBackend
 from .base import Node
 from .conventional import ConventionalNode
 from .diagnostics import DiagnosticsNode
+from .fleet import FleetMemberNode, FleetNode
 from .graph import GraphNodeService
 from .intelligent_navigation import IntelligentNavigationNode
 from .locomotion import LocomotionNode
@@ -65,18 +66,20 @@ def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend,
 
 
 async def start_site_nodes(bus: Bus, settings: NodeOptions) -> list[Node]:
-    """The site-wide nodes of a server with named robots: rosapi, TF and the bridge's
-    diagnostics (the site map manager comes with the first robot)."""
-    nodes: list[Node] = [Rosapi(bus, settings), TFRepublisherNode(bus), DiagnosticsNode(bus)]
+    """The site-wide nodes of a server with named robots: rosapi, TF, the bridge's
+    diagnostics and the fleet (the site map manager comes with the first robot)."""
+    nodes: list[Node] = [Rosapi(bus, settings), TFRepublisherNode(bus), DiagnosticsNode(bus),
+                         FleetNode(bus, settings.slamware.map_frame)]
     await _start(nodes)
     return nodes
 
 
-async def start_robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend,
+async def start_robot_nodes(bus: Bus, name: str, settings: NodeOptions, backend: RobotBackend,
                             site_map: MapManager | None) -> list[Node]:
-    """One named robot's nodes on its namespaced view ``bus``, with its own diagnostics."""
+    """Robot ``name``'s nodes on its namespaced view ``bus``, with its own diagnostics and its
+    state for the fleet."""
     nodes = robot_nodes(bus, settings, backend, site_map)
-    nodes.append(DiagnosticsNode(bus, backend, bridge=False))
+    nodes += [DiagnosticsNode(bus, backend, bridge=False), FleetMemberNode(bus, backend, name)]
     await _start(nodes)
     return nodes
 

@@ -148,7 +148,8 @@ class Simulator:
         self._blocked_revision = 0
         self._home = world.dock_pose
         self._costmap: Costmap | None = None
-        self._costmap_key: tuple | None = None
+        self._costmap_key: tuple[int, int, int] | None = None
+        self._with_robots: tuple[tuple, Costmap] | None = None  # the costmap with the others
         self._current: Action | None = None
         self._history: OrderedDict[int, Action] = OrderedDict()
         self._next_action_id = 1
@@ -286,25 +287,28 @@ class Simulator:
         return self._scan
 
     def costmap(self) -> Costmap:
-        """The planner's map; other robots in lidar range are obstacles in it (rebuilt when one
-        moved by a quarter metre)."""
-        seen = self._seen_robots()
-        key = (self._mapper.revision, self._lines.revision, self._blocked_revision,
-               tuple((round(p.x * 4), round(p.y * 4)) for p in seen))
+        """The planner's map; other robots in lidar range are obstacles in it (laid over the
+        map's costmap again when one moved by a quarter metre)."""
+        key = (self._mapper.revision, self._lines.revision, self._blocked_revision)
         if self._costmap is None or key != self._costmap_key:
             cells = self._mapper.cells()
-            radius = self.config.drive.radius
             self._costmap = build_costmap(
                 self.world.spec,
                 cells >= 128,
                 cells == 0,
                 self.config.costmap,
                 walls=self._lines.get(ArtifactUsage.VIRTUAL_WALL),
-                blocked=(*self._blocked, *(disc_polygon(p, radius) for p in seen)),
+                blocked=self._blocked,
                 tracks=self._lines.get(ArtifactUsage.VIRTUAL_TRACK),
             )
             self._costmap_key = key
-        return self._costmap
+            self._with_robots = None
+        seen = tuple((round(p.x * 4) / 4, round(p.y * 4) / 4) for p in self._seen_robots())
+        if not seen:
+            return self._costmap
+        if self._with_robots is None or self._with_robots[0] != seen:
+            self._with_robots = (seen, with_robots(self._costmap, seen, self.config))
+        return self._with_robots[1]
 
     def _seen_robots(self) -> list[Pose2D]:
         me = self._drive.pose
@@ -615,12 +619,34 @@ def discs_along_rays(origin: Pose2D, angles: np.ndarray, centres: Sequence[Pose2
     return out
 
 
-def disc_polygon(centre: Pose2D, radius: float, sides: int = 12) -> tuple[Point2D, ...]:
-    """A polygon around a disc (its corners on a circle slightly larger than the disc)."""
-    outer = radius / math.cos(math.pi / sides)
-    return tuple(Point2D(centre.x + outer * math.cos(2 * math.pi * k / sides),
-                         centre.y + outer * math.sin(2 * math.pi * k / sides))
-                 for k in range(sides))
+def with_robots(base: Costmap, centres: Sequence[tuple[float, float]],
+                config: SimConfig) -> Costmap:
+    """``base`` with a robot's disc (as wide as this one) at each of ``centres``, inflated as
+    :func:`build_costmap` inflates obstacles: lethal where the discs would touch (plus the
+    safety margin), a decaying cost around, not parkable up to the park margin."""
+    spec = base.spec
+    c = config.costmap
+    radius = config.drive.radius
+    lethal_reach = 2 * radius + 0.5 * spec.resolution + c.safety_margin
+    park_reach = lethal_reach + c.park_margin
+    lethal, parkable, cost = base.lethal.copy(), base.parkable.copy(), base.cost.copy()
+    span = math.ceil((radius + max(park_reach, c.inflation_radius)) / spec.resolution) + 1
+    for x, y in centres:
+        ix, iy = spec.cell(x, y)
+        x0, x1 = max(ix - span, 0), min(ix + span + 1, spec.width)
+        y0, y1 = max(iy - span, 0), min(iy + span + 1, spec.height)
+        if x0 >= x1 or y0 >= y1:
+            continue
+        cx, cy = spec.center(np.arange(x0, x1)[None, :], np.arange(y0, y1)[:, None])
+        d = np.hypot(cx - x, cy - y)
+        lethal[y0:y1, x0:x1] |= d < lethal_reach
+        parkable[y0:y1, x0:x1] &= d >= park_reach
+        clearance = d - radius  # to the other disc's edge
+        extra = 1.0 + c.inflation_cost * np.exp(-c.inflation_decay
+                                                * np.maximum(clearance - radius, 0.0))
+        extra = np.where(clearance < c.inflation_radius, extra, 1.0).astype(np.float32)
+        np.maximum(cost[y0:y1, x0:x1], extra, out=cost[y0:y1, x0:x1])
+    return Costmap(spec, lethal, cost, base.track, parkable)
 
 
 def _checked_pose(pose: Pose2D) -> Pose2D:
