@@ -138,3 +138,16 @@ async def test_two_robots_each_under_its_own_name(make_server, tmp_path):
             assert math.hypot(x - start_b[0], y - start_b[1]) < 0.05
     finally:
         await w.close()
+
+
+async def test_every_global_name_of_a_single_robot_is_reserved(make_server, tmp_path):
+    """A robot named like any first segment of the single robot's names would shadow it."""
+    from hitrobot_server.bus.namespace import RESERVED
+
+    server = await make_server(robot="sim", map_dir=str(tmp_path))
+    bus = server.bus
+    names = [*bus.topics, *bus.services, *bus.actions, *bus.nodes, *server.robots[0].bus.params
+             .get("/")]
+    firsts = {n.strip("/").split("/")[0] for n in names}
+    firsts.discard("map")  # /map/robot_0/Odometry etc. start with the reserved 'map' anyway
+    assert firsts <= RESERVED, sorted(firsts - RESERVED)
