@@ -82,10 +82,10 @@ export class Fleet {
     panel.hidden = true;
     panel.innerHTML = `<h2>Fleet <span class="count" id="fleet-count"></span></h2>
       <ul class="fleet-robots" id="fleet-robots"></ul>
-      <h3>Dispatch to a POI</h3>
+      <h2>Dispatch to a POI</h2>
       <ul class="fleet-pois" id="fleet-pois"><li class="empty">no POIs</li></ul>
       <div class="fleet-reply" id="fleet-reply"></div>
-      <h3>Tasks</h3>
+      <h2>Tasks</h2>
       <ul class="fleet-tasks" id="fleet-tasks"><li class="empty">none</li></ul>`;
     const operate = document.querySelector('[data-tab-panel="operate"]') || document.body;
     operate.prepend(panel);
