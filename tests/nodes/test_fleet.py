@@ -156,3 +156,24 @@ async def test_three_robots_a_failed_task_goes_to_another_robot(make_server, tmp
         assert task(w, got["task"])["assigned"] == "c"  # the nearer of the other two
     finally:
         await w.close()
+
+
+async def test_dispatch_is_refused_when_every_robot_is_offline(make_server, tmp_path):
+    import socket
+
+    with socket.socket() as s:  # a loopback port nothing listens on: the robots never answer
+        s.bind(("127.0.0.1", 0))
+        url = f"http://127.0.0.1:{s.getsockname()[1]}"
+    server = await make_server(robots=(RobotEntry("a", url), RobotEntry("b", url)),
+                               map_dir=str(tmp_path))
+    w = await Watcher.open(server.port)
+    try:
+        await w.subscribe("/fleet/robots")
+        await w.until(lambda: {n: r["state"] for n, r in robots(w).items()} == {
+            "a": "offline", "b": "offline"}, 10, "both robots listed offline")
+        got = await dispatch(w, target=pose(5.0, Y))
+        assert not got["accepted"] and got["message"] == "every robot is offline", got
+        named = await dispatch(w, target=pose(5.0, Y), robot="a")
+        assert not named["accepted"] and "offline" in named["message"]
+    finally:
+        await w.close()
