@@ -104,3 +104,26 @@ async def test_dispatch_to_a_poi_sends_the_nearer_robot(fleet_console: Console):
     finally:
         await w.close()
     assert c.errors == []
+
+
+async def test_the_goal_tool_sends_the_selected_robot(fleet_console: Console):
+    c = fleet_console
+    page = c.page
+    w = await Watcher.open(c.server.port)
+    try:
+        for robot in ("a", "b"):
+            await w.subscribe(f"/{robot}/robot_pose")
+        await w.until(lambda: w.latest("/a/robot_pose") and w.latest("/b/robot_pose"), 10,
+                      "both poses")
+        await page.check("#fleet-robots input[value=b]")
+        sx, sy = await c.to_client(10.0, Y)
+        await page.click("[data-tool=goal]")
+        await c.drag((sx, sy), (sx - 50, sy))  # drag left on the screen: face -x (west)
+        await c.wait_data("#goal-status", "status", "succeeded", timeout=30)
+        bx, by = pose_of(w, "b")
+        assert math.hypot(bx - 10.0, by - Y) < 0.3
+        assert all(math.hypot(m["position"]["x"] - 4.0, m["position"]["y"] - Y) < 0.05
+                   for _, m in w.messages["/a/robot_pose"])  # a stayed where it was
+    finally:
+        await w.close()
+    assert c.errors == []
