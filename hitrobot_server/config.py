@@ -14,8 +14,9 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from .bus.namespace import check_robot_name
 from .nodes.options import NodeOptions, SlamwareParams
-from .robot.options import RobotOptions
+from .robot.options import RobotEntry, RobotOptions, parse_robot
 from .session.options import SessionOptions
 
 STATUS_LEVELS = ("info", "warning", "error", "none")
@@ -66,6 +67,8 @@ class Settings:
     record_split_size: int = 0
     record_dir: str | None = None
     slamware: SlamwareParams = field(default_factory=SlamwareParams)
+    # Named robots (``--robot NAME=SPEC``, repeatable); empty: the single unnamed ``robot``.
+    robots: tuple[RobotEntry, ...] = ()
     auth_secret: str | None = field(default=None, repr=False)
     # Set by the server when it shares a bus: client node names stay unique across servers.
     client_tag: str = field(default="", repr=False)
@@ -119,20 +122,27 @@ class Settings:
             params_glob=self.params_glob,
         )
 
-    def node_options(self) -> NodeOptions:
+    def robot_entries(self) -> list[RobotEntry]:
+        """Every robot to attach: the named ones, or the single unnamed ``--robot``."""
+        return list(self.robots) or [RobotEntry("", self.robot)]
+
+    def node_options(self, robot: str | None = None) -> NodeOptions:
+        """The nodes' options (for one robot's ``spec`` when given, else the unnamed one)."""
+        spec = self.robot if robot is None else robot
         return NodeOptions(
             map_store=self.map_store,
             slamware=self.slamware,
             authenticate=self.authenticate,
-            time_scale=self.sim_speed if self.robot == "sim" else 1.0,
+            time_scale=self.sim_speed if spec == "sim" else 1.0,
             topics_glob=self.topics_glob,
             services_glob=self.services_glob,
             params_glob=self.params_glob,
         )
 
-    def robot_options(self) -> RobotOptions:
+    def robot_options(self, entry: RobotEntry | None = None) -> RobotOptions:
         return RobotOptions(
-            robot=self.robot,
+            robot=self.robot if entry is None else entry.spec,
+            start=None if entry is None else entry.start,
             world=self.world,
             sim_seed=self.sim_seed,
             sim_speed=self.sim_speed,
@@ -168,7 +178,8 @@ _HELP = {
     "keyfile": "PEM private key for --ssl (if not in --certfile)",
     "log_level": "logging level: debug, info, warning, error",
     "robot": "the robot behind the bus: 'sim' (built-in simulated Slamware robot), 'none', or "
-    "a Slamware REST URL such as http://192.168.11.1:1448",
+    "a Slamware REST URL such as http://192.168.11.1:1448; repeat as NAME=SPEC for several "
+    "robots, each under /NAME/ (sim@X,Y[,YAW] sets a simulated robot's start pose)",
     "world": "map_server YAML (+ PGM) the simulator drives in (default: the built-in office)",
     "sim_seed": "random seed of the simulator (sensor noise); same seed, same run",
     "sim_speed": "simulated seconds per wall-clock second (2 = twice as fast)",
@@ -193,8 +204,7 @@ _HELP = {
     "map_dir": "folder of saved map folders (default: $XDG_DATA_HOME/hitrobot-server/maps)",
 }
 
-_SKIP = {"auth_secret", "client_tag", "slamware", "worker_id"}
-ROBOTS = ("sim", "none")
+_SKIP = {"auth_secret", "client_tag", "slamware", "worker_id", "robots"}
 BUSES = ("local", "zenoh")
 
 
@@ -232,6 +242,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             kwargs["choices"] = STATUS_LEVELS
         if f.name == "event_loop":
             kwargs["choices"] = EVENT_LOOPS
+        if f.name == "robot":  # repeatable: --robot a=sim --robot b=sim
+            kwargs["action"] = "append"
         parser.add_argument(*flags, **kwargs)
     parser.add_argument("--worker-id", type=int, default=None, help=argparse.SUPPRESS)
 
@@ -252,12 +264,20 @@ def load(args: argparse.Namespace) -> Settings:
         data = tomllib.loads(Path(args.config).read_text())
         if "slamware" in data:
             values["slamware"] = SlamwareParams.from_mapping(data.pop("slamware"))
+        if "robots" in data:  # [robots] NAME = "SPEC"
+            table = data.pop("robots")
+            if not isinstance(table, dict) or not all(isinstance(v, str) for v in table.values()):
+                raise ValueError(f"{args.config}: [robots] maps robot names to SPEC strings")
+            values["robot"] = [f"{name}={spec}" for name, spec in table.items()]
         section = data.get("server", data)
         known = {f.name for f in fields(Settings)} - _SKIP
         for key, value in section.items():
             name = key.replace("-", "_")
             if name not in known:
                 raise ValueError(f"{args.config}: unknown setting '{key}'")
+            if name == "robot" and "robot" in values:
+                raise ValueError(f"{args.config}: give the robots either as 'robot' or as a "
+                                 "[robots] table, not both")
             values[name] = value
     for f in fields(Settings):
         if f.name in _SKIP:
@@ -265,6 +285,8 @@ def load(args: argparse.Namespace) -> Settings:
         value = getattr(args, f.name, None)
         if value is not None:
             values[f.name] = value
+    if "robot" in values:
+        values["robot"], values["robots"] = robot_entries(values["robot"])
     settings = Settings(**values)
     settings.worker_id = getattr(args, "worker_id", None)
     settings.workers = str(settings.workers)
@@ -276,8 +298,6 @@ def load(args: argparse.Namespace) -> Settings:
         raise ValueError(f"event_loop must be one of {', '.join(EVENT_LOOPS)}")
     if settings.status_level not in STATUS_LEVELS:
         raise ValueError(f"status_level must be one of {', '.join(STATUS_LEVELS)}")
-    if settings.robot not in ROBOTS and not settings.robot.startswith(("http://", "https://")):
-        raise ValueError(f"robot must be {', '.join(ROBOTS)} or an http(s):// URL")
     if settings.bus not in BUSES:
         raise ValueError(f"bus must be one of {', '.join(BUSES)}")
     if settings.sim_speed <= 0:
@@ -292,3 +312,30 @@ def load(args: argparse.Namespace) -> Settings:
     if settings.fragment_memory_limit < 1:
         raise ValueError("fragment_memory_limit must be positive")
     return settings
+
+
+def robot_entries(given: str | list[str]) -> tuple[str, tuple[RobotEntry, ...]]:
+    """``--robot`` occurrences (or the TOML value) → the unnamed robot's spec and the named
+    robots. Every name is checked before anything starts: one unnamed robot or only named ones,
+    no duplicates, no name that is invalid or shadows a global name."""
+    texts = [given] if isinstance(given, str) else list(given)
+    if not texts or not all(isinstance(t, str) for t in texts):
+        raise ValueError("robot must be a SPEC string or a list of NAME=SPEC strings")
+    entries = [parse_robot(t) for t in texts]
+    named = [e for e in entries if e.name]
+    if not named:
+        if len(entries) > 1:
+            raise ValueError("several robots need names: --robot NAME=SPEC for each")
+        only = entries[0]
+        if only.start is not None:
+            raise ValueError("a start pose (sim@X,Y) needs a named robot: --robot NAME=sim@X,Y")
+        return only.spec, ()
+    if len(named) != len(entries):
+        raise ValueError("name every robot (--robot NAME=SPEC) when there are several")
+    seen: set[str] = set()
+    for entry in named:
+        check_robot_name(entry.name)
+        if entry.name in seen:
+            raise ValueError(f"robot name {entry.name!r} is given twice")
+        seen.add(entry.name)
+    return "sim", tuple(named)

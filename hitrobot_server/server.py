@@ -13,11 +13,11 @@ from .bus.core import Bus
 from .bus.rosout import RosoutHandler
 from .bus.zenoh_keys import endpoints
 from .config import Settings
-from .nodes.assembly import start_bridge_nodes, start_nodes, stop_nodes
+from .nodes.assembly import start_bridge_nodes
 from .nodes.base import Node
 from .protocol.auth import load_secret
 from .record.control import RecordingControl
-from .robot.factory import build_backend
+from .robots import RobotUnit, start_robots, stop_robots
 from .session.foxglove import FoxgloveSession, FoxgloveShared
 from .session.options import SessionOptions
 from .session.session import Session, Shared
@@ -39,9 +39,9 @@ class HitrobotServer:
         self.bus = Bus(
             types or TypeRegistry.default(), unregister_timeout=self.settings.unregister_timeout
         )
-        self.nodes: list[Node] = []
+        self.nodes: list[Node] = []  # the site nodes of a server with named robots
+        self.robots: list[RobotUnit] = []  # every robot: its backend and its nodes
         self.link = None  # the ZenohLink with --bus zenoh
-        self.backend = None  # the robot (RobotBackend) when one is attached
         self.sessions: set[Session | FoxgloveSession] = set()
         self.foxglove = FoxgloveShared.for_bus(self.bus)
         self.shared = Shared.for_options(self.settings.session_options())
@@ -123,11 +123,8 @@ class HitrobotServer:
             await self.link.start()
             s.client_tag = f"{self.link.zid[:8]}_"
         self._session_options = s.session_options()  # with the secret and client tag set
-        self.backend = build_backend(s.robot_options())
-        if self.backend is not None:
-            await self.backend.start()
-        if s.primary:
-            self.nodes = await start_nodes(self.bus, s.node_options(), self.backend)
+        if s.primary:  # the robots and their nodes; a secondary --workers worker: rosapi only
+            self.nodes, self.robots = await start_robots(self.bus, s)
         else:
             self.nodes = await start_bridge_nodes(self.bus, s.node_options())
 
@@ -188,18 +185,24 @@ class HitrobotServer:
                 await asyncio.wait_for(self._tcp.wait_closed(), 5)
         for session in list(self.sessions):
             session.close()
-        await stop_nodes(self.nodes)
+        await stop_robots(self.nodes, self.robots)
         self.nodes.clear()
+        self.robots.clear()
         if self.recording is not None:  # after the nodes: their last messages are kept
             await self.recording.stop()
             self.recording = None
-        if self.backend is not None:
-            await self.backend.stop()
-            self.backend = None
         if self._rosout is not None:
             logging.getLogger(PACKAGE_LOGGER).removeHandler(self._rosout)
             self._rosout.close()
             self._rosout = None
+        await self._stop_link()
+
+    @property
+    def backend(self):
+        """The first robot's backend (the single robot's), None without one."""
+        return self.robots[0].backend if self.robots else None
+
+    async def _stop_link(self) -> None:
         if self.link is not None:
             await self.link.stop()
             self.link = None

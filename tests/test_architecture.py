@@ -28,8 +28,9 @@ ALLOWED: dict[str, set[str]] = {
     "conformance": {"protocol", "types"},  # a client tool: it talks to servers over sockets
     # the top: assembles the floors, so it may import any of them
     "config": {"session", "bus", "nodes", "robot", "protocol", "types"},
-    "server": {"config", "transport", "session", "bus", "nodes", "robot", "record", "protocol",
-               "types"},
+    "server": {"config", "robots", "transport", "session", "bus", "nodes", "robot", "record",
+               "protocol", "types"},
+    "robots": {"config", "bus", "nodes", "robot", "types"},  # one robot = backend + nodes
     "commands": {"robot", "signals", "config", "types", "server", "record"},
     "workers": {"config", "signals", "bus"},  # the --workers parent (bus: endpoint parsing)
     "cli": {"config", "server", "signals", "conformance", "commands", "workers"},

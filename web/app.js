@@ -6,6 +6,7 @@ import { connect, showBroken } from './connection.js';
 import { Diagnostics } from './diagnostics.js';
 import { dialogOpen } from './dialogs.js';
 import { MapEditor } from './editor.js';
+import { Fleet } from './fleet.js';
 import { Inspector } from './inspector.js';
 import { log } from './log.js';
 import { SavedMaps } from './maps.js';
@@ -135,6 +136,7 @@ function main() {
   const maps = new SavedMaps({ ros });
   const diagnostics = new Diagnostics({ ros, sensorLayer: layers.sensors });
   const inspector = new Inspector({ ros });
+  const fleet = new Fleet({ ros, view, teleop, navigator }); // shown with named robots only
   pois.onGo = (poi) => {
     navigator.goToPoi(poi);
     return false; // the navigator publishes it and follows it
@@ -235,7 +237,7 @@ function main() {
 
   // For debugging from the browser console, and for the tests: the page's own objects.
   window.hitrobot = { ros, view, navigator, pois, shell, teleop, robotState, robotActions, tools,
-    layers, editor, patrol, maps, diagnostics, inspector, showTab, robot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
+    fleet, layers, editor, patrol, maps, diagnostics, inspector, showTab, robot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
       easeljs: createjs.EaselJS && createjs.EaselJS.version } };
   // record and replay (recordings.js): a panel in the Status tab, a timeline over the map
   window.hitrobot.recordings = new Recordings({ ros, parent: document.querySelector('[data-tab-panel=status]') });

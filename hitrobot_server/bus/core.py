@@ -400,6 +400,10 @@ class Bus:
         return handle, asyncio.ensure_future(run())
 
     # ---------------------------------------------------------------- participants
+    def node_name(self, name: str) -> str:
+        """The name a node registers under (a robot's namespaced view moves it)."""
+        return name
+
     def register_node(self, node: str) -> None:
         self.nodes[node] = self.nodes.get(node, 0) + 1
         self._changed("node", node)

@@ -8,6 +8,7 @@ from ..robot.locomotion import STAND_UP_SECONDS, LocomotionBackend
 from .base import Node
 from .conventional import ConventionalNode
 from .diagnostics import DiagnosticsNode
+from .fleet import FleetMemberNode, FleetNode
 from .graph import GraphNodeService
 from .intelligent_navigation import IntelligentNavigationNode
 from .locomotion import LocomotionNode
@@ -31,10 +32,7 @@ async def start_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend | N
     if backend is not None:
         nodes += robot_nodes(bus, settings, backend)
     nodes.append(DiagnosticsNode(bus, backend))  # runs without a robot too (the bridge part)
-    for node in nodes:
-        start = getattr(node, "start", None)
-        if start is not None:
-            await start()
+    await _start(nodes)
     return nodes
 
 
@@ -44,20 +42,24 @@ async def start_bridge_nodes(bus: Bus, settings: NodeOptions) -> list[Node]:
     return [Rosapi(bus, settings, params=False)]
 
 
-def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend) -> list[Node]:
+def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend,
+                site_map: MapManager | None = None) -> list[Node]:
     """The robot-facing nodes, in start order. All of them drive the robot through the
-    locomotion gate, so a sitting robot refuses motion whichever interface asks."""
+    locomotion gate, so a sitting robot refuses motion whichever interface asks. A robot of a
+    fleet is handed the site's map manager (its POIs) instead of getting its own; the fleet's
+    first robot creates it (its map is the site's SLAM layer; ``/map_manager`` and ``/map``
+    are site-wide names, so the manager is global though made on the robot's view)."""
     robot = LocomotionBackend(backend, STAND_UP_SECONDS / settings.time_scale)
     frame = settings.slamware.map_frame
     move_base = MoveBaseNode(bus, robot, frame)
-    map_manager = MapManager(bus, robot, settings)
+    map_manager = site_map or MapManager(bus, robot, settings)
     mapfiles = MapFilesNode(bus, robot, settings)
     return [
         SlamwareNode(bus, robot, settings.slamware),
         ConventionalNode(bus, robot, frame),
         move_base,
         ShellNode(bus, robot, settings.authenticate, move_base),
-        map_manager,
+        *([] if site_map else [map_manager]),
         NavigationNode(bus, robot, map_manager.pois.get),
         PointCloudNode(bus, robot, frame),
         Nav2ActionsNode(bus, robot, frame),
@@ -67,6 +69,32 @@ def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend) -> list[
         GraphNodeService(bus, robot, settings, mapfiles),
         LocomotionNode(bus, robot, settings, lambda: mapfiles.loaded.frame),
     ]
+
+
+async def start_site_nodes(bus: Bus, settings: NodeOptions) -> list[Node]:
+    """The site-wide nodes of a server with named robots: rosapi, TF, the bridge's
+    diagnostics and the fleet (the site map manager comes with the first robot)."""
+    nodes: list[Node] = [Rosapi(bus, settings), TFRepublisherNode(bus), DiagnosticsNode(bus),
+                         FleetNode(bus, settings.slamware.map_frame)]
+    await _start(nodes)
+    return nodes
+
+
+async def start_robot_nodes(bus: Bus, name: str, settings: NodeOptions, backend: RobotBackend,
+                            site_map: MapManager | None) -> list[Node]:
+    """Robot ``name``'s nodes on its namespaced view ``bus``, with its own diagnostics and its
+    state for the fleet."""
+    nodes = robot_nodes(bus, settings, backend, site_map)
+    nodes += [DiagnosticsNode(bus, backend, bridge=False), FleetMemberNode(bus, backend, name)]
+    await _start(nodes)
+    return nodes
+
+
+async def _start(nodes: list[Node]) -> None:
+    for node in nodes:
+        start = getattr(node, "start", None)
+        if start is not None:
+            await start()
 
 
 async def stop_nodes(nodes: list[Node]) -> None:

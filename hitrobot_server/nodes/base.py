@@ -28,7 +28,7 @@ class Node:
 
     def __init__(self, bus: Bus, name: str):
         self.bus = bus
-        self.name = name
+        self.name = name = bus.node_name(name)
         self._subs: list[tuple[str, object]] = []
         bus.register_node(name)
         if type(self).__module__ != __name__:  # its module's records name it on /rosout

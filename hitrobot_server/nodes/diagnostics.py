@@ -58,9 +58,10 @@ def summary(name: str, items: list[dict]) -> dict:
 
 
 class DiagnosticsNode(RobotNode):
-    def __init__(self, bus: Bus, backend: RobotBackend | None = None):
+    def __init__(self, bus: Bus, backend: RobotBackend | None = None, bridge: bool = True):
         super().__init__(bus, "/diagnostic_aggregator", backend)
         self._device_id = ""
+        self._bridge = bridge  # a fleet robot's own diagnostics leave the bridge to the site
         self.advertise(TOPIC, "diagnostic_msgs/DiagnosticArray")
 
     async def start(self) -> None:
@@ -71,8 +72,9 @@ class DiagnosticsNode(RobotNode):
         if self.backend is not None:
             robot = await self.robot_items()
             statuses += [summary("/Robot", robot), *robot]
-        bridge = self.bridge_items()
-        statuses += [summary("/Bridge", bridge), *bridge]
+        if self._bridge:
+            bridge = self.bridge_items()
+            statuses += [summary("/Bridge", bridge), *bridge]
         self.publish(TOPIC, {"header": m.header("", self.bus.clock()), "status": statuses})
 
     def bridge_items(self) -> list[dict]:

@@ -2,22 +2,43 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from .backend import RobotBackend
+from .model import Pose2D
 from .options import RobotOptions
+
+if TYPE_CHECKING:
+    from .sim.shared import SharedWorld
+
+
+def _sim_config(mapping: bool):
+    from .sim.simulator import SimConfig
+
+    return SimConfig(prebuilt_map=not mapping, map_update=mapping)
 
 
 def build_simulator(world: str | None = None, seed: int = 0, mapping: bool = False):
     """The built-in simulated robot (``--world``, ``--sim-seed``, ``--sim-mapping``)."""
-    from .sim.simulator import SimConfig, Simulator
+    from .sim.simulator import Simulator
     from .sim.world import load_world
 
     loaded = load_world(world) if world else load_world()
-    config = SimConfig(prebuilt_map=not mapping, map_update=mapping)
-    return Simulator(loaded, seed=seed, config=config)
+    return Simulator(loaded, seed=seed, config=_sim_config(mapping))
 
 
-def build_backend(options: RobotOptions) -> RobotBackend | None:
-    """The robot backend for ``--robot``; the caller starts and stops it."""
+def shared_world(options: RobotOptions) -> SharedWorld:
+    """One world for several simulated robots (``--world``, ``--sim-mapping``)."""
+    from .sim.shared import SharedWorld
+    from .sim.world import load_world
+
+    loaded = load_world(options.world) if options.world else load_world()
+    return SharedWorld(loaded, _sim_config(options.sim_mapping))
+
+
+def build_backend(options: RobotOptions, world: SharedWorld | None = None) -> RobotBackend | None:
+    """The robot backend for ``--robot``; the caller starts and stops it. A simulated robot
+    joins ``world`` when one is given (its seed offset by the robots already there)."""
     if options.robot == "none":
         return None
     if options.robot.startswith(("http://", "https://")):
@@ -28,5 +49,8 @@ def build_backend(options: RobotOptions) -> RobotBackend | None:
         raise ValueError(f"--robot {options.robot}: expected sim, none or an http(s):// URL")
     from .sim.backend import SimBackend
 
+    if world is not None:
+        start = Pose2D(*options.start) if options.start is not None else None
+        return world.add(options.sim_seed + len(world.robots), start, options.sim_speed)
     simulator = build_simulator(options.world, options.sim_seed, options.sim_mapping)
     return SimBackend(simulator, time_scale=options.sim_speed)

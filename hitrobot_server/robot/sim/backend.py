@@ -101,8 +101,7 @@ class SimBackend(RobotBackend):
 
         async def come_back() -> None:
             await asyncio.sleep(self.reboot_delay)
-            old = self.simulator
-            self.simulator = Simulator(old.world, seed=old.seed, config=old.config)
+            self.simulator = self.simulator.restarted()
             self._reboot = None
             await self.start()
 

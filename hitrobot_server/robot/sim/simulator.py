@@ -18,7 +18,7 @@ from __future__ import annotations
 import hashlib
 import math
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -113,9 +113,15 @@ class SimConfig:
 class Simulator:
     """One simulated robot in one world. Not thread-safe; drive it from one thread/loop."""
 
-    def __init__(self, world: World, seed: int = 0, config: SimConfig | None = None) -> None:
+    def __init__(self, world: World, seed: int = 0, config: SimConfig | None = None,
+                 start: Pose2D | None = None,
+                 others: Callable[[Simulator], Sequence[Pose2D]] | None = None) -> None:
         cfg = config or SimConfig()
         self.world = world
+        self.start = start or world.start_pose
+        self._others = others
+        """The true poses of the other robots in a shared world (they see and bump into each
+        other; see :mod:`~hitrobot_server.robot.sim.shared`)."""
         self.config = cfg
         self.seed = seed
         self._rng = np.random.default_rng(seed)
@@ -126,7 +132,7 @@ class Simulator:
         self._caster = RayCaster(spec, world.solid)
         self._lidar = Lidar(self._caster, cfg.lidar, self._rng)
         self._sensors = SensorSuite(self._caster, cfg.drive.radius)
-        self._drive = DiffDrive(world.start_pose, cfg.drive, self._clearance)
+        self._drive = DiffDrive(self.start, cfg.drive, self._clearance)
         self._mapper = ExploreMapper(spec)
         if cfg.prebuilt_map:
             self._mapper.seed(world.occupied, world.free)
@@ -143,6 +149,7 @@ class Simulator:
         self._home = world.dock_pose
         self._costmap: Costmap | None = None
         self._costmap_key: tuple[int, int, int] | None = None
+        self._with_robots: tuple[tuple, Costmap] | None = None  # the costmap with the others
         self._current: Action | None = None
         self._history: OrderedDict[int, Action] = OrderedDict()
         self._next_action_id = 1
@@ -202,6 +209,11 @@ class Simulator:
     def _sense(self) -> None:
         true_pose = self._drive.pose
         ranges = self._lidar.measure(true_pose)
+        others = self.others()
+        if others:
+            ranges = np.minimum(ranges, discs_along_rays(
+                true_pose, self._lidar.angles, others, self.config.drive.radius,
+                self.config.lidar.max_range))
         ranges.flags.writeable = False  # handed out in LaserScan; shared by every reader
         believed = self._localizer.believed(true_pose)
         angles = self._lidar.angles
@@ -219,7 +231,20 @@ class Simulator:
         ix, iy = spec.cell(x, y)
         if not spec.contains(ix, iy):
             return 0.0
-        return (float(self._true_field[iy, ix]) - 0.5) * spec.resolution
+        clearance = (float(self._true_field[iy, ix]) - 0.5) * spec.resolution
+        for other in self.others():  # another robot's disc is an obstacle too
+            clearance = min(clearance, math.hypot(x - other.x, y - other.y) - self.drive.radius)
+        return clearance
+
+    def others(self) -> Sequence[Pose2D]:
+        """The true poses of the other robots sharing this world (none when alone)."""
+        return self._others(self) if self._others is not None else ()
+
+    def restarted(self) -> Simulator:
+        """A fresh simulator in its start-up state (a reboot): same world, seed, configuration,
+        start pose and neighbours."""
+        return Simulator(self.world, seed=self.seed, config=self.config, start=self.start,
+                         others=self._others)
 
     # --- what actions see (ActionContext) ----------------------------------------------------
 
@@ -262,6 +287,8 @@ class Simulator:
         return self._scan
 
     def costmap(self) -> Costmap:
+        """The planner's map; other robots in lidar range are obstacles in it (laid over the
+        map's costmap again when one moved by a quarter metre)."""
         key = (self._mapper.revision, self._lines.revision, self._blocked_revision)
         if self._costmap is None or key != self._costmap_key:
             cells = self._mapper.cells()
@@ -275,7 +302,18 @@ class Simulator:
                 tracks=self._lines.get(ArtifactUsage.VIRTUAL_TRACK),
             )
             self._costmap_key = key
-        return self._costmap
+            self._with_robots = None
+        seen = tuple((round(p.x * 4) / 4, round(p.y * 4) / 4) for p in self._seen_robots())
+        if not seen:
+            return self._costmap
+        if self._with_robots is None or self._with_robots[0] != seen:
+            self._with_robots = (seen, with_robots(self._costmap, seen, self.config))
+        return self._with_robots[1]
+
+    def _seen_robots(self) -> list[Pose2D]:
+        me = self._drive.pose
+        reach = self.config.lidar.max_range
+        return [p for p in self.others() if math.hypot(p.x - me.x, p.y - me.y) <= reach]
 
     def start_relocalization(self, area: Rect | None) -> RelocalizationSearch:
         scan = self._scan
@@ -561,6 +599,54 @@ class Simulator:
         self._lines.replace_all(ArtifactUsage.VIRTUAL_TRACK, cmap.tracks)
         self._home = cmap.home
         self.set_pose(pose)
+
+
+def discs_along_rays(origin: Pose2D, angles: np.ndarray, centres: Sequence[Pose2D],
+                     radius: float, max_range: float) -> np.ndarray:
+    """Per beam (angles relative to ``origin``'s heading): the distance to the first disc of
+    ``radius`` around any of ``centres``, or ``inf``."""
+    world = np.asarray(angles) + origin.yaw
+    ux, uy = np.cos(world), np.sin(world)
+    out = np.full(world.shape, np.inf)
+    for c in centres:
+        cx, cy = c.x - origin.x, c.y - origin.y
+        along = ux * cx + uy * cy
+        miss2 = (cx * cx + cy * cy) - along * along
+        inside = radius * radius - miss2
+        t = along - np.sqrt(np.maximum(inside, 0.0))
+        hit = (inside >= 0.0) & (t > 0.0) & (t <= max_range)
+        out = np.where(hit, np.minimum(out, t), out)
+    return out
+
+
+def with_robots(base: Costmap, centres: Sequence[tuple[float, float]],
+                config: SimConfig) -> Costmap:
+    """``base`` with a robot's disc (as wide as this one) at each of ``centres``, inflated as
+    :func:`build_costmap` inflates obstacles: lethal where the discs would touch (plus the
+    safety margin), a decaying cost around, not parkable up to the park margin."""
+    spec = base.spec
+    c = config.costmap
+    radius = config.drive.radius
+    lethal_reach = 2 * radius + 0.5 * spec.resolution + c.safety_margin
+    park_reach = lethal_reach + c.park_margin
+    lethal, parkable, cost = base.lethal.copy(), base.parkable.copy(), base.cost.copy()
+    span = math.ceil((radius + max(park_reach, c.inflation_radius)) / spec.resolution) + 1
+    for x, y in centres:
+        ix, iy = spec.cell(x, y)
+        x0, x1 = max(ix - span, 0), min(ix + span + 1, spec.width)
+        y0, y1 = max(iy - span, 0), min(iy + span + 1, spec.height)
+        if x0 >= x1 or y0 >= y1:
+            continue
+        cx, cy = spec.center(np.arange(x0, x1)[None, :], np.arange(y0, y1)[:, None])
+        d = np.hypot(cx - x, cy - y)
+        lethal[y0:y1, x0:x1] |= d < lethal_reach
+        parkable[y0:y1, x0:x1] &= d >= park_reach
+        clearance = d - radius  # to the other disc's edge
+        extra = 1.0 + c.inflation_cost * np.exp(-c.inflation_decay
+                                                * np.maximum(clearance - radius, 0.0))
+        extra = np.where(clearance < c.inflation_radius, extra, 1.0).astype(np.float32)
+        np.maximum(cost[y0:y1, x0:x1], extra, out=cost[y0:y1, x0:x1])
+    return Costmap(spec, lethal, cost, base.track, parkable)
 
 
 def _checked_pose(pose: Pose2D) -> Pose2D:

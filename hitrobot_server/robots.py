@@ -1,0 +1,129 @@
+"""The robots a server drives: one robot = its backend + its nodes, built by one function.
+
+:func:`start_robot` is the one place a robot is made (persistence of per-robot state and
+worker processes hook in here): its backend from its ``--robot`` entry, then its nodes — on the
+bus itself for the single unnamed robot (today's global names), on a :class:`NamespacedBus`
+under ``/NAME/`` with TF frames ``NAME/…`` for a named one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import logging
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+from .bus.core import Bus
+from .bus.namespace import Namespace, NamespacedBus
+from .config import Settings
+from .nodes.assembly import start_nodes, start_robot_nodes, start_site_nodes, stop_nodes
+from .nodes.base import Node
+from .nodes.map_manager import MapManager
+from .nodes.options import NodeOptions
+from .robot.backend import RobotBackend
+from .robot.factory import build_backend, shared_world
+from .robot.options import RobotEntry
+
+if TYPE_CHECKING:
+    from .robot.sim.shared import SharedWorld
+
+log = logging.getLogger(__name__)
+
+ROBOT_ID_PARAM = "robot_id"
+
+
+@dataclass
+class RobotUnit:
+    """One attached robot: ``name`` is ``""`` for the single unnamed robot."""
+
+    name: str
+    spec: str
+    backend: RobotBackend | None
+    nodes: list[Node] = field(default_factory=list)
+    bus: Bus | NamespacedBus | None = None  # what its nodes see
+
+    @property
+    def prefix(self) -> str:
+        return f"/{self.name}" if self.name else ""
+
+
+def robot_node_options(settings: Settings, entry: RobotEntry) -> NodeOptions:
+    """A named robot's node options: its TF frames prefixed ``NAME/``; the map frame stays the
+    site's (one map shared by every robot)."""
+    options = settings.node_options(entry.spec)
+    if entry.name:
+        ns = Namespace(entry.name)
+        s = options.slamware
+        options.slamware = dataclasses.replace(
+            s, robot_frame=ns.frame(s.robot_frame), laser_frame=ns.frame(s.laser_frame),
+            odom_frame=ns.frame(s.odom_frame))
+    return options
+
+
+async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
+                      world: SharedWorld | None = None,
+                      site_map: MapManager | None = None) -> RobotUnit:
+    """Build, start and wire one robot; on failure everything it started is stopped again."""
+    backend = build_backend(settings.robot_options(entry), world)
+    unit = RobotUnit(entry.name, entry.spec, backend)
+    try:
+        if backend is not None:
+            await backend.start()
+        if not entry.name:
+            unit.bus = bus
+            unit.nodes = await start_nodes(bus, settings.node_options(), backend)
+        elif backend is not None:
+            view = NamespacedBus(bus, Namespace(entry.name))
+            view.params.set(ROBOT_ID_PARAM, entry.name)
+            unit.bus = view
+            unit.nodes = await start_robot_nodes(
+                view, entry.name, robot_node_options(settings, entry), backend,  # type: ignore[arg-type]
+                site_map)
+    except BaseException:
+        await stop_robot(unit)
+        raise
+    return unit
+
+
+async def stop_robot(unit: RobotUnit) -> None:
+    await stop_nodes(unit.nodes)
+    unit.nodes.clear()
+    if unit.backend is not None:
+        with contextlib.suppress(Exception):
+            await unit.backend.stop()
+        unit.backend = None
+
+
+async def start_robots(bus: Bus, settings: Settings) -> tuple[list[Node], list[RobotUnit]]:
+    """The site nodes and every robot. The single unnamed robot brings its own nodes (today's
+    layout); named robots share the site nodes, one simulated world and the site map manager
+    (made with the first robot that has a backend). All or nothing: a robot that fails to start
+    stops everything started before it."""
+    entries = settings.robot_entries()
+    if len(entries) == 1 and not entries[0].name:
+        return [], [await start_robot(bus, settings, entries[0])]
+    site: list[Node] = []
+    units: list[RobotUnit] = []
+    sims = any(e.spec == "sim" for e in entries)
+    world = shared_world(settings.robot_options()) if sims else None
+    try:
+        site = await start_site_nodes(bus, settings.node_options())
+        site_map: MapManager | None = None
+        for entry in entries:
+            unit = await start_robot(bus, settings, entry, world=world, site_map=site_map)
+            units.append(unit)
+            if site_map is None:
+                site_map = next((n for n in unit.nodes if isinstance(n, MapManager)), None)
+    except BaseException:
+        await stop_robots(site, units)
+        raise
+    return site, units
+
+
+async def stop_robots(site: list[Node], units: list[RobotUnit]) -> None:
+    """Robots in reverse start order (the first robot holds the site map manager), then the
+    site nodes."""
+    for unit in reversed(units):
+        await stop_robot(unit)
+    await stop_nodes(site)

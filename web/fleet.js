@@ -1,0 +1,213 @@
+// The fleet view (a server with named robots, `--robot NAME=SPEC`): every robot of
+// /fleet/robots on the map in its own colour with its state, a choice of the robot that the
+// drive pad, the goal and set-pose tools and "Go" act on (their names move under /NAME/), the
+// POIs with a Dispatch button each (/fleet/dispatch picks the nearest idle robot), and the task
+// list of /fleet/tasks with Cancel. It stays hidden on a single-robot server (no /fleet/robots).
+/* global ROSLIB, createjs */
+import { log } from './log.js';
+import { yawOf } from './util.js';
+
+export const FLEET_COLORS = ['#e53935', '#43a047', '#fb8c00', '#8e24aa', '#00897b', '#3949ab',
+  '#6d4c41', '#c0ca33'];
+
+/** A map layer with a coloured marker and the name of every robot. */
+class FleetLayer {
+  constructor(view) {
+    this.view = view;
+    this.node = new createjs.Container();
+    this.node.mouseEnabled = false;
+    this.robots = [];
+    this.dirty = true;
+    view.addLayer(this);
+  }
+
+  set(robots, colorOf, selected) {
+    this.robots = robots.map((r) => ({ ...r, color: colorOf(r.name), selected: r.name === selected }));
+    this.dirty = true;
+    this.view.requestRender();
+  }
+
+  render(view) {
+    const u = view.metresPerPixel;
+    this.node.removeAllChildren();
+    for (const r of this.robots) {
+      const at = new createjs.Container();
+      at.x = r.pose.position.x;
+      at.y = -r.pose.position.y;
+      at.scaleX = at.scaleY = u;
+      const body = new createjs.Shape();
+      body.rotation = (-yawOf(r.pose.orientation) * 180) / Math.PI;
+      const radius = Math.max(0.2 / u, 9);
+      const g = body.graphics;
+      if (r.selected) g.setStrokeStyle(3).beginStroke('#ffeb3b').drawCircle(0, 0, radius + 4).endStroke();
+      g.setStrokeStyle(2).beginStroke('#222').beginFill(r.state === 'offline' ? '#9e9e9e' : r.color)
+        .drawCircle(0, 0, radius).endStroke().endFill();
+      g.beginFill('#fff').moveTo(radius * 0.75, 0).lineTo(-radius * 0.35, radius * 0.45)
+        .lineTo(-radius * 0.1, 0).lineTo(-radius * 0.35, -radius * 0.45).closePath().endFill();
+      const label = new createjs.Text(`${r.name} · ${r.state}`, 'bold 12px sans-serif', r.color);
+      label.x = radius + 4;
+      label.y = -radius - 10;
+      at.addChild(body, label);
+      this.node.addChild(at);
+    }
+  }
+}
+
+export class Fleet {
+  constructor({ ros, view, teleop, navigator }) {
+    this.ros = ros;
+    this.teleop = teleop;
+    this.navigator = navigator;
+    this.robots = [];
+    this.tasks = [];
+    this.pois = [];
+    this.colors = new Map();
+    this.selected = null;
+    this.layer = new FleetLayer(view);
+    this.panel = this.buildPanel();
+    this.dispatchService = new ROSLIB.Service({ ros, name: '/fleet/dispatch', serviceType: 'hitrobot_msgs/Dispatch' });
+    this.cancelService = new ROSLIB.Service({ ros, name: '/fleet/cancel', serviceType: 'hitrobot_msgs/CancelTask' });
+    new ROSLIB.Topic({ ros, name: '/fleet/robots', messageType: 'hitrobot_msgs/FleetRobots', throttle_rate: 250 })
+      .subscribe((m) => this.onRobots(m.robots));
+    new ROSLIB.Topic({ ros, name: '/fleet/tasks', messageType: 'hitrobot_msgs/FleetTasks' })
+      .subscribe((m) => { this.tasks = m.tasks; this.showTasks(); });
+    new ROSLIB.Topic({ ros, name: '/map_manager/pois', messageType: 'map_messages/PointsOfInterest' })
+      .subscribe((m) => { this.pois = m.pois; this.showPois(); });
+  }
+
+  buildPanel() {
+    const panel = document.createElement('section');
+    panel.className = 'panel';
+    panel.id = 'fleet-panel';
+    panel.hidden = true;
+    panel.innerHTML = `<h2>Fleet <span class="count" id="fleet-count"></span></h2>
+      <ul class="fleet-robots" id="fleet-robots"></ul>
+      <h2>Dispatch to a POI</h2>
+      <ul class="fleet-pois" id="fleet-pois"><li class="empty">no POIs</li></ul>
+      <div class="fleet-reply" id="fleet-reply"></div>
+      <h2>Tasks</h2>
+      <ul class="fleet-tasks" id="fleet-tasks"><li class="empty">none</li></ul>`;
+    const operate = document.querySelector('[data-tab-panel="operate"]') || document.body;
+    operate.prepend(panel);
+    return panel;
+  }
+
+  colorOf(name) {
+    if (!this.colors.has(name)) this.colors.set(name, FLEET_COLORS[this.colors.size % FLEET_COLORS.length]);
+    return this.colors.get(name);
+  }
+
+  onRobots(robots) {
+    this.robots = robots;
+    this.panel.hidden = robots.length === 0;
+    if (!this.selected && robots.length) this.select(robots[0].name);
+    this.layer.set(robots, (n) => this.colorOf(n), this.selected);
+    document.getElementById('fleet-count').textContent = String(robots.length);
+    const list = document.getElementById('fleet-robots');
+    list.replaceChildren(...robots.map((r) => {
+      const li = document.createElement('li');
+      li.dataset.robot = r.name;
+      li.dataset.state = r.state;
+      const label = document.createElement('label');
+      const pick = document.createElement('input');
+      pick.type = 'radio';
+      pick.name = 'fleet-robot';
+      pick.value = r.name;
+      pick.checked = r.name === this.selected;
+      pick.addEventListener('change', () => this.select(r.name));
+      const swatch = document.createElement('span');
+      swatch.className = 'swatch';
+      swatch.style.cssText = `display:inline-block;width:0.8em;height:0.8em;border-radius:50%;background:${this.colorOf(r.name)}`;
+      const text = document.createElement('span');
+      text.className = 'fleet-state';
+      text.textContent = ` ${r.name} — ${r.state}, ${Math.round(r.battery)} %${r.task ? `, task ${r.task}` : ''}`;
+      label.append(pick, swatch, text);
+      li.append(label);
+      return li;
+    }));
+  }
+
+  /** The drive pad, the goal/set-pose tools and "Go" now act on robot `name` (under /name/). */
+  select(name) {
+    if (this.selected === name) return;
+    this.selected = name;
+    const ros = this.ros;
+    const ns = `/${name}`;
+    if (this.teleop) {
+      this.teleop.release?.();
+      this.teleop.topic = new ROSLIB.Topic({ ros, name: `${ns}/cmd_vel`, messageType: 'geometry_msgs/Twist' });
+    }
+    const nav = this.navigator;
+    if (nav) {
+      nav.client?.dispose?.();
+      nav.client = new ROSLIB.ActionClient({ ros, serverName: `${ns}/move_base`, actionName: 'move_base_msgs/MoveBaseAction' });
+      nav.poiTopic = new ROSLIB.Topic({ ros, name: `${ns}/navigation/navigate_to_poi`, messageType: 'map_messages/NavigateToPOI' });
+      nav.cancelTopic = new ROSLIB.Topic({ ros, name: `${ns}/slamware_ros_sdk_server_node/cancel_action`, messageType: 'slamware_ros_sdk/CancelActionRequest' });
+      nav.initialPoseTopic = new ROSLIB.Topic({ ros, name: `${ns}/initialpose`, messageType: 'geometry_msgs/PoseWithCovarianceStamped' });
+    }
+    this.panel.dataset.selected = name;
+    this.layer.set(this.robots, (n) => this.colorOf(n), name);
+    for (const input of this.panel.querySelectorAll('input[name="fleet-robot"]')) input.checked = input.value === name;
+    log('info', `the tools now drive ${name}`);
+  }
+
+  showPois() {
+    const list = document.getElementById('fleet-pois');
+    if (!this.pois.length) {
+      list.innerHTML = '<li class="empty">no POIs</li>';
+      return;
+    }
+    list.replaceChildren(...this.pois.map((p) => {
+      const li = document.createElement('li');
+      li.textContent = `${p.name} `;
+      const button = document.createElement('button');
+      button.type = 'button';
+      button.className = 'small';
+      button.dataset.dispatch = p.name;
+      button.textContent = 'Dispatch';
+      button.title = 'Send the nearest idle robot (/fleet/dispatch)';
+      button.addEventListener('click', () => this.dispatch(p.name));
+      li.append(button);
+      return li;
+    }));
+  }
+
+  dispatch(poi) {
+    const reply = document.getElementById('fleet-reply');
+    const zero = { position: { x: 0, y: 0, z: 0 }, orientation: { x: 0, y: 0, z: 0, w: 1 } };
+    this.dispatchService.callService({ poi, pose: zero, robot: '' }, (r) => {
+      reply.textContent = r.message;
+      reply.dataset.accepted = String(r.accepted);
+      reply.dataset.robot = r.robot;
+      log(r.accepted ? 'info' : 'error', `dispatch to ${poi}: ${r.message}`);
+    }, (error) => {
+      reply.textContent = String(error);
+      reply.dataset.accepted = 'false';
+      log('error', `dispatch to ${poi}: ${error}`);
+    });
+  }
+
+  showTasks() {
+    const list = document.getElementById('fleet-tasks');
+    if (!this.tasks.length) {
+      list.innerHTML = '<li class="empty">none</li>';
+      return;
+    }
+    list.replaceChildren(...[...this.tasks].reverse().map((t) => {
+      const li = document.createElement('li');
+      li.dataset.task = String(t.id);
+      li.dataset.state = t.state;
+      li.textContent = `#${t.id} ${t.poi || 'pose'} — ${t.state}${t.assigned ? ` (${t.assigned})` : ''}: ${t.message} `;
+      if (t.state === 'queued' || t.state === 'running') {
+        const cancel = document.createElement('button');
+        cancel.type = 'button';
+        cancel.className = 'small danger';
+        cancel.textContent = 'Cancel';
+        cancel.addEventListener('click', () => this.cancelService.callService({ task: t.id },
+          (r) => log(r.success ? 'info' : 'error', r.message)));
+        li.append(cancel);
+      }
+      return li;
+    }));
+  }
+}
