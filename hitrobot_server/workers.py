@@ -146,9 +146,7 @@ class Supervisor:
         connect = peers + endpoints(s.zenoh_connect)
         if connect:
             args += ["--zenoh-connect", ",".join(connect)]
-        if worker.index:
-            args += ["--robot", "none"]
-        return args
+        return args  # only worker 0 starts the robots (Settings.primary)
 
     async def _spawn(self, worker: Worker) -> None:
         proc = await asyncio.create_subprocess_exec(

@@ -36,6 +36,8 @@ RESERVED = frozenset({
     "pointcloud_accumulator_node", "compute_path_to_pose", "follow_path",
     "intelligent_navigate_to_pose", "intelligent_navigat_to_pose", "intelligent_navigation",
     "nav", "nav2_actions", "conventional", "shell", "patrol",
+    # the recorder's and the player's services and nodes, the demo services
+    "record", "recorder", "replay", "add_two_ints", "fibonacci",
 })
 """First name segments a robot may not be named: they would shadow a global name."""
 

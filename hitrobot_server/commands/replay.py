@@ -37,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 async def serve(args: argparse.Namespace) -> None:
     settings = load(args)
-    if args.robot not in (None, "none"):
+    if args.robot not in (None, "none", ["none"]):  # --robot is repeatable: a list
         raise ValueError("replay serves the recording in place of a robot: --robot cannot be "
                          "used with it")
     settings.robot = "none"
