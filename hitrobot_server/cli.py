@@ -16,16 +16,22 @@ TOOLS = {
     "sim-device": "hitrobot_server.commands.sim_device",
 }
 
+USAGE = """%(prog)s [options]
+       %(prog)s conformance --url ws://HOST:PORT [options]
+       %(prog)s sim-device [--port PORT] [options]"""
+
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="hitrobot-server",
+        usage=USAGE,
         description=(
             "A rosbridge-v2-compatible (hitrobot protocol) WebSocket and TCP server with an "
             "in-process topic/service/action bus. Tools: 'hitrobot-server conformance --url "
             "ws://HOST:PORT' runs the protocol conformance vectors against any server; "
             "'hitrobot-server sim-device --port 1448' serves the simulated robot over the "
-            "Slamware REST API (for --robot http://127.0.0.1:1448)."
+            "Slamware REST API (for --robot http://127.0.0.1:1448). Each tool's --help lists "
+            "its options."
         ),
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")

@@ -58,6 +58,7 @@ class Settings:
     zenoh_connect: str | None = None
     zenoh_listen: str | None = None
     zenoh_domain: int = 0
+    demo_services: bool = False
     slamware: SlamwareParams = field(default_factory=SlamwareParams)
     auth_secret: str | None = field(default=None, repr=False)
     # Set by the server when it shares a bus: client node names stay unique across servers.
@@ -97,6 +98,7 @@ class Settings:
             topics_glob=self.topics_glob,
             services_glob=self.services_glob,
             params_glob=self.params_glob,
+            demo_services=self.demo_services,
         )
 
     def robot_options(self) -> RobotOptions:
@@ -147,9 +149,12 @@ _HELP = {
     "zenoh_config": "Zenoh session config file (JSON5) for --bus zenoh; replaces the defaults "
     "(peer mode, no multicast scouting)",
     "zenoh_connect": "comma-separated Zenoh endpoints to connect to, e.g. tcp/127.0.0.1:7447",
-    "zenoh_listen": "comma-separated Zenoh endpoints to listen on, e.g. tcp/127.0.0.1:7447",
+    "zenoh_listen": "comma-separated Zenoh endpoints to listen on, e.g. tcp/127.0.0.1:7447 "
+    "(default: tcp/127.0.0.1:0, any free loopback port)",
     "zenoh_domain": "ROS domain id: the first chunk of every Zenoh key (as ROS_DOMAIN_ID)",
     "map_dir": "folder of saved map folders (default: $XDG_DATA_HOME/hitrobot-server/maps)",
+    "demo_services": "offer the tutorial servers of the rosbridge test image: the service "
+    "/add_two_ints and the action /fibonacci (example_interfaces types), for client test suites",
 }
 
 _SKIP = {"auth_secret", "client_tag", "slamware"}
@@ -177,8 +182,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         if f.name in _SKIP:
             continue
         flags = flag_spellings(f.name)
-        default = f.default
-        text = f"{_HELP[f.name]} (default: {default})"
+        text = _HELP[f.name]
+        if "(default:" not in text:  # a help text may say the default better than the value
+            shown = {None: "none", False: "off", True: "on"}.get(f.default, f.default)
+            text += f" (default: {shown})"
         if f.type in ("bool", bool):
             parser.add_argument(
                 *flags, dest=f.name, action=argparse.BooleanOptionalAction, default=None,

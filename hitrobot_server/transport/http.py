@@ -87,11 +87,13 @@ class QuietHttpLog(logging.LoggerAdapter):
 
     def log(self, level, msg, *args, **kwargs):
         if level == logging.INFO and isinstance(msg, str):
-            if msg.startswith(ROUTINE_HTTP_LOGS) and args and isinstance(args[0], int) \
-                    and args[0] < 400:
-                level = logging.DEBUG
-            elif msg == "connection closed" and (status := _plain_http_status(kwargs)) \
-                    is not None and status < 400:
+            if msg.startswith(ROUTINE_HTTP_LOGS) and args and isinstance(args[0], int):
+                status = args[0]
+            elif msg == "connection closed":
+                status = _plain_http_status(kwargs)
+            else:
+                status = None
+            if status is not None and status < 400:
                 level = logging.DEBUG
         super().log(level, msg, *args, **kwargs)
 
