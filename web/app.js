@@ -229,7 +229,7 @@ function main() {
     else if (e.key === 'f') view.fit();
     else if (e.key === '+' || e.key === '=') view.zoomCentre(1.25);
     else if (e.key === '-') view.zoomCentre(0.8);
-    else if (e.key === 'Escape') tools.abort();
+    else if (e.key === 'Escape') tools.escape();
   });
 
   // For debugging from the browser console, and for the tests: the page's own objects.

@@ -30,6 +30,12 @@ export function publishTracked(topic, message, onStatus) {
   };
 }
 
+/** A status as the operator reads it: the server's reply without the op it answers
+ * ("publish to '/topic': …") — the op's id stays out of the log too. */
+export function operatorText(text) {
+  return text.replace(/^publish to '[^']*': /, '');
+}
+
 let online = null;
 
 /** Set the bridge pill; going on or off line fires a `bridge` event ({online}) on window. */
@@ -79,8 +85,7 @@ export function connect(url = bridgeUrl()) {
     const id = (message && message.id) || '';
     if (tracked.has(id)) return;
     if (level === 'info' && !id.startsWith('publish:')) return;
-    const where = id ? ` (${id})` : '';
-    log(level, `${message && message.msg ? message.msg : 'status'}${where}`);
+    log(level, operatorText(message && message.msg ? message.msg : 'status'));
   });
   ros.setStatusLevel('info');
   return ros;

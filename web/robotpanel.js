@@ -14,7 +14,12 @@ export class RobotActions {
     this.cancel = topic(`${NODE}/cancel_action`, 'slamware_ros_sdk/CancelActionRequest');
     this.buttons = ['relocalize', 'go-home', 'stop-motion'].map((id) => document.getElementById(id));
     document.getElementById('relocalize').addEventListener('click', () => {
-      this.recover.publish(new ROSLIB.Message({ area: { x: 0, y: 0, w: 0, h: 0 }, options: {} }));
+      // a complete message: no time limit, the robot's own choice of movement (not given)
+      this.recover.publish(new ROSLIB.Message({
+        area: { x: 0, y: 0, w: 0, h: 0 },
+        options: { max_time_ms: { is_valid: false, value: 0 },
+          mvmt_type: { is_valid: false, value: { type: 0 } } },
+      }));
       log('info', 'relocalization requested (whole map)');
     });
     document.getElementById('go-home').addEventListener('click', () => {

@@ -1,0 +1,97 @@
+"""What surprised a new operator (issue 26), in a real browser against the simulator: Enter
+confirms a dialog and Esc cancels it, Esc leaves a tool, Relocalize raises no developer toast,
+the Messages panel speaks the operator's language."""
+
+from __future__ import annotations
+
+from .conftest import Console, add_poi, grid_map
+
+
+def named(watcher, name: str):
+    pois = (watcher.latest("/map_manager/pois") or {}).get("pois", [])
+    return next((p for p in pois if p["name"] == name), None)
+
+
+async def test_enter_confirms_a_dialog_and_escape_cancels_it(console: Console, watcher):
+    page = console.page
+    await watcher.subscribe("/map_manager/pois", "map_messages/PointsOfInterest")
+    grid = await grid_map(watcher)
+    spot = await console.to_client(*grid.nearest_clear(3.0, 13.0))
+    dialog = page.locator("#poi-dialog")
+    name = dialog.locator("input[name=name]")
+
+    # Add POI: typed, then Enter in the remarks field saves it
+    await page.click("[data-tool=poi]")
+    await page.mouse.click(*spot)
+    await name.fill("window seat")
+    await dialog.locator("input[name=remarks]").fill("sunny")
+    await dialog.locator("input[name=remarks]").press("Enter")
+    await dialog.wait_for(state="hidden")
+    poi = await watcher.until(lambda: named(watcher, "window seat"), 10, "the POI saved by Enter")
+    assert poi["remarks"] == "sunny"
+    item = page.locator('#poi-list li[data-name="window seat"]')
+    await item.wait_for()
+
+    # Rename: Enter in the name field renames
+    await item.locator("button.rename").click()
+    await name.fill("reading corner")
+    await name.press("Enter")
+    await watcher.until(lambda: named(watcher, "reading corner"), 10, "the rename by Enter")
+
+    # a name already taken: Enter keeps the dialog open with the reason and the input
+    await page.click("[data-tool=poi]")
+    await page.mouse.click(*spot)
+    await name.fill("reading corner")
+    await name.press("Enter")
+    assert "exists already" in await dialog.locator(".form-error").text_content()
+    assert await dialog.is_visible() and await name.input_value() == "reading corner"
+
+    # Esc cancels: nothing is added
+    await name.fill("never added")
+    await name.press("Escape")
+    await dialog.wait_for(state="hidden")
+    pois_before = (watcher.latest("/map_manager/pois") or {}).get("pois", [])
+    # a round trip through the server: another client's POI arrives after anything the page sent
+    await add_poi(watcher, "marker", 1.0, 1.0)
+    await watcher.until(lambda: named(watcher, "marker"), 10, "the marker POI")
+    assert not named(watcher, "never added")
+    assert len(watcher.latest("/map_manager/pois")["pois"]) == len(pois_before) + 1
+
+    # Save as: Enter saves a new name at once (one question, not two)
+    await console.tab("map")
+    await page.click("#map-save-as")
+    names = page.locator("#name-dialog")
+    await names.locator("input[name=name]").fill("by_enter")
+    await names.locator("input[name=name]").press("Enter")
+    await page.locator('#map-list li[data-name="by_enter"]').wait_for(timeout=15_000)
+    assert not await page.locator("#confirm-dialog").is_visible()
+    assert (console.server.settings.map_store / "by_enter" / "map.yaml").is_file()
+    assert console.errors == []
+
+
+async def test_escape_leaves_the_waypoint_tool(console: Console, watcher):
+    page = console.page
+    await watcher.subscribe("/planning/patrol_state", "hitrobot_msgs/PatrolState")
+    await page.click("[data-tool=waypoint]")
+    assert "Esc" in await page.text_content("#hint")
+    await page.mouse.click(*(await console.to_client(11.0, 8.0)))
+    await page.locator("#waypoint-list li").first.wait_for()
+    await page.keyboard.press("Escape")
+    assert await page.evaluate("() => window.hitrobot.tools.tool") == "move"
+    assert "active" in (await page.get_attribute("[data-tool=move]", "class") or "")
+    assert "active" not in (await page.get_attribute("[data-tool=waypoint]", "class") or "")
+    assert await page.evaluate("() => window.hitrobot.view.canvas.dataset.cursor") == "move"
+    assert "Drag to pan" in await page.text_content("#hint")
+    assert await page.locator("#waypoint-list li").count() == 1
+
+
+async def test_relocalize_sends_a_complete_request_and_raises_no_toast(console: Console):
+    page = console.page
+    await page.click("#relocalize")
+    # the robot's own answer to this request is the round trip that ends the test
+    await page.locator("#log li", has_text="recover_localization: done").wait_for(timeout=60_000)
+    assert await page.locator("#log li.warning").count() == 0
+    assert await page.locator("#toasts .toast").count() == 0
+    texts = await page.locator("#log li .text").all_text_contents()
+    assert not [t for t in texts if "lacks field" in t or "publish to" in t or "(publish:" in t]
+    assert console.errors == []
