@@ -72,7 +72,7 @@ function main() {
   // subscription): roslib emits each topic's messages on the Ros object under the topic name
   ros.on('/map', (grid) => layers.costmap.set(grid));
   topic(`${NODE}/global_plan_path`, 'nav_msgs/Path', { throttle_rate: 200, queue_length: 1 })
-    .subscribe((m) => layers.path.set(m));
+    .subscribe((m) => { layers.path.set(m); navigator.plan = m; });
 
   // ---- the robot ---------------------------------------------------------------------------
   const state = { pose: null, follow: false };
@@ -129,11 +129,12 @@ function main() {
   const shell = new Shell({ ros });
   const teleop = new Teleop({ ros });
   const robotState = new RobotState({ ros });
-  const robotActions = new RobotActions({ ros });
+  const robotActions = new RobotActions({ ros, navigator });
   const patrol = new Patrol({ ros, layer: layers.waypoints });
   const maps = new SavedMaps({ ros });
   const diagnostics = new Diagnostics({ ros, sensorLayer: layers.sensors });
   const inspector = new Inspector({ ros });
+  patrol.onState = (s) => navigator.patrolState(s, () => patrol.call('stop', {}));
   pois.onGo = (poi) => {
     navigator.goToPoi(poi);
     return false; // the navigator publishes it and follows it

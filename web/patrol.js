@@ -9,6 +9,7 @@ import { el } from './util.js';
 export class Patrol {
   constructor({ ros, layer }) {
     this.layer = layer;
+    this.onState = null; // (state) => …: the Navigation panel follows a running patrol
     this.waypoints = [];
     this.frame = 'map';
     const service = (name, serviceType) => new ROSLIB.Service({ ros, name: `/planning/${name}`, serviceType });
@@ -44,6 +45,7 @@ export class Patrol {
   }
 
   show(state) {
+    if (this.onState) this.onState(state);
     this.waypoints = state.waypoints || [];
     if (this.waypoints.length) this.frame = this.waypoints[0].frame || 'map';
     this.layer.set(this.waypoints, state.active ? state.target_index : -1);

@@ -7,7 +7,7 @@ import { log } from './log.js';
 const NODE = '/slamware_ros_sdk_server_node';
 
 export class RobotActions {
-  constructor({ ros }) {
+  constructor({ ros, navigator }) {
     const topic = (name, messageType, options = {}) => new ROSLIB.Topic({ ros, name, messageType, ...options });
     this.recover = topic(`${NODE}/recover_localization`, 'slamware_ros_sdk/RecoverLocalizationRequest');
     this.home = topic(`${NODE}/go_home`, 'slamware_ros_sdk/GoHomeRequest');
@@ -22,10 +22,8 @@ export class RobotActions {
       }));
       log('info', 'relocalization requested (whole map)');
     });
-    document.getElementById('go-home').addEventListener('click', () => {
-      this.home.publish(new ROSLIB.Message({}));
-      log('info', 'going home to the dock');
-    });
+    // followed in the Navigation panel, like a goal
+    document.getElementById('go-home').addEventListener('click', () => navigator.goHome(this.home));
     document.getElementById('stop-motion').addEventListener('click', () => {
       this.cancel.publish(new ROSLIB.Message({}));
       log('info', 'stop: the current action cancelled');

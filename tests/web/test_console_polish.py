@@ -95,3 +95,44 @@ async def test_relocalize_sends_a_complete_request_and_raises_no_toast(console: 
     texts = await page.locator("#log li .text").all_text_contents()
     assert not [t for t in texts if "lacks field" in t or "publish to" in t or "(publish:" in t]
     assert console.errors == []
+
+
+async def test_navigation_panel_follows_go_home_and_can_cancel_it(console: Console, watcher):
+    page = console.page
+    status = page.locator("#goal-status")
+    # a goal of the page's own first, then Go home replaces it: the panel follows the new motion
+    await page.evaluate("window.hitrobot.navigator.sendGoal(11, 8, 0)")
+    await console.wait_data("#goal-status", "status", "active", timeout=20)
+    await page.click("#go-home")
+    await status.locator("text=home").wait_for()
+    await page.locator("#goal-status", has_text="m to go").wait_for(timeout=20_000)
+    assert await status.get_attribute("data-status") == "active"
+    assert "home" in await status.text_content()
+    assert await page.locator("#cancel-goal").is_enabled()
+    await page.click("#cancel-goal")
+    await console.wait_data("#goal-status", "status", "preempted", timeout=20)
+    assert "home" in await status.text_content()
+    assert await page.locator("#cancel-goal").is_disabled()
+    assert console.errors == []
+
+
+async def test_navigation_panel_follows_a_patrol_and_cancel_stops_it(console: Console, watcher):
+    page = console.page
+    await watcher.subscribe("/planning/patrol_state", "hitrobot_msgs/PatrolState")
+    await page.click("[data-tool=waypoint]")
+    for i, (x, y) in enumerate([(11.0, 8.0), (7.0, 8.6)], 1):
+        await page.mouse.click(*(await console.to_client(x, y)))
+        await page.locator("#waypoint-list li").nth(i - 1).wait_for()
+    await page.keyboard.press("Escape")
+    await page.click("#patrol-start")
+    status = page.locator("#goal-status")
+    await page.locator("#goal-status", has_text="waypoint 1 of 2").wait_for(timeout=20_000)
+    await page.locator("#goal-status", has_text="m to go").wait_for(timeout=20_000)
+    assert await status.get_attribute("data-status") == "active"
+    assert await page.locator("#cancel-goal").is_enabled()
+    await page.click("#cancel-goal")
+    await watcher.until(lambda: (s := watcher.latest("/planning/patrol_state"))
+                        and not s["active"], 20, "the patrol stopped by Cancel")
+    await page.locator("#goal-status", has_text="Patrol stopped").wait_for()
+    assert await page.locator("#cancel-goal").is_disabled()
+    assert console.errors == []
