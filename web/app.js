@@ -18,6 +18,7 @@ import {
 import { Patrol } from './patrol.js';
 import { Pois } from './pois.js';
 import { RobotActions } from './robotpanel.js';
+import { RobotPresence } from './robotpresence.js';
 import { RobotState } from './robotstate.js';
 import { Shell } from './shell.js';
 import { Teleop } from './teleop.js';
@@ -167,6 +168,26 @@ function main() {
   window.addEventListener('bridge', (e) => setOnline(e.detail.online));
   if (!ros.isConnected) setOnline(false);
 
+  // ---- no robot behind the bridge (--robot none, or its server gone): say so, and disable
+  // everything that would drive or change it (the view, layers and inspector keep working)
+  const robotControls = () => [...document.querySelectorAll(
+    '.side button:not([data-tab]):not([data-tool]), .side input:not([data-layer]), .side select')]
+    .filter((c) => !c.closest('[data-tab-panel=inspect]') && c.id !== 'maps-refresh');
+  const presence = new RobotPresence({
+    ros,
+    onChange: (present, seen) => {
+      if (present) return;
+      tools.setEnabled(false);
+      navigator.robotAbsent(seen);
+      for (const control of robotControls()) control.disabled = true;
+      robotState.setRobot('none', seen ? 'offline' : 'no robot');
+      document.getElementById('hint').textContent = seen
+        ? 'Robot offline: its server left the bus. The map and pose shown are its last known.'
+        : 'No robot: this server runs the bridge alone (--robot none).';
+      log(seen ? 'error' : 'info', seen ? 'the robot went offline' : 'no robot behind this bridge');
+    },
+  });
+
   // ---- side panel tabs ---------------------------------------------------------------------
   const tabs = [...document.querySelectorAll('.tabs [data-tab]')];
   const showTab = (name) => {
@@ -235,7 +256,7 @@ function main() {
 
   // For debugging from the browser console, and for the tests: the page's own objects.
   window.hitrobot = { ros, view, navigator, pois, shell, teleop, robotState, robotActions, tools,
-    layers, editor, patrol, maps, diagnostics, inspector, showTab, robot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
+    layers, editor, patrol, maps, diagnostics, inspector, presence, showTab, robot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
       easeljs: createjs.EaselJS && createjs.EaselJS.version } };
 }
 

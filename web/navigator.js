@@ -61,6 +61,14 @@ export class Navigator {
     }
   }
 
+  /** No robot behind the bridge (never was, or its server left): nothing to follow or send. */
+  robotAbsent(seen) {
+    this.endActivity();
+    this.goal = null;
+    this.cancelButton.disabled = true;
+    this.show('offline', seen ? 'ROBOT OFFLINE — its state is unknown' : 'No robot');
+  }
+
   refuse(what) {
     if (this.online) return false;
     log('error', `${what} not sent: the bridge is offline`);

@@ -136,3 +136,40 @@ async def test_navigation_panel_follows_a_patrol_and_cancel_stops_it(console: Co
     await page.locator("#goal-status", has_text="Patrol stopped").wait_for()
     assert await page.locator("#cancel-goal").is_disabled()
     assert console.errors == []
+
+
+async def open_page(browser, port: int) -> Console:
+    page = browser.pages[0] if browser.pages else await browser.new_page()
+    result = Console(page, None)
+    page.on("console", lambda m: result.errors.append(f"console.{m.type}: {m.text}")
+            if m.type == "error" else None)
+    page.on("pageerror", lambda e: result.errors.append(f"page error: {e}"))
+    await page.goto(f"http://127.0.0.1:{port}/")
+    return result
+
+
+async def robot_controls_disabled(page) -> dict[str, bool]:
+    return await page.evaluate("""() => Object.fromEntries(
+        ['go-home', 'relocalize', 'stop-motion', 'patrol-start', 'map-save-as', 'clear-walls']
+          .map((id) => [id, document.getElementById(id).disabled])
+          .concat([...document.querySelectorAll('[data-tool]:not([data-tool=move])')]
+            .map((b) => [b.dataset.tool, b.disabled])))""")
+
+
+async def test_no_robot_says_so_and_disables_robot_actions(make_server, browser, tmp_path):
+    server = await make_server(robot="none", map_dir=str(tmp_path / "maps"))
+    console = await open_page(browser, server.port)
+    page = console.page
+    await page.locator("#robot-state .value", has_text="no robot").wait_for(timeout=20_000)
+    assert await page.get_attribute("#robot-state", "data-state") == "none"
+    assert "No robot" in await page.text_content("#hint")
+    assert "Waiting for the map" not in await page.text_content("#hint")
+    assert await page.text_content("#goal-status") == "No robot"
+    disabled = await robot_controls_disabled(page)
+    assert disabled and all(disabled.values()), disabled
+    # the inspector still works without a robot
+    await page.click(".tabs [data-tab=inspect]")
+    assert await page.locator("#topic-filter").is_enabled()
+    texts = await page.locator("#log li .text").all_text_contents()
+    assert not [t for t in texts if "going home" in t]
+    assert console.errors == []
