@@ -31,9 +31,12 @@ export function publishTracked(topic, message, onStatus) {
 }
 
 /** A status as the operator reads it: the server's reply without the op it answers
- * ("publish to '/topic': …") — the op's id stays out of the log too. */
-export function operatorText(text) {
-  return text.replace(/^publish to '[^']*': /, '');
+ * ("publish to '/topic': …") and without roslib's op id ("publish:/topic:26"); the topic or
+ * service the id names is said when the text does not say it. */
+export function operatorText(text, id = '') {
+  const plain = text.replace(/^publish to '[^']*': /, '');
+  const name = (id.match(/^[a-z_]+:(.+):\d+$/) || [])[1];
+  return name && !plain.includes(name) ? `${plain} (${name})` : plain;
 }
 
 let online = null;
@@ -85,7 +88,7 @@ export function connect(url = bridgeUrl()) {
     const id = (message && message.id) || '';
     if (tracked.has(id)) return;
     if (level === 'info' && !id.startsWith('publish:')) return;
-    log(level, operatorText(message && message.msg ? message.msg : 'status'));
+    log(level, operatorText(message && message.msg ? message.msg : 'status', id));
   });
   ros.setStatusLevel('info');
   return ros;
