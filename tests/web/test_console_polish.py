@@ -4,6 +4,9 @@ the Messages panel speaks the operator's language."""
 
 from __future__ import annotations
 
+import socket
+
+from ..helpers import ServerProcess, Watcher
 from .conftest import Console, add_poi, grid_map
 
 
@@ -173,3 +176,58 @@ async def test_no_robot_says_so_and_disables_robot_actions(make_server, browser,
     texts = await page.locator("#log li .text").all_text_contents()
     assert not [t for t in texts if "going home" in t]
     assert console.errors == []
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def robot_server(port: int, map_dir) -> ServerProcess:
+    return ServerProcess("--bus", "zenoh", "--zenoh-listen", f"tcp/127.0.0.1:{port}",
+                         "--sim-speed", "4", "--map-dir", str(map_dir), "--log-level",
+                         "warning", robot="sim")
+
+
+async def test_robot_offline_on_zenoh_then_back(browser, tmp_path):
+    """Server A holds the robot, the page is on B (--robot none): A dies → B's page says
+    "robot offline" and disables robot actions; A back → the page starts over with it."""
+    port = free_port()
+    a = robot_server(port, tmp_path / "maps")
+    b = ServerProcess("--bus", "zenoh", "--zenoh-connect", f"tcp/127.0.0.1:{port}",
+                      "--log-level", "warning")
+    try:
+        console = await open_page(browser, b.port)
+        page = console.page
+        present = """() => window.hitrobot && window.hitrobot.presence.present === true &&
+            window.hitrobot.state.pose !== null"""
+        await page.wait_for_function(present, timeout=30_000)
+        assert not (await robot_controls_disabled(page))["go-home"]
+
+        a.proc.kill()  # kill -9: only Zenoh's liveliness tells B
+        a.proc.wait(10)
+        await page.locator("#robot-state .value", has_text="offline").wait_for(timeout=30_000)
+        assert "Robot offline" in await page.text_content("#hint")
+        assert (await page.text_content("#goal-status")).startswith("ROBOT OFFLINE")
+        disabled = await robot_controls_disabled(page)
+        assert all(disabled.values()), disabled
+        assert await page.evaluate("() => document.body.classList.contains('no-robot')")
+
+        await page.evaluate("() => { window.beforeReturn = true; }")
+        a = robot_server(port, tmp_path / "maps")
+        # the page reloads itself (a fresh page has no mark) and follows the robot again
+        await page.wait_for_function(
+            f"() => window.beforeReturn === undefined && ({present})()", timeout=60_000)
+        assert not (await robot_controls_disabled(page))["go-home"]
+        assert await page.get_attribute("#robot-state", "data-state") != "none"
+        w = await Watcher.open(a.port)
+        try:
+            await add_poi(w, "after the return", 3.0, 13.0)
+            await page.locator('#poi-list li[data-name="after the return"]').wait_for(
+                timeout=20_000)
+        finally:
+            await w.close()
+    finally:
+        b.stop()
+        a.stop()
