@@ -8,6 +8,7 @@
 import { operatorText, publishTracked } from './connection.js';
 import { ArrowMarker, COLORS } from './overlays.js';
 import { log } from './log.js';
+import { fromOne } from './patrol.js';
 import { formatPose, quatOfYaw, yawOf } from './util.js';
 
 // actionlib_msgs/GoalStatus
@@ -191,7 +192,7 @@ export class Navigator {
     } else if (this.activity && this.activity.patrol) {
       this.activity = null;
       this.cancelButton.disabled = true;
-      this.show('idle', `Patrol stopped${state.message ? ` — ${state.message}` : ''}`);
+      this.show('idle', `Patrol stopped${state.message ? ` — ${fromOne(state.message)}` : ''}`);
     }
   }
 

@@ -231,3 +231,44 @@ async def test_robot_offline_on_zenoh_then_back(browser, tmp_path):
     finally:
         b.stop()
         a.stop()
+
+
+async def test_layout_messages_in_view_pills_wrap_map_refits(console: Console, watcher):
+    page = console.page
+    await watcher.subscribe("/planning/patrol_state", "hitrobot_msgs/PatrolState")
+    # 1440 × 900: the Messages panel is on screen beside the Operate tab
+    box = await page.locator("#log").bounding_box()
+    assert box["y"] + 40 < 900 and box["height"] >= 80, box
+
+    # "1 wall", not "1 walls"
+    await console.tab("map")
+    await watcher.publish("/slamware_ros_sdk_server_node/add_line", {
+        "usage": {"usage": 0}, "line": {"id": 0, "start": {"x": 18.0, "y": 1.6},
+                                         "end": {"x": 22.5, "y": 1.6}}},
+        "slamware_ros_sdk/AddLineRequest")
+    await page.locator("#line-counts", has_text="1 wall ·").wait_for(timeout=10_000)
+    assert "0 tracks" in await page.text_content("#line-counts")
+
+    # the map is fitted again when the window changes size
+    async def map_fits() -> bool:
+        corners = await page.evaluate("""() => {
+            const v = window.hitrobot.view, b = v.mapBounds;  // as fit() reads them
+            return [v.rosToClient(b.x, b.y), v.rosToClient(b.x + b.w, b.y + b.h)]; }""")
+        rect = await page.locator("#map").bounding_box()
+        return all(rect["x"] - 1 <= c["x"] <= rect["x"] + rect["width"] + 1
+                   and rect["y"] - 1 <= c["y"] <= rect["y"] + rect["height"] + 1
+                   for c in corners)
+
+    assert await map_fits()
+    await page.set_viewport_size({"width": 960, "height": 700})
+    await page.wait_for_function("""() => { const v = window.hitrobot.view;
+        const dpr = window.devicePixelRatio || 1;
+        return v.canvas.width === Math.round(v.container.clientWidth * dpr); }""")
+    await console.frame()
+    assert await map_fits()
+
+    # under ~1000 px the header pills wrap instead of being cut off
+    pills = await page.evaluate("""() => [...document.querySelectorAll('.topbar .pill')]
+        .map((e) => ({ right: e.getBoundingClientRect().right, visible: e.checkVisibility() }))""")
+    assert pills and all(p["visible"] and p["right"] <= 960 for p in pills), pills
+    assert console.errors == []
