@@ -5,6 +5,7 @@
 import { connect, showBroken } from './connection.js';
 import { Diagnostics } from './diagnostics.js';
 import { dialogOpen } from './dialogs.js';
+import { DockLayer } from './docklayer.js';
 import { MapEditor } from './editor.js';
 import { Inspector } from './inspector.js';
 import { log } from './log.js';
@@ -58,6 +59,7 @@ function main() {
     scan: new ScanLayer(view),
     waypoints: new WaypointLayer(view),
     pois: new PoiLayer(view),
+    dock: new DockLayer(view),
     sensors: new SensorLayer(view),
   };
   const navigator = new Navigator({ ros, view });
@@ -69,6 +71,7 @@ function main() {
   topic(`${NODE}/virtual_tracks`, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 500 })
     .subscribe((m) => { layers.tracks.set(m); editor.showCounts(); });
   topic('/graph/current', 'hitrobot_msgs/Graph').subscribe((g) => layers.graph.set(g));
+  topic('/map_manager/home', 'geometry_msgs/PoseStamped').subscribe((h) => layers.dock.set(h));
   // the costmap overlay is computed from the very /map messages ros2d receives (no second
   // subscription): roslib emits each topic's messages on the Ros object under the topic name
   ros.on('/map', (grid) => layers.costmap.set(grid));

@@ -272,3 +272,17 @@ async def test_layout_messages_in_view_pills_wrap_map_refits(console: Console, w
         .map((e) => ({ right: e.getBoundingClientRect().right, visible: e.checkVisibility() }))""")
     assert pills and all(p["visible"] and p["right"] <= 960 for p in pills), pills
     assert console.errors == []
+
+
+async def test_the_dock_is_drawn_where_the_map_manager_says(console: Console, watcher):
+    page = console.page
+    await watcher.subscribe("/map_manager/home", "geometry_msgs/PoseStamped")
+    home = await watcher.until(lambda: watcher.latest("/map_manager/home"), 10, "the dock")
+    drawn = await page.wait_for_function("""() => {
+        const d = window.hitrobot.layers.dock;
+        return d.pose && d.node.children.length === 1 && d.node.visible &&
+          { x: d.node.children[0].x, y: -d.node.children[0].y }; }""", timeout=10_000)
+    at = await drawn.json_value()
+    p = home["pose"]["position"]
+    assert abs(at["x"] - p["x"]) < 1e-6 and abs(at["y"] - p["y"]) < 1e-6
+    await console.snapshot("console-dock")

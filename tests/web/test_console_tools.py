@@ -78,7 +78,7 @@ async def test_a_wall_drawn_in_the_page_makes_the_planned_path_detour(console: C
     assert abs(line["start"]["x"] - drawn["x"]) < 1e-3
     assert abs(line["start"]["y"] - drawn["y"]) < 1e-3
     assert abs(line["end"]["y"] - 8.4) < 0.05
-    await page.locator("#line-counts", has_text="1 walls").wait_for()
+    await page.locator("#line-counts", has_text="1 wall ·").wait_for()
 
     await page.click("[data-tool=goal]")
     await click_map(console, *goal)
