@@ -286,3 +286,25 @@ async def test_the_dock_is_drawn_where_the_map_manager_says(console: Console, wa
     p = home["pose"]["position"]
     assert abs(at["x"] - p["x"]) < 1e-6 and abs(at["y"] - p["y"]) < 1e-6
     await console.snapshot("console-dock")
+
+
+async def test_the_plot_has_axes(console: Console):
+    page = console.page
+    odom = "/slamware_ros_sdk_server_node/odom"
+    await console.tab("inspect")
+    await page.click("#topics-refresh")
+    await page.fill("#topic-filter", "odom")
+    await page.click(f'#topic-list li[data-topic="{odom}"]')
+    await page.wait_for_function(
+        "() => document.querySelectorAll('select.plot-pick option').length > 3")
+    await page.locator("#topic-detail select.plot-pick").select_option("pose.pose.position.x")
+    await page.wait_for_function(
+        "() => Number(document.getElementById('plot-range').dataset.samples) >= 30",
+        timeout=15_000)
+    ticks = await page.evaluate("""() => { const d = document.getElementById('plot').dataset;
+        return { y: d.yTicks.split(',').map(Number), t: d.tTicks.split(',').map(Number) }; }""")
+    x = (await page.evaluate("() => window.hitrobot.state.pose.x"))
+    assert len(ticks["y"]) >= 2 and min(ticks["y"]) <= x + 1 and max(ticks["y"]) >= x - 1
+    assert ticks["t"][0] == 0 and len(ticks["t"]) >= 2 and all(t <= 0 for t in ticks["t"])
+    await console.snapshot("console-plot")
+    assert console.errors == []
