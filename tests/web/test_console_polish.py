@@ -308,3 +308,17 @@ async def test_the_plot_has_axes(console: Console):
     assert ticks["t"][0] == 0 and len(ticks["t"]) >= 2 and all(t <= 0 for t in ticks["t"])
     await console.snapshot("console-plot")
     assert console.errors == []
+
+
+async def test_a_poi_added_in_the_page_logs_one_friendly_line(console: Console, watcher):
+    page = console.page
+    await watcher.subscribe("/map_manager/pois", "map_messages/PointsOfInterest")
+    grid = await grid_map(watcher)
+    await page.click("[data-tool=poi]")
+    await page.mouse.click(*(await console.to_client(*grid.nearest_clear(3.0, 13.0))))
+    await page.locator("#poi-dialog input[name=name]").fill("lobby")
+    await page.locator("#poi-dialog input[name=name]").press("Enter")
+    await page.locator("#log li", has_text="POI “lobby” added").wait_for(timeout=10_000)
+    texts = await page.locator("#log li .text").all_text_contents()
+    assert [t for t in texts if "lobby" in t] == [next(t for t in texts if "added at" in t)]
+    assert not [t for t in texts if "publish" in t or "add_poi" in t]
