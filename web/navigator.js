@@ -31,6 +31,7 @@ export class Navigator {
     // navigation, going home, a patrol — {label, target?, cancel(), done()?, patrol?}
     this.activity = null;
     this.planLength = null;
+    this.patrolRunning = false;
     this.initialPoseTopic = new ROSLIB.Topic({
       ros, name: '/initialpose', messageType: 'geometry_msgs/PoseWithCovarianceStamped',
     });
@@ -177,10 +178,14 @@ export class Navigator {
   patrolState(state, stop) {
     const waypoints = state.waypoints || [];
     const i = state.target_index;
-    if (state.active && i >= 0 && i < waypoints.length) {
+    const running = state.active && i >= 0 && i < waypoints.length;
+    const started = running && !this.patrolRunning;
+    this.patrolRunning = running;
+    if (running) {
       const w = waypoints[i];
       const label = `waypoint ${i + 1} of ${waypoints.length} (patrol, lap ${state.laps + 1})`;
       if (!this.activity || !this.activity.patrol) {
+        if (!started) return; // a goal sent since replaces the patrol: its last states are old news
         this.endActivity();
         this.goal = null;
         this.activity = { patrol: true, label, target: { x: w.x, y: w.y }, cancel: stop };
