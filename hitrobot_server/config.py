@@ -184,7 +184,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         flags = flag_spellings(f.name)
         text = _HELP[f.name]
         if "(default:" not in text:  # a help text may say the default better than the value
-            shown = {None: "none", False: "off", True: "on"}.get(f.default, f.default)
+            shown = ("none" if f.default is None else ("on" if f.default else "off")
+                     if isinstance(f.default, bool) else f.default)
             text += f" (default: {shown})"
         if f.type in ("bool", bool):
             parser.add_argument(

@@ -105,6 +105,10 @@ def test_help_names_each_default_once_and_the_tools_in_usage():
     assert any("hitrobot-server conformance --url" in line for line in usage)
     assert any("hitrobot-server sim-device" in line for line in usage)
     assert "--demo-services" in flat
+    # booleans read on/off, numbers stay numbers (1.0 and 0.0 are not "on" and "off")
+    assert "twice as fast) (default: 1.0)" in flat and "to a client (default: 0.0)" in flat
+    assert "permessage-deflate (default: off)" in flat
+    assert "--tcp-port, --tcp_port TCP_PORT" in flat  # the value once, after the spellings
 
 
 def test_demo_services_are_off_unless_asked(tmp_path):
