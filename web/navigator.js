@@ -219,7 +219,24 @@ export class Navigator {
       const b = poses[k].pose.position;
       length += Math.hypot(b.x - a.x, b.y - a.y);
     }
+    const before = this.planLength;
     this.planLength = poses.length > 1 ? length : null;
+    const status = this.statusBox.dataset.status;
+    if (before == null && this.planLength != null && !this.activity && this.online &&
+        status !== 'active' && status !== 'pending') {
+      // the robot set off on a motion this page did not send (another client, the shell):
+      // the panel follows it rather than keep showing the last goal
+      this.goal = null;
+      this.activity = { label: 'a motion sent elsewhere', target: null, elsewhere: true,
+        cancel: () => this.cancelTopic.publish(new ROSLIB.Message({})) };
+      this.marker.hide();
+      this.cancelButton.disabled = false;
+      this.show('active', 'ACTIVE → a motion sent elsewhere');
+    } else if (this.planLength == null && this.activity && this.activity.elsewhere) {
+      this.activity = null;
+      this.cancelButton.disabled = true;
+      this.show('idle', 'No goal — the robot stopped');
+    }
     this.progress();
   }
 

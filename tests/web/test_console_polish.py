@@ -322,3 +322,21 @@ async def test_a_poi_added_in_the_page_logs_one_friendly_line(console: Console, 
     texts = await page.locator("#log li .text").all_text_contents()
     assert [t for t in texts if "lobby" in t] == [next(t for t in texts if "added at" in t)]
     assert not [t for t in texts if "publish" in t or "add_poi" in t]
+
+
+async def test_navigation_panel_follows_a_motion_sent_by_another_client(console: Console,
+                                                                        watcher):
+    page = console.page
+    await watcher.publish("/move_base_simple/goal", {
+        "header": {"frame_id": "map"},
+        "pose": {"position": {"x": 11.0, "y": 8.0, "z": 0.0},
+                 "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}},
+        "geometry_msgs/PoseStamped")
+    await page.locator("#goal-status", has_text="sent elsewhere").wait_for(timeout=20_000)
+    await page.locator("#goal-status", has_text="m to go").wait_for(timeout=20_000)
+    assert await page.get_attribute("#goal-status", "data-status") == "active"
+    assert await page.locator("#cancel-goal").is_enabled()
+    await page.click("#cancel-goal")
+    await page.locator("#goal-status", has_text="the robot stopped").wait_for(timeout=20_000)
+    assert await page.locator("#cancel-goal").is_disabled()
+    assert console.errors == []
