@@ -15,6 +15,8 @@ import { formatPose, quatOfYaw, yawOf } from './util.js';
 export const GOAL_STATUS = ['PENDING', 'ACTIVE', 'PREEMPTED', 'SUCCEEDED', 'ABORTED', 'REJECTED',
   'PREEMPTING', 'RECALLING', 'RECALLED', 'LOST'];
 const TERMINAL = new Set([2, 3, 4, 5, 8, 9]);
+const PLAN_MIN = 0.2; // m: a planned path this long means the robot is on its way somewhere
+const STALE_PLAN_MS = 1500; // a plan seen this soon after an end may be one already on its way
 
 export class Navigator {
   constructor({ ros, view, serverName = '/move_base', actionName = 'move_base_msgs/MoveBaseAction',
@@ -32,6 +34,7 @@ export class Navigator {
     this.activity = null;
     this.planLength = null;
     this.patrolRunning = false;
+    this.endedAt = -Infinity; // when the panel last showed something ending
     this.initialPoseTopic = new ROSLIB.Topic({
       ros, name: '/initialpose', messageType: 'geometry_msgs/PoseWithCovarianceStamped',
     });
@@ -219,11 +222,11 @@ export class Navigator {
       const b = poses[k].pose.position;
       length += Math.hypot(b.x - a.x, b.y - a.y);
     }
-    const before = this.planLength;
     this.planLength = poses.length > 1 ? length : null;
     const status = this.statusBox.dataset.status;
-    if (before == null && this.planLength != null && !this.activity && this.online &&
-        status !== 'active' && status !== 'pending') {
+    // (not within a moment of an end shown here: a plan message already on its way is stale)
+    if (this.planLength > PLAN_MIN && !this.activity && this.online && status !== 'active' &&
+        status !== 'pending' && performance.now() - this.endedAt > STALE_PLAN_MS) {
       // the robot set off on a motion this page did not send (another client, the shell):
       // the panel follows it rather than keep showing the last goal
       this.goal = null;
@@ -269,6 +272,9 @@ export class Navigator {
   }
 
   show(state, text) {
+    if (state !== 'active' && state !== 'pending' && this.statusBox.dataset.status !== state) {
+      this.endedAt = performance.now();
+    }
     this.statusBox.dataset.status = state;
     this.statusBox.textContent = text;
   }
