@@ -35,17 +35,47 @@ WEB_FILES = [
     "node_modules/ros2d/LICENSE",
 ]
 
-if not (Path(__file__).resolve().parent / "web" / "node_modules" / "roslib").is_dir():
+HERE = Path(__file__).resolve().parent
+SHIPPED = {
+    "hitrobot_server._schemas": ["*/*/*.msg", "*/*/*.srv", "*/*/*.action"],
+    "hitrobot_server._protocol": ["*.md", "schemas/*.json", "vectors/*.json"],
+    "hitrobot_server._web": WEB_FILES,
+}
+
+
+def data_packages() -> dict[str, list[str]]:
+    """Every folder holding shipped files as a package of its own, with its file patterns.
+
+    setuptools treats a folder of package data as an importable (namespace) package and warns
+    once per folder that is not in ``packages``; listing each such folder with its own
+    ``package_data`` describes the same files without the ambiguity.
+    """
+    packages: dict[str, list[str]] = {}
+    for package, patterns in SHIPPED.items():
+        root = HERE / DATA[package]
+        packages.setdefault(package, [])
+        for pattern in patterns:
+            folder, _, name = pattern.rpartition("/")
+            for found in sorted(root.glob(folder)) if folder else [root]:
+                if found.is_dir() and any(found.glob(name)):
+                    sub = ".".join((package, *found.relative_to(root).parts))
+                    packages.setdefault(sub, [])
+                    if name not in packages[sub]:
+                        packages[sub].append(name)
+    return packages
+
+
+if not (HERE / "web" / "node_modules" / "roslib").is_dir():
     print("warning: web/node_modules is missing, so the web console will lack its libraries; "
           "run `npm ci --prefix web` before installing", file=sys.stderr)
 
+DATA_PACKAGES = data_packages()
+
 setup(
-    packages=find_packages(include=["hitrobot_server", "hitrobot_server.*"]) + list(DATA),
+    packages=find_packages(include=["hitrobot_server", "hitrobot_server.*"]) + list(DATA_PACKAGES),
     package_dir={"": ".", **DATA},
     package_data={
         "hitrobot_server": ["py.typed", "robot/worlds/*.yaml", "robot/worlds/*.pgm"],
-        "hitrobot_server._schemas": ["*/*/*.msg", "*/*/*.srv", "*/*/*.action"],
-        "hitrobot_server._protocol": ["*.md", "schemas/*.json", "vectors/*.json"],
-        "hitrobot_server._web": WEB_FILES,
+        **DATA_PACKAGES,
     },
 )

@@ -19,17 +19,36 @@ TOOLS = {
     "replay": "hitrobot_server.commands.replay",
 }
 
+USAGE = """%(prog)s [options]
+       %(prog)s conformance --url ws://HOST:PORT [options]
+       %(prog)s sim-device [--port PORT] [options]
+       %(prog)s replay FILE.mcap [--speed X] [--loop] [--start SECONDS] [options]"""
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """A flag's spellings, then its value once (``--tcp-port, --tcp_port TCP_PORT``), as
+    Python 3.13 prints them, on every Python: the help reads the same everywhere."""
+
+    def _format_action_invocation(self, action: argparse.Action) -> str:
+        if not action.option_strings or action.nargs == 0:
+            return super()._format_action_invocation(action)
+        value = self._format_args(action, self._get_default_metavar_for_optional(action))
+        return f"{', '.join(action.option_strings)} {value}"
+
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="hitrobot-server",
+        usage=USAGE,
+        formatter_class=HelpFormatter,
         description=(
             "A rosbridge-v2-compatible (hitrobot protocol) WebSocket and TCP server with an "
             "in-process topic/service/action bus. Tools: 'hitrobot-server conformance --url "
             "ws://HOST:PORT' runs the protocol conformance vectors against any server; "
             "'hitrobot-server sim-device --port 1448' serves the simulated robot over the "
             "Slamware REST API (for --robot http://127.0.0.1:1448); 'hitrobot-server replay "
-            "FILE.mcap' serves a recording (--record) on the bus instead of a robot."
+            "FILE.mcap' serves a recording (--record) on the bus instead of a robot. Each tool's "
+            "--help lists its options."
         ),
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")

@@ -66,6 +66,7 @@ class Settings:
     record_topics: str | None = None
     record_split_size: int = 0
     record_dir: str | None = None
+    demo_services: bool = False
     slamware: SlamwareParams = field(default_factory=SlamwareParams)
     # Named robots (``--robot NAME=SPEC``, repeatable); empty: the single unnamed ``robot``.
     robots: tuple[RobotEntry, ...] = ()
@@ -137,6 +138,7 @@ class Settings:
             topics_glob=self.topics_glob,
             services_glob=self.services_glob,
             params_glob=self.params_glob,
+            demo_services=self.demo_services,
         )
 
     def robot_options(self, entry: RobotEntry | None = None) -> RobotOptions:
@@ -189,7 +191,8 @@ _HELP = {
     "zenoh_config": "Zenoh session config file (JSON5) for --bus zenoh; replaces the defaults "
     "(peer mode, no multicast scouting)",
     "zenoh_connect": "comma-separated Zenoh endpoints to connect to, e.g. tcp/127.0.0.1:7447",
-    "zenoh_listen": "comma-separated Zenoh endpoints to listen on, e.g. tcp/127.0.0.1:7447",
+    "zenoh_listen": "comma-separated Zenoh endpoints to listen on, e.g. tcp/127.0.0.1:7447 "
+    "(default: tcp/127.0.0.1:0, any free loopback port)",
     "zenoh_domain": "ROS domain id: the first chunk of every Zenoh key (as ROS_DOMAIN_ID)",
     "workers": "server processes behind the same ports (SO_REUSEPORT), joined over Zenoh "
     "(needs the [zenoh] extra); 'auto' = one per core; 1 = this process alone",
@@ -202,6 +205,8 @@ _HELP = {
     "record_dir": "folder of /record/start's recordings, downloadable at /recordings/NAME "
     "(default: $XDG_DATA_HOME/hitrobot-server/recordings)",
     "map_dir": "folder of saved map folders (default: $XDG_DATA_HOME/hitrobot-server/maps)",
+    "demo_services": "offer the tutorial servers of the rosbridge test image: the service "
+    "/add_two_ints and the action /fibonacci (example_interfaces types), for client test suites",
 }
 
 _SKIP = {"auth_secret", "client_tag", "slamware", "worker_id", "robots"}
@@ -228,8 +233,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         if f.name in _SKIP:
             continue
         flags = flag_spellings(f.name)
-        default = f.default
-        text = f"{_HELP[f.name]} (default: {default})"
+        text = _HELP[f.name]
+        if "(default:" not in text:  # a help text may say the default better than the value
+            shown = ("none" if f.default is None else ("on" if f.default else "off")
+                     if isinstance(f.default, bool) else f.default)
+            text += f" (default: {shown})"
         if f.type in ("bool", bool):
             parser.add_argument(
                 *flags, dest=f.name, action=argparse.BooleanOptionalAction, default=None,

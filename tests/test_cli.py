@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import re
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -98,3 +101,46 @@ def test_a_failed_start_on_zenoh_exits_instead_of_hanging(tmp_path):
                           "0", "--bus", "zenoh", "--world", str(tmp_path / "absent.yaml")],
                          capture_output=True, text=True, timeout=60)
     assert out.returncode == 1 and "absent.yaml" in out.stderr
+
+
+HELP_SNAPSHOT = Path(__file__).with_name("cli_help.txt")
+
+
+def _help_text() -> str:
+    env = {**os.environ, "COLUMNS": "100"}  # argparse wraps to the terminal's width
+    return subprocess.run([sys.executable, "-m", "hitrobot_server", "--help"], env=env,
+                          capture_output=True, text=True, check=True).stdout
+
+
+def test_help_matches_its_snapshot():
+    """`--help` as a user reads it; refresh with UPDATE_SNAPSHOT=1 after a deliberate change."""
+    text = _help_text()
+    if os.environ.get("UPDATE_SNAPSHOT") == "1":
+        HELP_SNAPSHOT.write_text(text)
+    assert text == HELP_SNAPSHOT.read_text()
+
+
+def test_help_names_each_default_once_and_the_tools_in_usage():
+    text = _help_text()
+    assert "(default: None)" not in text
+    flat = " ".join(text.split())
+    assert flat.count("(default: the built-in office)") == 1
+    assert "(default: $XDG_DATA_HOME/hitrobot-server/maps)" in flat
+    assert not re.search(r"\(default:[^)]*\)\s*\(default:", flat)
+    usage = text.split("\n\n", 1)[0].splitlines()
+    assert usage[0].startswith("usage: hitrobot-server")
+    assert any("hitrobot-server conformance --url" in line for line in usage)
+    assert any("hitrobot-server sim-device" in line for line in usage)
+    assert "--demo-services" in flat
+    # booleans read on/off, numbers stay numbers (1.0 and 0.0 are not "on" and "off")
+    assert "twice as fast) (default: 1.0)" in flat and "to a client (default: 0.0)" in flat
+    assert "permessage-deflate (default: off)" in flat
+    assert "--tcp-port, --tcp_port TCP_PORT" in flat  # the value once, after the spellings
+
+
+def test_demo_services_are_off_unless_asked(tmp_path):
+    assert not load(build_parser().parse_args([])).node_options().demo_services
+    assert load(build_parser().parse_args(["--demo-services"])).node_options().demo_services
+    cfg = tmp_path / "server.toml"
+    cfg.write_text("demo_services = true\n")
+    assert load(build_parser().parse_args(["--config", str(cfg)])).demo_services

@@ -5,6 +5,7 @@
 import { connect, showBroken } from './connection.js';
 import { Diagnostics } from './diagnostics.js';
 import { dialogOpen } from './dialogs.js';
+import { DockLayer } from './docklayer.js';
 import { MapEditor } from './editor.js';
 import { Fleet } from './fleet.js';
 import { Inspector } from './inspector.js';
@@ -20,6 +21,7 @@ import { Patrol } from './patrol.js';
 import { Pois } from './pois.js';
 import { Recordings, ReplayTimeline } from './recordings.js';
 import { RobotActions } from './robotpanel.js';
+import { RobotPresence } from './robotpresence.js';
 import { RobotState } from './robotstate.js';
 import { Shell } from './shell.js';
 import { Teleop } from './teleop.js';
@@ -59,6 +61,7 @@ function main() {
     scan: new ScanLayer(view),
     waypoints: new WaypointLayer(view),
     pois: new PoiLayer(view),
+    dock: new DockLayer(view),
     sensors: new SensorLayer(view),
   };
   const navigator = new Navigator({ ros, view });
@@ -70,11 +73,12 @@ function main() {
   topic(`${NODE}/virtual_tracks`, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 500 })
     .subscribe((m) => { layers.tracks.set(m); editor.showCounts(); });
   topic('/graph/current', 'hitrobot_msgs/Graph').subscribe((g) => layers.graph.set(g));
+  topic('/map_manager/home', 'geometry_msgs/PoseStamped').subscribe((h) => layers.dock.set(h));
   // the costmap overlay is computed from the very /map messages ros2d receives (no second
   // subscription): roslib emits each topic's messages on the Ros object under the topic name
   ros.on('/map', (grid) => layers.costmap.set(grid));
   topic(`${NODE}/global_plan_path`, 'nav_msgs/Path', { throttle_rate: 200, queue_length: 1 })
-    .subscribe((m) => layers.path.set(m));
+    .subscribe((m) => { layers.path.set(m); navigator.plan = m; });
 
   // ---- the robot ---------------------------------------------------------------------------
   const state = { pose: null, follow: false };
@@ -131,12 +135,13 @@ function main() {
   const shell = new Shell({ ros });
   const teleop = new Teleop({ ros });
   const robotState = new RobotState({ ros });
-  const robotActions = new RobotActions({ ros });
+  const robotActions = new RobotActions({ ros, navigator });
   const patrol = new Patrol({ ros, layer: layers.waypoints });
   const maps = new SavedMaps({ ros });
   const diagnostics = new Diagnostics({ ros, sensorLayer: layers.sensors });
   const inspector = new Inspector({ ros });
   const fleet = new Fleet({ ros, view, teleop, navigator }); // shown with named robots only
+  patrol.onState = (s) => navigator.patrolState(s, () => patrol.call('stop', {}));
   pois.onGo = (poi) => {
     navigator.goToPoi(poi);
     return false; // the navigator publishes it and follows it
@@ -168,6 +173,26 @@ function main() {
   };
   window.addEventListener('bridge', (e) => setOnline(e.detail.online));
   if (!ros.isConnected) setOnline(false);
+
+  // ---- no robot behind the bridge (--robot none, or its server gone): say so, and disable
+  // everything that would drive or change it (the view, layers and inspector keep working)
+  const robotControls = () => [...document.querySelectorAll(
+    '.side button:not([data-tab]):not([data-tool]), .side input:not([data-layer]), .side select')]
+    .filter((c) => !c.closest('[data-tab-panel=inspect]') && c.id !== 'maps-refresh');
+  const presence = new RobotPresence({
+    ros,
+    onChange: (present, seen) => {
+      if (present) return;
+      tools.setEnabled(false);
+      navigator.robotAbsent(seen);
+      for (const control of robotControls()) control.disabled = true;
+      robotState.setRobot('none', seen ? 'offline' : 'no robot');
+      document.getElementById('hint').textContent = seen
+        ? 'Robot offline: its server left the bus. The map and pose shown are its last known.'
+        : 'No robot: this server runs the bridge alone (--robot none).';
+      log(seen ? 'error' : 'info', seen ? 'the robot went offline' : 'no robot behind this bridge');
+    },
+  });
 
   // ---- side panel tabs ---------------------------------------------------------------------
   const tabs = [...document.querySelectorAll('.tabs [data-tab]')];
@@ -232,12 +257,12 @@ function main() {
     else if (e.key === 'f') view.fit();
     else if (e.key === '+' || e.key === '=') view.zoomCentre(1.25);
     else if (e.key === '-') view.zoomCentre(0.8);
-    else if (e.key === 'Escape') tools.abort();
+    else if (e.key === 'Escape') tools.escape();
   });
 
   // For debugging from the browser console, and for the tests: the page's own objects.
   window.hitrobot = { ros, view, navigator, pois, shell, teleop, robotState, robotActions, tools,
-    fleet, layers, editor, patrol, maps, diagnostics, inspector, showTab, robot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
+    fleet, layers, editor, patrol, maps, diagnostics, inspector, presence, showTab, robot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
       easeljs: createjs.EaselJS && createjs.EaselJS.version } };
   // record and replay (recordings.js): a panel in the Status tab, a timeline over the map
   window.hitrobot.recordings = new Recordings({ ros, parent: document.querySelector('[data-tab-panel=status]') });

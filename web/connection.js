@@ -30,6 +30,15 @@ export function publishTracked(topic, message, onStatus) {
   };
 }
 
+/** A status as the operator reads it: the server's reply without the op it answers
+ * ("publish to '/topic': …") and without roslib's op id ("publish:/topic:26"); the topic or
+ * service the id names is said when the text does not say it. */
+export function operatorText(text, id = '') {
+  const plain = text.replace(/^publish to '[^']*': /, '');
+  const name = (id.match(/^[a-z_]+:(.+):\d+$/) || [])[1];
+  return name && !plain.includes(name) ? `${plain} (${name})` : plain;
+}
+
 let online = null;
 
 /** Set the bridge pill; going on or off line fires a `bridge` event ({online}) on window. */
@@ -79,8 +88,7 @@ export function connect(url = bridgeUrl()) {
     const id = (message && message.id) || '';
     if (tracked.has(id)) return;
     if (level === 'info' && !id.startsWith('publish:')) return;
-    const where = id ? ` (${id})` : '';
-    log(level, `${message && message.msg ? message.msg : 'status'}${where}`);
+    log(level, operatorText(message && message.msg ? message.msg : 'status', id));
   });
   ros.setStatusLevel('info');
   return ros;

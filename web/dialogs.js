@@ -34,13 +34,22 @@ function formDialog(id, { title, where = '', values = {}, validate = () => '' })
       form.elements.name.focus();
     }
   };
+  // Enter in a field confirms (the form's first submit button is Cancel, which implicit
+  // submission would press); Esc cancels, as <dialog> does by itself.
+  const enter = (e) => {
+    if (e.key !== 'Enter' || e.isComposing || e.target.tagName !== 'INPUT') return;
+    e.preventDefault();
+    form.requestSubmit(form.querySelector('button[value="ok"]'));
+  };
   form.addEventListener('submit', check);
+  form.addEventListener('keydown', enter);
   dialog.showModal();
   form.elements.name.focus();
   form.elements.name.select();
   return new Promise((resolve) => {
     dialog.addEventListener('close', () => {
       form.removeEventListener('submit', check);
+      form.removeEventListener('keydown', enter);
       const name = form.elements.name.value.trim();
       resolve(dialog.returnValue === 'ok' && name ? form : null);
     }, { once: true });

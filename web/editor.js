@@ -36,7 +36,8 @@ export class MapEditor {
   }
 
   showCounts() {
-    this.counts.textContent = `${this.walls.lines.length} walls · ${this.tracks.lines.length} tracks`;
+    const count = (n, word) => `${n} ${word}${n === 1 ? '' : 's'}`;
+    this.counts.textContent = `${count(this.walls.lines.length, 'wall')} · ${count(this.tracks.lines.length, 'track')}`;
   }
 
   /** A pick from one of the editing tools (see MapTools). */

@@ -3,6 +3,7 @@
 // (rosapi/message_details) to publish one; and a small live plot of a numeric field.
 /* global ROSLIB */
 import { log } from './log.js';
+import { niceStep } from './overlays.js';
 import { el } from './util.js';
 
 const RATE_WINDOW_MS = 5000;
@@ -91,7 +92,7 @@ export class Inspector {
   select(t) {
     if (this.selected) this.selected.sub.unsubscribe();
     const sub = new ROSLIB.Topic({ ros: this.ros, name: t.name, messageType: t.type, throttle_rate: 0, queue_length: 1 });
-    this.selected = { ...t, sub, stamps: [], last: null, plotPath: null, series: [] };
+    this.selected = { ...t, sub, stamps: [], last: null, plotPath: null, series: [], times: [] };
     const mine = this.selected;
     sub.subscribe((msg) => this.onMessage(mine, msg));
     this.detail.hidden = false;
@@ -125,7 +126,8 @@ export class Inspector {
       const v = valueAt(msg, sel.plotPath);
       if (typeof v === 'number' && Number.isFinite(v)) {
         sel.series.push(v);
-        if (sel.series.length > PLOT_POINTS) sel.series.shift();
+        sel.times.push(performance.now());
+        if (sel.series.length > PLOT_POINTS) { sel.series.shift(); sel.times.shift(); }
         this.drawPlot();
       }
     }
@@ -161,6 +163,7 @@ export class Inspector {
     if (!sel) return;
     sel.plotPath = path || null;
     sel.series = [];
+    sel.times = [];
     this.plotPanel.hidden = !path;
     this.plotField.textContent = path ? `${sel.name} ${path}` : '';
     this.drawPlot();
@@ -183,13 +186,48 @@ export class Inspector {
     let lo = Math.min(...s);
     let hi = Math.max(...s);
     if (hi - lo < 1e-9) { lo -= 1; hi += 1; }
+    // axes: the value on the left, seconds before the last sample along the bottom
+    const left = 44;
+    const bottom = 16;
+    const pw = w - left - 4;
+    const ph = h - bottom - 6;
+    const X = (t) => left + pw + (t / span) * pw; // t ≤ 0: seconds before the last sample
+    const Y = (v) => 6 + ph - ((v - lo) / (hi - lo)) * ph;
+    const times = sel.times;
+    const last = times[times.length - 1];
+    const span = Math.max(1, (last - times[0]) / 1000);
+    ctx.font = '10px system-ui, sans-serif';
+    ctx.fillStyle = '#8a96a3';
+    ctx.strokeStyle = '#2a3039';
+    ctx.lineWidth = 1;
+    const yStep = niceStep((hi - lo) / 4);
+    const yTicks = [];
+    for (let v = Math.ceil(lo / yStep) * yStep; v <= hi + 1e-9; v += yStep) yTicks.push(v);
+    ctx.textAlign = 'right';
+    ctx.textBaseline = 'middle';
+    for (const v of yTicks) {
+      ctx.beginPath(); ctx.moveTo(left, Y(v)); ctx.lineTo(left + pw, Y(v)); ctx.stroke();
+      ctx.fillText(Number(v.toPrecision(6)).toString(), left - 4, Y(v));
+    }
+    const tStep = niceStep(span / 4);
+    const tTicks = [];
+    for (let t = 0; t >= -span - 1e-9; t -= tStep) tTicks.push(t);
+    ctx.textBaseline = 'top';
+    for (const t of tTicks) {
+      ctx.textAlign = t === 0 ? 'right' : 'center';
+      ctx.fillText(t === 0 ? 'now' : `${Number(t.toPrecision(6))} s`, X(t), 6 + ph + 3);
+    }
+    ctx.strokeStyle = '#8a96a3';
+    ctx.beginPath(); ctx.moveTo(left, 6); ctx.lineTo(left, 6 + ph); ctx.lineTo(left + pw, 6 + ph); ctx.stroke();
+    c.dataset.yTicks = yTicks.map((v) => Number(v.toPrecision(6))).join(',');
+    c.dataset.tTicks = tTicks.map((t) => Number(t.toPrecision(6))).join(',');
+
     ctx.strokeStyle = '#2196f3';
     ctx.lineWidth = 1.5;
     ctx.beginPath();
     s.forEach((v, i) => {
-      const x = (i / (PLOT_POINTS - 1)) * (w - 4) + 2;
-      const y = h - 4 - ((v - lo) / (hi - lo)) * (h - 8);
-      if (i) ctx.lineTo(x, y); else ctx.moveTo(x, y);
+      const x = X((times[i] - last) / 1000);
+      if (i) ctx.lineTo(x, Y(v)); else ctx.moveTo(x, Y(v));
     });
     ctx.stroke();
     this.plotRange.textContent = `last ${s[s.length - 1].toPrecision(4)} · min ${Math.min(...s).toPrecision(4)} · max ${Math.max(...s).toPrecision(4)} · ${s.length} samples`;

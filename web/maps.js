@@ -1,6 +1,6 @@
 // Saved maps: the list from the `list_map_files` service, Load (the `load_laser_map` service,
 // which answers with the outcome) after a confirmation, and Save as… a name the operator types
-// (/map_manager/save_map), confirmed, and replacing an existing map only when asked.
+// (/map_manager/save_map), replacing an existing map only when confirmed.
 /* global ROSLIB */
 import { confirmAction, nameForm } from './dialogs.js';
 import { log } from './log.js';
@@ -65,10 +65,9 @@ export class SavedMaps {
       validate: (value) => (NAME.test(value) ? '' : 'letters, digits, _ . - only (no spaces or slashes), at most 64'),
     });
     if (!name) return;
-    const exists = this.names.includes(name);
-    const question = exists ? `A map named “${name}” exists. Replace it with the current map?`
-      : `Save the current map as “${name}”?`;
-    if (!(await confirmAction(question, exists ? 'Replace' : 'Save'))) return;
+    // the name dialog was the question; only replacing a saved map asks again
+    if (this.names.includes(name) && !(await confirmAction(
+      `A map named “${name}” exists. Replace it with the current map?`, 'Replace'))) return;
     this.saveTopic.publish(new ROSLIB.Message({ filename: name }));
     log('info', `saving the map as “${name}”…`);
     // the save answers with a status only; the list shows when it is there

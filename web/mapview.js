@@ -226,7 +226,10 @@ export class MapView extends EventTarget {
     const centre = this.canvasToRos(this.canvas.width / 2, this.canvas.height / 2);
     this.canvas.width = this.viewer.width = w;
     this.canvas.height = this.viewer.height = h;
-    if (this.fitted) this.centerOn(centre.x, centre.y);
+    // a fitted map is fitted again to the new size; one the operator panned or zoomed keeps
+    // its centre
+    if (this.fitted && this.autoFit) this.fit();
+    else if (this.fitted) this.centerOn(centre.x, centre.y);
     this.lastScale = NaN; // redraw every layer (pixel sizes depend on dpr)
     this.changed();
   }

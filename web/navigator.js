@@ -1,18 +1,22 @@
 // Navigation, doing what nav2d's OccupancyGridClientNav does (nav2d is not on npm): a roslib
 // ActionClient on /move_base (move_base_msgs/MoveBaseAction) sends goals with an orientation,
 // the goal is drawn on the map and its status shown; /initialpose sets the robot's pose. A
-// "Go" to a POI is followed the same way (distance to go, Cancel), from navigation's replies.
+// "Go" to a POI and Go home are followed the same way (distance to go, Cancel), from the
+// server's replies, and so is a running patrol: the panel always shows what the robot does.
 // While the bridge is down nothing is sent and the panel says the state is unknown.
 /* global ROSLIB */
-import { publishTracked } from './connection.js';
+import { operatorText, publishTracked } from './connection.js';
 import { ArrowMarker, COLORS } from './overlays.js';
 import { log } from './log.js';
+import { fromOne } from './patrol.js';
 import { formatPose, quatOfYaw, yawOf } from './util.js';
 
 // actionlib_msgs/GoalStatus
 export const GOAL_STATUS = ['PENDING', 'ACTIVE', 'PREEMPTED', 'SUCCEEDED', 'ABORTED', 'REJECTED',
   'PREEMPTING', 'RECALLING', 'RECALLED', 'LOST'];
 const TERMINAL = new Set([2, 3, 4, 5, 8, 9]);
+const PLAN_MIN = 0.2; // m: a planned path this long means the robot is on its way somewhere
+const STALE_PLAN_MS = 1500; // a plan seen this soon after an end may be one already on its way
 
 export class Navigator {
   constructor({ ros, view, serverName = '/move_base', actionName = 'move_base_msgs/MoveBaseAction',
@@ -25,7 +29,12 @@ export class Navigator {
     this.poiTopic = new ROSLIB.Topic({ ros, name: '/navigation/navigate_to_poi', messageType: 'map_messages/NavigateToPOI' });
     this.cancelTopic = new ROSLIB.Topic({ ros, name: '/slamware_ros_sdk_server_node/cancel_action',
       messageType: 'slamware_ros_sdk/CancelActionRequest' });
-    this.poi = null; // {name, x, y, done()} while a POI navigation runs
+    // what the robot does that is not a /move_base goal, followed in the panel: a POI
+    // navigation, going home, a patrol — {label, target?, cancel(), done()?, patrol?}
+    this.activity = null;
+    this.planLength = null;
+    this.patrolRunning = false;
+    this.endedAt = -Infinity; // when the panel last showed something ending
     this.initialPoseTopic = new ROSLIB.Topic({
       ros, name: '/initialpose', messageType: 'geometry_msgs/PoseWithCovarianceStamped',
     });
@@ -53,8 +62,16 @@ export class Navigator {
       else this.show('offline', 'OFFLINE — no goals can be sent');
       this.cancelButton.disabled = true;
       this.marker.hide();
-      this.endPoi();
+      this.endActivity();
     }
+  }
+
+  /** No robot behind the bridge (never was, or its server left): nothing to follow or send. */
+  robotAbsent(seen) {
+    this.endActivity();
+    this.goal = null;
+    this.cancelButton.disabled = true;
+    this.show('offline', seen ? 'ROBOT OFFLINE — its state is unknown' : 'No robot');
   }
 
   refuse(what) {
@@ -66,7 +83,7 @@ export class Navigator {
   /** Send the robot to (x, y) facing `yaw` (rad); a new goal replaces the previous one. */
   sendGoal(x, y, yaw) {
     if (this.refuse('goal')) return null;
-    this.endPoi();
+    this.endActivity();
     const goal = new ROSLIB.Goal({
       actionClient: this.client,
       goalMessage: {
@@ -106,54 +123,140 @@ export class Navigator {
   /** Navigate to a POI through /navigation/navigate_to_poi and follow it in the panel. */
   goToPoi(poi) {
     if (this.refuse('POI navigation')) return;
-    this.endPoi();
-    this.goal = null;
     const p = poi.pose.position;
-    this.target = { x: p.x, y: p.y, yaw: 0 };
+    this.followRequest(this.poiTopic, new ROSLIB.Message({
+      poi_name: poi.name, distance_to_target: 0.0, skip_final_turn: false,
+    }), `POI “${poi.name}”`, { x: p.x, y: p.y }, /arrived/);
     this.marker.setPose(p.x, p.y, yawOf(poi.pose.orientation));
-    const label = `POI “${poi.name}”`;
-    this.poi = { name: poi.name, x: p.x, y: p.y, label };
+    this.target = { x: p.x, y: p.y, yaw: 0 };
+    log('info', `navigating to POI “${poi.name}”`);
+  }
+
+  /** Go home (go_home: to the dock), followed in the panel like a goal until the robot's
+   * reply; the distance to go is what is left of the robot's planned path. */
+  goHome(topic) {
+    if (this.refuse('go home')) return;
+    this.marker.hide();
+    this.followRequest(topic, new ROSLIB.Message({}), 'home (the dock)', null, /: done$/);
+    log('info', 'going home to the dock');
+  }
+
+  /**
+   * Publish a request the robot carries out as one motion and follow it in the panel from the
+   * server's replies to that publish: `arrived` (a regex) on success, another info or warning
+   * when cancelled or replaced, an error when it failed. Cancel sends cancel_action.
+   */
+  followRequest(topic, message, label, target, arrived) {
+    this.endActivity();
+    this.goal = null;
+    const mine = { label, target, cancel: () => this.cancelTopic.publish(new ROSLIB.Message({})) };
+    this.activity = mine;
     this.show('active', `ACTIVE → ${label}`);
     this.cancelButton.disabled = false;
-    const mine = this.poi;
-    mine.done = publishTracked(this.poiTopic, new ROSLIB.Message({
-      poi_name: poi.name, distance_to_target: 0.0, skip_final_turn: false,
-    }), (status) => {
-      if (this.poi !== mine) return;
+    mine.done = publishTracked(topic, message, (status) => {
+      if (this.activity !== mine) return;
       const text = status.msg || '';
-      if (status.level === 'info' && /arrived/.test(text)) {
+      if (status.level === 'info' && arrived.test(text)) {
         this.show('succeeded', `SUCCEEDED → ${label}`);
         log('info', `arrived at ${label}`);
       } else if (status.level === 'info' || status.level === 'warning') {
         // cancelled or replaced by another motion: the server says so at info level
-        this.show('preempted', `PREEMPTED → ${label} — ${text}`);
-        log(status.level, text);
+        this.show('preempted', `PREEMPTED → ${label} — ${operatorText(text)}`);
+        log(status.level, operatorText(text));
       } else if (status.level === 'error') {
-        this.show('aborted', `ABORTED → ${label} — ${text}`);
-        log('error', text);
+        this.show('aborted', `ABORTED → ${label} — ${operatorText(text)}`);
+        log('error', operatorText(text));
       } else {
         return;
       }
-      this.endPoi();
+      this.endActivity();
     });
-    log('info', `navigating to ${label}`);
   }
 
-  endPoi() {
-    if (!this.poi) return;
-    if (this.poi.done) this.poi.done();
-    this.poi = null;
+  /**
+   * The patrol (planning/patrol_state): while it runs the panel follows it — the waypoint it
+   * heads to, the lap, the distance to go — and Cancel stops it (`stop`). A patrol that ends
+   * says so; a goal or POI sent meanwhile takes the panel over.
+   */
+  patrolState(state, stop) {
+    const waypoints = state.waypoints || [];
+    const i = state.target_index;
+    const running = state.active && i >= 0 && i < waypoints.length;
+    const started = running && !this.patrolRunning;
+    this.patrolRunning = running;
+    if (running) {
+      const w = waypoints[i];
+      const label = `waypoint ${i + 1} of ${waypoints.length} (patrol, lap ${state.laps + 1})`;
+      if (!this.activity || !this.activity.patrol) {
+        if (!started) return; // a goal sent since replaces the patrol: its last states are old news
+        this.endActivity();
+        this.goal = null;
+        this.activity = { patrol: true, label, target: { x: w.x, y: w.y }, cancel: stop };
+        this.cancelButton.disabled = !this.online;
+      }
+      Object.assign(this.activity, { label, target: { x: w.x, y: w.y } });
+      this.marker.hide();
+      this.progress();
+    } else if (this.activity && this.activity.patrol) {
+      this.activity = null;
+      this.cancelButton.disabled = true;
+      this.show('idle', `Patrol stopped${state.message ? ` — ${fromOne(state.message)}` : ''}`);
+    }
+  }
+
+  endActivity() {
+    if (!this.activity) return;
+    if (this.activity.done) this.activity.done();
+    this.activity = null;
     this.cancelButton.disabled = true;
     this.marker.hide();
   }
 
-  /** The robot moved: the distance left to a POI being navigated to. */
+  /** The robot's remaining planned path (nav_msgs/Path): the distance to go when there is no
+   * single target to measure to. */
+  set plan(path) {
+    const poses = (path && path.poses) || [];
+    let length = 0;
+    for (let k = 1; k < poses.length; k++) {
+      const a = poses[k - 1].pose.position;
+      const b = poses[k].pose.position;
+      length += Math.hypot(b.x - a.x, b.y - a.y);
+    }
+    this.planLength = poses.length > 1 ? length : null;
+    const status = this.statusBox.dataset.status;
+    // (not within a moment of an end shown here: a plan message already on its way is stale)
+    if (this.planLength > PLAN_MIN && !this.activity && this.online && status !== 'active' &&
+        status !== 'pending' && performance.now() - this.endedAt > STALE_PLAN_MS) {
+      // the robot set off on a motion this page did not send (another client, the shell):
+      // the panel follows it rather than keep showing the last goal
+      this.goal = null;
+      this.activity = { label: 'a motion sent elsewhere', target: null, elsewhere: true,
+        cancel: () => this.cancelTopic.publish(new ROSLIB.Message({})) };
+      this.marker.hide();
+      this.cancelButton.disabled = false;
+      this.show('active', 'ACTIVE → a motion sent elsewhere');
+    } else if (this.planLength == null && this.activity && this.activity.elsewhere) {
+      this.activity = null;
+      this.cancelButton.disabled = true;
+      this.show('idle', 'No goal — the robot stopped');
+    }
+    this.progress();
+  }
+
+  /** The robot moved: the distance left to what it is doing. */
   set robot(pose) {
     this.robotPose = pose;
-    if (this.poi && pose && this.statusBox.dataset.status === 'active') {
-      const left = Math.hypot(this.poi.x - pose.x, this.poi.y - pose.y);
-      this.show('active', `ACTIVE → ${this.poi.label} · ${left.toFixed(1)} m to go`);
-    }
+    this.progress();
+  }
+
+  progress() {
+    const a = this.activity;
+    const pose = this.robotPose;
+    if (!a || (this.statusBox.dataset.status !== 'active' && !a.patrol)) return;
+    let left = null;
+    if (a.target && pose) left = Math.hypot(a.target.x - pose.x, a.target.y - pose.y);
+    else if (this.planLength != null) left = this.planLength;
+    this.show('active', `ACTIVE → ${a.label}${left == null ? '' : ` · ${left.toFixed(1)} m to go`}`);
   }
 
   get robot() {
@@ -169,15 +272,18 @@ export class Navigator {
   }
 
   show(state, text) {
+    if (state !== 'active' && state !== 'pending' && this.statusBox.dataset.status !== state) {
+      this.endedAt = performance.now();
+    }
     this.statusBox.dataset.status = state;
     this.statusBox.textContent = text;
   }
 
   cancel() {
     if (this.refuse('cancel')) return;
-    if (this.poi) {
-      this.cancelTopic.publish(new ROSLIB.Message({}));
-      log('info', `navigation to ${this.poi.label} cancel requested`);
+    if (this.activity) {
+      this.activity.cancel();
+      log('info', `${this.activity.label}: cancel requested`);
     } else if (this.goal) {
       this.goal.cancel();
       log('info', 'goal cancel requested');

@@ -21,7 +21,7 @@ export const COLORS = {
   area: 'rgba(255, 23, 68, 0.25)',
 };
 
-class Layer {
+export class Layer {
   constructor(view) {
     this.view = view;
     this.node = new createjs.Container();

@@ -6,9 +6,13 @@
 import { log } from './log.js';
 import { el } from './util.js';
 
+/** The server counts waypoints from 0 (the SDK's texts); the panel and the map from 1. */
+export const fromOne = (text) => text.replace(/\bwaypoint (\d+)/g, (_, n) => `waypoint ${Number(n) + 1}`);
+
 export class Patrol {
   constructor({ ros, layer }) {
     this.layer = layer;
+    this.onState = null; // (state) => …: the Navigation panel follows a running patrol
     this.waypoints = [];
     this.frame = 'map';
     const service = (name, serviceType) => new ROSLIB.Service({ ros, name: `/planning/${name}`, serviceType });
@@ -32,8 +36,8 @@ export class Patrol {
 
   call(what, request, okText = '') {
     this.services[what].callService(new ROSLIB.ServiceRequest(request), (reply) => {
-      if (reply.success) log('info', okText || `patrol ${what}: ${reply.message}`);
-      else log('error', `patrol ${what}: ${reply.message}`);
+      if (reply.success) log('info', okText || `patrol ${what}: ${fromOne(reply.message)}`);
+      else log('error', `patrol ${what}: ${fromOne(reply.message)}`);
     }, (error) => log('error', `patrol ${what} failed: ${error}`));
   }
 
@@ -44,6 +48,7 @@ export class Patrol {
   }
 
   show(state) {
+    if (this.onState) this.onState(state);
     this.waypoints = state.waypoints || [];
     if (this.waypoints.length) this.frame = this.waypoints[0].frame || 'map';
     this.layer.set(this.waypoints, state.active ? state.target_index : -1);
@@ -52,8 +57,8 @@ export class Patrol {
     this.stateBox.dataset.target = String(state.target_index);
     this.stateBox.dataset.laps = String(state.laps);
     const route = state.route ? `route “${state.route}” · ` : '';
-    // the server counts waypoints from 0, the list from 1: its "heading to …" is said here
-    const event = state.message && !/^heading to/.test(state.message) ? ` · ${state.message}` : '';
+    // its "heading to …" is said here already
+    const event = state.message && !/^heading to/.test(state.message) ? ` · ${fromOne(state.message)}` : '';
     this.stateBox.textContent = state.active
       ? `${route}patrolling → waypoint ${state.target_index + 1} of ${this.waypoints.length} · lap ${state.laps + 1}${event}`
       : `${route}${this.waypoints.length ? 'stopped' : 'no route'}${event}`;

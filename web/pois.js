@@ -1,6 +1,7 @@
 // Points of interest: the list from /map_manager/pois (map_messages/PointsOfInterest), drawn on
 // the map; add at a picked pose, rename, delete, and "go" through /navigation/navigate_to_poi.
 /* global ROSLIB */
+import { operatorText, publishTracked } from './connection.js';
 import { confirmAction, poiForm } from './dialogs.js';
 import { log } from './log.js';
 import { el, formatPose, quatOfYaw, yawOf } from './util.js';
@@ -54,30 +55,38 @@ export class Pois {
     const answer = await poiForm({ title: 'Add point of interest', name: `poi ${n}`,
       where: `at ${formatPose(x, y, yaw)}`, validate: (name) => this.taken(name) });
     if (!answer) return;
-    this.addTopic.publish(new ROSLIB.Message({
+    this.request(this.addTopic, {
       type: POI_DEFAULT,
       name: answer.name,
       remarks: answer.remarks,
       pose: { position: { x, y, z: 0 }, orientation: quatOfYaw(yaw) },
-    }));
-    log('info', `POI “${answer.name}” added at ${formatPose(x, y, yaw)}`);
+    }, `POI “${answer.name}” added at ${formatPose(x, y, yaw)}`);
   }
 
   async rename(poi) {
     const answer = await poiForm({ title: `Rename “${poi.name}”`, name: poi.name,
       remarks: poi.remarks || '', validate: (name) => (name === poi.name ? '' : this.taken(name)) });
     if (!answer || (answer.name === poi.name && answer.remarks === (poi.remarks || ''))) return;
-    this.modifyTopic.publish(new ROSLIB.Message({
+    this.request(this.modifyTopic, {
       poi: { ...poi, name: answer.name, remarks: answer.remarks },
       old_name: poi.name,
-    }));
-    log('info', `POI “${poi.name}” renamed to “${answer.name}”`);
+    }, `POI “${poi.name}” renamed to “${answer.name}”`);
   }
 
   async remove(poi) {
     if (!(await confirmAction(`Delete the POI “${poi.name}”?`, 'Delete'))) return;
-    this.deleteTopic.publish(new ROSLIB.Message({ name: poi.name }));
-    log('info', `POI “${poi.name}” deleted`);
+    this.request(this.deleteTopic, { name: poi.name }, `POI “${poi.name}” deleted`);
+  }
+
+  /** Publish a POI request; its line in Messages comes with the map manager's answer (one
+   * line, the operator's words, only once it is done). */
+  request(topic, message, doneText) {
+    const done = publishTracked(topic, new ROSLIB.Message(message), (status) => {
+      if (status.level === 'error') log('error', operatorText(status.msg || 'refused'));
+      else if (status.level === 'info') log('info', doneText);
+      else return;
+      done();
+    });
   }
 
   go(poi) {

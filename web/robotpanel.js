@@ -7,20 +7,23 @@ import { log } from './log.js';
 const NODE = '/slamware_ros_sdk_server_node';
 
 export class RobotActions {
-  constructor({ ros }) {
+  constructor({ ros, navigator }) {
     const topic = (name, messageType, options = {}) => new ROSLIB.Topic({ ros, name, messageType, ...options });
     this.recover = topic(`${NODE}/recover_localization`, 'slamware_ros_sdk/RecoverLocalizationRequest');
     this.home = topic(`${NODE}/go_home`, 'slamware_ros_sdk/GoHomeRequest');
     this.cancel = topic(`${NODE}/cancel_action`, 'slamware_ros_sdk/CancelActionRequest');
     this.buttons = ['relocalize', 'go-home', 'stop-motion'].map((id) => document.getElementById(id));
     document.getElementById('relocalize').addEventListener('click', () => {
-      this.recover.publish(new ROSLIB.Message({ area: { x: 0, y: 0, w: 0, h: 0 }, options: {} }));
+      // a complete message: no time limit, the robot's own choice of movement (not given)
+      this.recover.publish(new ROSLIB.Message({
+        area: { x: 0, y: 0, w: 0, h: 0 },
+        options: { max_time_ms: { is_valid: false, value: 0 },
+          mvmt_type: { is_valid: false, value: { type: 0 } } },
+      }));
       log('info', 'relocalization requested (whole map)');
     });
-    document.getElementById('go-home').addEventListener('click', () => {
-      this.home.publish(new ROSLIB.Message({}));
-      log('info', 'going home to the dock');
-    });
+    // followed in the Navigation panel, like a goal
+    document.getElementById('go-home').addEventListener('click', () => navigator.goHome(this.home));
     document.getElementById('stop-motion').addEventListener('click', () => {
       this.cancel.publish(new ROSLIB.Message({}));
       log('info', 'stop: the current action cancelled');

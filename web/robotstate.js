@@ -26,6 +26,7 @@ export class RobotState {
     new ROSLIB.Topic({ ros, name: '/diagnostics_agg', messageType: 'diagnostic_msgs/DiagnosticArray',
       throttle_rate: 500 }).subscribe((d) => this.diagnostics(d));
     setInterval(() => {
+      if (document.body.classList.contains('no-robot')) return; // robotpresence.js says so
       if (this.lastDiagnostics && Date.now() - this.lastDiagnostics > STALE_MS) {
         this.setRobot('stale', 'no diagnostics');
       }

@@ -63,7 +63,7 @@ export class Teleop {
     const dir = KEYS[e.key] || KEYS[e.key.toLowerCase()];
     if (!dir) return;
     const t = e.target;
-    if (down && (dialogOpen() || (t && (t.isContentEditable || /^(INPUT|TEXTAREA|SELECT)$/.test(t.tagName))))) {
+    if (down && (dialogOpen() || document.body.classList.contains('no-robot') || (t && (t.isContentEditable || /^(INPUT|TEXTAREA|SELECT)$/.test(t.tagName))))) {
       return;
     }
     e.preventDefault();

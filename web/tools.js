@@ -131,6 +131,12 @@ export class MapTools {
     this.onPick(tool, { x: d.at.x, y: d.at.y, yaw: d.yaw, end: d.end });
   }
 
+  /** Esc: drop a drag in progress; otherwise leave the tool (back to Move), as the hints say. */
+  escape() {
+    if (this.drag && this.drag.kind === 'pick') this.abort();
+    else if (this.tool !== 'move') this.setTool('move');
+  }
+
   abort() {
     if (this.drag && this.drag.kind === 'pick') {
       this.preview.hide();

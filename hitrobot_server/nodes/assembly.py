@@ -7,6 +7,7 @@ from ..robot.backend import RobotBackend
 from ..robot.locomotion import STAND_UP_SECONDS, LocomotionBackend
 from .base import Node
 from .conventional import ConventionalNode
+from .demo import DemoServices
 from .diagnostics import DiagnosticsNode
 from .fleet import FleetMemberNode, FleetNode
 from .graph import GraphNodeService
@@ -29,6 +30,8 @@ from .tf_republisher import TFRepublisherNode
 async def start_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend | None) -> list[Node]:
     """Create and start every node; robot-facing nodes only when a robot is attached."""
     nodes: list[Node] = [Rosapi(bus, settings), TFRepublisherNode(bus)]
+    if settings.demo_services:
+        nodes.append(DemoServices(bus))
     if backend is not None:
         nodes += robot_nodes(bus, settings, backend)
     nodes.append(DiagnosticsNode(bus, backend))  # runs without a robot too (the bridge part)

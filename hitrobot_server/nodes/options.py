@@ -20,6 +20,7 @@ class NodeOptions:
     topics_glob: str | None = None
     services_glob: str | None = None
     params_glob: str | None = None
+    demo_services: bool = False  # the tutorial /add_two_ints and /fibonacci servers
     topics_filter: GlobFilter = field(init=False, repr=False)
     services_filter: GlobFilter = field(init=False, repr=False)
     params_filter: GlobFilter = field(init=False, repr=False)

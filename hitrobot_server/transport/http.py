@@ -70,15 +70,33 @@ def default_web_root() -> Path | None:
 ROUTINE_HTTP_LOGS = ("HTTP response sent", "connection rejected")
 
 
+def _plain_http_status(kwargs: dict) -> int | None:
+    """The status of the plain HTTP response a connection got (None: a WebSocket, or not
+    answered yet); websockets names the connection in the log record's ``extra``."""
+    connection = (kwargs.get("extra") or {}).get("websocket")
+    try:
+        response = getattr(connection, "response", None)
+    except ReferenceError:  # a weak proxy to a connection already gone
+        return None
+    status = getattr(response, "status_code", None)
+    return None if status is None or status == 101 else int(status)
+
+
 class QuietHttpLog(logging.LoggerAdapter):
-    """websockets logs every plain HTTP response at INFO; a console file served (< 400) is
-    routine, so it goes to DEBUG. Refusals and errors keep their level."""
+    """websockets logs every plain HTTP response, and the close of its connection, at INFO
+    (~25 lines per page load); a console file served (< 400) is routine, so both go to DEBUG.
+    Refusals, errors and WebSocket connections keep their level."""
 
     def log(self, level, msg, *args, **kwargs):
-        routine = isinstance(msg, str) and msg.startswith(ROUTINE_HTTP_LOGS)
-        if level == logging.INFO and routine and args and isinstance(args[0], int) \
-                and args[0] < 400:
-            level = logging.DEBUG
+        if level == logging.INFO and isinstance(msg, str):
+            if msg.startswith(ROUTINE_HTTP_LOGS) and args and isinstance(args[0], int):
+                status = args[0]
+            elif msg == "connection closed":
+                status = _plain_http_status(kwargs)
+            else:
+                status = None
+            if status is not None and status < 400:
+                level = logging.DEBUG
         super().log(level, msg, *args, **kwargs)
 
 

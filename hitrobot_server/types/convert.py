@@ -27,6 +27,8 @@ Rules (rosbridge's ROS 1 conventions plus the choices below):
 * Any other omitted ``time`` field named ``stamp`` (``actionlib_msgs/GoalID.stamp``: roslibjs 1.x
   cancels with ``{id}`` only) gets the default 0 and is not reported either: filling a stamp
   is what clients expect, not a mistake to warn about.
+* An omitted optional value (a Slamware ``Optional*`` field: ``is_valid`` + ``value``) is "not
+  given" (``is_valid`` false) and is not reported either.
 
 Converters are compiled once per type and cached on the registry, so steady-state cost is one
 closure call per field plus C-level type checks for numeric arrays.
@@ -481,6 +483,12 @@ def _unalias(value: dict, aliases: dict[str, str], prefix: str) -> dict:
     return out
 
 
+def _is_optional(mtype: MsgType) -> bool:
+    """A Slamware ``Optional*`` wrapper (``is_valid`` + ``value``): omitted, its default says
+    "not given", which is what the sender meant, so it is not reported as missing."""
+    return [f.name for f in mtype.fields] == ["is_valid", "value"]
+
+
 def _build(mtype: MsgType, reg: TypeRegistry) -> tuple[Conv, Fill]:
     is_header = mtype.name == HEADER
     entries: list[tuple[str, Conv, Fill, bool]] = []
@@ -488,6 +496,8 @@ def _build(mtype: MsgType, reg: TypeRegistry) -> tuple[Conv, Fill]:
         conv, fill = _field_plan(field, reg, mtype.name)
         report = not (field.type == HEADER and field.array is None)
         if field.name == "stamp" and field.type == "time" and field.array is None:
+            report = False
+        if field.is_msg and field.array is None and _is_optional(reg.msg(field.type)):
             report = False
         if is_header and field.name in ("seq", "stamp"):
             report = False

@@ -123,6 +123,16 @@ def _canonical(name: str, kind: str) -> str | None:
     return None
 
 
+def _action_part(canonical: str | None, name: str, known) -> str | None:
+    """``pkg/X_FeedbackMessage`` (rosapi's short spelling of an action's part) names
+    ``pkg/action/X_FeedbackMessage`` when no ``pkg/msg`` or ``pkg/srv`` type has that name."""
+    if canonical is None or canonical in known or len(name.lstrip("/").split("/")) != 2:
+        return canonical
+    pkg, _kind, base = canonical.split("/")
+    part = f"{pkg}/action/{base}"
+    return part if part in known else canonical
+
+
 def _parse(text: str, pkg: str, name: str) -> tuple[Any, Any]:
     """Parse one definition; relative type names resolve against ``pkg/msg``."""
     return get_types_from_msg(text, f"{pkg}/msg/{name}")[f"{pkg}/msg/{name}"]
@@ -268,6 +278,7 @@ class TypeRegistry:
             return found
         canonical = _canonical(name, "msg")
         canonical = TYPE_ALIASES.get(canonical, canonical)  # type: ignore[arg-type]
+        canonical = _action_part(canonical, name, self.typestore.fielddefs)
         if (
             canonical is None
             or canonical in _TIME_TYPES
@@ -295,7 +306,7 @@ class TypeRegistry:
         found = self._srvs.get(name)
         if found is not None:
             return found
-        canonical = _canonical(name, "srv")
+        canonical = _action_part(_canonical(name, "srv"), name, self._srv_names)
         if canonical not in self._srv_names:
             raise UnknownType(f"unknown service type '{name}'")
         found = self._srvs.get(canonical) or SrvType(

@@ -207,3 +207,44 @@ def test_tf_client_follows_the_robot_as_it_drives(sim_ros):
 
     assert wait_for(agrees, 10)
     tf.dispose()
+
+
+@pytest.fixture(scope="module")
+def demo_process():
+    proc = ServerProcess("--demo-services")
+    yield proc
+    proc.stop()
+
+
+def test_demo_services_serve_the_tutorials_to_roslibpy(demo_process):
+    """What roslibpy's release suite runs against the rosbridge test image."""
+    ros = connect_roslibpy(demo_process.port)
+    try:
+        adder = roslibpy.Service(ros, "/add_two_ints", "example_interfaces/srv/AddTwoInts")
+        assert adder.call(roslibpy.ServiceRequest({"a": 2, "b": 40}), timeout=10)["sum"] == 42
+        client = roslibpy.ActionClient(ros, "/fibonacci", "example_interfaces/action/Fibonacci")
+        feedback: list[list[int]] = []
+        results: list[dict] = []
+        goal_id = client.send_goal(roslibpy.Goal({"order": 8}), results.append,
+                                   lambda f: feedback.append(f["sequence"]), results.append)
+        client.wait_goal(goal_id, 20)
+        assert results[0]["values"]["sequence"] == [0, 1, 1, 2, 3, 5, 8, 13, 21]
+        assert results[0]["status"] == roslibpy.GoalStatus.SUCCEEDED
+        assert feedback[0] == [0, 1, 1] and feedback[-1] == [0, 1, 1, 2, 3, 5, 8, 13, 21]
+
+        cancelled: list[dict] = []
+        first: list[list[int]] = []
+        goal_id = client.send_goal(roslibpy.Goal({"order": 40}), cancelled.append,
+                                   first.append, cancelled.append)
+        assert wait_for(lambda: first)  # running: feedback came
+        client.cancel_goal(goal_id)
+        client.wait_goal(goal_id, 20)
+        assert cancelled[0]["status"] == roslibpy.GoalStatus.CANCELED
+        assert len(cancelled[0]["values"]["sequence"]) < 41
+    finally:
+        ros.close()
+
+
+def test_demo_services_are_off_by_default(sim_ros):
+    assert "/add_two_ints" not in sim_ros.get_services()
+    assert not [t for t in sim_ros.get_topics() if t.startswith("/fibonacci/")]

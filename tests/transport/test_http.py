@@ -190,3 +190,35 @@ async def test_a_web_root_without_npm_libraries_warns_once_at_start(make_server,
     assert "npm ci --prefix web" in text and "roslib" in text
     status, _, body = await http(server.port, "GET", "/")
     assert status == 200 and b"console" in body
+
+
+async def test_a_page_load_logs_nothing_at_info(server, caplog):
+    """Every file of the console fetched as a browser does: no INFO line from websockets
+    (it used to log "connection closed" for each, ~25 a page); at DEBUG each is still there."""
+    caplog.set_level(logging.DEBUG, logger="websockets")
+    files = ["/", *sorted(f"/{a}" for a in page_assets())]
+    for path in files:
+        status, _, _ = await http(server.port, "GET", path)
+        assert status == 200, path
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + 10
+    while sum(r.getMessage() == "connection closed" for r in caplog.records) < len(files):
+        assert loop.time() < deadline, "the server did not see every connection close"
+        await asyncio.sleep(0.01)
+    info = [r.getMessage() for r in caplog.records
+            if r.name.startswith("websockets") and r.levelno >= logging.INFO]
+    assert info == []
+    closed = [r for r in caplog.records if r.getMessage() == "connection closed"]
+    assert len(closed) == len(files) and {r.levelno for r in closed} == {logging.DEBUG}
+
+
+async def test_a_websocket_connection_still_logs_at_info(server, caplog):
+    caplog.set_level(logging.INFO, logger="websockets")
+    client = await WsClient.open(server.port)
+    await client.close()
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + 10
+    while not any(r.getMessage() == "connection closed" for r in caplog.records):
+        assert loop.time() < deadline, "the server did not log the WebSocket's close"
+        await asyncio.sleep(0.01)
+    assert any(r.getMessage() == "connection open" for r in caplog.records)

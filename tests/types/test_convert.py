@@ -589,3 +589,16 @@ def test_byte_arrays_are_never_verbatim(reg):
                                         {"layout": {"dim": [], "data_offset": 0}, "data": data},
                                         reg)
         assert not same
+
+
+def test_an_omitted_optional_value_is_not_reported_missing(reg: TypeRegistry) -> None:
+    """The console's Relocalize sends ``options: {}``: its Optional* fields mean "not given"."""
+    mtype = reg.msg("slamware_ros_sdk/RecoverLocalizationRequest")
+    msg, missing = from_json(mtype, {"area": {"x": 0, "y": 0, "w": 0, "h": 0}, "options": {}},
+                             reg)
+    assert missing == []
+    assert msg["options"]["max_time_ms"] == {"is_valid": False, "value": 0}
+    assert msg["options"]["mvmt_type"]["is_valid"] is False
+    # a plain field left out is still reported, and so is a wrapper's own part
+    _, missing = from_json(mtype, {"options": {"max_time_ms": {"value": 5}}}, reg)
+    assert missing == ["area", "options.max_time_ms.is_valid"]

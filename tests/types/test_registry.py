@@ -304,3 +304,18 @@ def test_every_schema_file_is_registered(reg: TypeRegistry) -> None:
         pkg, kind = path.parts[-3], path.parts[-2]
         name = f"{pkg}/{path.stem}"
         assert {"msg": reg.has_msg, "srv": reg.has_srv, "action": reg.has_action}[kind](name), path
+
+
+def test_an_action_part_is_found_by_the_short_name_rosapi_lists(reg):
+    """rosapi lists ``pkg/action/X_FeedbackMessage`` as ``pkg/X_FeedbackMessage``; that name
+    must find it again (and the hidden services' types), and a real pkg/msg type still wins."""
+    feedback = reg.msg("nav2_msgs/FollowPath_FeedbackMessage")
+    assert feedback.name == "nav2_msgs/action/FollowPath_FeedbackMessage"
+    assert [f.name for f in feedback.fields] == ["goal_id", "feedback"]
+    assert reg.short(feedback.name) == "nav2_msgs/FollowPath_FeedbackMessage"
+    assert "goal_id" in reg.definition_text("nav2_msgs/FollowPath_FeedbackMessage")
+    assert reg.srv("nav2_msgs/FollowPath_GetResult").name == "nav2_msgs/action/FollowPath_GetResult"
+    assert reg.msg("example_interfaces/FibonacciFeedback").name.startswith(
+        "example_interfaces/msg/")
+    with pytest.raises(UnknownType):
+        reg.msg("nav2_msgs/NoSuch_FeedbackMessage")

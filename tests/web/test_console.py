@@ -327,6 +327,7 @@ async def test_arrow_keys_drive_and_release_stops(console: Console, watcher):
     assert len(watcher.messages["/cmd_vel"]) == count, "kept publishing after release"
 
     # the on-screen pad: hold, then the pointer leaves the window's focus (blur) → stop
+    await page.locator("#pad .right").scroll_into_view_if_needed()  # the Operate tab scrolls
     pad = await page.locator("#pad .right").bounding_box()
     await page.mouse.move(pad["x"] + pad["width"] / 2, pad["y"] + pad["height"] / 2)
     await page.mouse.down()

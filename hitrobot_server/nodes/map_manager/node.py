@@ -53,6 +53,9 @@ PKG = "map_messages"
 MAP_TOPIC = "/map"
 MAP_FRAME = "/map"
 POIS_TOPIC = f"{NODE_NAME}/pois"
+HOME_TOPIC = f"{NODE_NAME}/home"
+HOME_PERIOD = 2.0
+"""How often (s) the home dock's pose is read from the robot; it is published when it changes."""
 PUBLISH_PERIOD = 0.5
 """Automatic ``/map`` republishing (robot map or obstacle layers changed) is at most 2 Hz."""
 DEFAULT_RESOLUTION = 0.05
@@ -144,6 +147,8 @@ class MapManager(RobotNode):
         self.topic_sync = f"{m.SLAMWARE_NODE}/sync_map"
         self.advertise(MAP_TOPIC, "nav_msgs/OccupancyGrid", latch=True)
         self.advertise(POIS_TOPIC, f"{PKG}/PointsOfInterest", latch=True)
+        self.advertise(HOME_TOPIC, "geometry_msgs/PoseStamped", latch=True)
+        self._home: Pose2D | None | bool = False  # False: not published yet
         self.advertise(self.topic_sync, "slamware_ros_sdk/SyncMapRequest")
         requests: list[tuple[str, str, Callable[[Message], None]]] = [
             ("add_poi", "PointOfInterest", self._on_add_poi),
@@ -172,6 +177,18 @@ class MapManager(RobotNode):
         self._dirty = asyncio.Event()
         self.spawn(self._publisher())
         self.spawn(self._watch_connection())
+        self.every(HOME_PERIOD, self._publish_home)
+
+    async def _publish_home(self) -> None:
+        """The dock on the latched ``home`` topic (consoles draw it), on change; a map without
+        a dock publishes an empty frame id."""
+        home = await self.backend.get_home_pose()
+        if home == self._home:
+            return
+        self._home = home
+        frame = self.params.map_frame
+        self.publish(HOME_TOPIC, m.pose_stamped(home or Pose2D(0.0, 0.0, 0.0),
+                                                frame if home is not None else ""))
 
     def _job(self, message: Message, what: str, work: Callable[[], Awaitable[str | None]],
              needs_robot: bool = True) -> None:

@@ -300,3 +300,28 @@ async def test_start_up_cleans_leftovers_and_load_refuses_a_link_outside(make_se
     got = await w.call(f"{MM}/get_pois")
     assert got["result"] is True
     await w.close()
+
+
+async def test_home_dock_is_latched_and_follows_the_robot(make_server, tmp_path):
+    """``/map_manager/home``: where the dock is (consoles draw it); republished on a change."""
+    server, w = await start(make_server, tmp_path)
+    await w.subscribe(f"{MM}/home", "geometry_msgs/PoseStamped")
+    first = await w.until(lambda: w.latest(f"{MM}/home"), 10, "the dock's pose")
+    dock = await server.backend.get_home_pose()
+    assert first["header"]["frame_id"] == "/map"
+    p = first["pose"]["position"]
+    assert (p["x"], p["y"]) == (pytest.approx(dock.x), pytest.approx(dock.y))
+    moved = type(dock)(dock.x + 1.0, dock.y, dock.yaw)
+    await server.backend.set_home_pose(moved)
+    changed = await w.until(lambda: (m := w.latest(f"{MM}/home")) and
+                            m["pose"]["position"]["x"] == pytest.approx(moved.x) and m, 10,
+                            "the moved dock")
+    assert changed["header"]["frame_id"] == "/map"
+    # a late subscriber gets it from the latch
+    late = await Watcher.open(server.port)
+    try:
+        await late.subscribe(f"{MM}/home", "geometry_msgs/PoseStamped")
+        got = await late.until(lambda: late.latest(f"{MM}/home"), 5, "the latched dock")
+        assert got["pose"]["position"]["x"] == pytest.approx(moved.x)
+    finally:
+        await late.close()

@@ -1,0 +1,43 @@
+// Whether a robot stands behind the bridge at all: the Slamware node in rosapi's node list,
+// on this server or on another one of a Zenoh bus (whose liveliness tokens leave the list
+// when that server dies). No robot yet: "no robot" (--robot none); gone: "robot offline". Both
+// disable what would drive or change the robot; when it comes (back) the page reloads, so the
+// map, POIs and state are fresh.
+/* global ROSLIB */
+const NODE = '/slamware_ros_sdk_server_node';
+const PERIOD_MS = 2000;
+
+export class RobotPresence {
+  /** `onChange(present, seen)`: present is this poll's answer, seen whether it ever was. */
+  constructor({ ros, onChange }) {
+    this.ros = ros;
+    this.onChange = onChange;
+    this.present = null; // unknown until rosapi answers
+    this.seen = false;
+    this.nodes = new ROSLIB.Service({ ros, name: '/rosapi/nodes', serviceType: 'rosapi/Nodes' });
+    const poll = () => {
+      if (ros.isConnected) this.poll();
+    };
+    ros.on('connection', poll);
+    if (ros.isConnected) poll();
+    setInterval(poll, PERIOD_MS);
+  }
+
+  poll() {
+    this.nodes.callService(new ROSLIB.ServiceRequest({}),
+      (reply) => this.update((reply.nodes || []).includes(NODE)), () => {});
+  }
+
+  update(present) {
+    if (present === this.present) return;
+    const before = this.present;
+    this.present = present;
+    if (present && before === false) {
+      location.reload(); // the robot came (back): start over with its map, POIs and state
+      return;
+    }
+    if (present) this.seen = true;
+    document.body.classList.toggle('no-robot', !present);
+    this.onChange(present, this.seen);
+  }
+}
