@@ -81,7 +81,7 @@ class ActionOps:
                 f"send_action_goal: a goal with id {op_id!r} is still running", op_id
             )
         want_feedback = bool(msg.get("feedback", False))
-        frag = msg.get("fragment_size")
+        frag = s.fragment_size(msg)
 
         def on_feedback(values: dict) -> None:
             if want_feedback:

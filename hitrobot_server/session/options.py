@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..bus.names import GlobFilter, access_filters
+from ..protocol.fragment import MIN_FRAGMENT_SIZE
 
 
 @dataclass
@@ -28,6 +29,8 @@ class SessionOptions:
     services_filter: GlobFilter = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        if self.max_message_size is not None:  # never cut replies finer than the floor
+            self.max_message_size = max(self.max_message_size, MIN_FRAGMENT_SIZE)
         self.topics_filter, self.services_filter, _ = access_filters(
             self.topics_glob, self.services_glob
         )

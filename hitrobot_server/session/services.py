@@ -74,7 +74,7 @@ class ServiceOps:
         reply = {"op": "service_response", "service": msg["service"]}
         if op_id is not None:
             reply["id"] = op_id
-        frag = msg.get("fragment_size")
+        frag = s.fragment_size(msg)
         compression = msg.get("compression") or "none"
 
         def fail(text: str) -> None:
