@@ -47,6 +47,9 @@ class Settings:
     ssl: bool = False
     certfile: str | None = None
     keyfile: str | None = None
+    tls_handshake_timeout: float = 5.0
+    max_tls_handshakes: int = 64
+    max_tls_handshakes_per_address: int = 8
     log_level: str = "info"
     robot: str = "sim"
     world: str | None = None
@@ -139,6 +142,12 @@ _HELP = {
     "ssl": "serve wss:// and TLS on the TCP port (needs --certfile)",
     "certfile": "PEM certificate chain for --ssl (may also hold the key)",
     "keyfile": "PEM private key for --ssl (if not in --certfile)",
+    "tls_handshake_timeout": "seconds a client has to finish the TLS handshake (--ssl), on "
+    "both ports",
+    "max_tls_handshakes": "TLS handshakes in progress at once, all clients together; a "
+    "connection beyond it is closed at once",
+    "max_tls_handshakes_per_address": "TLS handshakes in progress at once from one source "
+    "address",
     "log_level": "logging level: debug, info, warning, error",
     "robot": "the robot behind the bus: 'sim' (built-in simulated Slamware robot), 'none', or "
     "a Slamware REST URL such as http://192.168.11.1:1448",
@@ -239,6 +248,11 @@ def load(args: argparse.Namespace) -> Settings:
     if settings.websocket_ping_interval < 0 or settings.websocket_ping_timeout <= 0:
         raise ValueError("websocket_ping_interval must be 0 or more and "
                          "websocket_ping_timeout positive")
+    if settings.tls_handshake_timeout <= 0:
+        raise ValueError("tls_handshake_timeout must be positive")
+    if settings.max_tls_handshakes < 1 or settings.max_tls_handshakes_per_address < 1:
+        raise ValueError("max_tls_handshakes and max_tls_handshakes_per_address must be "
+                         "positive")
     if settings.max_requests_in_flight < 1:
         raise ValueError("max_requests_in_flight must be positive")
     if settings.fragment_memory_limit < 1:

@@ -18,6 +18,7 @@ from .session.options import SessionOptions
 from .session.session import Session, Shared
 from .transport.http import StaticFiles, default_web_root, missing_libraries
 from .transport.tcp import start_tcp
+from .transport.tls import HandshakeGate
 from .transport.websocket import start_websocket
 from .types.registry import TypeRegistry
 
@@ -41,6 +42,7 @@ class HitrobotServer:
         self._session_options: SessionOptions | None = None  # built at start
         self._ws = None
         self._tcp: asyncio.Server | None = None
+        self._tls: HandshakeGate | None = None
         self._ws_console = False
         self.port: int | None = None
         self.tcp_port: int | None = None
@@ -91,7 +93,10 @@ class HitrobotServer:
         def factory(peer: str, transport: str) -> Session:
             return self.new_session(peer, transport)
 
-        tls = _tls_context(s) if s.ssl else None
+        tls = self._tls = HandshakeGate(
+            _tls_context(s), s.tls_handshake_timeout, s.max_tls_handshakes,
+            s.max_tls_handshakes_per_address,
+        ) if s.ssl else None
         console = _web_console()
         self._ws_console = console is not None
         self._ws = await start_websocket(
@@ -102,7 +107,7 @@ class HitrobotServer:
             delay_between_messages=s.delay_between_messages,
             compression=s.use_compression,
             http_handler=console,
-            ssl=tls,
+            tls=tls,
             ping_interval=s.websocket_ping_interval,
             ping_timeout=s.websocket_ping_timeout,
         )
@@ -114,7 +119,7 @@ class HitrobotServer:
                 s.tcp_port if s.tcp_port > 0 else 0,
                 max_frame_size=s.max_frame_size,
                 delay_between_messages=s.delay_between_messages,
-                ssl=tls,
+                tls=tls,
             )
             self.tcp_port = self._tcp.sockets[0].getsockname()[1]
         log.info("hitrobot-server: ws://%s:%s tcp:%s", s.address, self.port, self.tcp_port)
@@ -122,6 +127,8 @@ class HitrobotServer:
             log.info("web console: %s", console_url(s.address, self.port, tls=s.ssl))
 
     async def stop(self) -> None:
+        if self._tls is not None:
+            self._tls.close()
         if self._tcp is not None:
             self._tcp.close()
         if self._ws is not None:
