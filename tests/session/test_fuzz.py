@@ -187,7 +187,15 @@ def test_every_malformed_op_gets_a_status_and_the_witness_loses_nothing(arena, f
 
 
 # ------------------------------------------------------- parameters, CBOR tags, fragment sizes
-RUN = (Phase.explicit, Phase.generate)  # shrinking against a live server takes minutes
+def against_a_server(examples: int):
+    """Hypothesis settings for examples run on the arena's server: reproducible, and without
+    shrinking (against a live server it takes minutes)."""
+    return settings(max_examples=examples, derandomize=True, deadline=None, database=None,
+                    phases=(Phase.explicit, Phase.generate),
+                    suppress_health_check=[HealthCheck.function_scoped_fixture,
+                                           HealthCheck.too_slow])
+
+
 JSON_LEAF = st.one_of(st.none(), st.booleans(), st.integers(-(2**63), 2**63 - 1),
                       st.floats(allow_nan=False, allow_infinity=False), st.text(max_size=8))
 JSON_VALUE = st.recursive(JSON_LEAF, lambda inner: st.one_of(
@@ -216,8 +224,7 @@ async def fresh_client(port: int, level: str = "warning") -> WsClient:
     return client
 
 
-@settings(max_examples=40, derandomize=True, deadline=None, database=None, phases=RUN,
-          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@against_a_server(40)
 @given(values=st.lists(param_value(), min_size=10, max_size=10))
 def test_parameters_refused_or_stored_and_the_tree_always_encodes(arena, values):
     runner, server, witness, _fuzzer = arena
@@ -248,8 +255,7 @@ def typed_array(draw) -> tuple[int, bytes]:
     return tag, draw(st.binary(max_size=40))
 
 
-@settings(max_examples=30, derandomize=True, deadline=None, database=None, phases=RUN,
-          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@against_a_server(30)
 @given(arrays=st.lists(typed_array(), min_size=10, max_size=10))
 def test_cbor_typed_arrays_are_carried_whole_or_refused(arena, arrays):
     runner, server, witness, _fuzzer = arena
@@ -281,8 +287,7 @@ def test_cbor_typed_arrays_are_carried_whole_or_refused(arena, arrays):
     runner.run(example())
 
 
-@settings(max_examples=30, derandomize=True, deadline=None, database=None, phases=RUN,
-          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@against_a_server(30)
 @given(sizes=st.lists(st.one_of(st.integers(1, 1100), st.integers(1, 4000)), min_size=5,
                       max_size=5))
 def test_fragment_sizes_are_floored_and_replies_rejoin(arena, sizes):

@@ -12,7 +12,7 @@ import pytest
 
 from hitrobot_server import procmem
 
-from ..helpers import ServerProcess, WsClient
+from ..helpers import ServerProcess, WsClient, silent_provider
 from ..witness import Witness
 
 MB = 2**20
@@ -49,11 +49,7 @@ async def flood_calls(port: int, count: int, tag: str) -> tuple[WsClient, int]:
 
 async def test_pending_calls_are_capped_and_their_memory_is_reused(server):
     witness = await Witness.open(server.port)
-    provider = await WsClient.open(server.port)
-    await provider.send({"op": "set_level", "level": "info"})
-    await provider.send({"op": "advertise_service", "id": "adv", "service": "/mute",
-                         "type": "std_srvs/Trigger"})
-    await provider.expect(op="status", id="adv")
+    provider = await silent_provider(server.port)
     base = total(server)
     growth = []
     for round_ in range(3):

@@ -7,21 +7,11 @@ from __future__ import annotations
 
 import time
 
-from ..helpers import WsClient
+from ..helpers import WsClient, silent_provider
 from ..witness import Witness
 
 LIMIT = 20
 EXTRA = 5
-
-
-async def advertised(port: int) -> WsClient:
-    """A client providing ``/mute``, which it answers only when the test says so."""
-    provider = await WsClient.open(port)
-    await provider.send({"op": "set_level", "level": "info"})
-    await provider.send({"op": "advertise_service", "id": "adv", "service": "/mute",
-                         "type": "std_srvs/Trigger"})
-    await provider.expect(op="status", id="adv")
-    return provider
 
 
 async def nodes(client: WsClient) -> set[str]:
@@ -39,7 +29,7 @@ async def until_nodes(client: WsClient, expected: set[str], timeout: float = 5.0
 async def test_calls_beyond_the_cap_are_refused_and_freed_when_the_caller_leaves(make_server):
     server = await make_server(max_requests_in_flight=LIMIT)
     witness = await Witness.open(server.port)
-    provider = await advertised(server.port)
+    provider = await silent_provider(server.port)
     before = await nodes(witness.sub)
     caller = await WsClient.open(server.port)
     for i in range(LIMIT + EXTRA):
@@ -84,7 +74,7 @@ async def test_calls_beyond_the_cap_are_refused_and_freed_when_the_caller_leaves
 
 async def test_pending_calls_fail_and_free_the_cap_when_the_provider_leaves(make_server):
     server = await make_server(max_requests_in_flight=LIMIT)
-    provider = await advertised(server.port)
+    provider = await silent_provider(server.port)
     caller = await WsClient.open(server.port)
     for i in range(LIMIT):
         await caller.send({"op": "call_service", "id": f"c{i}", "service": "/mute"})

@@ -117,11 +117,17 @@ async def closed_by_server(reader: asyncio.StreamReader, timeout: float = 5.0) -
         return True
 
 
-async def test_handshakes_in_progress_are_capped_and_time_out(make_server, cert):
+async def capped_server(make_server, cert, handshake_timeout: float):
+    """A TLS server allowing 4 handshakes in progress, 2 from one address."""
     certfile, keyfile = cert
-    server = await make_server(ssl=True, certfile=certfile, keyfile=keyfile,
-                               tls_handshake_timeout=3, max_tls_handshakes=4,
-                               max_tls_handshakes_per_address=2)
+    return await make_server(ssl=True, certfile=certfile, keyfile=keyfile,
+                             tls_handshake_timeout=handshake_timeout, max_tls_handshakes=4,
+                             max_tls_handshakes_per_address=2)
+
+
+async def test_handshakes_in_progress_are_capped_and_time_out(make_server, cert):
+    certfile, _keyfile = cert
+    server = await capped_server(make_server, cert, handshake_timeout=3)
     gate = server._tls
     client_ctx = ssl.create_default_context(cafile=certfile)
 
@@ -159,10 +165,8 @@ async def test_handshakes_in_progress_are_capped_and_time_out(make_server, cert)
 
 
 async def test_one_source_address_cannot_take_every_place(make_server, cert):
-    certfile, keyfile = cert
-    server = await make_server(ssl=True, certfile=certfile, keyfile=keyfile,
-                               tls_handshake_timeout=30, max_tls_handshakes=4,
-                               max_tls_handshakes_per_address=2)
+    certfile, _keyfile = cert
+    server = await capped_server(make_server, cert, handshake_timeout=30)
     gate = server._tls
     hog = [await idle(server.port, "127.0.0.7") for _ in range(2)]
     await until(lambda: gate.in_progress == 2, "2 handshakes in progress")
