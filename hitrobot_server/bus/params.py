@@ -1,9 +1,10 @@
 """A ROS-1-style parameter server: a tree of values addressed by slash-separated names.
 
 Every value is checked like a message before it goes in (its JSON size, its nesting depth
-counted from the root, so that ``get('/')`` of the whole tree always encodes) and copied through
-orjson, in C: nothing here recurses in Python, so no value can exhaust the stack or hold the
-event loop the way ``copy.deepcopy`` of a million-element list did.
+counted from the root, so that ``get('/')`` of the whole tree always encodes). Values are kept as
+JSON text, one per leaf of the name tree, never as Python objects: a 1 MB ``[[],[],…]`` is one
+bytes object, not 333,000 lists that every later garbage collection would walk, and reading
+it back copies bytes. Nothing here recurses in Python, so no value can exhaust the stack.
 """
 
 from __future__ import annotations
@@ -45,34 +46,24 @@ def json_depth(data: bytes) -> int:
     return int(np.cumsum(steps, dtype=np.int32).max(initial=0))
 
 
-def _leaves(node: Any, prefix: tuple[str, ...]) -> list[tuple[str, ...]]:
-    """The names (as parts) of every leaf under ``node`` (itself when it is not a dict)."""
-    out: list[tuple[str, ...]] = []
-    stack = [(node, prefix)]
-    while stack:
-        value, parts = stack.pop()
-        if isinstance(value, dict) and value:
-            stack.extend((item, (*parts, key)) for key, item in value.items())
-        else:
-            out.append(parts)
-    return out
+Node = dict[str, Any] | bytes  # a namespace (names → nodes), or a value as JSON text
 
 
 class ParamStore:
-    """Nested dict keyed by name segments, so ``get('/a')`` returns the subtree like rosparam."""
+    """A tree of names, so ``get('/a')`` returns the subtree like rosparam; a dictionary value
+    becomes names too (``set('/a', {"b": 1})`` then ``get('/a/b')`` is 1)."""
 
     def __init__(self) -> None:
-        self._root: dict[str, Any] = {}
-        self._sizes: dict[tuple[str, ...], int] = {}  # JSON bytes of each value set, by name
-        self.total_bytes = 0
+        self._root: dict[str, Node] = {}
+        self.total_bytes = 0  # JSON text of every value and the length of every name held
 
     @staticmethod
     def _parts(name: str) -> list[str]:
         return [p for p in canonical(name).split("/") if p]
 
     def set(self, name: str, value: Any) -> None:
-        """Store a copy of ``value``; raises :class:`ParamError` (changing nothing) when it is
-        too big, too deep, or not JSON."""
+        """Store ``value``; raises :class:`ParamError` (changing nothing) when it is too big,
+        too deep, or not JSON."""
         try:
             data = orjson.dumps(value)
         except TypeError as exc:
@@ -90,7 +81,7 @@ class ParamStore:
             except UnicodeEncodeError:
                 raise ParamError(f"parameter '{canonical(name)}' is not valid Unicode") from None
             check_value_size(name, len(data))
-        value = orjson.loads(data)
+        value = orjson.loads(data)  # validates; only a dictionary's items are kept apart
         if not parts and not isinstance(value, dict):
             raise ParamError("the root parameter '/' can only be set to a dictionary")
         depth = len(parts) + json_depth(data)
@@ -98,88 +89,91 @@ class ParamStore:
             raise ParamError(
                 f"parameter '{canonical(name)}' is nested {depth} levels deep counting its "
                 f"name, more than the limit of {MAX_DEPTH}")
-        freed = self._replaced(parts)
-        total = self.total_bytes - sum(self._sizes.get(key, 0) for key in freed) + len(data)
+        node = _as_node(value, data)
+        del value
+        total = self.total_bytes + self._growth(parts, node)
         if total > MAX_TOTAL_BYTES:
             raise ParamError(
                 f"parameter '{canonical(name)}' was refused: the parameter server would hold "
                 f"{total} bytes, more than the limit of {MAX_TOTAL_BYTES}")
-        for key in freed:
-            self._sizes.pop(key, None)
         if not parts:
-            self._root = value
+            assert isinstance(node, dict)
+            self._root = node
         else:
-            node = self._root
+            parent = self._root
             for p in parts[:-1]:
-                child = node.get(p)
+                child = parent.get(p)
                 if not isinstance(child, dict):
-                    child = node[p] = {}
-                node = child
-            node[parts[-1]] = value
-        self._sizes[tuple(parts)] = len(data)
+                    child = parent[p] = {}
+                parent = child
+            parent[parts[-1]] = node
         self.total_bytes = total
 
-    def _replaced(self, parts: list[str]) -> list[tuple[str, ...]]:
-        """The names whose sizes stop counting when ``parts`` is set: the old value there (and
-        what was set under it), and a non-dict value on the way that becomes a namespace."""
-        gone: list[tuple[str, ...]] = []
-        node: Any = self._root
-        for i, p in enumerate(parts):
-            if not isinstance(node, dict):
-                gone.append(tuple(parts[:i]))
-                return gone
-            if p not in node:
-                return gone
-            node = node[p]
-        gone.extend(_subtree_keys(self._sizes, node, tuple(parts)))
-        return gone
+    def _growth(self, parts: list[str], node: Node) -> int:
+        """How many bytes setting ``node`` at ``parts`` adds: its own, the names created on
+        the way, less what it replaces (the old node there, a value that becomes a namespace)."""
+        if not parts:
+            return _size(node) - _size(self._root)
+        growth = _size(node)
+        here: Node | None = self._root
+        for p in parts[:-1]:
+            child = here.get(p) if isinstance(here, dict) else None
+            if child is None:
+                growth += len(p)  # a new namespace
+            elif not isinstance(child, dict):
+                growth -= _size(child)  # a value that becomes a namespace keeps its name
+                child = None
+            here = child
+        old = here.get(parts[-1]) if isinstance(here, dict) else None
+        return growth + (len(parts[-1]) if old is None else -_size(old))
 
-    def _node(self, name: str) -> Any:
-        node: Any = self._root
+    def _node(self, name: str) -> Node | None:
+        node: Node = self._root
         for p in self._parts(name):
             if not isinstance(node, dict) or p not in node:
-                return _MISSING
+                return None
             node = node[p]
         return node
 
     def get(self, name: str, default: Any = _MISSING) -> Any:
         node = self._node(name)
-        if node is _MISSING:
+        if node is None:
             if default is _MISSING:
                 raise KeyError(name)
             return default
-        return orjson.loads(orjson.dumps(node))
+        return orjson.loads(_to_json(node))
 
     def get_json(self, name: str, default: Any = None) -> bytes:
-        """The value (or ``default``) as JSON text, without copying it first."""
+        """The value (or ``default``) as JSON text, composed from the stored texts."""
         node = self._node(name)
-        return orjson.dumps(default if node is _MISSING else node)
+        return orjson.dumps(default) if node is None else _to_json(node)
 
     def has(self, name: str) -> bool:
-        return self._node(name) is not _MISSING
+        return self._node(name) is not None
 
     def delete(self, name: str) -> bool:
         parts = self._parts(name)
         if not parts:
             self._root = {}
-            self._sizes.clear()
             self.total_bytes = 0
             return True
-        node: Any = self._root
-        for p in parts[:-1]:
-            if not isinstance(node, dict) or p not in node:
-                return False
-            node = node[p]
-        if isinstance(node, dict) and parts[-1] in node:
-            for key in self._replaced(parts):
-                self.total_bytes -= self._sizes.pop(key, 0)
-            del node[parts[-1]]
+        parent = self._node("/" + "/".join(parts[:-1]))
+        if isinstance(parent, dict) and parts[-1] in parent:
+            self.total_bytes -= _size(parent.pop(parts[-1])) + sum(map(len, parts))
             return True
         return False
 
     def names(self) -> list[str]:
-        """Every leaf name, as rosapi's get_param_names lists them."""
-        return sorted("/" + "/".join(parts) for parts in _leaves(self._root, ()) if parts)
+        """Every leaf name (a value, or an empty namespace), as rosapi's get_param_names."""
+        out: list[str] = []
+        stack: list[tuple[Node, str]] = [(self._root, "")]
+        while stack:
+            node, prefix = stack.pop()
+            if isinstance(node, dict) and node:
+                stack.extend((child, f"{prefix}/{key}") for key, child in node.items())
+            elif prefix:
+                out.append(prefix)
+        return sorted(out)
 
     def search(self, key: str, namespace: str = "/") -> str:
         """Closest ``key`` up the namespace chain (rosparam search semantics), or ''."""
@@ -201,18 +195,62 @@ def check_value_size(name: str, size: int) -> None:
             f"{MAX_VALUE_BYTES}")
 
 
-def _subtree_keys(sizes: dict[tuple[str, ...], int], node: Any,
-                  prefix: tuple[str, ...]) -> list[tuple[str, ...]]:
-    """The sized names at or under ``prefix``: walks the tree below it (every name that was set
-    there is a node of it), so the cost follows what is replaced, not the whole store."""
-    found = [prefix] if prefix in sizes else []
-    stack = [(node, prefix)]
+def _as_node(value: Any, data: bytes) -> Node:
+    """A parsed value as a node: a dictionary becomes a namespace whose leaves are the JSON
+    texts of its items; anything else is kept as the text it came in."""
+    if not isinstance(value, dict):
+        return data
+    root: dict[str, Node] = {}
+    stack = [(value, root)]
     while stack:
-        value, parts = stack.pop()
-        if isinstance(value, dict):
-            for key, item in value.items():
-                child = (*parts, key)
-                if child in sizes:
-                    found.append(child)
+        source, target = stack.pop()
+        for key, item in source.items():
+            if isinstance(item, dict):
+                child: dict[str, Node] = {}
+                target[key] = child
                 stack.append((item, child))
-    return found
+            else:
+                target[key] = orjson.dumps(item)
+    return root
+
+
+def _size(node: Node) -> int:
+    """Bytes a node holds: its texts and the names inside it."""
+    total = 0
+    stack = [node]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, bytes):
+            total += len(item)
+        else:
+            for key, child in item.items():
+                total += len(key)
+                stack.append(child)
+    return total
+
+
+def _to_json(node: Node) -> bytes:
+    """A node as one JSON text: namespaces become objects around the stored texts. Built with
+    an explicit stack of open objects, not recursion."""
+    if isinstance(node, bytes):
+        return node
+    out: list[bytes] = [b"{"]
+    stack = [iter(node.items())]
+    first = [True]
+    while stack:
+        entry = next(stack[-1], None)
+        if entry is None:
+            stack.pop()
+            first.pop()
+            out.append(b"}")
+            continue
+        key, child = entry
+        out.append((b"" if first[-1] else b",") + orjson.dumps(key) + b":")
+        first[-1] = False
+        if isinstance(child, bytes):
+            out.append(child)
+        else:
+            out.append(b"{")
+            stack.append(iter(child.items()))
+            first.append(True)
+    return b"".join(out)

@@ -66,11 +66,25 @@ def test_the_whole_tree_is_bounded_and_bytes_come_back_when_values_go():
     store.set("/ns/v1", 1)  # a smaller value frees its bytes
     store.set("/extra", chunk)
     store.delete("/ns")  # deleting a namespace frees everything set under it
-    assert store.total_bytes == len(orjson.dumps(chunk))
+    assert store.total_bytes == len(orjson.dumps(chunk)) + len("extra")  # texts and names
     store.set("/", {"a": {"b": 1}})
-    assert store.total_bytes == len(b'{"a":{"b":1}}')
-    store.set("/a", 5)  # the namespace's value is replaced by a leaf
-    assert store.names() == ["/a"]
+    assert store.total_bytes == len("a") + len("b") + len(b"1")
+    store.set("/a", 5)  # the namespace is replaced by a value
+    assert store.names() == ["/a"] and store.total_bytes == 2
+    store.set("/a/b/c", [1])  # and the value by a namespace again
+    assert store.get("/") == {"a": {"b": {"c": [1]}}} and store.total_bytes == 6
+    assert store.get_json("/") == b'{"a":{"b":{"c":[1]}}}'
+
+
+def test_dictionary_values_become_names_and_keep_no_python_objects():
+    store = ParamStore()
+    store.set_json("/cfg", b'{"speed": 0.5, "limits": {"max": [1, 2]}, "empty": {}}')
+    assert store.get("/cfg/limits/max") == [1, 2]
+    assert store.names() == ["/cfg/empty", "/cfg/limits/max", "/cfg/speed"]
+    assert orjson.loads(store.get_json("/cfg")) == {"speed": 0.5, "limits": {"max": [1, 2]},
+                                                    "empty": {}}
+    store.set_json("/big", "[" + "[]," * 1000 + "[]]")
+    assert isinstance(store._node("/big"), bytes)  # one text, not 1001 lists
 
 
 def test_root_and_non_json_values_are_refused():
