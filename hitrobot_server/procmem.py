@@ -35,7 +35,17 @@ def peak_bytes(pid: int) -> int:
 
 
 def children(pid: int) -> list[int]:
-    """Process ids whose parent is ``pid``."""
+    """Process ids whose parent is ``pid``: from the kernel's per-thread ``children`` lists
+    (a few small reads), else by scanning every process's ``stat``."""
+    try:
+        tasks = os.listdir(f"/proc/{pid}/task")
+        lists = [Path(f"/proc/{pid}/task/{tid}/children").read_text() for tid in tasks]
+    except OSError:  # gone, or a kernel without CONFIG_PROC_CHILDREN
+        return _scan_children(pid)
+    return sorted({int(child) for text in lists for child in text.split()})
+
+
+def _scan_children(pid: int) -> list[int]:
     found: list[int] = []
     try:
         entries = os.listdir("/proc")

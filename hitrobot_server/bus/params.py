@@ -9,6 +9,7 @@ it back copies bytes. Nothing here recurses in Python, so no value can exhaust t
 
 from __future__ import annotations
 
+import gc
 import re
 from typing import Any
 
@@ -81,7 +82,7 @@ class ParamStore:
             except UnicodeEncodeError:
                 raise ParamError(f"parameter '{canonical(name)}' is not valid Unicode") from None
             check_value_size(name, len(data))
-        value = orjson.loads(data)  # validates; only a dictionary's items are kept apart
+        value = _parse(data)  # validates; only a dictionary's items are kept apart
         if not parts and not isinstance(value, dict):
             raise ParamError("the root parameter '/' can only be set to a dictionary")
         depth = len(parts) + json_depth(data)
@@ -193,6 +194,20 @@ def check_value_size(name: str, size: int) -> None:
         raise ParamError(
             f"parameter '{canonical(name)}' is {size} bytes of JSON, more than the limit of "
             f"{MAX_VALUE_BYTES}")
+
+
+def _parse(data: bytes) -> Any:
+    """``orjson.loads`` with the cyclic garbage collector paused: the objects it makes are
+    freed (by reference counting) as soon as the value is stored as text, yet their creation
+    would trigger collections that walk the whole server (a 1 MB ``[[],[],…]``: 570 ms
+    instead of 40)."""
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        return orjson.loads(data)
+    finally:
+        if was_enabled:
+            gc.enable()
 
 
 def _as_node(value: Any, data: bytes) -> Node:
