@@ -54,6 +54,8 @@ import numpy as np
 import orjson
 from PIL import Image
 
+from hitrobot_server import procmem
+
 try:
     from websockets.speedups import apply_mask
 except ImportError:  # pure-Python fallback
@@ -296,23 +298,18 @@ class ServerProc:
         except (OSError, IndexError, ValueError):
             return float("nan")
 
-    def _status_mb(self, field: str) -> float:
-        """A memory figure of /proc/<pid>/status (``VmHWM``, ``VmRSS``), MB."""
-        try:
-            for line in Path(f"/proc/{self.proc.pid}/status").read_text().splitlines():
-                if line.startswith(field + ":"):
-                    return int(line.split()[1]) / 1024
-        except OSError:
-            pass
-        return float("nan")
+    def _pids(self) -> list[int]:
+        """The server and its worker processes (the pool that parses and encodes big ops)."""
+        return [self.proc.pid, *procmem.children(self.proc.pid)]
 
     def rss_mb(self) -> float:
-        """Peak resident set size (VmHWM), MB."""
-        return self._status_mb("VmHWM")
+        """Peak resident set size (VmHWM) of the server plus each worker's peak, MB (the peaks
+        may be at different times: an upper bound of the peak of the sum)."""
+        return sum(procmem.peak_bytes(pid) for pid in self._pids()) / 2**20
 
     def rss_now_mb(self) -> float:
-        """Resident set size right now (VmRSS), MB."""
-        return self._status_mb("VmRSS")
+        """Resident set size right now (VmRSS) of the server and its workers, MB."""
+        return sum(procmem.rss_bytes(pid) for pid in self._pids()) / 2**20
 
     def stop(self) -> None:
         if self.proc.poll() is None:
@@ -1110,7 +1107,7 @@ async def map_section(cfg) -> list[dict]:
         "latched copy (t=0: its subscribe).\n  1st byte = upload of the publish frame + "
         "server parse, convert, encode; decode = client side (orjson; png: base64 -> PIL\n"
         "  -> RGB bytes -> UTF-8 -> JSON, as roslibjs 2.x does). "
-        f"Server peak RSS {rss:.0f} MB."
+        f"Server peak RSS {rss:.0f} MB (worker pool included)."
     )
     print(
         "  other clients during one map publish (a probe client's ping-pong through the "
@@ -1312,7 +1309,7 @@ async def probe_maps_section(cfg) -> list[dict]:
         "  publish->decoded: best of the maps = frame received + client decode (timed after the "
         "probe window, so the\n  bench's decoding does not compete with the server for the 2 "
         f"cores during it). Server peak RSS "
-        f"{rss:.0f} MB (main process; the worker pool's CPU and memory are not counted)."
+        f"{rss:.0f} MB (main process + worker pool peaks; the pool's CPU is not counted)."
     )
     return results
 
@@ -1388,8 +1385,8 @@ async def memory_section(cfg) -> dict:
     stall = await stalled_rss(cfg)
     per_client = 1024 * (idle["full"] - idle["empty"]) / max(idle["clients"], 1)
     print(
-        "\n[6] memory: server RSS (VmRSS) with idle clients, and with a subscriber that stops "
-        "reading"
+        "\n[6] memory: server RSS (VmRSS, worker processes included) with idle clients, and "
+        "with a subscriber that stops reading"
     )
     print(
         table(

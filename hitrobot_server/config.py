@@ -37,6 +37,7 @@ class Settings:
     delay_between_messages: float = 0.0
     unregister_timeout: float = 10.0
     call_service_timeout: float | None = None
+    max_requests_in_flight: int = 1000
     topics_glob: str | None = None
     services_glob: str | None = None
     params_glob: str | None = None
@@ -48,6 +49,9 @@ class Settings:
     ssl: bool = False
     certfile: str | None = None
     keyfile: str | None = None
+    tls_handshake_timeout: float = 5.0
+    max_tls_handshakes: int = 64
+    max_tls_handshakes_per_address: int = 8
     log_level: str = "info"
     robot: str = "sim"
     world: str | None = None
@@ -118,6 +122,7 @@ class Settings:
             send_buffer_limit=self.send_buffer_limit,
             status_level=self.status_level,
             call_service_timeout=self.call_service_timeout,
+            max_requests_in_flight=self.max_requests_in_flight,
             topics_glob=self.topics_glob,
             services_glob=self.services_glob,
             params_glob=self.params_glob,
@@ -167,6 +172,8 @@ _HELP = {
     "delay_between_messages": "seconds to wait after each frame sent to a client",
     "unregister_timeout": "seconds an unused topic lingers before it is removed",
     "call_service_timeout": "default timeout of call_service in seconds (none = wait forever)",
+    "max_requests_in_flight": "service calls (and, separately, action goals) one client may have "
+    "waiting for an answer; more are refused with a status",
     "topics_glob": "comma-separated fnmatch patterns of topics clients may use",
     "services_glob": "comma-separated fnmatch patterns of services clients may use",
     "params_glob": "comma-separated fnmatch patterns of parameters clients may use",
@@ -178,6 +185,12 @@ _HELP = {
     "ssl": "serve wss:// and TLS on the TCP port (needs --certfile)",
     "certfile": "PEM certificate chain for --ssl (may also hold the key)",
     "keyfile": "PEM private key for --ssl (if not in --certfile)",
+    "tls_handshake_timeout": "seconds a client has to finish the TLS handshake (--ssl), on "
+    "both ports",
+    "max_tls_handshakes": "TLS handshakes in progress at once, all clients together; a "
+    "connection beyond it is closed at once",
+    "max_tls_handshakes_per_address": "TLS handshakes in progress at once from one source "
+    "address",
     "log_level": "logging level: debug, info, warning, error",
     "robot": "the robot behind the bus: 'sim' (built-in simulated Slamware robot), 'none', or "
     "a Slamware REST URL such as http://192.168.11.1:1448; repeat as NAME=SPEC for several "
@@ -317,6 +330,13 @@ def load(args: argparse.Namespace) -> Settings:
                          "websocket_ping_timeout positive")
     if settings.record_split_size < 0:
         raise ValueError("record_split_size must be 0 or more (MiB)")
+    if settings.tls_handshake_timeout <= 0:
+        raise ValueError("tls_handshake_timeout must be positive")
+    if settings.max_tls_handshakes < 1 or settings.max_tls_handshakes_per_address < 1:
+        raise ValueError("max_tls_handshakes and max_tls_handshakes_per_address must be "
+                         "positive")
+    if settings.max_requests_in_flight < 1:
+        raise ValueError("max_requests_in_flight must be positive")
     if settings.fragment_memory_limit < 1:
         raise ValueError("fragment_memory_limit must be positive")
     return settings

@@ -23,6 +23,7 @@ from .session.options import SessionOptions
 from .session.session import Session, Shared
 from .transport.http import StaticFiles, WithRecordings, default_web_root, missing_libraries
 from .transport.tcp import start_tcp
+from .transport.tls import HandshakeGate
 from .transport.websocket import start_websocket
 from .types.registry import TypeRegistry
 
@@ -48,6 +49,7 @@ class HitrobotServer:
         self._session_options: SessionOptions | None = None  # built at start
         self._ws = None
         self._tcp: asyncio.Server | None = None
+        self._tls: HandshakeGate | None = None
         self._ws_console = False
         self.port: int | None = None
         self.tcp_port: int | None = None
@@ -131,7 +133,10 @@ class HitrobotServer:
         def factory(peer: str, transport: str) -> Session:
             return self.new_session(peer, transport)
 
-        tls = _tls_context(s) if s.ssl else None
+        tls = self._tls = HandshakeGate(
+            _tls_context(s), s.tls_handshake_timeout, s.max_tls_handshakes,
+            s.max_tls_handshakes_per_address,
+        ) if s.ssl else None
         console = _web_console()
         self._ws_console = console is not None
         worker = s.worker_id is not None  # one of --workers: the ports are shared
@@ -143,7 +148,7 @@ class HitrobotServer:
             delay_between_messages=s.delay_between_messages,
             compression=s.use_compression,
             http_handler=WithRecordings(console, None if s.authenticate else s.recordings),
-            ssl=tls,
+            tls=tls,
             ping_interval=s.websocket_ping_interval,
             ping_timeout=s.websocket_ping_timeout,
             new_foxglove=self.new_foxglove_session,
@@ -158,7 +163,7 @@ class HitrobotServer:
                 s.tcp_port if s.tcp_port > 0 else 0,
                 max_frame_size=s.max_frame_size,
                 delay_between_messages=s.delay_between_messages,
-                ssl=tls,
+                tls=tls,
                 reuse_port=worker,
             )
             self.tcp_port = self._tcp.sockets[0].getsockname()[1]
@@ -174,6 +179,8 @@ class HitrobotServer:
                 + (f"  {tcp}://{s.address}:{self.tcp_port}" if self.tcp_port else ""))
 
     async def stop(self) -> None:
+        if self._tls is not None:
+            self._tls.close()
         if self._tcp is not None:
             self._tcp.close()
         if self._ws is not None:

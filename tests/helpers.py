@@ -278,3 +278,14 @@ class Watcher:
     async def close(self) -> None:
         self._task.cancel()
         await self.client.close()
+
+
+async def silent_provider(port: int, service: str = "/mute") -> WsClient:
+    """A client providing ``service`` (std_srvs/Trigger) that answers only when a test makes
+    it: the provider that never answers, of the pending-call tests."""
+    provider = await WsClient.open(port)
+    await provider.send({"op": "set_level", "level": "info"})
+    await provider.send({"op": "advertise_service", "id": "adv", "service": service,
+                         "type": "std_srvs/Trigger"})
+    await provider.expect(op="status", id="adv")
+    return provider

@@ -13,17 +13,18 @@ PACKAGE = Path(hitrobot_server.__file__).parent
 
 # What each floor (hitrobot_server.<name>) may import from the project, besides itself and the
 # root package's __init__ (the version). Bottom first.
-BASE = {"types", "tf_buffer", "signals"}  # pure helpers, no project imports
+BASE = {"types", "tf_buffer", "signals", "procmem"}  # pure helpers, no project imports
 ALLOWED: dict[str, set[str]] = {
     "types": set(),
     "tf_buffer": set(),
     "signals": set(),
+    "procmem": set(),
     "protocol": {"types"},
     "bus": {"types", "protocol"},
     "robot": {"types", "tf_buffer"},
     "session": {"bus", "protocol", "types"},
     "transport": {"session", "protocol", "types"},
-    "nodes": {"bus", "robot", "protocol", "types", "tf_buffer"},
+    "nodes": {"bus", "robot", "protocol", "types", "tf_buffer", "procmem"},
     "record": {"bus", "protocol", "types"},  # a bus tap and a player, like a node without robot
     "conformance": {"protocol", "types"},  # a client tool: it talks to servers over sockets
     # the top: assembles the floors, so it may import any of them

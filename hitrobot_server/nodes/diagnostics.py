@@ -18,6 +18,7 @@ item is ERROR and the other robot items are STALE.
 
 from __future__ import annotations
 
+from .. import procmem
 from ..bus.core import Bus
 from ..robot.backend import ACTION_PREFIX, BackendError, NotConnectedError, RobotBackend
 from ..robot.model import HealthLevel
@@ -57,6 +58,19 @@ def summary(name: str, items: list[dict]) -> dict:
     return status(name, level, LEVEL_WORDS[level])
 
 
+def memory_item() -> dict:
+    """The server's resident memory, its worker processes included (they hold big messages
+    while they parse or encode them, outside the server's own RSS)."""
+    mem = procmem.memory()
+    mb = 1024 * 1024
+    return status(
+        "/Bridge/Memory", OK,
+        f"{mem.total / mb:.0f} MB resident ({mem.worker_count} worker processes: "
+        f"{mem.workers / mb:.0f} MB)",
+        total_mb=round(mem.total / mb, 1), server_mb=round(mem.main / mb, 1),
+        workers_mb=round(mem.workers / mb, 1), workers=mem.worker_count)
+
+
 class DiagnosticsNode(RobotNode):
     def __init__(self, bus: Bus, backend: RobotBackend | None = None, bridge: bool = True):
         super().__init__(bus, "/diagnostic_aggregator", backend)
@@ -86,7 +100,8 @@ class DiagnosticsNode(RobotNode):
             "/Bridge/Clients", OK,
             f"{len(clients)} client{'' if len(clients) == 1 else 's'} connected",
             clients=len(clients), topics=len(bus.topics), services=len(bus.services),
-            actions=len(bus.actions), nodes=len(bus.nodes), client_names=" ".join(clients))]
+            actions=len(bus.actions), nodes=len(bus.nodes), client_names=" ".join(clients)),
+            memory_item()]
 
     async def robot_items(self) -> list[dict]:
         assert self.backend is not None

@@ -17,6 +17,7 @@ has arrived (``path`` lists the node ids) or failed.
 from __future__ import annotations
 
 import asyncio
+import logging
 import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
@@ -31,6 +32,7 @@ from .mapfiles import GRAPH_FILE, MapFilesNode
 from .namedfiles import FileError, NamedFiles, dump_yaml, load_yaml, number
 from .options import NodeOptions
 
+log = logging.getLogger(__name__)
 PKG = "hitrobot_msgs"
 CURRENT_TOPIC = "/graph/current"
 MAX_NODES = 10_000
@@ -170,6 +172,8 @@ class GraphNodeService(RobotNode):
         self.backend: RobotBackend = backend
         self.mapfiles = mapfiles
         self.files = NamedFiles(settings.map_store.parent / "graphs")
+        if removed := self.files.clean_leftovers():  # created at start-up, before any save
+            log.info("graphs: removed leftovers of interrupted saves: %s", ", ".join(removed))
         self.graph = Graph()
         self.graph_name = ""
         self.advertise(CURRENT_TOPIC, f"{PKG}/Graph", latch=True)

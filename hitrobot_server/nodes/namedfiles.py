@@ -14,7 +14,7 @@ from pathlib import Path
 
 import yaml
 
-from .map_manager.store import StoreError, validate_name, write_file
+from .map_manager.store import StoreError, remove_leftovers, validate_name, write_file
 
 SUFFIX = ".yaml"
 
@@ -36,6 +36,10 @@ class NamedFiles:
 
     def __init__(self, root: Path | str):
         self.root = Path(root)
+
+    def clean_leftovers(self) -> list[str]:
+        """Remove the temporary files of writes a crash interrupted (at start-up only)."""
+        return [path.name for path in remove_leftovers(self.root)]
 
     def path(self, name: str) -> Path:
         check_name(name)

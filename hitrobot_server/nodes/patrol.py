@@ -125,6 +125,8 @@ class PatrolNode(RobotNode):
         self.backend: RobotBackend = backend
         self.mapfiles = mapfiles
         self.files = NamedFiles(settings.map_store.parent / "routes")
+        if removed := self.files.clean_leftovers():  # created at start-up, before any save
+            log.info("routes: removed leftovers of interrupted saves: %s", ", ".join(removed))
         self.map_frames_extra = frozenset({"map", settings.slamware.map_frame.lstrip("/")})
         self.waypoints: list[Waypoint] = []
         self.route = ""

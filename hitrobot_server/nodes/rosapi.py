@@ -14,6 +14,7 @@ from ..bus.core import Bus
 from ..bus.errors import ServiceError
 from ..bus.link import PARAM_SERVICES
 from ..bus.names import canonical
+from ..bus.params import ParamError, check_value_size
 from ..types.registry import UnknownType
 from ..types.typedef import srv_request_typedefs, srv_response_typedefs, typedefs
 from .base import Node
@@ -201,21 +202,27 @@ class Rosapi(Node):
         return name
 
     @staticmethod
-    def _parse(text: str, what: str):
+    def _parse(name: str, text: str, what: str):
+        """A parameter value's JSON text, its size checked before it is parsed."""
         try:
+            check_value_size(name, len(text))
             return orjson.loads(text)
         except orjson.JSONDecodeError as exc:
             raise ServiceError(f"{what} must be JSON text (e.g. '42' or '\"a\"'): {exc}") from None
+        except ParamError as exc:
+            raise ServiceError(f"{what}: {exc}") from None
 
     async def get_param(self, req: dict) -> dict:
         name = self._param_name(req["name"])
-        default = self._parse(req["default"], "default") if req.get("default") else None
-        return {"value": orjson.dumps(self.bus.params.get(name, default)).decode()}
+        default = self._parse(name, req["default"], "default") if req.get("default") else None
+        return {"value": self.bus.params.get_json(name, default).decode()}
 
     async def set_param(self, req: dict) -> dict:
         name = self._param_name(req["name"])
         try:
-            self.bus.params.set(name, self._parse(req["value"], "value"))
+            self.bus.params.set_json(name, req["value"])
+        except orjson.JSONDecodeError as exc:
+            raise ServiceError(f"value must be JSON text (e.g. '42' or '\"a\"'): {exc}") from None
         except ValueError as exc:
             raise ServiceError(str(exc)) from None
         return {}

@@ -18,7 +18,7 @@ import orjson
 
 from ..types import jsoncodec
 from . import cbor, png
-from .fragment import fragment_bytes
+from .fragment import fragment_bytes, fragment_size_for
 
 Frame = tuple[bytes, bool]  # (payload, is_binary)
 
@@ -164,8 +164,30 @@ def publish_png(topic: str, msg: dict, op_json: bytes) -> bytes:
 
 
 def fragments(data: bytes, size: int, frag_id: str) -> list[Frame]:
-    """Encoded JSON split into ``fragment`` ops with the id ``frag_id``."""
-    return [(frame, False) for frame in fragment_bytes(data.decode(), size, frag_id)]
+    """Encoded JSON split into ``fragment`` ops with the id ``frag_id``, in pieces of ``size``
+    characters or as many more as the bounds of :func:`~.fragment.fragment_size_for` need."""
+    text = data.decode()
+    size = fragment_size_for(len(text), size)
+    return [(frame, False) for frame in fragment_bytes(text, size, frag_id)]
+
+
+def reply_data(obj: dict, compression: str = "none") -> bytes:
+    """A reply op (service_response, action_result, status, ...) as one JSON or png frame."""
+    data = jsoncodec.dumps(obj)
+    if compression == "png":
+        if not data.isascii():
+            data = jsoncodec.dumps_ascii(obj)
+        data = png.png_op(data)
+    return data
+
+
+def reply_frames(obj: dict, fragment_size: int | None, compression: str,
+                 frag_id: str) -> list[Frame]:
+    """Every frame of one reply op; what the worker builds for a big one."""
+    data = reply_data(obj, compression)
+    if fragment_size and len(data) > fragment_size:
+        return fragments(data, fragment_size, frag_id)
+    return [(data, False)]
 
 
 def publish_frames(

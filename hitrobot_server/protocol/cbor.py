@@ -133,26 +133,56 @@ def encode_publish_cbor(
     return cbor2.dumps({"op": "publish", "topic": topic, "msg": to_cbor_value(msg, mtype, reg)})
 
 
+def typed_array(tag: cbor2.CBORTag) -> np.ndarray | None:
+    """The numpy array an RFC 8746 typed-array tag holds (None for any other tag): a view on
+    its bytes (a copy in native order for big-endian tags), never one Python object per
+    element, so it takes no more memory than the frame it came in."""
+    dtype = _TAG_DTYPES.get(tag.tag)
+    if dtype is None or not isinstance(tag.value, bytes):
+        return None
+    kind = np.dtype(dtype)
+    if len(tag.value) % kind.itemsize:
+        raise jsoncodec.InvalidValue(
+            f"a typed array (CBOR tag {tag.tag}) of {len(tag.value)} bytes is not a whole "
+            f"number of {kind.itemsize}-byte items")
+    array = np.frombuffer(tag.value, dtype=kind)
+    return array if kind.isnative or kind.itemsize == 1 else array.astype(kind.newbyteorder("="))
+
+
 def decode_typed_arrays(obj: Any) -> Any:
-    """Replace RFC 8746 typed-array tags (as left by ``cbor2.loads``) with lists, recursively."""
-    if isinstance(obj, dict):
-        return {key: decode_typed_arrays(value) for key, value in obj.items()}
-    if isinstance(obj, list):
-        return [decode_typed_arrays(value) for value in obj]
+    """Replace RFC 8746 typed-array tags (as left by ``cbor2.loads``) with numpy arrays, in
+    place and without recursion."""
     if isinstance(obj, cbor2.CBORTag):
-        dtype = _TAG_DTYPES.get(obj.tag)
-        if dtype is not None and isinstance(obj.value, bytes):
-            return np.frombuffer(obj.value, dtype=dtype).tolist()
+        found = typed_array(obj)
+        return obj if found is None else found
+    stack = [obj]
+    while stack:
+        node = stack.pop()
+        if type(node) is dict:
+            items = node.items()
+        elif type(node) is list:
+            items = enumerate(node)
+        else:
+            continue
+        for key, value in items:
+            if type(value) is dict or type(value) is list:
+                stack.append(value)
+            elif type(value) is cbor2.CBORTag and (found := typed_array(value)) is not None:
+                node[key] = found
     return obj
 
 
 def decode(data: bytes) -> Any:
-    """Decode a CBOR frame with typed arrays turned into lists.
+    """Decode a CBOR frame with typed arrays turned into numpy arrays.
 
     Raises ``cbor2.CBORDecodeError`` when malformed (cbor2 bounds nesting itself) and
     :class:`~hitrobot_server.types.jsoncodec.InvalidValue` for values the server cannot carry
     (integers beyond 64 bits, other tags, undefined, non-string keys).
     """
-    obj = decode_typed_arrays(cbor2.loads(data))
+    obj = cbor2.loads(data)
+    try:
+        obj = decode_typed_arrays(obj)
+    except jsoncodec.InvalidValue as exc:
+        raise jsoncodec.InvalidValue(str(exc), jsoncodec.top_id(obj)) from None
     jsoncodec.check_value(obj, allow_bytes=True)
     return obj

@@ -16,6 +16,19 @@ import orjson
 
 from .errors import MessageId, ProtocolError, message_id
 
+MIN_FRAGMENT_SIZE = 1024
+"""Smallest ``fragment_size`` honoured: each fragment op costs ~70 bytes of framing and a Python
+object, so ``fragment_size: 1`` turned a 365 kB map into 364,941 frames (+1.4 GB). Smaller
+requests are raised to this, with a warning."""
+MAX_FRAGMENTS = 10_000
+"""Most fragments one message is cut into; a longer message gets longer fragments."""
+
+
+def fragment_size_for(length: int, requested: int) -> int:
+    """The piece size actually used for a ``length``-character text: the client's request,
+    raised to :data:`MIN_FRAGMENT_SIZE` and to what keeps it within :data:`MAX_FRAGMENTS`."""
+    return max(requested, MIN_FRAGMENT_SIZE, -(-length // MAX_FRAGMENTS))
+
 
 def fragment(payload: str, size: int, msg_id: str) -> list[dict]:
     """Split the JSON text ``payload`` into ``fragment`` ops of at most ``size`` characters.

@@ -16,7 +16,7 @@ from ..bus.services import (
 )
 from ..protocol.errors import ProtocolError
 from ..types.convert import ConversionError, from_json
-from .services import args_to_request, split_id
+from .services import args_to_request, split_id, too_many_in_flight
 
 if TYPE_CHECKING:
     from .session import Session
@@ -51,6 +51,10 @@ class ActionOps:
             )
             s.status("error", f"send_action_goal: {text}", op_id)
 
+        limit = s.settings.max_requests_in_flight
+        if len(self.goals) >= limit:
+            fail(too_many_in_flight(limit, "action goals"))
+            return
         action = s.bus.action(name)
         if action is None:
             fail(f"action '{name}' does not exist")
@@ -77,7 +81,7 @@ class ActionOps:
                 f"send_action_goal: a goal with id {op_id!r} is still running", op_id
             )
         want_feedback = bool(msg.get("feedback", False))
-        frag = msg.get("fragment_size")
+        frag = s.fragment_size(msg)
 
         def on_feedback(values: dict) -> None:
             if want_feedback:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..bus.names import GlobFilter, access_filters
+from ..protocol.fragment import MIN_FRAGMENT_SIZE
 
 
 @dataclass
@@ -21,6 +22,7 @@ class SessionOptions:
     send_buffer_limit: int = 10_000_000
     status_level: str = "error"
     call_service_timeout: float | None = None
+    max_requests_in_flight: int = 1000  # per client: call_service and action goals each
     topics_glob: str | None = None
     services_glob: str | None = None
     params_glob: str | None = None  # Foxglove's parameter ops (rosbridge's go through rosapi)
@@ -29,6 +31,8 @@ class SessionOptions:
     params_filter: GlobFilter = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        if self.max_message_size is not None:  # never cut replies finer than the floor
+            self.max_message_size = max(self.max_message_size, MIN_FRAGMENT_SIZE)
         self.topics_filter, self.services_filter, self.params_filter = access_filters(
             self.topics_glob, self.services_glob, self.params_glob
         )

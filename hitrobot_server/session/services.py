@@ -48,12 +48,19 @@ def args_to_request(op: str, mtype: MsgType, args: Any, session: Session, op_id:
     return value
 
 
+def too_many_in_flight(limit: int, what: str) -> str:
+    """The refusal of a request beyond the per-client cap (``--max-requests-in-flight``)."""
+    return (f"too many requests in flight: {limit} {what} of this client are still waiting "
+            "for an answer (--max-requests-in-flight)")
+
+
 class ServiceOps:
     def __init__(self, session: Session):
         self.session = session
         self.provided: set[str] = set()
         self.pending: dict[str, tuple[asyncio.Future, MsgType, str]] = {}
         self._counters: dict[str, itertools.count] = {}
+        self.in_flight = 0  # this client's calls waiting for their answer
 
     # ------------------------------------------------------------- calling
     def call_service(self, msg: dict) -> None:
@@ -67,13 +74,17 @@ class ServiceOps:
         reply = {"op": "service_response", "service": msg["service"]}
         if op_id is not None:
             reply["id"] = op_id
-        frag = msg.get("fragment_size")
+        frag = s.fragment_size(msg)
         compression = msg.get("compression") or "none"
 
         def fail(text: str) -> None:
             s.send({**reply, "values": text, "result": False}, fragment_size=frag)
             s.status("error", f"call_service: {text}", op_id)
 
+        limit = s.settings.max_requests_in_flight
+        if self.in_flight >= limit:
+            fail(too_many_in_flight(limit, "service calls"))
+            return
         if compression not in COMPRESSIONS:
             fail(f"field 'compression' must be one of {', '.join(COMPRESSIONS)}, "
                  f"got {compression!r}")
@@ -113,12 +124,15 @@ class ServiceOps:
                 else:
                     fail(str(exc))
                 return
+            finally:
+                self.in_flight -= 1
             s.send(
                 {**reply, "values": values, "result": True},
                 fragment_size=frag,
                 compression=compression,
             )
 
+        self.in_flight += 1
         s.spawn(run())
 
     # ------------------------------------------------------------- providing

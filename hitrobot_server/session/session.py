@@ -23,7 +23,7 @@ from ..bus.names import CLIENT_NODE_PREFIX
 from ..bus.topics import Origin
 from ..protocol import auth, bulk, cbor, ops, png
 from ..protocol.errors import ProtocolError, message_id, status_op
-from ..protocol.fragment import Defragmenter, FragmentBudget
+from ..protocol.fragment import MIN_FRAGMENT_SIZE, Defragmenter, FragmentBudget
 from ..protocol.status import set_level, should_send
 from ..types import jsoncodec
 from ..types.convert import ConversionError
@@ -34,7 +34,7 @@ from .outbox import Frames, Outbox
 from .publish import PublishOps
 from .services import ServiceOps
 from .subscribe import SubscribeOps
-from .wire import json_frames
+from .wire import json_frames, reply_frames
 
 log = logging.getLogger(__name__)
 Pending = Awaitable[None] | None  # what receive/handle return: None, or a task to await
@@ -286,7 +286,21 @@ class Session:
     ) -> None:
         """Queue a reply op; replies are never dropped by the send buffer."""
         size = fragment_size or self.settings.max_message_size
-        self.outbox.put(json_frames(obj, size, compression))
+        frames = reply_frames(obj, size, compression)
+        self.outbox.put(frames, size=None if type(frames) is list else offload.approx_size(obj))
+
+    def fragment_size(self, msg: dict) -> int | None:
+        """The op's ``fragment_size``, raised to the floor (with a warning) when below it."""
+        size = msg.get("fragment_size")
+        if size is not None and size < MIN_FRAGMENT_SIZE:
+            self.status(
+                "warning",
+                f"{msg['op']}: field 'fragment_size' {size} is below the minimum of "
+                f"{MIN_FRAGMENT_SIZE}; fragments of {MIN_FRAGMENT_SIZE} characters are sent",
+                msg.get("id"),
+            )
+            return MIN_FRAGMENT_SIZE
+        return size
 
     def send_frames(self, frames: Frames, droppable: bool, size: int | None = None) -> None:
         self.outbox.put(frames, droppable, size)

@@ -165,7 +165,7 @@ class SubscribeOps:
         params = SubParams(
             int(msg.get("throttle_rate") or 0),
             queue_length,
-            msg.get("fragment_size"),
+            s.fragment_size(msg),
             compression,
         )
         type_name = msg.get("type") or None

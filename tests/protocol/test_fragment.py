@@ -3,14 +3,18 @@
 import orjson
 import pytest
 
+from hitrobot_server.protocol import bulk
 from hitrobot_server.protocol.errors import ProtocolError
 from hitrobot_server.protocol.fragment import (
     FRAGMENT_OVERHEAD,
+    MAX_FRAGMENTS,
+    MIN_FRAGMENT_SIZE,
     Defragmenter,
     FragmentBudget,
     FragmentIds,
     fragment,
     fragment_bytes,
+    fragment_size_for,
 )
 
 PAYLOAD = '{"op":"publish","topic":"/chatter","msg":{"data":"hello world"}}'
@@ -250,3 +254,26 @@ def test_next_expiry_is_the_least_recently_fed_message():
     assert defrag.next_expiry() == 11.0
     defrag.add(frag(id="a", num=1, total=3), 5.0)
     assert defrag.next_expiry() == 12.0
+
+
+# --- outgoing bounds ----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("length", "requested", "used"), [
+    (365_000, 1, MIN_FRAGMENT_SIZE),
+    (365_000, 5000, 5000),
+    (MIN_FRAGMENT_SIZE * MAX_FRAGMENTS * 3, 1, MIN_FRAGMENT_SIZE * 3),
+    (MIN_FRAGMENT_SIZE * MAX_FRAGMENTS * 3 + 1, 2000, MIN_FRAGMENT_SIZE * 3 + 1),
+])
+def test_fragment_size_is_floored_and_frames_per_message_are_bounded(length, requested, used):
+    assert fragment_size_for(length, requested) == used
+    assert -(-length // used) <= MAX_FRAGMENTS
+
+
+def test_a_text_cut_with_fragment_size_1_keeps_its_frame_count_bounded():
+    text = orjson.dumps({"op": "publish", "topic": "/map", "msg": {"data": "x" * 365_000}})
+    frames = bulk.fragments(text, 1, "fragment:1")
+    ops = [orjson.loads(data) for data, _binary in frames]
+    assert len(ops) == -(-len(text) // MIN_FRAGMENT_SIZE)
+    assert all(len(op["data"]) <= MIN_FRAGMENT_SIZE for op in ops)
+    assert "".join(op["data"] for op in ops).encode() == text

@@ -15,11 +15,15 @@ import math
 import threading
 
 import cbor2
+import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
+from hitrobot_server.bus import params as params_mod
 from hitrobot_server.config import Settings
+from hitrobot_server.protocol import cbor as cbor_mod
+from hitrobot_server.protocol.fragment import MIN_FRAGMENT_SIZE
 from hitrobot_server.protocol.ops import OPS
 from hitrobot_server.server import HitrobotServer
 
@@ -178,5 +182,143 @@ def test_every_malformed_op_gets_a_status_and_the_witness_loses_nothing(arena, f
                 assert "\ud800" not in status["msg"]
         await witness.check()
         assert len(server.sessions) == 3  # nobody was disconnected
+
+    runner.run(example())
+
+
+# ------------------------------------------------------- parameters, CBOR tags, fragment sizes
+def against_a_server(examples: int):
+    """Hypothesis settings for examples run on the arena's server: reproducible, and without
+    shrinking (against a live server it takes minutes)."""
+    return settings(max_examples=examples, derandomize=True, deadline=None, database=None,
+                    phases=(Phase.explicit, Phase.generate),
+                    suppress_health_check=[HealthCheck.function_scoped_fixture,
+                                           HealthCheck.too_slow])
+
+
+JSON_LEAF = st.one_of(st.none(), st.booleans(), st.integers(-(2**63), 2**63 - 1),
+                      st.floats(allow_nan=False, allow_infinity=False), st.text(max_size=8))
+JSON_VALUE = st.recursive(JSON_LEAF, lambda inner: st.one_of(
+    st.lists(inner, max_size=3), st.dictionaries(st.text("abc", min_size=1, max_size=3), inner,
+                                                 max_size=3)), max_leaves=8)
+
+
+@st.composite
+def param_value(draw) -> tuple[str, str, int]:
+    """(name, JSON text, its depth counting the name): a random value, often wrapped deep."""
+    parts = draw(st.lists(st.text("pqr", min_size=1, max_size=2), min_size=1, max_size=4))
+    value = draw(JSON_VALUE)
+    wrap = draw(st.sampled_from([0, 0, 50, 96, 97, 98, 99, 150, 400, 1000]))
+    text = "[" * wrap + json.dumps(value) + "]" * wrap
+    depth = params_mod.json_depth(text.encode())
+    return "/fuzz/" + "/".join(parts), text, depth + 1 + len(parts)
+
+
+async def fresh_client(port: int, level: str = "warning") -> WsClient:
+    """A new connection at status ``level`` (its ops are handled in order, so the level holds
+    from the next op on)."""
+    client = await WsClient.open(port)
+    await client.send({"op": "set_level", "id": "lv", "level": "info"})
+    await client.expect(op="status", id="lv")
+    await client.send({"op": "set_level", "level": level})
+    return client
+
+
+@against_a_server(40)
+@given(values=st.lists(param_value(), min_size=10, max_size=10))
+def test_parameters_refused_or_stored_and_the_tree_always_encodes(arena, values):
+    runner, server, witness, _fuzzer = arena
+
+    async def example():
+        client = await fresh_client(server.port, "error")
+        for name, text, depth in values:
+            before = (await client.call("/rosapi/get_param", {"name": name}))["values"]["value"]
+            reply = await client.call("/rosapi/set_param", {"name": name, "value": text})
+            assert reply["result"] is (depth <= params_mod.MAX_DEPTH), (name, depth, reply)
+            after = (await client.call("/rosapi/get_param", {"name": name}))["values"]["value"]
+            if reply["result"]:
+                assert json.loads(after) == json.loads(text)
+            else:
+                assert "nested" in reply["values"] and after == before
+            tree = await client.call("/rosapi/get_param", {"name": "/"})
+            assert tree["result"] is True and isinstance(json.loads(tree["values"]["value"]), dict)
+        await client.call("/rosapi/delete_param", {"name": "/fuzz"})
+        await witness.check()
+        await client.close()
+
+    runner.run(example())
+
+
+@st.composite
+def typed_array(draw) -> tuple[int, bytes]:
+    tag = draw(st.integers(63, 88))
+    return tag, draw(st.binary(max_size=40))
+
+
+@against_a_server(30)
+@given(arrays=st.lists(typed_array(), min_size=10, max_size=10))
+def test_cbor_typed_arrays_are_carried_whole_or_refused(arena, arrays):
+    runner, server, witness, _fuzzer = arena
+
+    async def example():
+        client = await fresh_client(server.port, "error")
+        await client.send({"op": "advertise", "topic": "/fuzz/arr",
+                           "type": "std_msgs/Float64MultiArray"})
+        await client.send({"op": "subscribe", "topic": "/fuzz/arr"})
+        for i, (tag, data) in enumerate(arrays):
+            frame = cbor2.dumps({"op": "publish", "id": f"t{i}", "topic": "/fuzz/arr",
+                                 "msg": {"data": cbor2.CBORTag(tag, data)}})
+            answers = await send_and_collect(client, frame)
+            dtype = cbor_mod._TAG_DTYPES.get(tag)
+            if dtype is not None and len(data) % np.dtype(dtype).itemsize == 0:
+                published = [m for m in answers if m.get("op") == "publish"]
+                assert len(published) == 1, answers
+                got = published[0]["msg"]["data"]
+                assert len(got) == len(data) // np.dtype(dtype).itemsize
+                expected = np.frombuffer(data, dtype).astype(np.float64)
+                assert all(g is None if not math.isfinite(e) else g == e
+                           for g, e in zip(got, expected, strict=True))
+            else:
+                errors = [m for m in answers if m.get("op") == "status"]
+                assert [m["id"] for m in errors if m["level"] == "error"] == [f"t{i}"], answers
+        await witness.check()
+        await client.close()
+
+    runner.run(example())
+
+
+@against_a_server(30)
+@given(sizes=st.lists(st.one_of(st.integers(1, 1100), st.integers(1, 4000)), min_size=5,
+                      max_size=5))
+def test_fragment_sizes_are_floored_and_replies_rejoin(arena, sizes):
+    runner, server, witness, _fuzzer = arena
+
+    async def example():
+        client = await fresh_client(server.port)
+        whole = (await client.call("/rosapi/message_details",
+                                   {"type": "nav_msgs/OccupancyGrid"}))["values"]
+        for i, size in enumerate(sizes):
+            await client.send({"op": "call_service", "id": f"f{i}", "fragment_size": size,
+                               "service": "/rosapi/message_details",
+                               "args": {"type": "nav_msgs/OccupancyGrid"}})
+            used = max(size, MIN_FRAGMENT_SIZE)
+            if size < MIN_FRAGMENT_SIZE:
+                warning = await client.expect(op="status", id=f"f{i}")
+                assert warning["level"] == "warning" and str(size) in warning["msg"]
+            first = await client.recv()
+            if first["op"] == "service_response":  # shorter than the piece size: whole
+                reply = first
+            else:
+                pieces = {first["num"]: first["data"]}
+                while len(pieces) < first["total"]:
+                    op = await client.expect(op="fragment", id=first["id"])
+                    pieces[op["num"]] = op["data"]
+                assert all(len(p) <= used for p in pieces.values())
+                text = "".join(pieces[n] for n in range(first["total"]))
+                assert first["total"] == -(-len(text) // used)
+                reply = json.loads(text)
+            assert reply["id"] == f"f{i}" and reply["values"] == whole
+        await witness.check()
+        await client.close()
 
     runner.run(example())

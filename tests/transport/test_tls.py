@@ -20,7 +20,8 @@ from websockets.asyncio.client import connect
 from hitrobot_server.cli import build_parser
 from hitrobot_server.config import load
 
-from ..helpers import TcpClient, WsClient
+from ..helpers import TcpClient, WsClient, until
+from ..witness import Witness
 
 
 @pytest.fixture(scope="module")
@@ -100,3 +101,85 @@ def test_rosbridge_parameter_spellings_are_accepted():
     assert (s.send_buffer_limit, s.fragment_memory_limit) == (1000, 9)
     with pytest.raises(ValueError, match="--certfile"):
         load(build_parser().parse_args(["--ssl"]))
+
+
+async def idle(port: int, source: str) -> tuple[asyncio.StreamReader, asyncio.StreamWriter]:
+    """A TCP connection from ``source`` that never starts its TLS handshake."""
+    return await asyncio.open_connection("127.0.0.1", port, local_addr=(source, 0))
+
+
+async def closed_by_server(reader: asyncio.StreamReader, timeout: float = 5.0) -> bool:
+    try:
+        return await asyncio.wait_for(reader.read(1), timeout) == b""
+    except TimeoutError:  # (an OSError too): still open
+        return False
+    except (ConnectionError, OSError):
+        return True
+
+
+async def capped_server(make_server, cert, handshake_timeout: float):
+    """A TLS server allowing 4 handshakes in progress, 2 from one address."""
+    certfile, keyfile = cert
+    return await make_server(ssl=True, certfile=certfile, keyfile=keyfile,
+                             tls_handshake_timeout=handshake_timeout, max_tls_handshakes=4,
+                             max_tls_handshakes_per_address=2)
+
+
+async def test_handshakes_in_progress_are_capped_and_time_out(make_server, cert):
+    certfile, _keyfile = cert
+    server = await capped_server(make_server, cert, handshake_timeout=3)
+    gate = server._tls
+    client_ctx = ssl.create_default_context(cafile=certfile)
+
+    async def wss() -> WsClient:
+        return WsClient(await connect(f"wss://127.0.0.1:{server.port}", ssl=client_ctx))
+
+    witness = await Witness.on(await wss(), await wss())  # connected before the flood
+    # the flood: 30 connections from 5 source addresses, on both ports, none says a word
+    flood = [await idle(port, f"127.0.0.{1 + i % 5}")
+             for i in range(30) for port in (server.port, server.tcp_port)][:30]
+    await until(lambda: gate.in_progress == 4, "4 handshakes in progress")
+    closed = await asyncio.gather(*(closed_by_server(r, timeout=1.0) for r, _w in flood))
+    assert closed.count(False) == 4 and gate.in_progress == 4  # the rest closed at once
+    await witness.check()
+    with pytest.raises(Exception):  # noqa: B017 - no place for a new handshake: closed
+        async with asyncio.timeout(5):
+            await wss()
+    # the handshake timeout frees every place, on both ports
+    for (reader, _writer), was_closed in zip(flood, closed, strict=True):
+        if not was_closed:
+            assert await closed_by_server(reader, timeout=10)
+    await until(lambda: gate.in_progress == 0, "no handshake in progress", timeout=5)
+    late = await wss()
+    assert (await late.call("/rosapi/get_time"))["result"] is True
+    reader, writer = await asyncio.open_connection("127.0.0.1", server.tcp_port, ssl=client_ctx)
+    tcp = TcpClient(reader, writer)
+    await tcp.send({"op": "call_service", "id": "tls", "service": "/rosapi/get_time"})
+    assert (await tcp.expect(op="service_response", id="tls"))["result"] is True
+    await witness.check()
+    for _reader, w in flood:
+        w.close()
+    await tcp.close()
+    await late.close()
+    await witness.close()
+
+
+async def test_one_source_address_cannot_take_every_place(make_server, cert):
+    certfile, _keyfile = cert
+    server = await capped_server(make_server, cert, handshake_timeout=30)
+    gate = server._tls
+    hog = [await idle(server.port, "127.0.0.7") for _ in range(2)]
+    await until(lambda: gate.in_progress == 2, "2 handshakes in progress")
+    third = await idle(server.tcp_port, "127.0.0.7")
+    assert await closed_by_server(third[0])
+    # another address still gets in, with a real TLS client
+    client_ctx = ssl.create_default_context(cafile=certfile)
+    reader, writer = await asyncio.open_connection("127.0.0.1", server.tcp_port, ssl=client_ctx,
+                                                   local_addr=("127.0.0.8", 0))
+    tcp = TcpClient(reader, writer)
+    await tcp.send({"op": "call_service", "id": "other", "service": "/rosapi/get_time"})
+    assert (await tcp.expect(op="service_response", id="other"))["result"] is True
+    assert gate.in_progress == 2
+    for _reader, w in [*hog, third]:
+        w.close()
+    await tcp.close()

@@ -65,6 +65,25 @@ def write_file(path: Path, data: bytes) -> None:
         raise
 
 
+def remove_leftovers(folder: Path, prefixes: tuple[str, ...] = (_TEMP_PREFIX,)) -> list[Path]:
+    """Delete the entries of ``folder`` (files, or folders with what they hold) whose names
+    start with one of ``prefixes``: what saves interrupted by a crash or kill -9 left behind.
+    Only at start-up, when no save can be in progress; returns what was removed."""
+    removed: list[Path] = []
+    if not folder.is_dir():
+        return removed
+    for path in folder.iterdir():
+        if not path.name.startswith(prefixes):
+            continue
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            with contextlib.suppress(OSError):
+                path.unlink()
+        removed.append(path)
+    return removed
+
+
 def _fsync_dir(path: Path) -> None:
     with contextlib.suppress(OSError):
         fd = os.open(path, os.O_RDONLY)
@@ -147,15 +166,8 @@ class MapStore:
                                  if p.is_dir() and not p.is_symlink()
                                  and not p.name.startswith(".")]
         for folder in folders:
-            for path in folder.iterdir():
-                if not path.name.startswith((_TEMP_PREFIX, _OLD_PREFIX)):
-                    continue
-                if path.is_dir() and not path.is_symlink():
-                    shutil.rmtree(path, ignore_errors=True)
-                else:
-                    with contextlib.suppress(OSError):
-                        path.unlink()
-                removed.append(str(path.relative_to(self.root)))
+            removed += (str(path.relative_to(self.root))
+                        for path in remove_leftovers(folder, (_TEMP_PREFIX, _OLD_PREFIX)))
         return removed
 
     def read(self, name: str, filename: str) -> bytes:

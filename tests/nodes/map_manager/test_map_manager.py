@@ -285,6 +285,10 @@ async def test_start_up_cleans_leftovers_and_load_refuses_a_link_outside(make_se
     maps = tmp_path / "maps"
     (maps / ".tmp-navigation.0a0b").mkdir(parents=True)
     (maps / ".old-navigation.0c0d").mkdir()
+    for folder in ("routes", "graphs"):  # kill -9 during a save of a route or graph file
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / ".tmp-lap.yaml.0e0f").write_bytes(b"half a ")
+        (tmp_path / folder / "lap.yaml").write_bytes(b"kept")
     evil = maps / "evil"
     evil.mkdir()
     (evil / "map.yaml").write_text("image: map.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n"
@@ -295,6 +299,8 @@ async def test_start_up_cleans_leftovers_and_load_refuses_a_link_outside(make_se
     _server, w = await start(make_server, maps)
     # the leftovers are gone before any client could see them
     assert sorted(p.name for p in maps.iterdir()) == ["evil", "navigation"]
+    for folder in ("routes", "graphs"):
+        assert [p.name for p in (tmp_path / folder).iterdir()] == ["lap.yaml"]
     refused = await request(w, f"{MM}/load_map", SAVE_T, {"filename": "evil"}, "evil")
     assert refused["level"] == "error" and "outside the map store" in refused["msg"]
     got = await w.call(f"{MM}/get_pois")
