@@ -19,6 +19,7 @@ class SessionOptions:
     max_frame_size: int = 256 * 1024 * 1024
     max_message_size: int | None = None
     send_buffer_limit: int = 10_000_000
+    reply_buffer_limit: int = 16_000_000
     status_level: str = "error"
     call_service_timeout: float | None = None
     topics_glob: str | None = None

@@ -9,7 +9,7 @@ from ssl import SSLContext
 
 from ..protocol.errors import ProtocolError
 from ..protocol.jsonstream import JsonStreamDecoder
-from .websocket import DIRECT_WRITE_LIMIT, SessionFactory, pump
+from .websocket import DIRECT_WRITE_LIMIT, SessionFactory, limit_unsent, pump, wait_for_room
 
 log = logging.getLogger(__name__)
 
@@ -26,6 +26,7 @@ async def start_tcp(
     async def handler(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         peer = writer.get_extra_info("peername")
         session = new_session(peer[0] if peer else "", "tcp")
+        limit_unsent(writer.get_extra_info("socket"))
 
         async def send_frame(data: bytes, binary: bool) -> None:
             writer.write(data + b"\n")
@@ -72,6 +73,9 @@ async def _read(reader: asyncio.StreamReader, session, max_frame_size: int) -> N
                     pending = session.handle(item)
                     if pending is not None:
                         await pending
+            if session.outbox.closed:
+                return
+            await wait_for_room(session)
             if session.outbox.closed:
                 return
     except (ConnectionError, OSError):

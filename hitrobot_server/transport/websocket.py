@@ -7,7 +7,9 @@ decisions.md asks: one port for the page and the bridge.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
+import socket
 from collections.abc import Callable
 from ssl import SSLContext
 
@@ -31,6 +33,28 @@ DIRECT_WRITE_LIMIT = 256 * 1024
 # writing a 40 MB map is many short steps of the event loop instead of one of 100+ ms. Clients
 # see one message (RFC 6455 fragmentation, reassembled by every WebSocket implementation).
 CHUNK_BYTES = 1024 * 1024
+# Unsent bytes the kernel may hold per client socket. Beyond it frames wait in the outbox,
+# where the fair scheduler still chooses among them: a slow link's pose is not stuck behind
+# megabytes of map already handed to the kernel (TCP_NOTSENT_LOWAT, Linux and macOS).
+NOTSENT_LOWAT = 128 * 1024
+_TCP_NOTSENT_LOWAT = getattr(socket, "TCP_NOTSENT_LOWAT", None)
+
+
+def limit_unsent(sock) -> None:
+    """Keep the kernel's queue of unsent bytes short for this client (see NOTSENT_LOWAT)."""
+    if sock is None or _TCP_NOTSENT_LOWAT is None or sock.family not in (
+        socket.AF_INET, socket.AF_INET6
+    ):
+        return
+    with contextlib.suppress(OSError):
+        sock.setsockopt(socket.IPPROTO_TCP, _TCP_NOTSENT_LOWAT, NOTSENT_LOWAT)
+
+
+async def wait_for_room(session: Session) -> None:
+    """Backpressure: read no more input while the client's unread replies are over budget."""
+    room = session.outbox.room
+    if not room.is_set():
+        await room.wait()
 
 
 async def pump(session: Session, send_frame, delay: float) -> None:
@@ -90,6 +114,7 @@ async def start_websocket(
     async def handler(ws: ServerConnection) -> None:
         peer = ws.remote_address[0] if ws.remote_address else ""
         session = new_session(peer, "ws")
+        limit_unsent(ws.transport.get_extra_info("socket") if ws.transport else None)
         if delay_between_messages <= 0:
             session.outbox.direct = direct_writer(ws)
 
@@ -112,7 +137,10 @@ async def start_websocket(
             reader.cancel()
             if not writer.done():
                 writer.cancel()
-            await ws.close()
+            if session.close_reason:  # 1008: policy violation, with the reason
+                await ws.close(1008, session.close_reason[:120])
+            else:
+                await ws.close()
 
     def process_request(ws: ServerConnection, request: Request) -> Response | None:
         if request.headers.get("Upgrade", "").lower() == "websocket":
@@ -142,6 +170,9 @@ async def _read(ws: ServerConnection, session: Session) -> None:
             pending = session.receive(frame, binary=isinstance(frame, bytes))
             if pending is not None:  # a big op in the worker pool: the next frame waits for it
                 await pending
+            if session.outbox.closed:
+                return
+            await wait_for_room(session)
             if session.outbox.closed:
                 return
     except ConnectionClosed:
