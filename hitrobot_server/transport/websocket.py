@@ -28,7 +28,7 @@ HttpHandler = Callable[[ServerConnection, Request], Response | None]
 
 
 # Above this many bytes in a socket's write buffer, frames wait in the outbox instead.
-DIRECT_WRITE_LIMIT = 256 * 1024
+DIRECT_WRITE_LIMIT = 64 * 1024
 # A message bigger than this goes out as WebSocket continuation frames of this size, so that
 # writing a 40 MB map is many short steps of the event loop instead of one of 100+ ms. Clients
 # see one message (RFC 6455 fragmentation, reassembled by every WebSocket implementation).
@@ -36,7 +36,7 @@ CHUNK_BYTES = 1024 * 1024
 # Unsent bytes the kernel may hold per client socket. Beyond it frames wait in the outbox,
 # where the fair scheduler still chooses among them: a slow link's pose is not stuck behind
 # megabytes of map already handed to the kernel (TCP_NOTSENT_LOWAT, Linux and macOS).
-NOTSENT_LOWAT = 128 * 1024
+NOTSENT_LOWAT = 64 * 1024
 _TCP_NOTSENT_LOWAT = getattr(socket, "TCP_NOTSENT_LOWAT", None)
 
 
