@@ -104,7 +104,10 @@ class ServiceOps:
 
         async def run() -> None:
             try:
-                values = await s.bus.call_service(name, request, timeout)
+                try:
+                    values = await s.bus.call_service(name, request, timeout)
+                finally:
+                    s.calls_in_flight -= 1
             except ServiceError as exc:
                 if exc.values is not None:  # the provider's own failure values, as rosbridge
                     s.send({**reply, "values": exc.values, "result": False}, fragment_size=frag)
@@ -117,6 +120,7 @@ class ServiceOps:
                 compression=compression,
             )
 
+        s.calls_in_flight += 1  # counted toward the reply budget (session._replies_full)
         s.spawn(run())
 
     # ------------------------------------------------------------- providing

@@ -104,6 +104,8 @@ class Session:
         self._errors_since = float("-inf")  # start of the current second of error statuses
         self._errors = 0
         self._errors_skipped = 0
+        self.calls_in_flight = 0  # this client's call_service ops not answered yet
+        self.reply_bytes = 0.0  # running mean size of its replies: what a call will cost
         self._tasks: set[asyncio.Task] = set()
         self.on_close: list[Callable[[Session], None]] = []
         self.topic_names: dict[str, str] = {}  # accepted topic spellings → canonical names
@@ -232,10 +234,12 @@ class Session:
         """Refuse a request while this client's unread replies are over the budget (the
         transport has stopped reading its input, but one read may hold many ops)."""
         limit = self.settings.reply_buffer_limit
-        if not limit or self.outbox.control_bytes <= limit:
+        queued = self.outbox.control_bytes
+        if not limit or queued + self.calls_in_flight * self.reply_bytes <= limit:
             return False
-        text = (f"{msg['op']}: too many requests in flight: {self.outbox.control_bytes} bytes "
-                f"of replies not read yet (--reply-buffer-limit {limit}); refused")
+        text = (f"{msg['op']}: too many requests in flight: {self.calls_in_flight} call(s) "
+                f"pending and {queued} bytes of replies not read yet "
+                f"(--reply-buffer-limit {limit}); refused")
         if msg["op"] == "call_service":
             reply = {"op": "service_response", "service": msg["service"], "values": text,
                      "result": False}
@@ -319,7 +323,9 @@ class Session:
     ) -> None:
         """Queue a reply op; replies are never dropped by the send buffer."""
         size = fragment_size or self.settings.max_message_size
-        self.outbox.put(json_frames(obj, size, compression))
+        frames = json_frames(obj, size, compression)
+        self.reply_bytes += (sum(len(f[0]) for f in frames) - self.reply_bytes) / 8
+        self.outbox.put(frames)
         self._check_replies()
 
     def send_frames(
