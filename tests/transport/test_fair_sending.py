@@ -9,6 +9,8 @@ import time
 
 from websockets.asyncio.client import connect
 
+from hitrobot_server.nodes.diagnostics import WARN, DiagnosticsNode
+
 from ..helpers import WsClient, round_trip
 
 BIG = "/fair/cloud"
@@ -103,7 +105,11 @@ async def test_a_slow_reader_gets_every_small_message_fresh_and_in_order(make_se
     assert slow_session.outbox.drops(SMALL) == 0  # only the big one was thinned
     assert 0 < big_seen < 24 and fragments > big_seen
     sub = slow_session.subscriptions.subs[BIG]
-    assert sub.dropped == slow_session.outbox.drops(BIG)  # what diagnostics reports
+    assert sub.dropped == slow_session.outbox.drops(BIG)
+    diagnostics = next(n for n in server.nodes if isinstance(n, DiagnosticsNode))
+    item = diagnostics.slow_links()  # what /diagnostics_agg publishes: per client and topic
+    assert item["level"] == WARN
+    assert item["values"] == [{"key": f"{slow_session.node} {BIG}", "value": str(sub.dropped)}]
     await slow.close()
     await asyncio.gather(fast.close(), pub.close())
 
