@@ -303,6 +303,23 @@ class Outbox:
         if not stream.entries:
             self._deactivate(stream)
 
+    def forget(self, key: Hashable) -> None:
+        """Stream ``key`` is no longer wanted (unsubscribed): free what it holds and its count;
+        a group already started still goes out whole."""
+        stream = self._streams.pop(key, None)
+        if stream is None:
+            return
+        kept = [e for e in stream.entries if e.pos]  # the rest of a started group
+        freed = stream.bytes - sum(e.size for e in kept)
+        stream.entries = deque(kept)
+        stream.bytes -= freed
+        self._bytes -= freed
+        if kept:
+            self._streams[key] = stream
+            stream.dropped = 0
+        else:
+            self._deactivate(stream)
+
     def sent(self) -> None:
         """The frames from the last ``get()`` are written; direct writes may resume."""
         self.busy = False

@@ -224,6 +224,7 @@ class SubscribeOps:
     def _drop(self, topic_str: str) -> None:
         sub = self.subs.pop(topic_str)
         sub.cancel()
+        self.session.outbox.forget(topic_str)
         if sub.topic is not None:
             self.session.bus.unsubscribe(sub.topic.name, (self.session, topic_str))
 

@@ -179,3 +179,18 @@ async def test_a_failed_or_cancelled_future_is_skipped_and_a_cancelled_get_leave
     getter.cancel()  # this client's pump goes away
     await asyncio.gather(getter, return_exceptions=True)
     assert not shared.cancelled()  # other subscribers still await the same encoding
+
+
+async def test_forget_frees_an_unsubscribed_stream_but_finishes_a_started_group():
+    box = Outbox()
+    box.busy = True
+    box.put([(b"f0", False), (b"f1", False)], droppable=True, key="/a")
+    box.put(frames(1), droppable=True, key="/b")
+    box.sent()
+    assert await box.get() == [(b"f0", False)]
+    box.sent()
+    box.put(frames(2), droppable=True, key="/a")
+    box.forget("/a")
+    assert box.drops("/a") == 0
+    assert sorted(await drain(box)) == sorted([b"f1", bytes([1]) * 10])
+    assert box.buffered == 0
