@@ -43,6 +43,7 @@ class Settings:
     params_glob: str | None = None
     status_level: str = "error"
     send_buffer_limit: int = 10_000_000
+    reply_buffer_limit: int = 16_000_000
     use_compression: bool = False
     websocket_ping_interval: float = 0.0
     websocket_ping_timeout: float = 30.0
@@ -120,6 +121,7 @@ class Settings:
             max_frame_size=self.max_frame_size,
             max_message_size=self.max_message_size,
             send_buffer_limit=self.send_buffer_limit,
+            reply_buffer_limit=self.reply_buffer_limit,
             status_level=self.status_level,
             call_service_timeout=self.call_service_timeout,
             max_requests_in_flight=self.max_requests_in_flight,
@@ -179,6 +181,8 @@ _HELP = {
     "params_glob": "comma-separated fnmatch patterns of parameters clients may use",
     "status_level": "initial status level of each client: info, warning, error or none",
     "send_buffer_limit": "bytes queued per client before its oldest topic messages are dropped",
+    "reply_buffer_limit": "bytes of replies and statuses queued per client before its input "
+    "is no longer read and its requests are refused; at twice this it is disconnected",
     "use_compression": "offer WebSocket permessage-deflate",
     "websocket_ping_interval": "seconds between WebSocket pings to each client (0 = none)",
     "websocket_ping_timeout": "seconds a client has to answer a ping before it is disconnected",

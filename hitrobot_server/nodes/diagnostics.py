@@ -13,6 +13,9 @@ item is ERROR and the other robot items are STALE.
 ``/Robot/Motion``           the current action and the velocity
 ``/Robot/Health``           the robot's own warnings and errors (``get_health``)
 ``/Bridge/Clients``         connected clients (``/hitrobot_client_*`` nodes), topics, services
+``/Bridge/Slow links``      WARN while a client's link is too slow for a topic: the messages of
+                            that topic it did not get, per client and topic (the bus
+                            subscriber's ``dropped`` count; a small topic is never thinned)
 ==========================  ==================================================================
 """
 
@@ -101,7 +104,21 @@ class DiagnosticsNode(RobotNode):
             f"{len(clients)} client{'' if len(clients) == 1 else 's'} connected",
             clients=len(clients), topics=len(bus.topics), services=len(bus.services),
             actions=len(bus.actions), nodes=len(bus.nodes), client_names=" ".join(clients)),
-            memory_item()]
+            memory_item(), self.slow_links()]
+
+    def slow_links(self) -> dict:
+        drops = sorted(
+            (node, name, dropped)
+            for name, topic in self.bus.topics.items()
+            for node, callback in topic.subscribers.values()
+            if (dropped := getattr(callback, "dropped", 0))
+        )
+        item = status("/Bridge/Slow links", WARN if drops else OK,
+                      f"{len(drops)} topic(s) thinned for slow clients" if drops
+                      else "every client keeps up")
+        item["values"] = [{"key": f"{node} {name}", "value": str(dropped)}
+                          for node, name, dropped in drops]
+        return item
 
     async def robot_items(self) -> list[dict]:
         assert self.backend is not None

@@ -162,8 +162,9 @@ class FoxgloveSession:
         self.outbox.put([(data, True)])
 
     def _send_data(self, frames: Frames, topic: str) -> None:
-        """Topic data: the client's oldest topic data goes first when its buffer is full."""
-        self.outbox.put(frames, droppable=True)
+        """Topic data, in the topic's own fair-share stream: when the client's buffer is full,
+        the topic over its share loses its oldest messages (the outbox's scheduler)."""
+        self.outbox.put(frames, droppable=True, key=topic)
 
     def _status(self, level: int, message: str, status_id: str | None = None) -> None:
         """A status goes through the bounded buffer like topic data: a client that floods
@@ -539,7 +540,7 @@ class FoxgloveSession:
         if self.closed:
             return
         self.closed = True
-        self.outbox.close()
+        self.outbox.clear()  # freed now, not by the next full collection
         for handle in (self._sync_handle, self._time_handle):
             if handle is not None:
                 handle.cancel()

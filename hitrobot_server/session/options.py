@@ -20,6 +20,7 @@ class SessionOptions:
     max_frame_size: int = 256 * 1024 * 1024
     max_message_size: int | None = None
     send_buffer_limit: int = 10_000_000
+    reply_buffer_limit: int = 16_000_000
     status_level: str = "error"
     call_service_timeout: float | None = None
     max_requests_in_flight: int = 1000  # per client: call_service and action goals each

@@ -1,19 +1,39 @@
-"""Per-client bounded send buffer.
+"""Per-client send buffer: control frames first, then topics by fair shares of bytes.
 
 rosbridge's classic failure is one slow client growing an unbounded queue until latency is
-minutes (rosbridge #765, #889, #989). Here every client gets ``limit`` bytes; topic data
-beyond that evicts that client's own oldest topic data, and the bus never waits for it.
+minutes (rosbridge #765, #889, #989); foxglove_bridge #174 is the next one: a single FIFO puts
+the pose behind seconds of images. Here, for each client:
 
-An entry may be a future of its frames (a big message being encoded in the worker pool): the
-pump waits for it in place, so whatever was queued after it still goes out after it.
+* **Control frames** (``droppable=False``: service responses, statuses, action feedback and
+  results) wait in one FIFO that is served before any topic data and is never dropped.
+* **Topic data** (``droppable=True``) waits in one queue per *stream* (``key``; a subscription
+  passes its topic, a caller that passes none shares the default stream ``None``). The sender
+  picks the next frame across streams by deficit round robin over bytes (:data:`QUANTUM` per
+  turn), so a stream of small messages is never stuck behind a big one. A group of frames (one
+  message's ``fragment`` ops) goes out one frame per pick, interleaved with the other streams;
+  once its first frame is out the rest of the group is never dropped.
+* All topic data of a client holds at most ``limit`` bytes. Over it, the oldest entries of the
+  stream holding the most bytes go first (the topic overflowing its share is thinned; a small
+  topic that fits its share loses nothing). A stream may also hold at most ``depth`` entries
+  (a subscription's ``queue_length``; 1 = only the latest value). Drops are counted per stream
+  (:meth:`drops`) and ``on_thinned(key)`` is called on a stream's first drop.
+* An entry may be a future of its frames (a big message being encoded in the worker pool): its
+  stream waits for it in place while the other streams go on.
+
+Interface for transports: ``direct`` (a synchronous write used while nothing is queued: the
+fast path), ``get()`` → the next frames to write (or None once closed and drained) then
+``sent()``, and ``room`` (an event set while the control bytes are within ``budget``; a transport
+reads no input while it is clear: backpressure for a client that does not read its replies).
+Interface for producers: ``put(frames, droppable=False, size=None, key=None, depth=None)``.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 
 log = logging.getLogger(__name__)
@@ -22,24 +42,47 @@ Frame = tuple[bytes, bool]  # (payload, is_binary)
 Frames = list[Frame] | asyncio.Future  # a future resolves to list[Frame]
 DirectWrite = Callable[[list[Frame]], bool]
 
+QUANTUM = 16 * 1024
+"""Bytes a stream may send per round-robin turn (more if its next frame is bigger)."""
+
 
 @dataclass(slots=True)
 class _Entry:
     frames: Frames
     size: int
-    droppable: bool
+    pos: int = 0  # frames of this group already out (the rest must follow: never dropped)
+
+
+class _Stream:
+    __slots__ = ("key", "entries", "bytes", "deficit", "dropped", "depth", "granted")
+
+    def __init__(self, key: Hashable):
+        self.key = key
+        self.entries: deque[_Entry] = deque()
+        self.bytes = 0
+        self.deficit = 0
+        self.dropped = 0
+        self.depth: int | None = None
+        self.granted = False  # got its quantum for the current turn
 
 
 class Outbox:
-    """Queue of outgoing frame groups; a group (e.g. one message's fragments) goes out whole."""
+    """Outgoing frames of one client (see the module docstring)."""
 
-    def __init__(self, limit: int = 10_000_000):
+    def __init__(self, limit: int = 10_000_000, budget: int = 0):
         self.limit = limit
-        self._queue: deque[_Entry] = deque()
+        self.budget = budget  # control bytes above which the client's input is not read
+        self._control: deque[_Entry] = deque()
+        self._control_bytes = 0
+        self._streams: dict[Hashable, _Stream] = {}
+        self._active: deque[_Stream] = deque()  # streams with entries, in round-robin order
         self._bytes = 0
         self._wakeup = asyncio.Event()
+        self.room = asyncio.Event()
+        self.room.set()
         self.dropped = 0
         self.closed = False
+        self.on_thinned: Callable[[Hashable], None] | None = None
         # Set by the transport: writes frames synchronously when the socket has room and
         # returns False when it has not. Nothing queued and nothing being sent means order
         # is kept, and the common case costs no task switch (2x the fan-out rate).
@@ -48,26 +91,44 @@ class Outbox:
 
     @property
     def buffered(self) -> int:
+        """Bytes queued, control and topic data."""
         return self._bytes
 
+    @property
+    def control_bytes(self) -> int:
+        return self._control_bytes
+
     def __len__(self) -> int:
-        return len(self._queue)
+        return len(self._control) + sum(len(s.entries) for s in self._active)
 
-    def put(self, frames: Frames, droppable: bool = False, size: int | None = None) -> bool:
-        """Queue frames; returns False when topic data was dropped for lack of room.
+    def drops(self, key: Hashable = None) -> int:
+        """Entries of stream ``key`` dropped so far."""
+        stream = self._streams.get(key)
+        return stream.dropped if stream is not None else 0
 
-        ``size`` is the byte count to charge for a future of frames (an estimate).
+    def put(
+        self,
+        frames: Frames,
+        droppable: bool = False,
+        size: int | None = None,
+        key: Hashable = None,
+        depth: int | None = None,
+    ) -> bool:
+        """Queue frames; returns False when they were dropped (topic data, no room).
 
-        Replies (service responses, status, action results) are never dropped: they are
-        small and a lost reply would hang the caller. A message larger than the whole
-        limit is still sent when the buffer is empty, so a big map always gets through.
+        ``size`` is the byte count to charge for a future of frames (an estimate). ``key`` and
+        ``depth`` place topic data in its stream (ignored for control frames). A message larger
+        than the whole limit is still sent when no other topic data is queued, so a big map
+        always gets through.
         """
         if self.closed:
             return False
         pending = isinstance(frames, asyncio.Future)
         if (
             not pending
-            and not self._queue
+            and not self._bytes
+            and not self._control
+            and not self._active
             and not self.busy
             and self.direct is not None
             and self.direct(frames)
@@ -77,48 +138,187 @@ class Outbox:
             size = sum(len(f[0]) for f in frames)
         elif size is None:
             size = 0
-        if droppable and self.limit > 0:
-            while self._bytes + size > self.limit and self._drop_oldest():
+        entry = _Entry(frames, size)
+        if pending:
+            frames.add_done_callback(self._ready)
+        if not droppable:
+            self._control.append(entry)
+            self._control_bytes += size
+            self._bytes += size
+            if self.budget and self._control_bytes > self.budget:
+                self.room.clear()
+            self._wakeup.set()
+            return True
+        stream = self._streams.get(key)
+        if stream is None:
+            stream = self._streams[key] = _Stream(key)
+        stream.depth = depth
+        if depth is not None and depth > 0:
+            while len(stream.entries) >= depth and self._drop_oldest(stream):
                 pass
-            if self._bytes + size > self.limit and self._queue:
-                self.dropped += 1
+        if self.limit > 0 and self._bytes - self._control_bytes + size > self.limit:
+            streams = len(self._active) + (not stream.entries)
+            share = self.limit // streams
+            while self._bytes - self._control_bytes + size > self.limit and self._evict(
+                share, stream, size
+            ):
+                pass
+            if (
+                self._bytes - self._control_bytes + size > self.limit
+                and self._bytes > self._control_bytes
+                and stream.bytes + size > share
+            ):  # a stream within its share is never thinned, even when others can't be
+                self._count_drop(stream)
                 return False
-        self._queue.append(_Entry(frames, size, droppable))
+        if not stream.entries:
+            self._active.append(stream)
+        stream.entries.append(entry)
+        stream.bytes += size
         self._bytes += size
         self._wakeup.set()
         return True
 
-    def _drop_oldest(self) -> bool:
-        for i, entry in enumerate(self._queue):
-            if entry.droppable:
-                del self._queue[i]
+    def _ready(self, _future: asyncio.Future) -> None:
+        self._wakeup.set()
+
+    def _count_drop(self, stream: _Stream) -> None:
+        stream.dropped += 1
+        self.dropped += 1
+        if stream.dropped == 1 and self.on_thinned is not None:
+            self.on_thinned(stream.key)
+
+    def _drop_oldest(self, stream: _Stream) -> bool:
+        """Drop the oldest entry of ``stream`` not yet started."""
+        for i, entry in enumerate(stream.entries):
+            if not entry.pos:
+                del stream.entries[i]
+                stream.bytes -= entry.size
                 self._bytes -= entry.size
-                self.dropped += 1
+                self._count_drop(stream)
+                if not stream.entries:
+                    self._deactivate(stream)
                 return True
         return False
 
+    def _evict(self, share: int, incoming: _Stream, size: int) -> bool:
+        """Drop the oldest entry of the stream holding the most bytes over ``share`` (counting
+        the entry about to join ``incoming``)."""
+
+        def held(s: _Stream) -> int:
+            return s.bytes + size if s is incoming else s.bytes
+
+        for stream in sorted(self._active, key=held, reverse=True):
+            if held(stream) <= share:
+                return False
+            if self._drop_oldest(stream):
+                return True
+        return False
+
+    def _deactivate(self, stream: _Stream) -> None:
+        stream.deficit = 0
+        stream.granted = False
+        with contextlib.suppress(ValueError):  # already out of the rotation
+            self._active.remove(stream)
+
+    def _uncharge_control(self, size: int) -> None:
+        self._control_bytes -= size
+        self._bytes -= size
+        if not self.budget or self._control_bytes <= self.budget:
+            self.room.set()
+
     async def get(self) -> list[Frame] | None:
-        """Next frame group, or None once closed and drained; marks the outbox busy until
-        the caller calls ``sent()``. A future entry is awaited here, in its place."""
+        """Next frames to write, or None once closed and drained; marks the outbox busy until
+        the caller calls ``sent()``."""
         while True:
             self.busy = False
-            while not self._queue:
-                if self.closed:
-                    return None
-                self._wakeup.clear()
-                await self._wakeup.wait()
-            self.busy = True
-            entry = self._queue.popleft()
-            self._bytes -= entry.size
-            if not isinstance(entry.frames, asyncio.Future):
-                return entry.frames
-            try:  # shielded: the future is shared by every subscriber of the message
-                return await asyncio.shield(entry.frames)
-            except asyncio.CancelledError:
-                if not entry.frames.cancelled():
-                    raise  # this pump was cancelled, not the encode
-            except Exception:
-                log.exception("encoding a big message failed; it is skipped for this client")
+            frames = self._next()
+            if frames is not None:
+                self.busy = True
+                return frames
+            if self.closed and not self._control and not self._active:
+                return None
+            self._wakeup.clear()
+            await self._wakeup.wait()
+
+    def _next(self) -> list[Frame] | None:
+        """Pick without waiting: the control FIFO first, then deficit round robin."""
+        while self._control:
+            entry = self._control[0]
+            frames = entry.frames
+            if isinstance(frames, asyncio.Future):
+                if not frames.done():
+                    break  # control frames keep their order: wait for this one
+                frames = _result(frames)
+            self._control.popleft()
+            self._uncharge_control(entry.size)
+            if frames is not None:
+                return frames
+        if self._control:
+            return None
+        waiting = 0
+        while self._active and waiting < len(self._active):
+            stream = self._active[0]
+            entry = stream.entries[0]
+            if isinstance(entry.frames, asyncio.Future):
+                if not entry.frames.done():
+                    waiting += 1  # its stream waits in place; the others go on
+                    self._active.rotate(-1)
+                    continue
+                frames = _result(entry.frames)
+                if frames is None:
+                    self._remove_head(stream, entry.size)
+                    continue
+                real = sum(len(f[0]) for f in frames)
+                stream.bytes += real - entry.size
+                self._bytes += real - entry.size
+                entry.frames, entry.size = frames, real
+            waiting = 0
+            first = entry.frames[entry.pos]
+            cost = len(first[0])
+            if not stream.granted:
+                stream.granted = True
+                stream.deficit += QUANTUM
+            if cost > stream.deficit:
+                stream.granted = False  # its turn is over; it keeps the deficit earned
+                self._active.rotate(-1)
+                if len(self._active) > 1:
+                    continue
+                stream.granted = True
+                stream.deficit = max(stream.deficit, cost)  # alone: no one to be fair to
+            stream.deficit -= cost
+            entry.pos += 1
+            if entry.pos < len(entry.frames):
+                entry.size -= cost
+                stream.bytes -= cost
+                self._bytes -= cost
+            else:
+                self._remove_head(stream, entry.size)
+            return [first]
+        return None
+
+    def _remove_head(self, stream: _Stream, size: int) -> None:
+        stream.entries.popleft()
+        stream.bytes -= size
+        self._bytes -= size
+        if not stream.entries:
+            self._deactivate(stream)
+
+    def forget(self, key: Hashable) -> None:
+        """Stream ``key`` is no longer wanted (unsubscribed): free what it holds and its count;
+        a group already started still goes out whole."""
+        stream = self._streams.pop(key, None)
+        if stream is None:
+            return
+        kept = [e for e in stream.entries if e.pos]  # the rest of a started group
+        freed = stream.bytes - sum(e.size for e in kept)
+        stream.entries = deque(kept)
+        stream.bytes -= freed
+        self._bytes -= freed
+        if kept:
+            self._streams[key] = stream
+            stream.dropped = 0
+        else:
+            self._deactivate(stream)
 
     def sent(self) -> None:
         """The frames from the last ``get()`` are written; direct writes may resume."""
@@ -128,3 +328,33 @@ class Outbox:
         """Stop accepting; what is queued is still delivered, then get() returns None."""
         self.closed = True
         self._wakeup.set()
+        self.room.set()
+
+    def abort(self, last: list[Frame]) -> None:
+        """Drop everything queued, send only ``last`` (a closing status), then close."""
+        self.clear()
+        self.closed = False
+        self.put(last)
+        self.close()
+
+    def clear(self) -> None:
+        """The connection is gone: free everything queued now (not at the next full GC)."""
+        self.close()
+        self._control.clear()
+        self._active.clear()
+        self._streams.clear()
+        self._bytes = self._control_bytes = 0
+        self.direct = None
+        self.on_thinned = None
+        self.room.set()
+
+
+def _result(future: asyncio.Future) -> list[Frame] | None:
+    """A finished future's frames; None (logged) when encoding failed or was cancelled."""
+    if future.cancelled():
+        return None
+    exc = future.exception()
+    if exc is not None:
+        log.error("encoding a big message failed; it is skipped for this client: %r", exc)
+        return None
+    return future.result()

@@ -43,6 +43,16 @@ _client_ids = itertools.count(1)
 STREAM_ERRORS_PER_SECOND = 10
 """Most reports per second of unparseable TCP input that belongs to no op (garbage)."""
 
+ERROR_STATUSES_PER_SECOND = 50
+"""Most error statuses per second queued for a client that does not keep up with its replies
+(:data:`BEHIND_BYTES` unread); the rest are counted and reported in one line, so a flood of
+bogus ops cannot make the server hold a flood of errors."""
+BEHIND_BYTES = 64 * 1024
+
+REFUSED_WHEN_FULL = frozenset({"call_service", "send_action_goal"})
+"""Ops refused while the client's replies are over ``--reply-buffer-limit``: each would queue
+another reply for a client that does not read the ones it has."""
+
 
 @dataclass
 class Shared:
@@ -76,11 +86,13 @@ class Session:
         self.transport = transport
         self.client_id = next(_client_ids)
         self.node = f"{CLIENT_NODE_PREFIX}{settings.client_tag}{self.client_id}"
-        self.outbox = Outbox(settings.send_buffer_limit)
+        self.outbox = Outbox(settings.send_buffer_limit, settings.reply_buffer_limit)
+        self.outbox.on_thinned = self._thinned
         self.status_level = settings.status_level
         self.authenticated = not settings.authenticate
         self.auth_level: str | None = None
         self.closed = False
+        self.close_reason = ""  # why the server closed the connection, if it did
         self.frame: str | bytes | None = None  # the text of the op being handled, if known
         self._defrag = Defragmenter(
             fragment_timeout=settings.fragment_timeout,
@@ -90,6 +102,10 @@ class Session:
         self._fragment_timer: asyncio.TimerHandle | None = None
         self._garbage_since = float("-inf")  # start of the current second of stream errors
         self._garbage = 0
+        self._errors_since = float("-inf")  # start of the current second of error statuses
+        self._errors = 0
+        self._errors_skipped = 0
+        self.reply_bytes = 0.0  # running mean size of its replies: what a call will cost
         self._tasks: set[asyncio.Task] = set()
         self.on_close: list[Callable[[Session], None]] = []
         self.topic_names: dict[str, str] = {}  # accepted topic spellings → canonical names
@@ -200,6 +216,8 @@ class Session:
         try:
             msg = ops.parse_message(obj)
             ops.validate_op(msg)
+            if msg["op"] in REFUSED_WHEN_FULL and self._replies_full(msg):
+                return None
             return self._handlers[msg["op"]](msg)
         except ProtocolError as exc:
             self.service_ops.invalid_response(obj, exc.msg)
@@ -211,6 +229,26 @@ class Session:
             log.exception("client %s: op failed", self.node)
             self.status("error", f"internal error: {exc}", op_id)
         return None
+
+    def _replies_full(self, msg: dict) -> bool:
+        """Refuse a request while this client's unread replies are over the budget (the
+        transport has stopped reading its input, but one read may hold many ops)."""
+        limit = self.settings.reply_buffer_limit
+        queued = self.outbox.control_bytes
+        calls = self.service_ops.in_flight  # this client's call_service ops not answered yet
+        if not limit or queued + calls * self.reply_bytes <= limit:
+            return False
+        text = (f"{msg['op']}: too many requests in flight: {calls} call(s) "
+                f"pending and {queued} bytes of replies not read yet "
+                f"(--reply-buffer-limit {limit}); refused")
+        if msg["op"] == "call_service":
+            reply = {"op": "service_response", "service": msg["service"], "values": text,
+                     "result": False}
+            if msg.get("id") is not None:
+                reply["id"] = msg["id"]
+            self.send(reply)
+        self.status("error", text, msg.get("id"))
+        return True
 
     def _op_fragment(self, msg: dict) -> Pending:
         try:
@@ -287,7 +325,14 @@ class Session:
         """Queue a reply op; replies are never dropped by the send buffer."""
         size = fragment_size or self.settings.max_message_size
         frames = reply_frames(obj, size, compression)
-        self.outbox.put(frames, size=None if type(frames) is list else offload.approx_size(obj))
+        if type(frames) is list:
+            charged = sum(len(f[0]) for f in frames)
+            self.outbox.put(frames)
+        else:  # a big reply being built in the worker pool: charged at its estimate
+            charged = offload.approx_size(obj)
+            self.outbox.put(frames, size=charged)
+        self.reply_bytes += (charged - self.reply_bytes) / 8  # the running mean reply size
+        self._check_replies()
 
     def fragment_size(self, msg: dict) -> int | None:
         """The op's ``fragment_size``, raised to the floor (with a warning) when below it."""
@@ -302,13 +347,40 @@ class Session:
             return MIN_FRAGMENT_SIZE
         return size
 
-    def send_frames(self, frames: Frames, droppable: bool, size: int | None = None) -> None:
-        self.outbox.put(frames, droppable, size)
+    def send_frames(
+        self,
+        frames: Frames,
+        droppable: bool,
+        size: int | None = None,
+        key: object = None,
+        depth: int | None = None,
+    ) -> None:
+        """Queue topic data (``droppable``) in stream ``key`` (see session/outbox.py)."""
+        self.outbox.put(frames, droppable, size, key=key, depth=depth)
+
+    def _check_replies(self) -> None:
+        """Past twice ``--reply-buffer-limit`` of unread replies the client is disconnected:
+        its queue is freed, and a last status (and the WebSocket close reason) says why."""
+        limit = self.settings.reply_buffer_limit
+        if not limit or self.outbox.control_bytes <= 2 * limit or self.outbox.closed:
+            return
+        reason = (f"disconnected: {self.outbox.control_bytes} bytes of replies not read "
+                  f"(over twice --reply-buffer-limit {limit})")
+        log.warning("client %s (%s): %s", self.node, self.peer or "?", reason)
+        self.close_reason = reason
+        self.outbox.abort(json_frames(status_op("error", reason)))
+
+    def _thinned(self, key: object) -> None:
+        log.warning("slow link: %s thinned for client %s (%s): older messages dropped to keep "
+                    "up with its other topics", key if key is not None else "topic data",
+                    self.node, self.peer or "?")
 
     def status(self, level: str, msg: str, op_id: Any = None) -> None:
         if level == "error":
             log.info("client %s: %s", self.node, msg)
         if not should_send(self.status_level, level):
+            return
+        if level == "error" and self._skip_error():
             return
         try:
             frames = json_frames(status_op(level, msg, op_id))
@@ -316,6 +388,22 @@ class Session:
             text = msg.encode("utf-8", "backslashreplace").decode("utf-8")
             frames = json_frames(status_op(level, text))
         self.outbox.put(frames)
+        self._check_replies()
+
+    def _skip_error(self) -> bool:
+        """Whether to leave out this error status (see :data:`ERROR_STATUSES_PER_SECOND`)."""
+        now = time.monotonic()
+        if now - self._errors_since >= 1.0:
+            if self._errors_skipped:
+                self.outbox.put(json_frames(status_op(
+                    "error", f"{self._errors_skipped} more error status(es) in the last second "
+                    "not sent: this client does not read its replies fast enough")))
+            self._errors_since, self._errors, self._errors_skipped = now, 0, 0
+        self._errors += 1
+        if self._errors <= ERROR_STATUSES_PER_SECOND or self.outbox.control_bytes < BEHIND_BYTES:
+            return False
+        self._errors_skipped += 1
+        return True
 
     def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:
         """Run a coroutine tied to this client; it is cancelled when the client goes."""
@@ -334,7 +422,7 @@ class Session:
         if self.closed:
             return
         self.closed = True
-        self.outbox.close()
+        self.outbox.clear()  # freed now, not by the next full collection
         if self._fragment_timer is not None:
             self._fragment_timer.cancel()
         self._defrag.clear()  # its bytes go back to the server-wide budget now
@@ -348,4 +436,6 @@ class Session:
         self.bus.unregister_node(self.node)
         for callback in self.on_close:
             callback(self)
+        self.on_close.clear()
+        self._handlers.clear()  # bound methods of the op objects: session ↔ ops cycles
         log.info("client %s (%s) disconnected", self.node, self.peer or "?")

@@ -58,6 +58,7 @@ class ClientSubscription:
         self.fragment_size: int | None = None
         self.compression = "none"
         self._pending: deque[tuple[Message, int]] = deque()  # waiting messages, their bytes
+        self.throttle_dropped = 0  # messages dropped from the throttle queue
         self._last_sent = float("-inf")
         self._timer: asyncio.TimerHandle | None = None
 
@@ -95,10 +96,16 @@ class ClientSubscription:
         ):
             self._pop()
         if ops.queued and ops.queued + size > limit:
-            self.session.outbox.dropped += 1
+            self.throttle_dropped += 1
             return
         self._pending.append((message, size))
         ops.queued += size
+
+    @property
+    def dropped(self) -> int:
+        """Messages of this topic this client did not get (queues full: a slow link); read by
+        the diagnostics node, which sees this subscriber on the bus."""
+        return self.throttle_dropped + self.session.outbox.drops(self.topic_str)
 
     def _pop(self) -> Message:
         message, size = self._pending.popleft()
@@ -122,7 +129,9 @@ class ClientSubscription:
     def _send(self, message: Message) -> None:
         frames = publish_frames(message, self.topic_str, self.compression, self.fragment_size)
         size = None if type(frames) is list else message_size(message)  # a future: estimate
-        self.session.send_frames(frames, droppable=True, size=size)
+        self.session.send_frames(
+            frames, droppable=True, size=size, key=self.topic_str, depth=self.queue_length or None
+        )
 
     def cancel(self) -> None:
         if self._timer is not None:
@@ -215,6 +224,7 @@ class SubscribeOps:
     def _drop(self, topic_str: str) -> None:
         sub = self.subs.pop(topic_str)
         sub.cancel()
+        self.session.outbox.forget(topic_str)
         if sub.topic is not None:
             self.session.bus.unsubscribe(sub.topic.name, (self.session, topic_str))
 

@@ -9,7 +9,7 @@ import logging
 from ..protocol.errors import ProtocolError
 from ..protocol.jsonstream import JsonStreamDecoder
 from .tls import HandshakeGate
-from .websocket import DIRECT_WRITE_LIMIT, SessionFactory, pump
+from .websocket import DIRECT_WRITE_LIMIT, SessionFactory, limit_unsent, pump, wait_for_room
 
 log = logging.getLogger(__name__)
 
@@ -33,6 +33,7 @@ async def start_tcp(
         if tls is not None and not await _handshake(tls, writer, address):
             return
         session = new_session(address, "tcp")
+        limit_unsent(writer.get_extra_info("socket"))
 
         async def send_frame(data: bytes, binary: bool) -> None:
             writer.write(data + b"\n")
@@ -98,6 +99,9 @@ async def _read(reader: asyncio.StreamReader, session, max_frame_size: int) -> N
                     pending = session.handle(item)
                     if pending is not None:
                         await pending
+            if session.outbox.closed:
+                return
+            await wait_for_room(session)
             if session.outbox.closed:
                 return
     except (ConnectionError, OSError):

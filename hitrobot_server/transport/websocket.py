@@ -11,8 +11,10 @@ decisions.md asks: one port for the page and the bridge.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import inspect
 import logging
+import socket
 from collections.abc import Awaitable, Callable, Sequence
 
 from websockets.asyncio.server import Server, ServerConnection, broadcast, serve
@@ -36,11 +38,33 @@ HttpHandler = Callable[[ServerConnection, Request], Response | Awaitable[Respons
 
 
 # Above this many bytes in a socket's write buffer, frames wait in the outbox instead.
-DIRECT_WRITE_LIMIT = 256 * 1024
+DIRECT_WRITE_LIMIT = 64 * 1024
 # A message bigger than this goes out as WebSocket continuation frames of this size, so that
 # writing a 40 MB map is many short steps of the event loop instead of one of 100+ ms. Clients
 # see one message (RFC 6455 fragmentation, reassembled by every WebSocket implementation).
 CHUNK_BYTES = 1024 * 1024
+# Unsent bytes the kernel may hold per client socket. Beyond it frames wait in the outbox,
+# where the fair scheduler still chooses among them: a slow link's pose is not stuck behind
+# megabytes of map already handed to the kernel (TCP_NOTSENT_LOWAT, Linux and macOS).
+NOTSENT_LOWAT = 64 * 1024
+_TCP_NOTSENT_LOWAT = getattr(socket, "TCP_NOTSENT_LOWAT", None)
+
+
+def limit_unsent(sock) -> None:
+    """Keep the kernel's queue of unsent bytes short for this client (see NOTSENT_LOWAT)."""
+    if sock is None or _TCP_NOTSENT_LOWAT is None or sock.family not in (
+        socket.AF_INET, socket.AF_INET6
+    ):
+        return
+    with contextlib.suppress(OSError):
+        sock.setsockopt(socket.IPPROTO_TCP, _TCP_NOTSENT_LOWAT, NOTSENT_LOWAT)
+
+
+async def wait_for_room(session: Session) -> None:
+    """Backpressure: read no more input while the client's unread replies are over budget."""
+    room = session.outbox.room
+    if not room.is_set():
+        await room.wait()
 
 
 def choose_subprotocol(offered: Sequence[str], foxglove: bool) -> str | None:
@@ -121,6 +145,7 @@ async def start_websocket(
             session = new_foxglove(peer, ws.subprotocol)
         else:
             session = new_session(peer, "ws")
+        limit_unsent(ws.transport.get_extra_info("socket") if ws.transport else None)
         if delay_between_messages <= 0:
             session.outbox.direct = direct_writer(ws)
 
@@ -143,7 +168,10 @@ async def start_websocket(
             reader.cancel()
             if not writer.done():
                 writer.cancel()
-            await ws.close()
+            if session.close_reason:  # 1008: policy violation, with the reason
+                await ws.close(1008, session.close_reason[:120])
+            else:
+                await ws.close()
 
     async def process_request(ws: ServerConnection, request: Request) -> Response | None:
         if request.headers.get("Upgrade", "").lower() == "websocket":
@@ -213,6 +241,9 @@ async def _read(ws: ServerConnection, session: ClientSession) -> None:
             pending = session.receive(frame, binary=isinstance(frame, bytes))
             if pending is not None:  # a big op in the worker pool: the next frame waits for it
                 await pending
+            if session.outbox.closed:
+                return
+            await wait_for_room(session)
             if session.outbox.closed:
                 return
     except ConnectionClosed:

@@ -66,3 +66,13 @@ async def test_roslibjs_tf_clients_and_cancel_all_goals(make_server, node_module
         raise RuntimeError("roslib 1.4.1 is not installed: run `npm ci --prefix tests/js`")
     server = await make_server(robot="sim")
     await run_checks(node_modules / "roslibjs_tf.mjs", server.port, TF_CHECKS, 120)
+
+
+async def test_roslibjs_reassembles_fragments_interleaved_with_another_topic(
+    make_server, node_modules
+):
+    """The outbox sends a big message's fragments in turn with a small topic's messages
+    (``delay_between_messages`` sends every frame through it); roslibjs joins them."""
+    server = await make_server(max_message_size=20_000, delay_between_messages=0.002)
+    await run_checks(node_modules / "roslibjs_interleave.mjs", server.port,
+                     ["fragments_interleaved_with_another_topic"], 60)

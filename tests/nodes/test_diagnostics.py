@@ -25,7 +25,8 @@ async def test_without_a_robot_only_the_bridge_is_reported(make_server):
     await w.subscribe("/diagnostics_agg", "diagnostic_msgs/DiagnosticArray")
     msg = await w.next("/diagnostics_agg", timeout=3)
     got = by_name(msg)
-    assert set(got) == {"/Bridge", "/Bridge/Clients", "/Bridge/Memory"}
+    assert set(got) == {"/Bridge", "/Bridge/Clients", "/Bridge/Memory", "/Bridge/Slow links"}
+    assert got["/Bridge/Slow links"]["level"] == OK and got["/Bridge/Slow links"]["values"] == []
     clients = got["/Bridge/Clients"]
     assert clients["level"] == OK and values(clients)["clients"] == "2"
     assert clients["message"] == "2 clients connected"

@@ -1,0 +1,164 @@
+"""Issue 22's scenario: a slow link subscribed to a big stream and a small topic.
+
+A client that reads 2 MB/s (a weak Wi-Fi link: its socket is read at that pace, with a 32 kB
+receive buffer) subscribes to a 10 MB/s stream (500 kB ``std_msgs/String`` messages at 20 Hz,
+like a map in mapping mode or a point cloud) and to a 50 Hz small topic (a pose). A second,
+fast client subscribes to both and reads as fast as it can. Prints, per run, how many small
+messages each client got and how old they were on arrival, and what the big stream delivered.
+No assertions.
+
+    .venv/bin/python bench/bench_fair.py            # 10 s per run
+    .venv/bin/python bench/bench_fair.py --quick    # 4 s per run
+
+The big stream is subscribed once with ``fragment_size`` 16000 (the scheduler interleaves the
+fragments with the pose) and once without (each 500 kB message is one frame: the pose waits at
+most one message, 250 ms at 2 MB/s). Server in its own process on 127.0.0.1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import socket
+import sys
+import time
+from pathlib import Path
+
+from websockets.asyncio.client import connect
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_bridge import HOST, pct, start_ours, table  # noqa: E402
+
+BIG, SMALL = "/bench/cloud", "/bench/pose"
+BIG_BYTES = 500_000
+BIG_HZ, SMALL_HZ = 20, 50
+LINK = 2_000_000  # bytes/s the slow reader takes
+
+
+async def slow_client(port: int):
+    """A link of LINK bytes/s: after each chunk read from the socket, reading pauses for as
+    long as the link takes to carry it (the application reads what arrived at once)."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 32 * 1024)
+    sock.connect((HOST, port))
+    sock.setblocking(False)
+    ws = await connect(f"ws://{HOST}:{port}", sock=sock, max_size=None, max_queue=None)
+    loop = asyncio.get_running_loop()
+    received = ws.data_received
+
+    def paced(data: bytes) -> None:
+        received(data)
+        ws.transport.pause_reading()
+        loop.call_later(len(data) / LINK, ws.transport.resume_reading)
+
+    ws.data_received = paced
+    return ws
+
+
+async def ready(ws) -> None:
+    await ws.send(json.dumps({"op": "call_service", "id": "ready",
+                              "service": "/rosapi/get_time"}))
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        if '"ready"' in await asyncio.wait_for(ws.recv(), 10):
+            return
+    raise RuntimeError("no answer from the server")
+
+
+async def run(port: int, seconds: float, fragment_size: int | None) -> dict:
+    slow = await slow_client(port)
+    fast = await connect(f"ws://{HOST}:{port}", max_size=None)
+    pub = await connect(f"ws://{HOST}:{port}", max_size=None)
+    for topic, mtype in ((BIG, "std_msgs/String"), (SMALL, "std_msgs/String")):
+        await pub.send(json.dumps({"op": "advertise", "topic": topic, "type": mtype}))
+    for ws in (slow, fast):
+        sub = {"op": "subscribe", "topic": BIG, "type": "std_msgs/String"}
+        if fragment_size and ws is slow:
+            sub["fragment_size"] = fragment_size
+        await ws.send(json.dumps(sub))
+        await ws.send(json.dumps({"op": "subscribe", "topic": SMALL, "type": "std_msgs/String"}))
+        await ready(ws)
+    await ready(pub)
+    stats = {name: {"small": [], "big": 0, "big_bytes": 0} for name in ("slow", "fast")}
+    done = asyncio.Event()
+
+    async def read(name: str, ws) -> None:
+        got = stats[name]
+        while not done.is_set():
+            try:
+                frame = await asyncio.wait_for(ws.recv(), 0.5)
+            except TimeoutError:
+                continue
+            now = time.monotonic()
+            if frame.startswith('{"op":"fragment"') or frame.startswith('{"op": "fragment"'):
+                msg = json.loads(frame)
+                got["big_bytes"] += len(frame)
+                got["big"] += msg["num"] == msg["total"] - 1
+            elif SMALL in frame[:60]:
+                stamp = float(json.loads(frame)["msg"]["data"])
+                got["small"].append(now - stamp)
+            elif BIG in frame[:60]:
+                got["big"] += 1
+                got["big_bytes"] += len(frame)
+
+    readers = [asyncio.create_task(read("slow", slow)), asyncio.create_task(read("fast", fast))]
+    body = "m" * BIG_BYTES
+    start = time.monotonic()
+    ticks = int(seconds * SMALL_HZ)
+    big_sent = 0
+    for i in range(ticks):
+        await pub.send(json.dumps({"op": "publish", "topic": SMALL,
+                                   "msg": {"data": repr(time.monotonic())}}))
+        if i * BIG_HZ // SMALL_HZ != (i + 1) * BIG_HZ // SMALL_HZ:
+            await pub.send(json.dumps({"op": "publish", "topic": BIG, "msg": {"data": body}}))
+            big_sent += 1
+        delay = start + (i + 1) / SMALL_HZ - time.monotonic()
+        if delay > 0:
+            await asyncio.sleep(delay)
+    elapsed = time.monotonic() - start
+    await asyncio.sleep(1.0)  # let what is in flight arrive (a bench, not a test)
+    done.set()
+    await asyncio.gather(*readers)
+    for ws in (slow, fast, pub):
+        await ws.close()
+    return {"ticks": ticks, "big_sent": big_sent, "elapsed": elapsed, **stats}
+
+
+def report(title: str, r: dict) -> None:
+    rows = []
+    for name in ("slow", "fast"):
+        got = r[name]
+        ages = sorted(got["small"])
+        rows.append([
+            name, f"{len(ages)}/{r['ticks']}", f"{100 * len(ages) / r['ticks']:.1f}%",
+            f"{1000 * pct(ages, 0.5):.0f}" if ages else "-",
+            f"{1000 * pct(ages, 0.99):.0f}" if ages else "-",
+            f"{got['big']}/{r['big_sent']}", f"{got['big_bytes'] / r['elapsed'] / 1e6:.2f}",
+        ])
+    print(f"\n{title}")
+    print(table(["client", "small got", "delivered", "age p50 ms", "age p99 ms",
+                 "big got", "big MB/s"], rows))
+
+
+async def main_async(seconds: float) -> None:
+    server = start_ours(None, "fair")
+    try:
+        for frag in (16_000, None):
+            r = await run(server.port, seconds, frag)
+            report(f"slow reader {LINK / 1e6:g} MB/s; big {BIG_BYTES // 1000} kB x {BIG_HZ} Hz "
+                   f"(fragment_size {frag or 'none'}), small x {SMALL_HZ} Hz, {seconds:g} s", r)
+    finally:
+        server.stop()
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="4 s per run instead of 10")
+    args = parser.parse_args()
+    asyncio.run(main_async(4.0 if args.quick else 10.0))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
