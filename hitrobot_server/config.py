@@ -17,6 +17,7 @@ from typing import Any
 from .nodes.options import NodeOptions, SlamwareParams
 from .robot.options import RobotOptions
 from .session.options import SessionOptions
+from .state import default_root as default_state_root
 
 STATUS_LEVELS = ("info", "warning", "error", "none")
 
@@ -53,6 +54,8 @@ class Settings:
     sim_speed: float = 1.0
     sim_mapping: bool = False
     map_dir: str | None = None
+    state_dir: str | None = None
+    fresh: bool = False
     bus: str = "local"
     zenoh_config: str | None = None
     zenoh_connect: str | None = None
@@ -69,6 +72,12 @@ class Settings:
             return Path(self.map_dir)
         base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
         return Path(base) / "hitrobot-server" / "maps"
+
+    @property
+    def state_root(self) -> Path:
+        """Where robots' state folders are (one per robot identity): ``--state-dir`` or
+        ``$XDG_STATE_HOME/hitrobot-server``."""
+        return Path(self.state_dir) if self.state_dir else default_state_root()
 
     def session_options(self) -> SessionOptions:
         """What each client session gets (built when a client connects, so the secret and
@@ -150,6 +159,10 @@ _HELP = {
     "zenoh_listen": "comma-separated Zenoh endpoints to listen on, e.g. tcp/127.0.0.1:7447",
     "zenoh_domain": "ROS domain id: the first chunk of every Zenoh key (as ROS_DOMAIN_ID)",
     "map_dir": "folder of saved map folders (default: $XDG_DATA_HOME/hitrobot-server/maps)",
+    "state_dir": "folder of the robots' working state, one sub-folder per robot identity, "
+    "written on every change and restored at start (default: "
+    "$XDG_STATE_HOME/hitrobot-server)",
+    "fresh": "start with a clean state: the robot's state folder is set aside, not read",
 }
 
 _SKIP = {"auth_secret", "client_tag", "slamware"}

@@ -10,12 +10,13 @@ import ssl
 from .bus.core import Bus
 from .bus.rosout import RosoutHandler
 from .config import Settings
-from .nodes.assembly import start_nodes, stop_nodes
+from .nodes.assembly import restored_summary, start_nodes, stop_nodes
 from .nodes.base import Node
 from .protocol.auth import load_secret
-from .robot.factory import build_backend
+from .robot.factory import build_backend, sim_identity
 from .session.options import SessionOptions
 from .session.session import Session, Shared
+from .state import StateStore, identity_folder
 from .transport.http import StaticFiles, default_web_root, missing_libraries
 from .transport.tcp import start_tcp
 from .transport.websocket import start_websocket
@@ -36,6 +37,7 @@ class HitrobotServer:
         self.nodes: list[Node] = []
         self.link = None  # the ZenohLink with --bus zenoh
         self.backend = None  # the robot (RobotBackend) when one is attached
+        self.state: StateStore | None = None  # the robot's state folder
         self.sessions: set[Session] = set()
         self.shared = Shared.for_options(self.settings.session_options())
         self._session_options: SessionOptions | None = None  # built at start
@@ -83,10 +85,16 @@ class HitrobotServer:
             await self.link.start()
             s.client_tag = f"{self.link.zid[:8]}_"
         self._session_options = s.session_options()  # with the secret and client tag set
-        self.backend = build_backend(s.robot_options())
+        robot = s.robot_options()
+        if robot.robot == "sim":
+            self.state = await open_state(s.state_root, sim_identity(robot), s.fresh)
+        self.backend = build_backend(robot, self.state)
         if self.backend is not None:
             await self.backend.start()
-        self.nodes = await start_nodes(self.bus, s.node_options(), self.backend)
+        self.nodes = await start_nodes(self.bus, s.node_options(), self.backend, self.state)
+        if self.state is not None:
+            report_restored(self.state, [*getattr(self.backend, "restored", []),
+                                         *restored_summary(self.nodes)])
 
         def factory(peer: str, transport: str) -> Session:
             return self.new_session(peer, transport)
@@ -138,6 +146,9 @@ class HitrobotServer:
         if self.backend is not None:
             await self.backend.stop()
             self.backend = None
+        if self.state is not None:
+            await self.state.close()
+            self.state = None
         if self._rosout is not None:
             logging.getLogger(PACKAGE_LOGGER).removeHandler(self._rosout)
             self._rosout.close()
@@ -145,6 +156,22 @@ class HitrobotServer:
         if self.link is not None:
             await self.link.stop()
             self.link = None
+
+
+async def open_state(root, identity: str, fresh: bool) -> StateStore:
+    """One robot identity's state folder, read (off the event loop) before anything starts."""
+    return await asyncio.to_thread(StateStore.open, identity_folder(root, identity), fresh)
+
+
+def report_restored(store: StateStore, phrases: list[str]) -> None:
+    """The start-up line: what came back and from where, or that the robot starts fresh."""
+    restored = store.restored
+    restored.fresh = not phrases
+    restored.summary = ", ".join(phrases)
+    if phrases:
+        log.info("state: restored %s from %s", restored.summary, store.path)
+    else:
+        log.info("state: started fresh in %s", store.path)
 
 
 def _tls_context(settings: Settings) -> ssl.SSLContext:

@@ -18,16 +18,18 @@ ALLOWED: dict[str, set[str]] = {
     "types": set(),
     "tf_buffer": set(),
     "signals": set(),
+    "state": set(),  # the robot's state folder: below the robot and the nodes that write it
     "protocol": {"types"},
     "bus": {"types", "protocol"},
-    "robot": {"types", "tf_buffer"},
+    "robot": {"types", "tf_buffer", "state"},
     "session": {"bus", "protocol", "types"},
     "transport": {"session", "protocol", "types"},
-    "nodes": {"bus", "robot", "protocol", "types", "tf_buffer"},
+    "nodes": {"bus", "robot", "protocol", "types", "tf_buffer", "state"},
     "conformance": {"protocol", "types"},  # a client tool: it talks to servers over sockets
     # the top: assembles the floors, so it may import any of them
-    "config": {"session", "bus", "nodes", "robot", "protocol", "types"},
-    "server": {"config", "transport", "session", "bus", "nodes", "robot", "protocol", "types"},
+    "config": {"session", "bus", "nodes", "robot", "protocol", "types", "state"},
+    "server": {"config", "transport", "session", "bus", "nodes", "robot", "protocol", "types",
+               "state"},
     "commands": {"robot", "signals", "config", "types"},
     "cli": {"config", "server", "signals", "conformance", "commands"},
     "__main__": {"cli"},

@@ -5,6 +5,7 @@ from __future__ import annotations
 from ..bus.core import Bus
 from ..robot.backend import RobotBackend
 from ..robot.locomotion import STAND_UP_SECONDS, LocomotionBackend
+from ..state import StateStore
 from .base import Node
 from .conventional import ConventionalNode
 from .diagnostics import DiagnosticsNode
@@ -25,12 +26,15 @@ from .slamware import SlamwareNode
 from .tf_republisher import TFRepublisherNode
 
 
-async def start_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend | None) -> list[Node]:
-    """Create and start every node; robot-facing nodes only when a robot is attached."""
+async def start_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend | None,
+                      state: StateStore | None = None) -> list[Node]:
+    """Create and start every node; robot-facing nodes only when a robot is attached.
+    ``state``: that robot's state folder (what the operator builds survives restarts)."""
     nodes: list[Node] = [Rosapi(bus, settings), TFRepublisherNode(bus)]
     if backend is not None:
-        nodes += robot_nodes(bus, settings, backend)
-    nodes.append(DiagnosticsNode(bus, backend))  # runs without a robot too (the bridge part)
+        nodes += robot_nodes(bus, settings, backend, state)
+    # runs without a robot too (the bridge part)
+    nodes.append(DiagnosticsNode(bus, backend, state))
     for node in nodes:
         start = getattr(node, "start", None)
         if start is not None:
@@ -38,13 +42,14 @@ async def start_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend | N
     return nodes
 
 
-def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend) -> list[Node]:
+def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend,
+                state: StateStore | None = None) -> list[Node]:
     """The robot-facing nodes, in start order. All of them drive the robot through the
     locomotion gate, so a sitting robot refuses motion whichever interface asks."""
     robot = LocomotionBackend(backend, STAND_UP_SECONDS / settings.time_scale)
     frame = settings.slamware.map_frame
     move_base = MoveBaseNode(bus, robot, frame)
-    map_manager = MapManager(bus, robot, settings)
+    map_manager = MapManager(bus, robot, settings, state)
     mapfiles = MapFilesNode(bus, robot, settings)
     return [
         SlamwareNode(bus, robot, settings.slamware),
@@ -57,10 +62,15 @@ def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend) -> list[
         Nav2ActionsNode(bus, robot, frame),
         IntelligentNavigationNode(bus, robot, frame),
         mapfiles,
-        PatrolNode(bus, robot, settings, mapfiles),
-        GraphNodeService(bus, robot, settings, mapfiles),
+        PatrolNode(bus, robot, settings, mapfiles, state),
+        GraphNodeService(bus, robot, settings, mapfiles, state),
         LocomotionNode(bus, robot, settings, lambda: mapfiles.loaded.frame),
     ]
+
+
+def restored_summary(nodes: list[Node]) -> list[str]:
+    """What the nodes took back from the state folder, as phrases for the start-up log."""
+    return [phrase for node in nodes for phrase in getattr(node, "restored", list)()]
 
 
 async def stop_nodes(nodes: list[Node]) -> None:

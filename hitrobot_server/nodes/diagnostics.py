@@ -13,14 +13,20 @@ item is ERROR and the other robot items are STALE.
 ``/Robot/Motion``           the current action and the velocity
 ``/Robot/Health``           the robot's own warnings and errors (``get_health``)
 ``/Bridge/Clients``         connected clients (``/hitrobot_client_*`` nodes), topics, services
+``/Bridge/State``           the robot's state folder: "restored from …" or "started fresh in
+                            …", the last write, errors (WARN when something was skipped or a
+                            write failed)
 ==========================  ==================================================================
 """
 
 from __future__ import annotations
 
+import time
+
 from ..bus.core import Bus
 from ..robot.backend import ACTION_PREFIX, BackendError, NotConnectedError, RobotBackend
 from ..robot.model import HealthLevel
+from ..state import StateStore
 from . import messages as m
 from .base import RobotNode
 
@@ -58,8 +64,10 @@ def summary(name: str, items: list[dict]) -> dict:
 
 
 class DiagnosticsNode(RobotNode):
-    def __init__(self, bus: Bus, backend: RobotBackend | None = None):
+    def __init__(self, bus: Bus, backend: RobotBackend | None = None,
+                 state: StateStore | None = None):
         super().__init__(bus, "/diagnostic_aggregator", backend)
+        self.state = state
         self._device_id = ""
         self.advertise(TOPIC, "diagnostic_msgs/DiagnosticArray")
 
@@ -78,11 +86,14 @@ class DiagnosticsNode(RobotNode):
     def bridge_items(self) -> list[dict]:
         bus = self.bus
         clients = sorted(n for n in bus.nodes if n.startswith(CLIENT_PREFIX))
-        return [status(
+        items = [status(
             "/Bridge/Clients", OK,
             f"{len(clients)} client{'' if len(clients) == 1 else 's'} connected",
             clients=len(clients), topics=len(bus.topics), services=len(bus.services),
             actions=len(bus.actions), nodes=len(bus.nodes), client_names=" ".join(clients))]
+        if self.state is not None:
+            items.append(state_item(self.state))
+        return items
 
     async def robot_items(self) -> list[dict]:
         assert self.backend is not None
@@ -159,3 +170,17 @@ class DiagnosticsNode(RobotNode):
         items.append(status("/Robot/Health", level, text, hw,
                             board_temperature=temperature, **errors))
         return items
+
+
+def state_item(store: StateStore) -> dict:
+    """``/Bridge/State``: where the robot's state lives and how it came back at start."""
+    info = store.status()
+    restored = store.restored
+    text = (f"started fresh in {info['path']}" if restored.fresh
+            else f"state restored from {info['path']}")
+    last = info["last_write"]
+    when = "never" if last is None else time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(last))
+    return status("/Bridge/State", WARN if info["errors"] else OK, text, path=info["path"],
+                  restored=restored.summary or "nothing", last_write=when,
+                  writes=info["writes"], errors=len(store.errors),
+                  last_error=info["errors"][-1] if info["errors"] else "")

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+from ..state import StateStore
 from .backend import RobotBackend
 from .options import RobotOptions
 
@@ -16,8 +19,15 @@ def build_simulator(world: str | None = None, seed: int = 0, mapping: bool = Fal
     return Simulator(loaded, seed=seed, config=config)
 
 
-def build_backend(options: RobotOptions) -> RobotBackend | None:
-    """The robot backend for ``--robot``; the caller starts and stops it."""
+def sim_identity(options: RobotOptions) -> str:
+    """The simulated robot's identity (its state folder): one per world, so a robot that
+    drives in another world never finds this one's walls and pose."""
+    return "sim-" + (Path(options.world).stem if options.world else "office")
+
+
+def build_backend(options: RobotOptions, state: StateStore | None = None) -> RobotBackend | None:
+    """The robot backend for ``--robot``; the caller starts and stops it. ``state``: the
+    simulator's state folder (a REST robot keeps its own map, lines and pose)."""
     if options.robot == "none":
         return None
     if options.robot.startswith(("http://", "https://")):
@@ -27,6 +37,8 @@ def build_backend(options: RobotOptions) -> RobotBackend | None:
     if options.robot != "sim":
         raise ValueError(f"--robot {options.robot}: expected sim, none or an http(s):// URL")
     from .sim.backend import SimBackend
+    from .sim.persist import SimMemory
 
     simulator = build_simulator(options.world, options.sim_seed, options.sim_mapping)
-    return SimBackend(simulator, time_scale=options.sim_speed)
+    memory = SimMemory(state) if state is not None else None
+    return SimBackend(simulator, time_scale=options.sim_speed, memory=memory)
