@@ -51,6 +51,12 @@ def lines_of(w: Watcher, topic: str) -> list[tuple[float, ...]]:
             for ln in got["lines"]]
 
 
+def acks(w: Watcher, names: list[str]) -> list[str]:
+    """The publish ops of ``names`` the map manager acknowledged (an info status)."""
+    wanted = set(names)
+    return [s["id"] for s in w.statuses if s["level"] == "info" and s.get("id") in wanted]
+
+
 def server(state_dir, map_dir) -> ServerProcess:
     return ServerProcess("--state-dir", str(state_dir), "--map-dir", str(map_dir),
                          "--sim-speed", "4", robot="sim")
@@ -169,12 +175,8 @@ async def test_sigkill_during_a_burst_keeps_a_prefix_of_the_changes(tmp_path):
             expected = expected + burst
             kill_after = rng.randrange(1, 200)
 
-            def acks() -> list[str]:
-                return [s["id"] for s in w.statuses
-                        if s["level"] == "info" and s.get("id", "").startswith(f"r{round_}-")]
-
-            await w.until(lambda: len(acks()) >= kill_after, 60, f"{kill_after} acks")
-            acked = acks()
+            await w.until(lambda: len(acks(w, burst)) >= kill_after, 60, f"{kill_after} acks")
+            acked = acks(w, burst)
             proc.kill()
             proc = server(state, maps)
         w = await watch(proc.port)
