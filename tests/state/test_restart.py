@@ -175,7 +175,8 @@ async def test_sigkill_during_a_burst_keeps_a_prefix_of_the_changes(tmp_path):
             expected = expected + burst
             kill_after = rng.randrange(1, 200)
 
-            await w.until(lambda: len(acks(w, burst)) >= kill_after, 60, f"{kill_after} acks")
+            await w.until(lambda w=w, b=burst, n=kill_after: len(acks(w, b)) >= n, 60,
+                          f"{kill_after} acks")
             acked = acks(w, burst)
             proc.kill()
             proc = server(state, maps)
