@@ -20,6 +20,7 @@ import { Pois } from './pois.js';
 import { RobotActions } from './robotpanel.js';
 import { RobotState } from './robotstate.js';
 import { Shell } from './shell.js';
+import { showStateOnce } from './statenotice.js';
 import { Teleop } from './teleop.js';
 import { MapTools } from './tools.js';
 import { formatPose, yawOf } from './util.js';
@@ -133,6 +134,7 @@ function main() {
   const patrol = new Patrol({ ros, layer: layers.waypoints });
   const maps = new SavedMaps({ ros });
   const diagnostics = new Diagnostics({ ros, sensorLayer: layers.sensors });
+  showStateOnce(ros);
   const inspector = new Inspector({ ros });
   pois.onGo = (poi) => {
     navigator.goToPoi(poi);

@@ -104,7 +104,8 @@ class SimBackend(RobotBackend):
 
     async def reboot(self) -> None:
         """Offline now; back after :attr:`reboot_delay` as a freshly started simulator (same
-        world, seed and configuration; map, pose, lines and actions as at start-up)."""
+        world, seed and configuration, no actions) with what the robot keeps: its map, lines,
+        home and pose from the state folder (as at start-up when there is none)."""
         if not self.connected:
             raise NotConnectedError("simulator is not running")
         await self.stop()

@@ -3,7 +3,7 @@
 A real Slamware robot keeps its map, virtual walls and tracks, home and (roughly) its pose
 across reboots; the simulator does the same through the state store. Sections:
 ``sim/map`` (bytes: our composite-map container, explore map only), ``sim/lines`` (walls,
-tracks, home) and ``sim/robot`` (true and believed pose, battery, localization, mapping).
+tracks, home) and ``sim/robot`` (true and believed pose, battery, localization on/off).
 Requests that change the robot are written through at once (the backend awaits the write
 before it answers); motion, the battery and mapping are sampled as the robot runs.
 """
@@ -88,5 +88,4 @@ def _robot_changed(old: dict, new: dict) -> bool:
     return (math.hypot(x1 - x0, y1 - y0) > MOVED or math.hypot(tx1 - tx0, ty1 - ty0) > MOVED
             or abs(math.remainder(a1 - a0, math.tau)) > TURNED
             or abs(new["battery"] - old["battery"]) >= CHARGED
-            or new["localization"] != old["localization"]
-            or new["map_update"] != old["map_update"])
+            or new["localization"] != old["localization"])

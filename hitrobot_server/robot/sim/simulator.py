@@ -566,11 +566,12 @@ class Simulator:
     # --- what survives a restart (see robot/sim/persist.py) -----------------------------------
 
     def saved_robot(self) -> dict:
-        """The chassis as JSON: true and believed pose, battery, localization, mapping."""
+        """The chassis as JSON: true and believed pose, battery, localization. (Mapping is a
+        mode the robot starts without, as after a reboot.)"""
         t, b = self._drive.pose, self.pose
         return {"pose": [t.x, t.y, t.yaw], "believed": [b.x, b.y, b.yaw],
                 "battery": round(self._battery.percentage, 2),
-                "localization": self._localizer.enabled, "map_update": self._mapper.enabled}
+                "localization": self._localizer.enabled}
 
     def restore_robot(self, saved: dict) -> None:
         """Put the chassis back where :meth:`saved_robot` found it; ``ValueError`` (nothing
@@ -579,19 +580,17 @@ class Simulator:
             pose = _checked_pose(Pose2D(*map(float, saved["pose"])))
             believed = _checked_pose(Pose2D(*map(float, saved["believed"])))
             battery = float(saved["battery"])
-            localization, mapping = saved["localization"], saved["map_update"]
+            localization = saved["localization"]
         except (KeyError, TypeError) as exc:
             raise ValueError(f"not a saved robot state ({exc})") from None
-        if not (0.0 <= battery <= 100.0) or not isinstance(localization, bool) \
-                or not isinstance(mapping, bool):
-            raise ValueError("battery, localization or map_update out of range")
+        if not (0.0 <= battery <= 100.0) or not isinstance(localization, bool):
+            raise ValueError("battery or localization out of range")
         if self._clearance(pose.x, pose.y) < self.config.drive.radius * 0.5:
             raise ValueError(f"the saved pose ({pose.x:.2f}, {pose.y:.2f}) is inside an obstacle")
         self._drive.pose = pose
         self._drive.linear = self._drive.angular = 0.0
         self._localizer.set_pose(believed, pose)
         self.localization_enabled = localization
-        self._mapper.enabled = mapping
         self._battery.percentage = battery
         self._sense()
 
