@@ -13,10 +13,11 @@ from .config import Settings
 from .nodes.assembly import restored_summary, start_nodes, stop_nodes
 from .nodes.base import Node
 from .protocol.auth import load_secret
+from .robot.backend import BackendError
 from .robot.factory import build_backend, sim_identity
 from .session.options import SessionOptions
 from .session.session import Session, Shared
-from .state import StateStore, identity_folder
+from .state import StateBinding, StateStore, identity_folder
 from .transport.http import StaticFiles, default_web_root, missing_libraries
 from .transport.tcp import start_tcp
 from .transport.websocket import start_websocket
@@ -37,7 +38,8 @@ class HitrobotServer:
         self.nodes: list[Node] = []
         self.link = None  # the ZenohLink with --bus zenoh
         self.backend = None  # the robot (RobotBackend) when one is attached
-        self.state: StateStore | None = None  # the robot's state folder
+        self.state = StateBinding()  # the robot's state folder, once its identity is known
+        self._binder: asyncio.Task | None = None
         self.sessions: set[Session] = set()
         self.shared = Shared.for_options(self.settings.session_options())
         self._session_options: SessionOptions | None = None  # built at start
@@ -87,14 +89,17 @@ class HitrobotServer:
         self._session_options = s.session_options()  # with the secret and client tag set
         robot = s.robot_options()
         if robot.robot == "sim":
-            self.state = await open_state(s.state_root, sim_identity(robot), s.fresh)
-        self.backend = build_backend(robot, self.state)
+            identity = sim_identity(robot)
+            self.state = StateBinding(await open_state(s.state_root, identity, s.fresh), identity)
+        self.backend = build_backend(robot, self.state.store)
         if self.backend is not None:
             await self.backend.start()
         self.nodes = await start_nodes(self.bus, s.node_options(), self.backend, self.state)
-        if self.state is not None:
-            report_restored(self.state, [*getattr(self.backend, "restored", []),
-                                         *restored_summary(self.nodes)])
+        if self.state.store is not None:
+            report_restored(self.state.store, [*getattr(self.backend, "restored", []),
+                                               *restored_summary(self.nodes)])
+        elif self.backend is not None:  # a REST robot: its state folder once it says who it is
+            self._binder = asyncio.ensure_future(self._bind_rest_state())
 
         def factory(peer: str, transport: str) -> Session:
             return self.new_session(peer, transport)
@@ -141,14 +146,19 @@ class HitrobotServer:
                 await asyncio.wait_for(self._tcp.wait_closed(), 5)
         for session in list(self.sessions):
             session.close()
+        if self._binder is not None:
+            self._binder.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._binder
+            self._binder = None
         await stop_nodes(self.nodes)
         self.nodes.clear()
         if self.backend is not None:
             await self.backend.stop()
             self.backend = None
-        if self.state is not None:
-            await self.state.close()
-            self.state = None
+        if self.state.store is not None:
+            await self.state.store.close()
+            self.state = StateBinding()
         if self._rosout is not None:
             logging.getLogger(PACKAGE_LOGGER).removeHandler(self._rosout)
             self._rosout.close()
@@ -156,6 +166,67 @@ class HitrobotServer:
         if self.link is not None:
             await self.link.stop()
             self.link = None
+
+
+    async def _bind_rest_state(self) -> None:
+        """Whenever a REST robot (re)connects, ask who it is; a new identity gets its own
+        state folder, and the log says which side's state won and why."""
+        backend, binding = self.backend, self.state
+        assert backend is not None
+        was = False
+        while True:
+            now = backend.connected
+            if now and not was:
+                try:
+                    info = await backend.get_device_info()
+                except BackendError as exc:
+                    log.warning("state: cannot ask the robot who it is (%s); retrying", exc)
+                    now = False
+                else:
+                    await self._bind(binding, rest_identity(info.device_id, self.settings.robot))
+            was = now
+            await asyncio.sleep(BIND_POLL)
+
+    async def _bind(self, binding: StateBinding, identity: str) -> None:
+        if identity == binding.identity:
+            log.info("state: the same robot (%s) is back; the server's state stands (it is "
+                     "the server's own: POIs, layers, masks, routes, graphs)", identity)
+            return
+        old, changed = binding.identity, binding.changed_unbound
+        store = await open_state(self.settings.state_root, identity,
+                                 self.settings.fresh and not old)
+        if binding.store is not None:
+            await binding.store.close()
+        binding.store, binding.identity, binding.changed_unbound = store, identity, False
+        nodes = [n for n in self.nodes if hasattr(n, "adopt")]
+        if old:
+            why = f"a different robot ({identity}, was {old}) answers at {self.settings.robot}"
+            restore = True
+        elif changed:
+            why = ("the server's state was changed while the robot was not reached yet, so it is "
+                   "newer than the folder's")
+            restore = False
+        else:
+            why = "nothing was changed before the robot was reached"
+            restore = True
+        for node in nodes:
+            node.adopt(restore)
+        if restore:
+            report_restored(store, restored_summary(self.nodes))
+            log.info("state: the state folder won: %s", why)
+        else:
+            kept = await asyncio.to_thread(store.keep_copy, "superseded")
+            store.restored.fresh, store.restored.summary = True, "nothing (the server's won)"
+            log.info("state: the server's state won over %s: %s (the folder's state is kept "
+                     "at %s)", store.path, why, kept)
+
+
+BIND_POLL = 0.5
+
+
+def rest_identity(device_id: str, url: str) -> str:
+    """A REST robot's identity: its device id (serial), or its address if it gives none."""
+    return f"slamware-{device_id}" if device_id else f"slamware-at-{url}"
 
 
 async def open_state(root, identity: str, fresh: bool) -> StateStore:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from ..bus.core import Bus
 from ..robot.backend import RobotBackend
 from ..robot.locomotion import STAND_UP_SECONDS, LocomotionBackend
-from ..state import StateStore
+from ..state import StateBinding
 from .base import Node
 from .conventional import ConventionalNode
 from .diagnostics import DiagnosticsNode
@@ -27,7 +27,7 @@ from .tf_republisher import TFRepublisherNode
 
 
 async def start_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend | None,
-                      state: StateStore | None = None) -> list[Node]:
+                      state: StateBinding | None = None) -> list[Node]:
     """Create and start every node; robot-facing nodes only when a robot is attached.
     ``state``: that robot's state folder (what the operator builds survives restarts)."""
     nodes: list[Node] = [Rosapi(bus, settings), TFRepublisherNode(bus)]
@@ -43,7 +43,7 @@ async def start_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend | N
 
 
 def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend,
-                state: StateStore | None = None) -> list[Node]:
+                state: StateBinding | None = None) -> list[Node]:
     """The robot-facing nodes, in start order. All of them drive the robot through the
     locomotion gate, so a sitting robot refuses motion whichever interface asks."""
     robot = LocomotionBackend(backend, STAND_UP_SECONDS / settings.time_scale)

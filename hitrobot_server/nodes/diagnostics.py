@@ -26,7 +26,7 @@ import time
 from ..bus.core import Bus
 from ..robot.backend import ACTION_PREFIX, BackendError, NotConnectedError, RobotBackend
 from ..robot.model import HealthLevel
-from ..state import StateStore
+from ..state import StateBinding, StateStore
 from . import messages as m
 from .base import RobotNode
 
@@ -65,7 +65,7 @@ def summary(name: str, items: list[dict]) -> dict:
 
 class DiagnosticsNode(RobotNode):
     def __init__(self, bus: Bus, backend: RobotBackend | None = None,
-                 state: StateStore | None = None):
+                 state: StateBinding | None = None):
         super().__init__(bus, "/diagnostic_aggregator", backend)
         self.state = state
         self._device_id = ""
@@ -91,8 +91,8 @@ class DiagnosticsNode(RobotNode):
             f"{len(clients)} client{'' if len(clients) == 1 else 's'} connected",
             clients=len(clients), topics=len(bus.topics), services=len(bus.services),
             actions=len(bus.actions), nodes=len(bus.nodes), client_names=" ".join(clients))]
-        if self.state is not None:
-            items.append(state_item(self.state))
+        if self.state is not None and self.state.store is not None:
+            items.append(state_item(self.state.store))
         return items
 
     async def robot_items(self) -> list[dict]:

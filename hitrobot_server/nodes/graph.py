@@ -27,7 +27,7 @@ from ..bus.core import Bus
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionResult, Point2D
 from ..robot.motion import follow
-from ..state import StateStore
+from ..state import StateBinding
 from .base import RobotNode
 from .mapfiles import GRAPH_FILE, MapFilesNode
 from .memory import NodeMemory
@@ -160,7 +160,7 @@ class GraphNodeService(RobotNode):
     """The route graph node."""
 
     def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions,
-                 mapfiles: MapFilesNode, state: StateStore | None = None):
+                 mapfiles: MapFilesNode, state: StateBinding | None = None):
         super().__init__(bus, "/graph", backend)
         self.memory = NodeMemory(state, "graph")
         self.backend: RobotBackend = backend
@@ -178,6 +178,7 @@ class GraphNodeService(RobotNode):
 
     def _restore(self) -> None:
         saved = self.memory.get("current")
+        self.graph, self.graph_name = Graph(), ""
         if saved is None:
             return
         try:
@@ -185,6 +186,14 @@ class GraphNodeService(RobotNode):
             self.graph_name = str(saved["name"])
         except (GraphError, KeyError, TypeError) as exc:
             self.memory.reject("current", str(exc))
+
+    def adopt(self, restore: bool) -> None:
+        """A state folder was bound: take its graph (``restore``) or write ours into it."""
+        if restore:
+            self._restore()
+            self._publish()
+        else:
+            self.memory.put("current", {"name": self.graph_name, **self.graph.as_msg()})
 
     def restored(self) -> list[str]:
         """What came back from the state folder, for the start-up log."""

@@ -1,8 +1,9 @@
 """A node's sections of the robot's state store: what the operator built survives restarts.
 
 Nodes put a section whenever it changes and await :meth:`NodeMemory.durable` before they
-acknowledge the request, so an acknowledged change is on disk. Without a store (no robot
-identity, tests of a node alone) everything is a no-op.
+acknowledge the request, so an acknowledged change is on disk. Without a binding (tests of a
+node alone) everything is a no-op; with a binding whose store is not known yet (a REST robot
+not reached so far) a change is only noted, and the server settles it once the robot is known.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ import asyncio
 import logging
 from typing import Any
 
-from ..state import StateStore
+from ..state import StateBinding, StateStore
 
 log = logging.getLogger(__name__)
 
@@ -19,10 +20,14 @@ log = logging.getLogger(__name__)
 class NodeMemory:
     """The sections ``<prefix>/<name>`` of one store."""
 
-    def __init__(self, store: StateStore | None, prefix: str) -> None:
-        self.store = store
+    def __init__(self, binding: StateBinding | None, prefix: str) -> None:
+        self.binding = binding
         self.prefix = prefix
         self._pending: asyncio.Future | None = None
+
+    @property
+    def store(self) -> StateStore | None:
+        return None if self.binding is None else self.binding.store
 
     def get(self, name: str) -> Any:
         return None if self.store is None else self.store.get(f"{self.prefix}/{name}")
@@ -35,6 +40,8 @@ class NodeMemory:
     def put(self, name: str, value: Any) -> None:
         if self.store is not None:
             self._pending = self.store.put(f"{self.prefix}/{name}", value)
+        elif self.binding is not None:
+            self.binding.changed_unbound = True
 
     async def durable(self) -> None:
         """Wait until every section put so far is on disk; a failed write is logged and

@@ -35,7 +35,7 @@ from ..bus.core import Bus
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionInfo, ActionResult, Point2D
 from ..robot.motion import cancel_if_current, follow
-from ..state import StateStore
+from ..state import StateBinding
 from .base import RobotNode
 from .mapfiles import ROUTE_FILE, MapFilesNode
 from .memory import NodeMemory
@@ -122,7 +122,7 @@ class PatrolNode(RobotNode):
     """``planning/*``: the current route, route files and the patrol loop."""
 
     def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions,
-                 mapfiles: MapFilesNode, state: StateStore | None = None):
+                 mapfiles: MapFilesNode, state: StateBinding | None = None):
         super().__init__(bus, NS, backend)
         self.memory = NodeMemory(state, "patrol")
         self.backend: RobotBackend = backend
@@ -158,6 +158,7 @@ class PatrolNode(RobotNode):
         """The current route as the state store kept it (not the patrol: a restarted server
         does not set the robot moving on its own)."""
         saved = self.memory.get("route")
+        self.waypoints, self.route = [], ""
         if saved is None:
             return
         try:
@@ -175,6 +176,14 @@ class PatrolNode(RobotNode):
         await super().stop()
 
     # ------------------------------------------------------------------ state
+    def adopt(self, restore: bool) -> None:
+        """A state folder was bound: take its route (``restore``) or write ours into it."""
+        if restore:
+            self._restore()
+            self._publish()
+        else:
+            self._remember()
+
     def restored(self) -> list[str]:
         """What came back from the state folder, for the start-up log."""
         if self.memory.store is None or not self.waypoints:

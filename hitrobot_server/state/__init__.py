@@ -4,8 +4,10 @@ One :class:`~.store.StateStore` per robot identity (its own folder); nodes and t
 put their sections into it. It imports nothing of ours, so every floor above may use it.
 """
 
+from .binding import StateBinding
 from .journal import JournalError
 from .location import default_root, identity_folder
 from .store import Restored, StateStore
 
-__all__ = ["JournalError", "Restored", "StateStore", "default_root", "identity_folder"]
+__all__ = ["JournalError", "Restored", "StateBinding", "StateStore", "default_root",
+           "identity_folder"]

@@ -151,6 +151,11 @@ class StateStore:
         self.errors.append(text)
         self.restored.skipped.append(text)
 
+    def keep_copy(self, why: str) -> Path:
+        """Copy the snapshot as it is into ``set-aside/`` before newer state replaces it
+        (values in blobs are referenced, not copied)."""
+        return _write_aside(self.path, f"{SNAPSHOT}.{why}", (self.path / SNAPSHOT).read_bytes())
+
     def status(self) -> dict[str, Any]:
         return {"path": str(self.path), "writes": self.writes, "last_write": self.last_write,
                 "errors": list(self.errors[-5:]), "keys": len(self._values)}

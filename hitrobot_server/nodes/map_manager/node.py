@@ -26,7 +26,7 @@ from ...bus.core import Bus
 from ...bus.topics import Message, RequestRejected
 from ...robot.backend import BackendError, NotConnectedError, RobotBackend
 from ...robot.model import ArtifactUsage, Line, MapRegion, Point2D, Pose2D, Rect
-from ...state import StateStore
+from ...state import StateBinding
 from .. import messages as m
 from ..base import RobotNode
 from ..mapsync import MapHolder, tiles
@@ -150,7 +150,7 @@ class MapManager(RobotNode):
     """The map manager node; needs a robot (the SLAM layer is the robot's map)."""
 
     def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions,
-                 state: StateStore | None = None):
+                 state: StateBinding | None = None):
         super().__init__(bus, NODE_NAME, backend)
         self.memory = NodeMemory(state, "map_manager")
         self.store = MapStore(settings.map_store)
@@ -200,6 +200,8 @@ class MapManager(RobotNode):
         """POIs, layer switches and masks as the state store kept them; a section that does
         not check out is skipped (and kept aside by the store), the others still apply."""
         pois, layers, masks = (self.memory.get(k) for k in ("pois", "layers", "masks"))
+        self.pois.replace_all([])
+        self.states, self.masks = dict(DEFAULT_STATES), {}
         if pois is not None:
             try:
                 if not isinstance(pois, list):
@@ -221,6 +223,17 @@ class MapManager(RobotNode):
                 self.masks = decode_masks(masks)
             except (LayerError, ValueError, KeyError, OSError) as exc:
                 self.memory.reject("masks", str(exc))
+
+    def adopt(self, restore: bool) -> None:
+        """A state folder was bound (a REST robot said who it is): take its sections
+        (``restore``) or write ours into it (ours are newer)."""
+        if not restore:
+            self._remember("pois", "layers", "masks")
+            return
+        self._restore()
+        self._publish_pois()
+        self._blocked_sent, self._blocked_stale = None, True
+        self._changed()
 
     def restored(self) -> list[str]:
         """What came back from the state folder, for the start-up log."""
