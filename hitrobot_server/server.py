@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import math
 import ssl
 
 from .bus.core import Bus
@@ -169,29 +170,37 @@ class HitrobotServer:
 
 
     async def _bind_rest_state(self) -> None:
-        """Whenever a REST robot (re)connects, ask who it is; a new identity gets its own
-        state folder, and the log says which side's state won and why."""
+        """Whenever a REST robot (re)connects, and every few seconds while it is connected
+        (a robot swapped at the same address may never look disconnected), ask who it is; a
+        new identity gets its own state folder, and the log says which side's state won."""
         backend, binding = self.backend, self.state
         assert backend is not None
-        was = False
+        loop = asyncio.get_running_loop()
+        was, asked = False, -math.inf
         while True:
             now = backend.connected
-            if now and not was:
+            if now and (not was or loop.time() - asked >= IDENTITY_RECHECK):
+                asked = loop.time()
                 try:
                     info = await backend.get_device_info()
                 except BackendError as exc:
                     log.warning("state: cannot ask the robot who it is (%s); retrying", exc)
                     now = False
                 else:
-                    await self._bind(binding, rest_identity(info.device_id, self.settings.robot))
+                    identity = rest_identity(info.device_id, self.settings.robot)
+                    if identity != binding.identity:
+                        await self._bind(binding, identity)
+                    elif not was:
+                        log.info(
+                            "state: robot %s reconnected: the robot's side stands for its map, "
+                            "walls, tracks, home and pose (the server pushes none of them); the "
+                            "server's side for its POIs, layers, routes and graphs, and its "
+                            "masks are handed over again as the robot's blocked areas",
+                            identity)
             was = now
             await asyncio.sleep(BIND_POLL)
 
     async def _bind(self, binding: StateBinding, identity: str) -> None:
-        if identity == binding.identity:
-            log.info("state: the same robot (%s) is back; the server's state stands (it is "
-                     "the server's own: POIs, layers, masks, routes, graphs)", identity)
-            return
         old, changed = binding.identity, binding.changed_unbound
         store = await open_state(self.settings.state_root, identity,
                                  self.settings.fresh and not old)
@@ -222,6 +231,8 @@ class HitrobotServer:
 
 
 BIND_POLL = 0.5
+IDENTITY_RECHECK = 5.0
+"""Seconds between asking a connected REST robot who it is (a swap keeps the address)."""
 
 
 def rest_identity(device_id: str, url: str) -> str:

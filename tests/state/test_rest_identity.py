@@ -86,3 +86,43 @@ async def test_the_servers_state_follows_the_robots_identity(tmp_path):
     finally:
         await one.stop()
         await two.stop()
+
+
+async def test_which_side_wins_when_the_robot_is_reached_late_or_swapped(make_server, tmp_path,
+                                                                         caplog):
+    """Changes made before the robot is reached are newer than its folder: the server's side
+    wins (the folder's snapshot is kept aside). Another robot at the same address: its own
+    folder wins and the first robot's stays as it was."""
+    import logging
+
+    caplog.set_level(logging.INFO, logger="hitrobot_server")
+    state = tmp_path / "state"
+    one = await device(1)
+    port = one.port
+    await one.stop()  # the robot is not reachable when the server starts
+    server = await make_server(robot=f"http://127.0.0.1:{port}", state_dir=str(state),
+                               map_dir=str(tmp_path / "maps"))
+    w = await Watcher.open(server.port)
+    await w.client.send({"op": "set_level", "level": "info"})
+    assert (await request(w, f"{MM}/add_poi", POI_T, poi("early", 1.0, 8.0), "p"))[
+        "level"] == "info"
+    one = SimDevice(build_simulator(None, 1), port=port, time_scale=4.0)
+    await one.start()
+    await w.until(lambda: "the server's state won" in caplog.text, 20, "the binding")
+    assert "not reached yet" in caplog.text
+    ident_one = "slamware-" + one.simulator.device_info().device_id
+    await server.state.store.flush()
+    assert server.state.identity == ident_one and server.state.store.get(
+        "map_manager/pois")[0]["name"] == "early"
+
+    await one.stop()
+    two = SimDevice(build_simulator(None, 2), port=port, time_scale=4.0)
+    await two.start()
+    try:
+        await w.until(lambda: "a different robot" in caplog.text, 20, "robot two")
+        assert await pois(w) == []  # robot two's own (empty) state
+        assert (state / ident_one).is_dir() and server.state.identity != ident_one
+    finally:
+        await w.close()
+        await server.stop()
+        await two.stop()
