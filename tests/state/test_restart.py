@@ -101,7 +101,7 @@ async def test_an_operators_setup_survives_sigkill(tmp_path):
     second = server(state, maps)
     try:
         restored = next(line for line in second.output if "state: restored" in line)
-        assert "2 POIs" in restored and "1 walls" in restored and "robot pose" in restored
+        assert "2 POIs" in restored and "1 wall," in restored and "robot pose" in restored
         w = await watch(second.port)
         reply = await w.call(f"{MM}/get_pois")
         assert [p["name"] for p in reply["values"]["poi_list"]["pois"]] == ["kitchen", "desk"]

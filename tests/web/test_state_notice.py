@@ -20,13 +20,19 @@ async def test_the_console_says_started_fresh_then_restored_once(make_server, br
     page = browser.pages[0] if browser.pages else await browser.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
-    first = await make_server(robot="sim", sim_speed=4, map_dir=str(tmp_path / "maps"),
-                              state_dir=str(state))
-    await page.goto(f"http://127.0.0.1:{first.port}/")
-    await page.wait_for_function(READY, timeout=30_000)
-    await page.wait_for_function(
-        "() => [...document.querySelectorAll('#log li.info .text')]"
-        ".some(e => e.textContent.startsWith('started fresh in'))", timeout=10_000)
+
+    async def console_of_a_server(notice: str):
+        """A server on the test's state folder, and the page on it once it says ``notice``."""
+        server = await make_server(robot="sim", sim_speed=4, map_dir=str(tmp_path / "maps"),
+                                   state_dir=str(state))
+        await page.goto(f"http://127.0.0.1:{server.port}/")
+        await page.wait_for_function(READY, timeout=30_000)
+        await page.wait_for_function(
+            "(notice) => [...document.querySelectorAll('#log li.info .text')]"
+            ".some(e => e.textContent.startsWith(notice))", arg=notice, timeout=10_000)
+        return server
+
+    first = await console_of_a_server("started fresh in")
     w = await Watcher.open(first.port)
     await w.client.send({"op": "set_level", "level": "info"})
     assert (await request(w, f"{MM}/add_poi", "map_messages/PointOfInterest",
@@ -34,13 +40,7 @@ async def test_the_console_says_started_fresh_then_restored_once(make_server, br
     await w.close()
     await first.stop()
 
-    second = await make_server(robot="sim", sim_speed=4, map_dir=str(tmp_path / "maps"),
-                               state_dir=str(state))
-    await page.goto(f"http://127.0.0.1:{second.port}/")
-    await page.wait_for_function(READY, timeout=30_000)
-    await page.wait_for_function(
-        "() => [...document.querySelectorAll('#log li.info .text')]"
-        ".some(e => e.textContent.startsWith('state restored from'))", timeout=10_000)
+    second = await console_of_a_server("state restored from")
     # once: further /diagnostics_agg messages (1 Hz) add nothing
     w = await Watcher.open(second.port)
     await w.subscribe("/diagnostics_agg")

@@ -52,7 +52,8 @@ class SimMemory:
                 self.store.reject(key, str(exc))
                 continue
             if key == LINES:
-                done.append(f"{len(value['walls'])} walls, {len(value['tracks'])} tracks"
+                done.append(f"{_count(value['walls'], 'wall')}, "
+                            f"{_count(value['tracks'], 'track')}"
                             + (", home" if value["home"] is not None else ""))
             elif key == ROBOT:
                 x, y, _ = value["believed"]
@@ -80,6 +81,10 @@ class SimMemory:
             self._robot = robot
             last = self.store.put(ROBOT, robot)
         return last
+
+
+def _count(items: list, word: str) -> str:
+    return f"{len(items)} {word}{'' if len(items) == 1 else 's'}"
 
 
 def _robot_changed(old: dict, new: dict) -> bool:
