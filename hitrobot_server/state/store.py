@@ -169,13 +169,16 @@ class StateStore:
             self._pending, self._waiters = {}, []
             try:
                 await asyncio.to_thread(self._write_batch, batch)
-            except OSError as exc:
+            except (OSError, ValueError, TypeError) as exc:  # disk, or a value not JSON
                 text = f"write failed: {exc}"
                 log.error("state %s: %s", self.path, text)
                 self.errors.append(text)
+                if isinstance(exc, OSError):  # tried again with the next change
+                    self._pending = {**batch, **self._pending}
+                failure = exc if isinstance(exc, OSError) else OSError(str(exc))
                 for future in waiters:
                     if not future.done():
-                        future.set_exception(exc)
+                        future.set_exception(failure)
                 continue
             self.writes += 1
             self.last_write = time.time()
@@ -197,12 +200,17 @@ class StateStore:
 
     def _write_batch(self, batch: dict[str, Any]) -> None:
         changes = {key: self._stored_form(value) for key, value in batch.items()}
-        self._seq += 1
-        record = encode_record(self._seq, changes)
+        record = encode_record(self._seq + 1, changes)
         with open(self.path / JOURNAL, "ab") as f:
-            f.write(record)
-            f.flush()
-            os.fsync(f.fileno())
+            try:
+                f.write(record)
+                f.flush()
+                os.fsync(f.fileno())
+            except OSError:  # no half line may stay in front of the next batch's
+                with contextlib.suppress(OSError):
+                    f.truncate(self._journal_size)
+                raise
+        self._seq += 1
         self._journal_size += len(record)
         for key, value in changes.items():
             if value is None:
