@@ -1,8 +1,8 @@
-// Says once, when the page first hears from the server, where the robot's state came from:
-// "state restored from …" (with what came back) or "started fresh in …". The server reports
-// it in the /Bridge/State entry of /diagnostics_agg.
+// Says once in the Messages panel, when the page first hears from the server, where the
+// robot's state came from: "state restored from …" (with what came back) or "started fresh
+// in …". The server reports it in the /Bridge/State entry of /diagnostics_agg.
 /* global ROSLIB */
-import { log, toast } from './log.js';
+import { log } from './log.js';
 
 export function showStateOnce(ros) {
   const topic = new ROSLIB.Topic({
@@ -15,8 +15,7 @@ export function showStateOnce(ros) {
     const restored = item.values.find((v) => v.key === 'restored');
     const text = restored && restored.value !== 'nothing'
       ? `${item.message}: ${restored.value}` : item.message;
-    log('info', text);
-    toast('info', text);
+    log('info', text);  // the Messages panel; no toast: toasts are for what went wrong
   };
   topic.subscribe(onMessage);
 }
