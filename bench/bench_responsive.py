@@ -15,6 +15,7 @@ import re
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 
 from websockets.asyncio.client import connect
@@ -45,9 +46,11 @@ def summary(name: str, rtts: list[float]) -> str:
 
 
 async def main(speed: float, count: int) -> None:
+    state = tempfile.TemporaryDirectory(prefix="hitrobot-bench-state-")  # never the user's
     proc = subprocess.Popen(
         [sys.executable, "-m", "hitrobot_server", "--port", "0", "--tcp-port", "0",
-         "--sim-mapping", "--sim-speed", str(speed), "--log-level", "warning"],
+         "--sim-mapping", "--sim-speed", str(speed), "--log-level", "warning",
+         "--state-dir", state.name],
         stdout=subprocess.PIPE, text=True)
     try:
         line = proc.stdout.readline()
@@ -79,6 +82,7 @@ async def main(speed: float, count: int) -> None:
     finally:
         proc.terminate()
         proc.wait(10)
+        state.cleanup()
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ from .bus.namespace import check_robot_name
 from .nodes.options import NodeOptions, SlamwareParams
 from .robot.options import RobotEntry, RobotOptions, parse_robot
 from .session.options import SessionOptions
+from .state import default_root as default_state_root
 
 STATUS_LEVELS = ("info", "warning", "error", "none")
 EVENT_LOOPS = ("auto", "uvloop", "asyncio")
@@ -60,6 +61,8 @@ class Settings:
     sim_speed: float = 1.0
     sim_mapping: bool = False
     map_dir: str | None = None
+    state_dir: str | None = None
+    fresh: bool = False
     bus: str = "local"
     zenoh_config: str | None = None
     zenoh_connect: str | None = None
@@ -108,6 +111,12 @@ class Settings:
             return Path(self.record_dir)
         base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
         return Path(base) / "hitrobot-server" / "recordings"
+
+    @property
+    def state_root(self) -> Path:
+        """Where robots' state folders are (one per robot identity): ``--state-dir`` or
+        ``$XDG_STATE_HOME/hitrobot-server``."""
+        return Path(self.state_dir) if self.state_dir else default_state_root()
 
     def session_options(self) -> SessionOptions:
         """What each client session gets (built when a client connects, so the secret and
@@ -224,6 +233,10 @@ _HELP = {
     "map_dir": "folder of saved map folders (default: $XDG_DATA_HOME/hitrobot-server/maps)",
     "demo_services": "offer the tutorial servers of the rosbridge test image: the service "
     "/add_two_ints and the action /fibonacci (example_interfaces types), for client test suites",
+    "state_dir": "folder of the robots' working state, one sub-folder per robot identity, "
+    "written on every change and restored at start (default: "
+    "$XDG_STATE_HOME/hitrobot-server)",
+    "fresh": "start with a clean state: the robot's state folder is set aside, not read",
 }
 
 _SKIP = {"auth_secret", "client_tag", "slamware", "worker_id", "robots"}

@@ -8,6 +8,7 @@ under ``/NAME/`` with TF frames ``NAME/…`` for a named one.
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import dataclasses
 import logging
@@ -17,13 +18,21 @@ from typing import TYPE_CHECKING
 from .bus.core import Bus
 from .bus.namespace import Namespace, NamespacedBus
 from .config import Settings
-from .nodes.assembly import start_nodes, start_robot_nodes, start_site_nodes, stop_nodes
+from .nodes.assembly import (
+    restored_summary,
+    start_nodes,
+    start_robot_nodes,
+    start_site_nodes,
+    stop_nodes,
+)
 from .nodes.base import Node
 from .nodes.map_manager import MapManager
 from .nodes.options import NodeOptions
 from .robot.backend import RobotBackend
-from .robot.factory import build_backend, shared_world
+from .robot.factory import build_backend, shared_world, sim_identity
 from .robot.options import RobotEntry
+from .robot_state import RestStateBinder, open_state, report_restored
+from .state import StateBinding
 
 if TYPE_CHECKING:
     from .robot.sim.shared import SharedWorld
@@ -42,6 +51,8 @@ class RobotUnit:
     backend: RobotBackend | None
     nodes: list[Node] = field(default_factory=list)
     bus: Bus | NamespacedBus | None = None  # what its nodes see
+    state: StateBinding = field(default_factory=StateBinding)  # its state folder, once known
+    binder: asyncio.Task | None = None  # a REST robot's: binds its folder when it answers
 
     @property
     def prefix(self) -> str:
@@ -64,22 +75,36 @@ def robot_node_options(settings: Settings, entry: RobotEntry) -> NodeOptions:
 async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
                       world: SharedWorld | None = None,
                       site_map: MapManager | None = None) -> RobotUnit:
-    """Build, start and wire one robot; on failure everything it started is stopped again."""
-    backend = build_backend(settings.robot_options(entry), world)
-    unit = RobotUnit(entry.name, entry.spec, backend)
+    """Build, start and wire one robot; on failure everything it started is stopped again.
+    Its state folder (what an operator builds survives restarts) is opened first for a
+    simulated robot, and bound once a REST robot says who it is."""
+    options = settings.robot_options(entry)
+    unit = RobotUnit(entry.name, entry.spec, None)
     try:
+        if options.robot == "sim":
+            identity = sim_identity(options, entry.name)
+            store = await open_state(settings.state_root, identity, settings.fresh)
+            unit.state = StateBinding(store, identity)
+        backend = unit.backend = build_backend(options, world, unit.state.store)
         if backend is not None:
             await backend.start()
         if not entry.name:
             unit.bus = bus
-            unit.nodes = await start_nodes(bus, settings.node_options(), backend)
+            unit.nodes = await start_nodes(bus, settings.node_options(), backend, unit.state)
         elif backend is not None:
             view = NamespacedBus(bus, Namespace(entry.name))
             view.params.set(ROBOT_ID_PARAM, entry.name)
             unit.bus = view
             unit.nodes = await start_robot_nodes(
                 view, entry.name, robot_node_options(settings, entry), backend,  # type: ignore[arg-type]
-                site_map)
+                site_map, unit.state)
+        if unit.state.store is not None:
+            report_restored(unit.state.store, [*getattr(backend, "restored", []),
+                                               *restored_summary(unit.nodes)])
+        elif backend is not None:  # a REST robot: its state folder once it says who it is
+            binder = RestStateBinder(backend, unit.state, options.robot, settings.state_root,
+                                     settings.fresh, lambda: unit.nodes)
+            unit.binder = asyncio.ensure_future(binder.run())
     except BaseException:
         await stop_robot(unit)
         raise
@@ -87,12 +112,20 @@ async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
 
 
 async def stop_robot(unit: RobotUnit) -> None:
+    if unit.binder is not None:
+        unit.binder.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await unit.binder
+        unit.binder = None
     await stop_nodes(unit.nodes)
     unit.nodes.clear()
     if unit.backend is not None:
         with contextlib.suppress(Exception):
             await unit.backend.stop()
         unit.backend = None
+    if unit.state.store is not None:
+        await unit.state.store.close()
+        unit.state = StateBinding()
 
 
 async def start_robots(bus: Bus, settings: Settings) -> tuple[list[Node], list[RobotUnit]]:

@@ -21,6 +21,7 @@ from .robots import RobotUnit, start_robots, stop_robots
 from .session.foxglove import FoxgloveSession, FoxgloveShared
 from .session.options import SessionOptions
 from .session.session import Session, Shared
+from .state import StateBinding
 from .transport.http import StaticFiles, WithRecordings, default_web_root, missing_libraries
 from .transport.tcp import start_tcp
 from .transport.tls import HandshakeGate
@@ -208,6 +209,11 @@ class HitrobotServer:
     def backend(self):
         """The first robot's backend (the single robot's), None without one."""
         return self.robots[0].backend if self.robots else None
+
+    @property
+    def state(self) -> StateBinding:
+        """The first robot's state folder (the single robot's), unbound without one."""
+        return self.robots[0].state if self.robots else StateBinding()
 
     async def _stop_link(self) -> None:
         if self.link is not None:

@@ -9,13 +9,14 @@ from .helpers import ServerProcess, WsClient
 
 
 @pytest.fixture
-async def make_server():
-    """Start real servers on ephemeral loopback ports; stopped after the test."""
+async def make_server(tmp_path_factory):
+    """Start real servers on ephemeral loopback ports, each with its own temporary state
+    folder (never the user's); stopped after the test."""
     started: list[HitrobotServer] = []
 
     async def make(**overrides) -> HitrobotServer:
         kw = {"port": 0, "tcp_port": -1, "address": "127.0.0.1", "unregister_timeout": 0.2,
-              "robot": "none"}
+              "robot": "none", "state_dir": str(tmp_path_factory.mktemp("state"))}
         kw.update(overrides)
         server = HitrobotServer(Settings(**kw))
         await server.start()

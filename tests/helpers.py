@@ -6,8 +6,10 @@ import asyncio
 import json
 import os
 import re
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
@@ -169,11 +171,17 @@ class TcpClient:
 
 
 class ServerProcess:
-    """``hitrobot-server`` run for real as a subprocess on ephemeral loopback ports."""
+    """``hitrobot-server`` run for real as a subprocess on ephemeral loopback ports. Unless
+    ``--state-dir`` is among ``args`` it gets a temporary one (removed on :meth:`stop`), so no
+    test writes to the user's real state folder or shares state with another run."""
 
     def __init__(self, *args: str, robot: str = "none", command: tuple[str, ...] = ()):
         """``command``: a tool that serves like the server (``("replay", FILE)``)."""
         env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+        self._own_state: str | None = None
+        if "--state-dir" not in args:
+            self._own_state = tempfile.mkdtemp(prefix="hitrobot-state-")
+            args = (*args, "--state-dir", self._own_state)
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "hitrobot_server", *command, "--port", "0", "--tcp-port", "-1",
              "--address", "127.0.0.1", "--robot", robot, *args],
@@ -194,6 +202,11 @@ class ServerProcess:
         self.stop()
         raise RuntimeError("server did not start:\n" + "".join(self.output))
 
+    def kill(self) -> None:
+        """SIGKILL, as a power cut or an OOM kill: nothing of the server runs after it."""
+        self.proc.kill()
+        self.proc.wait(10)
+
     def stop(self) -> None:
         if self.proc.poll() is None:
             self.proc.terminate()
@@ -201,6 +214,8 @@ class ServerProcess:
                 self.proc.wait(10)
             except subprocess.TimeoutExpired:
                 self.proc.kill()
+        if self._own_state is not None:
+            shutil.rmtree(self._own_state, ignore_errors=True)
 
 
 class Watcher:

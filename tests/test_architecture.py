@@ -19,19 +19,22 @@ ALLOWED: dict[str, set[str]] = {
     "tf_buffer": set(),
     "signals": set(),
     "procmem": set(),
+    "state": set(),  # the robot's state folder: below the robot and the nodes that write it
     "protocol": {"types"},
     "bus": {"types", "protocol"},
-    "robot": {"types", "tf_buffer"},
+    "robot": {"types", "tf_buffer", "state"},
     "session": {"bus", "protocol", "types"},
     "transport": {"session", "protocol", "types"},
-    "nodes": {"bus", "robot", "protocol", "types", "tf_buffer", "procmem"},
+    "nodes": {"bus", "robot", "protocol", "types", "tf_buffer", "procmem", "state"},
     "record": {"bus", "protocol", "types"},  # a bus tap and a player, like a node without robot
     "conformance": {"protocol", "types"},  # a client tool: it talks to servers over sockets
     # the top: assembles the floors, so it may import any of them
-    "config": {"session", "bus", "nodes", "robot", "protocol", "types"},
+    "config": {"session", "bus", "nodes", "robot", "protocol", "types", "state"},
     "server": {"config", "robots", "transport", "session", "bus", "nodes", "robot", "record",
-               "protocol", "types"},
-    "robots": {"config", "bus", "nodes", "robot", "types"},  # one robot = backend + nodes
+               "protocol", "types", "state"},
+    # one robot = backend + nodes (+ its state folder, robot_state)
+    "robots": {"config", "bus", "nodes", "robot", "types", "state", "robot_state"},
+    "robot_state": {"nodes", "robot", "state"},
     "commands": {"robot", "signals", "config", "types", "server", "record"},
     "workers": {"config", "signals", "bus"},  # the --workers parent (bus: endpoint parsing)
     "cli": {"config", "server", "signals", "conformance", "commands", "workers"},

@@ -24,6 +24,7 @@ import { RobotActions } from './robotpanel.js';
 import { RobotPresence } from './robotpresence.js';
 import { RobotState } from './robotstate.js';
 import { Shell } from './shell.js';
+import { showStateOnce } from './statenotice.js';
 import { Teleop } from './teleop.js';
 import { MapTools } from './tools.js';
 import { formatPose, yawOf } from './util.js';
@@ -139,6 +140,7 @@ function main() {
   const patrol = new Patrol({ ros, layer: layers.waypoints });
   const maps = new SavedMaps({ ros });
   const diagnostics = new Diagnostics({ ros, sensorLayer: layers.sensors });
+  showStateOnce(ros);
   const inspector = new Inspector({ ros });
   const fleet = new Fleet({ ros, view, teleop, navigator }); // shown with named robots only
   patrol.onState = (s) => navigator.patrolState(s, () => patrol.call('stop', {}));

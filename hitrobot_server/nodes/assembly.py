@@ -5,6 +5,7 @@ from __future__ import annotations
 from ..bus.core import Bus
 from ..robot.backend import RobotBackend
 from ..robot.locomotion import STAND_UP_SECONDS, LocomotionBackend
+from ..state import StateBinding
 from .base import Node
 from .conventional import ConventionalNode
 from .demo import DemoServices
@@ -27,14 +28,17 @@ from .slamware import SlamwareNode
 from .tf_republisher import TFRepublisherNode
 
 
-async def start_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend | None) -> list[Node]:
-    """Create and start every node; robot-facing nodes only when a robot is attached."""
+async def start_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend | None,
+                      state: StateBinding | None = None) -> list[Node]:
+    """Create and start every node; robot-facing nodes only when a robot is attached.
+    ``state``: that robot's state folder (what the operator builds survives restarts)."""
     nodes: list[Node] = [Rosapi(bus, settings), TFRepublisherNode(bus)]
     if settings.demo_services:
         nodes.append(DemoServices(bus))
     if backend is not None:
-        nodes += robot_nodes(bus, settings, backend)
-    nodes.append(DiagnosticsNode(bus, backend))  # runs without a robot too (the bridge part)
+        nodes += robot_nodes(bus, settings, backend, state=state)
+    # runs without a robot too (the bridge part)
+    nodes.append(DiagnosticsNode(bus, backend, state))
     await _start(nodes)
     return nodes
 
@@ -46,7 +50,8 @@ async def start_bridge_nodes(bus: Bus, settings: NodeOptions) -> list[Node]:
 
 
 def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend,
-                site_map: MapManager | None = None) -> list[Node]:
+                site_map: MapManager | None = None,
+                state: StateBinding | None = None) -> list[Node]:
     """The robot-facing nodes, in start order. All of them drive the robot through the
     locomotion gate, so a sitting robot refuses motion whichever interface asks. A robot of a
     fleet is handed the site's map manager (its POIs) instead of getting its own; the fleet's
@@ -55,7 +60,7 @@ def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend,
     robot = LocomotionBackend(backend, STAND_UP_SECONDS / settings.time_scale)
     frame = settings.slamware.map_frame
     move_base = MoveBaseNode(bus, robot, frame)
-    map_manager = site_map or MapManager(bus, robot, settings)
+    map_manager = site_map or MapManager(bus, robot, settings, state)
     mapfiles = MapFilesNode(bus, robot, settings)
     return [
         SlamwareNode(bus, robot, settings.slamware),
@@ -68,8 +73,8 @@ def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend,
         Nav2ActionsNode(bus, robot, frame),
         IntelligentNavigationNode(bus, robot, frame),
         mapfiles,
-        PatrolNode(bus, robot, settings, mapfiles),
-        GraphNodeService(bus, robot, settings, mapfiles),
+        PatrolNode(bus, robot, settings, mapfiles, state),
+        GraphNodeService(bus, robot, settings, mapfiles, state),
         LocomotionNode(bus, robot, settings, lambda: mapfiles.loaded.frame),
     ]
 
@@ -84,11 +89,13 @@ async def start_site_nodes(bus: Bus, settings: NodeOptions) -> list[Node]:
 
 
 async def start_robot_nodes(bus: Bus, name: str, settings: NodeOptions, backend: RobotBackend,
-                            site_map: MapManager | None) -> list[Node]:
+                            site_map: MapManager | None,
+                            state: StateBinding | None = None) -> list[Node]:
     """Robot ``name``'s nodes on its namespaced view ``bus``, with its own diagnostics and its
     state for the fleet."""
-    nodes = robot_nodes(bus, settings, backend, site_map)
-    nodes += [DiagnosticsNode(bus, backend, bridge=False), FleetMemberNode(bus, backend, name)]
+    nodes = robot_nodes(bus, settings, backend, site_map, state)
+    nodes += [DiagnosticsNode(bus, backend, state, bridge=False),
+              FleetMemberNode(bus, backend, name)]
     await _start(nodes)
     return nodes
 
@@ -98,6 +105,11 @@ async def _start(nodes: list[Node]) -> None:
         start = getattr(node, "start", None)
         if start is not None:
             await start()
+
+
+def restored_summary(nodes: list[Node]) -> list[str]:
+    """What the nodes took back from the state folder, as phrases for the start-up log."""
+    return [phrase for node in nodes for phrase in getattr(node, "restored", list)()]
 
 
 async def stop_nodes(nodes: list[Node]) -> None:

@@ -16,15 +16,21 @@ item is ERROR and the other robot items are STALE.
 ``/Bridge/Slow links``      WARN while a client's link is too slow for a topic: the messages of
                             that topic it did not get, per client and topic (the bus
                             subscriber's ``dropped`` count; a small topic is never thinned)
+``/Bridge/State``           the robot's state folder: "restored from …" or "started fresh in
+                            …", the last write, errors (WARN when something was skipped or a
+                            write failed); a fleet robot's is among its own ``/Robot`` items
 ==========================  ==================================================================
 """
 
 from __future__ import annotations
 
+import time
+
 from .. import procmem
 from ..bus.core import Bus
 from ..robot.backend import ACTION_PREFIX, BackendError, NotConnectedError, RobotBackend
 from ..robot.model import HealthLevel
+from ..state import StateBinding, StateStore
 from . import messages as m
 from .base import RobotNode
 
@@ -75,8 +81,10 @@ def memory_item() -> dict:
 
 
 class DiagnosticsNode(RobotNode):
-    def __init__(self, bus: Bus, backend: RobotBackend | None = None, bridge: bool = True):
+    def __init__(self, bus: Bus, backend: RobotBackend | None = None,
+                 state: StateBinding | None = None, bridge: bool = True):
         super().__init__(bus, "/diagnostic_aggregator", backend)
+        self.state = state
         self._device_id = ""
         self._bridge = bridge  # a fleet robot's own diagnostics leave the bridge to the site
         self.advertise(TOPIC, "diagnostic_msgs/DiagnosticArray")
@@ -88,6 +96,8 @@ class DiagnosticsNode(RobotNode):
         statuses: list[dict] = []
         if self.backend is not None:
             robot = await self.robot_items()
+            if not self._bridge:  # a fleet robot: its state folder with its own items
+                robot += self.state_items()
             statuses += [summary("/Robot", robot), *robot]
         if self._bridge:
             bridge = self.bridge_items()
@@ -104,7 +114,13 @@ class DiagnosticsNode(RobotNode):
             f"{len(clients)} client{'' if len(clients) == 1 else 's'} connected",
             clients=len(clients), topics=len(bus.topics), services=len(bus.services),
             actions=len(bus.actions), nodes=len(bus.nodes), client_names=" ".join(clients)),
-            memory_item(), self.slow_links()]
+            memory_item(), self.slow_links(), *self.state_items()]
+
+    def state_items(self) -> list[dict]:
+        """``/Bridge/State`` once the robot's state folder is known."""
+        if self.state is None or self.state.store is None:
+            return []
+        return [state_item(self.state.store)]
 
     def slow_links(self) -> dict:
         drops = sorted(
@@ -195,3 +211,17 @@ class DiagnosticsNode(RobotNode):
         items.append(status("/Robot/Health", level, text, hw,
                             board_temperature=temperature, **errors))
         return items
+
+
+def state_item(store: StateStore) -> dict:
+    """``/Bridge/State``: where the robot's state lives and how it came back at start."""
+    info = store.status()
+    restored = store.restored
+    text = (f"started fresh in {info['path']}" if restored.fresh
+            else f"state restored from {info['path']}")
+    last = info["last_write"]
+    when = "never" if last is None else time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(last))
+    return status("/Bridge/State", WARN if info["errors"] else OK, text, path=info["path"],
+                  restored=restored.summary or "nothing", last_write=when,
+                  writes=info["writes"], errors=len(store.errors),
+                  last_error=info["errors"][-1] if info["errors"] else "")

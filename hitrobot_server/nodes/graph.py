@@ -27,8 +27,10 @@ from ..bus.core import Bus
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionResult, Point2D
 from ..robot.motion import follow
+from ..state import StateBinding
 from .base import RobotNode
 from .mapfiles import GRAPH_FILE, MapFilesNode
+from .memory import NodeMemory
 from .namedfiles import FileError, NamedFiles, dump_yaml, load_yaml, number
 from .options import NodeOptions
 
@@ -167,8 +169,9 @@ class GraphNodeService(RobotNode):
     """The route graph node."""
 
     def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions,
-                 mapfiles: MapFilesNode):
+                 mapfiles: MapFilesNode, state: StateBinding | None = None):
         super().__init__(bus, "/graph", backend)
+        self.memory = NodeMemory(state, "graph")
         self.backend: RobotBackend = backend
         self.mapfiles = mapfiles
         self.files = NamedFiles(settings.map_store.parent / "graphs")
@@ -181,13 +184,40 @@ class GraphNodeService(RobotNode):
         self.service("/load_graph_file", f"{PKG}/LoadGraphFile", self._load)
         self.service("/graph/navigate_to_node", f"{PKG}/NavigateToNode", self._navigate)
         mapfiles.defaults[GRAPH_FILE] = self._apply_default
+        self._restore()
         self._publish()
+
+    def _restore(self) -> None:
+        saved = self.memory.get("current")
+        self.graph, self.graph_name = Graph(), ""
+        if saved is None:
+            return
+        try:
+            self.graph = graph_of(saved["nodes"], saved["edges"])
+            self.graph_name = str(saved["name"])
+        except (GraphError, KeyError, TypeError) as exc:
+            self.memory.reject("current", str(exc))
+
+    def adopt(self, restore: bool) -> None:
+        """A state folder was bound: take its graph (``restore``) or write ours into it."""
+        if restore:
+            self._restore()
+            self._publish()
+        else:
+            self.memory.put("current", {"name": self.graph_name, **self.graph.as_msg()})
+
+    def restored(self) -> list[str]:
+        """What came back from the state folder, for the start-up log."""
+        if self.memory.store is None or not self.graph.nodes:
+            return []
+        return [f"1 graph ({len(self.graph.nodes)} nodes)"]
 
     def _publish(self) -> None:
         self.publish(CURRENT_TOPIC, {"name": self.graph_name, **self.graph.as_msg()})
 
     def _set(self, graph: Graph, name: str) -> None:
         self.graph, self.graph_name = graph, name
+        self.memory.put("current", {"name": name, **graph.as_msg()})
         self._publish()
 
     async def _save(self, request: dict) -> dict:
@@ -200,6 +230,7 @@ class GraphNodeService(RobotNode):
             return {"success": False, "message": str(exc)}
         await asyncio.to_thread(self.mapfiles.save_default, GRAPH_FILE, data)
         self._set(graph, name)
+        await self.memory.durable()
         return {"success": True, "message": f"Graph saved to: {name}"}
 
     async def _load(self, request: dict) -> dict:
@@ -213,6 +244,7 @@ class GraphNodeService(RobotNode):
         except (GraphError, FileError) as exc:
             return {"success": False, "message": str(exc), **empty}
         self._set(graph, name)
+        await self.memory.durable()
         return {"success": True, "message": f"Graph loaded from: {name}", **graph.as_msg()}
 
     def _apply_default(self, data: bytes) -> str:

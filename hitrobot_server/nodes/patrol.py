@@ -35,8 +35,10 @@ from ..bus.core import Bus
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionInfo, ActionResult, Point2D
 from ..robot.motion import cancel_if_current, follow
+from ..state import StateBinding
 from .base import RobotNode
 from .mapfiles import ROUTE_FILE, MapFilesNode
+from .memory import NodeMemory
 from .namedfiles import FileError, NamedFiles, dump_yaml, list_reply, load_yaml, number
 from .options import NodeOptions
 
@@ -120,8 +122,9 @@ class PatrolNode(RobotNode):
     """``planning/*``: the current route, route files and the patrol loop."""
 
     def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions,
-                 mapfiles: MapFilesNode):
+                 mapfiles: MapFilesNode, state: StateBinding | None = None):
         super().__init__(bus, NS, backend)
+        self.memory = NodeMemory(state, "patrol")
         self.backend: RobotBackend = backend
         self.mapfiles = mapfiles
         self.files = NamedFiles(settings.map_store.parent / "routes")
@@ -150,7 +153,21 @@ class PatrolNode(RobotNode):
                               ("stop_patrol", self._stop)]:
             self.service(f"{NS}/{name}", "std_srvs/Trigger", handler)
         mapfiles.defaults[ROUTE_FILE] = self._apply_default
+        self._restore()
         self._publish()
+
+    def _restore(self) -> None:
+        """The current route as the state store kept it (not the patrol: a restarted server
+        does not set the robot moving on its own)."""
+        saved = self.memory.get("route")
+        self.waypoints, self.route = [], ""
+        if saved is None:
+            return
+        try:
+            self.waypoints = waypoints_of(saved["waypoints"], self.map_frames)
+            self.route = str(saved["route"])
+        except (RouteError, KeyError, TypeError) as exc:
+            self.memory.reject("route", str(exc))
 
     @property
     def map_frames(self) -> frozenset[str]:
@@ -161,6 +178,24 @@ class PatrolNode(RobotNode):
         await super().stop()
 
     # ------------------------------------------------------------------ state
+    def adopt(self, restore: bool) -> None:
+        """A state folder was bound: take its route (``restore``) or write ours into it."""
+        if restore:
+            self._restore()
+            self._publish()
+        else:
+            self._remember()
+
+    def restored(self) -> list[str]:
+        """What came back from the state folder, for the start-up log."""
+        if self.memory.store is None or not self.waypoints:
+            return []
+        return [f"1 route ({len(self.waypoints)} waypoints)"]
+
+    def _remember(self) -> None:
+        self.memory.put("route", {"route": self.route,
+                                  "waypoints": [asdict(w) for w in self.waypoints]})
+
     def _publish(self) -> None:
         self.publish(STATE_TOPIC, {
             "active": self.active, "route": self.route,
@@ -169,6 +204,7 @@ class PatrolNode(RobotNode):
 
     def _replace(self, waypoints: list[Waypoint], route: str) -> None:
         self.waypoints, self.route = waypoints, route
+        self._remember()
         self._publish()
 
     # ------------------------------------------------------------------ route services
@@ -179,6 +215,7 @@ class PatrolNode(RobotNode):
             return {"success": False, "message": str(exc)}
         await self._halt("stopped: the route was replaced")
         self._replace(waypoints, "")
+        await self.memory.durable()
         return {"success": True, "message": f"{len(waypoints)} waypoints set"}
 
     async def _append(self, request: dict) -> dict:
@@ -190,13 +227,16 @@ class PatrolNode(RobotNode):
         except RouteError as exc:
             return {"success": False, "message": str(exc), "waypoint_index": 0}
         self.waypoints = [*self.waypoints, waypoint]  # a running patrol picks it up
+        self._remember()
         self._publish()
+        await self.memory.durable()
         index = len(self.waypoints) - 1
         return {"success": True, "message": f"waypoint {index} added", "waypoint_index": index}
 
     async def _clear(self, request: dict) -> dict:
         await self._halt("stopped: the route was cleared")
         self._replace([], "")
+        await self.memory.durable()
         return {"success": True, "message": "waypoints cleared"}
 
     async def _list(self, request: dict) -> dict:
@@ -210,10 +250,12 @@ class PatrolNode(RobotNode):
         except FileError as exc:
             return {"success": False, "message": str(exc)}
         self.route = name
+        self._remember()
         if await asyncio.to_thread(self.mapfiles.save_default, ROUTE_FILE, data):
             log.info("route %s is now the default route of map %s", name,
                      self.mapfiles.loaded.name)
         self._publish()
+        await self.memory.durable()
         return {"success": True, "message": f"Waypoints saved to: {name}"}
 
     async def _load(self, request: dict) -> dict:
@@ -227,6 +269,7 @@ class PatrolNode(RobotNode):
             return {"success": False, "message": str(exc)}
         await self._halt("stopped: another route was loaded")
         self._replace(waypoints, name)
+        await self.memory.durable()
         return {"success": True, "message": f"Waypoints loaded from: {name}"}
 
     def _apply_default(self, data: bytes) -> str:

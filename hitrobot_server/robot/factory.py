@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..state import StateStore
 from .backend import RobotBackend
 from .model import Pose2D
 from .options import RobotOptions
@@ -36,9 +38,18 @@ def shared_world(options: RobotOptions) -> SharedWorld:
     return SharedWorld(loaded, _sim_config(options.sim_mapping))
 
 
-def build_backend(options: RobotOptions, world: SharedWorld | None = None) -> RobotBackend | None:
+def sim_identity(options: RobotOptions, name: str = "") -> str:
+    """A simulated robot's identity (its state folder): one per world, and per robot name in a
+    fleet, so a robot never finds another one's walls and pose."""
+    world = Path(options.world).stem if options.world else "office"
+    return f"sim-{world}" + (f"-{name}" if name else "")
+
+
+def build_backend(options: RobotOptions, world: SharedWorld | None = None,
+                  state: StateStore | None = None) -> RobotBackend | None:
     """The robot backend for ``--robot``; the caller starts and stops it. A simulated robot
-    joins ``world`` when one is given (its seed offset by the robots already there)."""
+    joins ``world`` when one is given (its seed offset by the robots already there).
+    ``state``: the simulator's state folder (a REST robot keeps its own map, lines and pose)."""
     if options.robot == "none":
         return None
     if options.robot.startswith(("http://", "https://")):
@@ -48,9 +59,11 @@ def build_backend(options: RobotOptions, world: SharedWorld | None = None) -> Ro
     if options.robot != "sim":
         raise ValueError(f"--robot {options.robot}: expected sim, none or an http(s):// URL")
     from .sim.backend import SimBackend
+    from .sim.persist import SimMemory
 
+    memory = SimMemory(state) if state is not None else None
     if world is not None:
         start = Pose2D(*options.start) if options.start is not None else None
-        return world.add(options.sim_seed + len(world.robots), start, options.sim_speed)
+        return world.add(options.sim_seed + len(world.robots), start, options.sim_speed, memory)
     simulator = build_simulator(options.world, options.sim_seed, options.sim_mapping)
-    return SimBackend(simulator, time_scale=options.sim_speed)
+    return SimBackend(simulator, time_scale=options.sim_speed, memory=memory)

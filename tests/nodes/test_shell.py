@@ -163,7 +163,9 @@ async def test_shutdown_needs_admin_and_takes_the_robot_offline(secured):
     assert "not connected" in (await status_for(admin, "r2"))["msg"]
 
 
-async def test_reboot_comes_back_with_a_fresh_state(make_server):
+async def test_reboot_keeps_what_the_robot_stores_and_starts_in_navigation(make_server):
+    """A reboot takes the robot offline; it comes back with what it keeps (its state folder:
+    map, lines, pose) and in its start-up mode (mapping off)."""
     server = await make_server(robot="sim", sim_speed=4.0)
     server.backend.reboot_delay = 0.5
     w = await Watcher.open(server.port)
@@ -182,13 +184,13 @@ async def test_reboot_comes_back_with_a_fresh_state(make_server):
         await w.until(lambda: not server.backend.connected, 2, "the robot offline")
         await w.until(lambda: server.backend.connected, 5, "the robot back")
 
-        def at_start() -> bool:
+        def where_it_was() -> bool:
             p = w.latest("/robot_pose")["position"]
-            return math.hypot(p["x"] - 5.0, p["y"] - 8.0) < 0.2
+            return math.hypot(p["x"] - 6.0, p["y"] - 9.0) < 0.2
 
-        await w.until(at_start, 3, "the start pose again")
+        await w.until(where_it_was, 3, "the pose it had")
         await w.until(lambda: w.latest("/ros_mode")["data"] == "navigation", 3,
-                      "the mode of a fresh robot")
+                      "the start-up mode")
         assert not [s for s in w.statuses if s.get("id") == "r" and s["level"] == "error"]
     finally:
         await w.close()

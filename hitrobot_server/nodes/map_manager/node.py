@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import io
 import logging
 import math
 from collections.abc import Awaitable, Callable
@@ -25,9 +26,11 @@ from ...bus.core import Bus
 from ...bus.topics import Message, RequestRejected
 from ...robot.backend import BackendError, NotConnectedError, RobotBackend
 from ...robot.model import ArtifactUsage, Line, MapRegion, Point2D, Pose2D, Rect
+from ...state import StateBinding
 from .. import messages as m
 from ..base import RobotNode
 from ..mapsync import MapHolder, tiles
+from ..memory import NodeMemory
 from ..options import NodeOptions
 from . import mapio
 from .layers import (
@@ -120,11 +123,39 @@ def grid_of_message(msg: dict) -> Grid:
                 data.astype(np.int8).reshape(height, width))
 
 
+def encode_masks(masks: dict[int, Mask]) -> bytes:
+    """The masks for the state store: one ``.npz`` (no pickles) of cells and placement."""
+    arrays: dict[str, np.ndarray] = {}
+    for layer, mask in masks.items():
+        arrays[f"cells_{layer}"] = mask.cells
+        arrays[f"place_{layer}"] = np.array([mask.resolution, mask.col0, mask.row0])
+    out = io.BytesIO()
+    np.savez(out, **arrays)
+    return out.getvalue()
+
+
+def decode_masks(data: bytes) -> dict[int, Mask]:
+    """What :func:`encode_masks` wrote; LayerError (or ValueError) if it is not that."""
+    masks: dict[int, Mask] = {}
+    with np.load(io.BytesIO(data), allow_pickle=False) as arrays:
+        for name in arrays.files:
+            if not name.startswith("cells_"):
+                continue
+            layer = int(name.removeprefix("cells_"))
+            if layer not in LAYER_NAMES:
+                raise LayerError(f"unknown layer {layer}")
+            resolution, col0, row0 = arrays[f"place_{layer}"].tolist()
+            masks[layer] = Mask.from_cells(resolution, int(col0), int(row0), arrays[name])
+    return masks
+
+
 class MapManager(RobotNode):
     """The map manager node; needs a robot (the SLAM layer is the robot's map)."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions):
+    def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions,
+                 state: StateBinding | None = None):
         super().__init__(bus, NODE_NAME, backend)
+        self.memory = NodeMemory(state, "map_manager")
         self.store = MapStore(settings.map_store)
         params = settings.slamware
         self.params = params
@@ -167,7 +198,66 @@ class MapManager(RobotNode):
         self.subscribe(self.topic_scan, "sensor_msgs/LaserScan", self._on_scan)
         self.subscribe("/tf", "tf2_msgs/TFMessage", self._on_tf)
         self.service(f"{NODE_NAME}/get_pois", f"{PKG}/GetPointsOfInterest", self._get_pois)
+        self._restore()
         self._publish_pois()
+
+    def _restore(self) -> None:
+        """POIs, layer switches and masks as the state store kept them; a section that does
+        not check out is skipped (and kept aside by the store), the others still apply."""
+        pois, layers, masks = (self.memory.get(k) for k in ("pois", "layers", "masks"))
+        self.pois.replace_all([])
+        self.states, self.masks = dict(DEFAULT_STATES), {}
+        if pois is not None:
+            try:
+                if not isinstance(pois, list):
+                    raise PoiError("not a list of POIs")
+                self.pois.replace_all(pois)
+            except PoiError as exc:
+                self.memory.reject("pois", str(exc))
+        if layers is not None:
+            try:
+                states = {int(k): v for k, v in layers.items()}
+                if not set(states) <= set(LAYER_NAMES) or not all(
+                        isinstance(v, bool) for v in states.values()):
+                    raise ValueError("unknown layers or non-boolean states")
+                self.states.update(states)
+            except (AttributeError, ValueError) as exc:
+                self.memory.reject("layers", str(exc))
+        if masks is not None:
+            try:
+                self.masks = decode_masks(masks)
+            except (LayerError, ValueError, KeyError, OSError) as exc:
+                self.memory.reject("masks", str(exc))
+
+    def adopt(self, restore: bool) -> None:
+        """A state folder was bound (a REST robot said who it is): take its sections
+        (``restore``) or write ours into it (ours are newer)."""
+        if not restore:
+            self._remember("pois", "layers", "masks")
+            return
+        self._restore()
+        self._publish_pois()
+        self._blocked_sent, self._blocked_stale = None, True
+        self._changed()
+
+    def restored(self) -> list[str]:
+        """What came back from the state folder, for the start-up log."""
+        if self.memory.store is None:
+            return []
+        phrases = [] if not self.pois else [f"{len(self.pois)} POIs"]
+        if self.masks:
+            phrases.append(f"masks on {len(self.masks)} layers")
+        return phrases
+
+    def _remember(self, *what: str) -> None:
+        """Put the named sections (pois, layers, masks) into the state store."""
+        for name in what:
+            if name == "pois":
+                self.memory.put("pois", self.pois.all())
+            elif name == "layers":
+                self.memory.put("layers", {str(k): v for k, v in self.states.items()})
+            else:
+                self.memory.put("masks", encode_masks(self.masks) if self.masks else None)
 
     # ------------------------------------------------------------------ lifecycle
     async def start(self) -> None:
@@ -373,6 +463,7 @@ class MapManager(RobotNode):
             raise RequestRejected(f"map_layers: field 'layer' must be one of {names}, "
                                   f"got {layer}")
         self.states[layer] = state
+        self._remember("layers")
         self.publish_map(force=True)
         text = f"{LAYER_NAMES[layer]} {'on' if state else 'off'}"
         self._job(message, "map_layers", self._push_then(text), needs_robot=False)
@@ -398,6 +489,7 @@ class MapManager(RobotNode):
             self.masks.pop(layer, None)
         else:
             self.masks[layer] = mask
+        self._remember("masks")
         try:
             self.publish_map(force=True)
         except LayerError as exc:
@@ -407,6 +499,7 @@ class MapManager(RobotNode):
 
     def _push_then(self, text: str | None) -> Callable[[], Awaitable[str | None]]:
         async def work() -> str | None:
+            await self.memory.durable()
             try:
                 await self.push_blocked()
             except BackendError as exc:
@@ -433,8 +526,14 @@ class MapManager(RobotNode):
             text = change()
         except PoiError as exc:
             raise RequestRejected(f"{what}: {exc}") from None
+        self._remember("pois")
         self._publish_pois()
-        message.reject(f"{what}: {text}", level="info")
+
+        async def acknowledge() -> None:  # once the change is on disk
+            await self.memory.durable()
+            message.reject(f"{what}: {text}", level="info")
+
+        self.spawn(acknowledge())
 
     def _on_add_poi(self, message: Message) -> None:
         def add() -> str:
@@ -511,6 +610,7 @@ class MapManager(RobotNode):
                 await self._install_map(grid, robot)
                 self.masks = masks
                 self.pois.replace_all(pois.all())
+                self._remember("pois", "masks")
                 self._publish_pois()
                 self.publish_map(force=True)
                 try:
@@ -518,6 +618,7 @@ class MapManager(RobotNode):
                 except BackendError as exc:
                     raise BackendError(f"map {name!r} loaded, but the robot did not take its "
                                        f"blocked areas ({exc}); retrying") from None
+                await self.memory.durable()
             return f"loaded map {name!r}"
 
         self._job(message, "load_map", work)

@@ -40,6 +40,7 @@ from ..model import (
     Rect,
 )
 from .navigation import path_search
+from .persist import SimMemory
 from .planner import run_in_slices
 from .simulator import Simulator
 
@@ -51,15 +52,22 @@ SLOW_STEP = 0.05
 """A step slower than this (s) is logged: it delays every other task on the loop."""
 MAX_CATCH_UP = 5
 """Steps run back to back at most when the loop fell behind; older backlog is dropped."""
+SAMPLE_EVERY = 0.25
+"""Wall-clock seconds between samples of the pose, battery and map for the state store."""
 
 
 class SimBackend(RobotBackend):
     """Runs a :class:`Simulator` on the event loop."""
 
-    def __init__(self, simulator: Simulator, rate_hz: float = 20.0, time_scale: float = 1.0):
+    def __init__(self, simulator: Simulator, rate_hz: float = 20.0, time_scale: float = 1.0,
+                 memory: SimMemory | None = None):
         if rate_hz <= 0.0 or time_scale <= 0.0:
             raise ValueError("rate_hz and time_scale must be positive")
         self.simulator = simulator
+        self.memory = memory
+        """Where the robot's map, lines, pose and battery survive a restart (None: nowhere)."""
+        self.restored = memory.restore(simulator) if memory is not None else []
+        self._sampled = -math.inf
         self._period = 1.0 / rate_hz
         self._time_scale = time_scale
         self._task: asyncio.Task[None] | None = None
@@ -85,6 +93,8 @@ class SimBackend(RobotBackend):
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await task
+            if self.memory is not None:  # the last pose and map (the store flushes on close)
+                self.memory.sync(self.simulator, asyncio.get_running_loop().time(), urgent=True)
 
     async def power_off(self) -> None:
         """The simulated robot goes offline and stays so (until the server restarts)."""
@@ -94,7 +104,8 @@ class SimBackend(RobotBackend):
 
     async def reboot(self) -> None:
         """Offline now; back after :attr:`reboot_delay` as a freshly started simulator (same
-        world, seed and configuration; map, pose, lines and actions as at start-up)."""
+        world, seed and configuration, no actions) with what the robot keeps: its map, lines,
+        home and pose from the state folder (as at start-up when there is none)."""
         if not self.connected:
             raise NotConnectedError("simulator is not running")
         await self.stop()
@@ -102,6 +113,8 @@ class SimBackend(RobotBackend):
         async def come_back() -> None:
             await asyncio.sleep(self.reboot_delay)
             self.simulator = self.simulator.restarted()
+            if self.memory is not None:  # a robot keeps its map, lines and pose on reboot
+                self.memory.restore(self.simulator)
             self._reboot = None
             await self.start()
 
@@ -121,6 +134,9 @@ class SimBackend(RobotBackend):
                 due += self._period
                 behind += 1
             now = loop.time()
+            if self.memory is not None and now - self._sampled >= SAMPLE_EVERY:
+                self._sampled = now
+                self.memory.sync(self.simulator, now)
             if now >= due:
                 due = now + self._period
             await asyncio.sleep(due - now if due > now else 0.0)
@@ -144,9 +160,22 @@ class SimBackend(RobotBackend):
             raise BackendError(str(exc)) from exc
 
     def _map_call(self, kind: MapKind, fn: Callable[..., T], *args: object) -> T:
-        if kind != MapKind.EXPLORERMAP:
-            raise UnsupportedError(f"the simulator only has an explore map, not {kind!r}")
+        _explore_only(kind)
         return self._call(fn, *args)
+
+    async def _change(self, fn: Callable[..., T], *args: object) -> T:
+        """A request that changes what the robot remembers: answered once it is on disk."""
+        result = self._call(fn, *args)
+        if self.memory is not None:
+            pending = self.memory.sync(self.simulator, asyncio.get_running_loop().time(),
+                                       urgent=True)
+            if pending is not None:
+                try:
+                    await pending
+                except OSError as exc:
+                    raise BackendError(f"done, but not saved to the state folder: {exc}") \
+                        from None
+        return result
 
     # --- state -------------------------------------------------------------------------------
 
@@ -168,25 +197,27 @@ class SimBackend(RobotBackend):
         return self._map_call(kind, self.simulator.map_region, area)
 
     async def clear_map(self, kind: MapKind = MapKind.EXPLORERMAP) -> None:
-        self._map_call(kind, self.simulator.clear_map)
+        _explore_only(kind)
+        await self._change(self.simulator.clear_map)
 
     async def get_map_update(self, kind: MapKind = MapKind.EXPLORERMAP) -> bool:
         return self._map_call(kind, lambda: self.simulator.map_update)
 
     async def set_map_update(self, enabled: bool, kind: MapKind = MapKind.EXPLORERMAP) -> None:
-        self._map_call(kind, setattr, self.simulator, "map_update", enabled)
+        _explore_only(kind)
+        await self._change(setattr, self.simulator, "map_update", enabled)
 
     async def get_localization_enabled(self) -> bool:
         return self._call(lambda: self.simulator.localization_enabled)
 
     async def set_localization_enabled(self, enabled: bool) -> None:
-        self._call(setattr, self.simulator, "localization_enabled", enabled)
+        await self._change(setattr, self.simulator, "localization_enabled", enabled)
 
     async def get_localization_quality(self) -> int:
         return self._call(lambda: self.simulator.localization_quality)
 
     async def set_pose(self, pose: Pose2D) -> None:
-        self._call(self.simulator.set_pose, pose)
+        await self._change(self.simulator.set_pose, pose)
 
     async def recover_localization(
         self,
@@ -295,16 +326,16 @@ class SimBackend(RobotBackend):
         return self._call(self.simulator.get_lines, usage)
 
     async def add_lines(self, usage: ArtifactUsage, lines: Sequence[Line]) -> list[Line]:
-        return self._call(self.simulator.add_lines, usage, lines)
+        return await self._change(self.simulator.add_lines, usage, lines)
 
     async def remove_line(self, usage: ArtifactUsage, line_id: int) -> bool:
-        return self._call(self.simulator.remove_line, usage, line_id)
+        return await self._change(self.simulator.remove_line, usage, line_id)
 
     async def clear_lines(self, usage: ArtifactUsage) -> None:
-        self._call(self.simulator.clear_lines, usage)
+        await self._change(self.simulator.clear_lines, usage)
 
     async def move_lines(self, usage: ArtifactUsage, lines: Sequence[Line]) -> bool:
-        return self._call(self.simulator.move_lines, usage, lines)
+        return await self._change(self.simulator.move_lines, usage, lines)
 
     async def set_blocked_areas(self, areas: Sequence[Sequence[Point2D]]) -> None:
         self._call(self.simulator.set_blocked_areas, areas)
@@ -313,7 +344,7 @@ class SimBackend(RobotBackend):
         return self._call(lambda: self.simulator.home_pose)
 
     async def set_home_pose(self, pose: Pose2D) -> None:
-        self._call(setattr, self.simulator, "home_pose", pose)
+        await self._change(setattr, self.simulator, "home_pose", pose)
 
     async def get_composite_map(self) -> bytes:
         return self._call(self.simulator.composite_map)
@@ -322,7 +353,7 @@ class SimBackend(RobotBackend):
         self._call(self.simulator.check_composite_map, data)
 
     async def set_composite_map(self, data: bytes, pose: Pose2D) -> None:
-        self._call(self.simulator.load_composite_map, data, pose)
+        await self._change(self.simulator.load_composite_map, data, pose)
 
     async def install_map(self, explore: MapRegion | None, walls: Sequence[Line],
                           tracks: Sequence[Line], home: Pose2D | None, pose: Pose2D) -> None:
@@ -330,3 +361,8 @@ class SimBackend(RobotBackend):
         loaded file is, before anything changes."""
         await self.set_composite_map(composite_map.encode(composite_map.CompositeMap(
             explore, tuple(walls), tuple(tracks), home)), pose)
+
+
+def _explore_only(kind: MapKind) -> None:
+    if kind != MapKind.EXPLORERMAP:
+        raise UnsupportedError(f"the simulator only has an explore map, not {kind!r}")

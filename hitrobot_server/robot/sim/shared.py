@@ -15,6 +15,7 @@ import numpy as np
 from ..model import Pose2D
 from .backend import SimBackend
 from .grid import distance_field
+from .persist import SimMemory
 from .simulator import SimConfig, Simulator
 from .world import World
 
@@ -38,13 +39,15 @@ class SharedWorld:
     def others(self, me: Simulator) -> list[Pose2D]:
         return [b.simulator.true_pose for b in self.robots if b.simulator is not me]
 
-    def add(self, seed: int, start: Pose2D | None, time_scale: float) -> SimBackend:
+    def add(self, seed: int, start: Pose2D | None, time_scale: float,
+            memory: SimMemory | None = None) -> SimBackend:
         """A new robot at ``start`` (checked: free and clear of the others) or, without one,
-        at the free spot nearest the world's start pose."""
+        at the free spot nearest the world's start pose; ``memory``: where its map, lines and
+        pose survive a restart (restored over the start pose)."""
         pose = self._checked(start) if start is not None else self._free_spot()
         simulator = Simulator(self.world, seed=seed, config=self.config, start=pose,
                               others=self.others)
-        backend = SimBackend(simulator, time_scale=time_scale)
+        backend = SimBackend(simulator, time_scale=time_scale, memory=memory)
         self.robots.append(backend)
         return backend
 

@@ -1,0 +1,54 @@
+"""A node's sections of the robot's state store: what the operator built survives restarts.
+
+Nodes put a section whenever it changes and await :meth:`NodeMemory.durable` before they
+acknowledge the request, so an acknowledged change is on disk. Without a binding (tests of a
+node alone) everything is a no-op; with a binding whose store is not known yet (a REST robot
+not reached so far) a change is only noted, and the server settles it once the robot is known.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from typing import Any
+
+from ..state import StateBinding, StateStore
+
+log = logging.getLogger(__name__)
+
+
+class NodeMemory:
+    """The sections ``<prefix>/<name>`` of one store."""
+
+    def __init__(self, binding: StateBinding | None, prefix: str) -> None:
+        self.binding = binding
+        self.prefix = prefix
+        self._pending: asyncio.Future | None = None
+
+    @property
+    def store(self) -> StateStore | None:
+        return None if self.binding is None else self.binding.store
+
+    def get(self, name: str) -> Any:
+        return None if self.store is None else self.store.get(f"{self.prefix}/{name}")
+
+    def reject(self, name: str, reason: str) -> None:
+        """A restored section could not be used: logged and kept aside by the store."""
+        if self.store is not None:
+            self.store.reject(f"{self.prefix}/{name}", reason)
+
+    def put(self, name: str, value: Any) -> None:
+        if self.store is not None:
+            self._pending = self.store.put(f"{self.prefix}/{name}", value)
+        elif self.binding is not None:
+            self.binding.changed_unbound = True
+
+    async def durable(self) -> None:
+        """Wait until every section put so far is on disk; a failed write is logged and
+        listed in the store's diagnostics (the change itself stands)."""
+        pending = self._pending  # the latest put: its batch comes after every earlier one
+        if pending is not None:
+            try:
+                await asyncio.shield(pending)
+            except OSError as exc:
+                log.error("%s: not saved to the state folder: %s", self.prefix, exc)

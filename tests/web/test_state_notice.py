@@ -1,0 +1,52 @@
+"""The console says once where the robot's state came from (web/statenotice.js)."""
+
+from __future__ import annotations
+
+from ..helpers import Watcher
+from ..nodes.map_manager.util import MM, poi, request
+from .conftest import READY
+
+NOTICE = "#log li.info .text"
+
+
+async def notices(page) -> list[str]:
+    return [t for t in await page.locator(NOTICE).all_text_contents()
+            if t.startswith(("state restored from", "started fresh in"))]
+
+
+async def test_the_console_says_started_fresh_then_restored_once(make_server, browser,
+                                                                  tmp_path):
+    state = tmp_path / "state"
+    page = browser.pages[0] if browser.pages else await browser.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
+
+    async def console_of_a_server(notice: str):
+        """A server on the test's state folder, and the page on it once it says ``notice``."""
+        server = await make_server(robot="sim", sim_speed=4, map_dir=str(tmp_path / "maps"),
+                                   state_dir=str(state))
+        await page.goto(f"http://127.0.0.1:{server.port}/")
+        await page.wait_for_function(READY, timeout=30_000)
+        await page.wait_for_function(
+            "(notice) => [...document.querySelectorAll('#log li.info .text')]"
+            ".some(e => e.textContent.startsWith(notice))", arg=notice, timeout=10_000)
+        return server
+
+    first = await console_of_a_server("started fresh in")
+    w = await Watcher.open(first.port)
+    await w.client.send({"op": "set_level", "level": "info"})
+    assert (await request(w, f"{MM}/add_poi", "map_messages/PointOfInterest",
+                          poi("kitchen", 3.0, 8.0), "p1"))["level"] == "info"
+    await w.close()
+    await first.stop()
+
+    second = await console_of_a_server("state restored from")
+    # once: further /diagnostics_agg messages (1 Hz) add nothing
+    w = await Watcher.open(second.port)
+    await w.subscribe("/diagnostics_agg")
+    for _ in range(2):
+        await w.next("/diagnostics_agg")
+    await w.close()
+    got = await notices(page)
+    assert len(got) == 1 and "1 POIs" in got[0] and str(state / "sim-office") in got[0], got
+    assert errors == []
