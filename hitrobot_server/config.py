@@ -222,7 +222,8 @@ _HELP = {
     "zenoh_domain": "ROS domain id: the first chunk of every Zenoh key (as ROS_DOMAIN_ID)",
     "workers": "server processes behind the same ports (SO_REUSEPORT), joined over Zenoh "
     "(needs the [zenoh] extra); 'auto' = one per core; 1 = this process alone",
-    "event_loop": "'auto' (uvloop when installed, the [uvloop] extra), 'uvloop' or 'asyncio'",
+    "event_loop": "'auto' (uvloop when installed, the [uvloop] extra, except with --ssl), "
+    "'uvloop' or 'asyncio'",
     "record": "record every bus message into this MCAP file (ROS 2 profile: CDR messages, "
     "ros2msg schemas, zstd chunks) while serving, with an audit channel of client ops",
     "record_topics": "comma-separated fnmatch patterns of topics to record (default: all)",
@@ -334,6 +335,12 @@ def load(args: argparse.Namespace) -> Settings:
         raise ValueError("workers must be a whole number of at least 1, or auto")
     if settings.event_loop not in EVENT_LOOPS:
         raise ValueError(f"event_loop must be one of {', '.join(EVENT_LOOPS)}")
+    if settings.ssl and settings.event_loop == "uvloop":
+        raise ValueError("--ssl runs on asyncio's event loop: uvloop's start_tls loses TLS "
+                         "handshakes taken over from a paused connection (use --event-loop "
+                         "auto or asyncio)")
+    if settings.ssl and settings.event_loop == "auto":
+        settings.event_loop = "asyncio"  # the TLS handshake gate needs asyncio's start_tls
     if settings.status_level not in STATUS_LEVELS:
         raise ValueError(f"status_level must be one of {', '.join(STATUS_LEVELS)}")
     if settings.bus not in BUSES:

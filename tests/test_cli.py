@@ -144,3 +144,11 @@ def test_demo_services_are_off_unless_asked(tmp_path):
     cfg = tmp_path / "server.toml"
     cfg.write_text("demo_services = true\n")
     assert load(build_parser().parse_args(["--config", str(cfg)])).demo_services
+
+
+def test_ssl_runs_on_asyncio_and_refuses_uvloop(tmp_path):
+    """uvloop's start_tls lost handshakes taken over by the TLS gate: --ssl picks asyncio."""
+    args = ["--ssl", "--certfile", str(tmp_path / "c.pem")]
+    assert load(build_parser().parse_args(args)).event_loop == "asyncio"
+    with pytest.raises(ValueError, match="uvloop"):
+        load(build_parser().parse_args([*args, "--event-loop", "uvloop"]))

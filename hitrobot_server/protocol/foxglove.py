@@ -273,7 +273,8 @@ def param_from_wire(entry: dict) -> Any:
         if not isinstance(value, str):
             raise FoxgloveError("setParameters: a 'byte_array' value must be a base64 string")
         try:
-            return base64.b64decode(value, validate=True)
+            # the bus's parameters are JSON (rosapi serves them): the bytes as a list of ints
+            return list(base64.b64decode(value, validate=True))
         except ValueError:
             raise FoxgloveError("setParameters: field 'value' is not valid base64") from None
     if kind == "float64":

@@ -213,12 +213,12 @@ def _gated(gate: HandshakeGate) -> type[ServerConnection]:
     class TlsServerConnection(ServerConnection):
         _upgraded = False
 
-        def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
+            # (uvloop's transports are not asyncio.Transport subclasses, but have its methods)
             address = peer_address(transport)
             if not gate.admit(address):
                 transport.abort()
                 return
-            assert isinstance(transport, asyncio.Transport)
             transport.pause_reading()  # no ClientHello byte may reach the WebSocket parser
             gate.spawn(self._handshake(transport, address))
 
