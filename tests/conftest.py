@@ -1,11 +1,32 @@
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
+
 import pytest
 
 from hitrobot_server.config import Settings
 from hitrobot_server.server import HitrobotServer
 
 from .helpers import ServerProcess, WsClient
+
+_XDG: str | None = None
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """A safety net under the per-server temporary folders: every server this run starts, in
+    process or as a subprocess (which inherits the environment), has its default state and
+    data folders in a temporary directory, never the user's real ones."""
+    global _XDG
+    _XDG = tempfile.mkdtemp(prefix="hitrobot-tests-xdg-")
+    os.environ["XDG_STATE_HOME"] = os.path.join(_XDG, "state")
+    os.environ["XDG_DATA_HOME"] = os.path.join(_XDG, "data")
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    if _XDG is not None:
+        shutil.rmtree(_XDG, ignore_errors=True)
 
 
 @pytest.fixture
