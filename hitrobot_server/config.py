@@ -98,19 +98,13 @@ class Settings:
     @property
     def map_store(self) -> Path:
         """Where map folders are saved: ``--map-dir`` or the per-user data directory."""
-        if self.map_dir:
-            return Path(self.map_dir)
-        base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
-        return Path(base) / "hitrobot-server" / "maps"
+        return Path(self.map_dir) if self.map_dir else _user_data("maps")
 
     @property
     def recordings(self) -> Path:
         """Where ``/record/start`` writes and HTTP serves recordings from: ``--record-dir``
         or the per-user data directory."""
-        if self.record_dir:
-            return Path(self.record_dir)
-        base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
-        return Path(base) / "hitrobot-server" / "recordings"
+        return Path(self.record_dir) if self.record_dir else _user_data("recordings")
 
     @property
     def state_root(self) -> Path:
@@ -167,6 +161,12 @@ class Settings:
             sim_mapping=self.sim_mapping,
             reconn_wait_ms=self.slamware.reconn_wait_ms,
         )
+
+
+def _user_data(name: str) -> Path:
+    """``$XDG_DATA_HOME/hitrobot-server/NAME`` (``~/.local/share`` when unset)."""
+    base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
+    return Path(base) / "hitrobot-server" / name
 
 
 _HELP = {
