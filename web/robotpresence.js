@@ -25,7 +25,9 @@ export class RobotPresence {
 
   poll() {
     this.nodes.callService(new ROSLIB.ServiceRequest({}),
-      (reply) => this.update((reply.nodes || []).includes(NODE)), () => {});
+      // the single robot's node, or a fleet robot's under its /NAME/ namespace
+      (reply) => this.update((reply.nodes || []).some((n) => n === NODE || n.endsWith(NODE))),
+      () => {});
   }
 
   update(present) {
