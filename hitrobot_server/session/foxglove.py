@@ -127,7 +127,7 @@ class FoxgloveSession:
         self.origin = Origin(self.node)
         self.outbox = Outbox(settings.send_buffer_limit)
         self.closed = False
-        self.close_reason = ""  # the rosbridge session's reply budget closes with a reason; none here
+        self.close_reason = ""  # the transport closes with it (1008) when set; never set here
         self.on_close: list[Callable[[FoxgloveSession], None]] = []
         self.channels: dict[int, str] = {}  # channel id advertised to this client → topic
         self.subs: dict[int, str] = {}  # subscription id → topic
