@@ -29,6 +29,7 @@ from ..protocol import foxglove as fg
 from ..types.registry import MsgType, SrvType, UnknownType
 from .options import SessionOptions
 from .outbox import Frames, Outbox
+from .session import release_client
 
 log = logging.getLogger(__name__)
 _client_ids = itertools.count(1)
@@ -551,10 +552,5 @@ class FoxgloveSession:
             self.bus.params.watchers.remove(self._param_changed)
         for sub_id in list(self.subs):
             self._unsubscribe(sub_id)
-        for task in list(self._tasks):
-            task.cancel()
-        self.bus.remove_owner(self)
-        self.bus.unregister_node(self.node)
-        for callback in self.on_close:
-            callback(self)
+        release_client(self, self._tasks)
         log.info("foxglove client %s (%s) disconnected", self.node, self.peer or "?")

@@ -430,12 +430,19 @@ class Session:
         self.service_ops.close()
         self.action_ops.close()
         self.publishing.close()
-        for task in list(self._tasks):
-            task.cancel()
-        self.bus.remove_owner(self)
-        self.bus.unregister_node(self.node)
-        for callback in self.on_close:
-            callback(self)
-        self.on_close.clear()
+        release_client(self, self._tasks)
         self._handlers.clear()  # bound methods of the op objects: session ↔ ops cycles
         log.info("client %s (%s) disconnected", self.node, self.peer or "?")
+
+
+def release_client(client, tasks: set[asyncio.Task]) -> None:
+    """What every client session (rosbridge or Foxglove) gives back when its connection goes:
+    its tasks, what it owns on the bus and its node; then its close callbacks run once and are
+    dropped (they hold the server: no cycle outlives the session)."""
+    for task in list(tasks):
+        task.cancel()
+    client.bus.remove_owner(client)
+    client.bus.unregister_node(client.node)
+    for callback in client.on_close:
+        callback(client)
+    client.on_close.clear()
