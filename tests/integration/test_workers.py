@@ -21,6 +21,7 @@ from websockets.asyncio.client import connect
 from hitrobot_server.server import WORKER_HEADER
 
 from ..helpers import ServerProcess, TcpClient, WsClient, round_trip
+from ..helpers import until as until_true  # an in-process condition (the other: a round trip)
 from ..transport.test_tls import cert  # noqa: F401  (the self-signed certificate fixture)
 from .test_zenoh_scale_out import rosapi, until, until_listed
 
@@ -303,10 +304,8 @@ async def test_workers_stop_when_the_parent_is_killed():
     pids = worker_pids(server.proc.pid)
     server.proc.kill()  # no chance to stop them: they see their stdin close
     server.proc.wait(10)
-    deadline = time.monotonic() + 20
-    while not all(_gone(p) for p in pids):
-        assert time.monotonic() < deadline, "the workers outlived their parent"
-        await asyncio.sleep(0.1)
+    await until_true(lambda: all(_gone(p) for p in pids), "the workers ending with their parent",
+                     20)
 
 
 def _worker_index(pid: int) -> str | None:

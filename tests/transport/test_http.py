@@ -18,7 +18,7 @@ from hitrobot_server.transport.http import (
     missing_libraries,
 )
 
-from ..helpers import WsClient
+from ..helpers import WsClient, until
 
 REPO = Path(__file__).resolve().parents[2]
 WEB = REPO / "web"
@@ -200,11 +200,9 @@ async def test_a_page_load_logs_nothing_at_info(server, caplog):
     for path in files:
         status, _, _ = await http(server.port, "GET", path)
         assert status == 200, path
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + 10
-    while sum(r.getMessage() == "connection closed" for r in caplog.records) < len(files):
-        assert loop.time() < deadline, "the server did not see every connection close"
-        await asyncio.sleep(0.01)
+    await until(
+        lambda: sum(r.getMessage() == "connection closed" for r in caplog.records) >= len(files),
+        "the server seeing every connection close", 10)
     info = [r.getMessage() for r in caplog.records
             if r.name.startswith("websockets") and r.levelno >= logging.INFO]
     assert info == []
@@ -216,9 +214,6 @@ async def test_a_websocket_connection_still_logs_at_info(server, caplog):
     caplog.set_level(logging.INFO, logger="websockets")
     client = await WsClient.open(server.port)
     await client.close()
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + 10
-    while not any(r.getMessage() == "connection closed" for r in caplog.records):
-        assert loop.time() < deadline, "the server did not log the WebSocket's close"
-        await asyncio.sleep(0.01)
+    await until(lambda: any(r.getMessage() == "connection closed" for r in caplog.records),
+                "the server logging the WebSocket's close", 10)
     assert any(r.getMessage() == "connection open" for r in caplog.records)
