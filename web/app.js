@@ -177,10 +177,11 @@ function main() {
   if (!ros.isConnected) setOnline(false);
 
   // ---- no robot behind the bridge (--robot none, or its server gone): say so, and disable
-  // everything that would drive or change it (the view, layers and inspector keep working)
+  // everything that would drive or change it (the view, layers, inspector and whatever is
+  // marked data-robotless, such as the recordings panel, keep working)
   const robotControls = () => [...document.querySelectorAll(
     '.side button:not([data-tab]):not([data-tool]), .side input:not([data-layer]), .side select')]
-    .filter((c) => !c.closest('[data-tab-panel=inspect]') && c.id !== 'maps-refresh');
+    .filter((c) => !c.closest('[data-tab-panel=inspect], [data-robotless]') && c.id !== 'maps-refresh');
   const presence = new RobotPresence({
     ros,
     onChange: (present, seen) => {

@@ -44,7 +44,9 @@ export class Recordings {
     this.startButton = el('button', { type: 'button', id: 'record-start', title: 'Record every topic into a new file in the recordings folder (/record/start)', onclick: () => this.onStart() }, 'Start recording');
     this.stopButton = el('button', { type: 'button', id: 'record-stop', class: 'danger', disabled: true, onclick: () => this.onStop() }, 'Stop');
     this.list = el('ul', { class: 'recordings', id: 'recording-list' }, el('li', { class: 'empty' }, '–'));
-    this.panel = el('section', { class: 'panel', id: 'recordings-panel' },
+    // recording needs no robot (a bridge alone records its clients' topics): never disabled
+    // by the console's robot-presence check
+    this.panel = el('section', { class: 'panel', id: 'recordings-panel', dataset: { robotless: '' } },
       el('h2', {}, 'Recordings ', el('button', { type: 'button', class: 'small', id: 'recordings-refresh', title: 'List again', onclick: () => this.refresh() }, '↻')),
       this.state, el('div', { class: 'buttons' }, this.startButton, this.stopButton), this.list);
     parent.append(this.panel);

@@ -79,6 +79,9 @@ async def test_the_recordings_panel_starts_stops_lists_and_downloads(browser, ma
     await page.click(".tabs [data-tab=status]")
     await page.wait_for_selector("#record-state[data-recording=false]", timeout=20_000)
     await page.wait_for_selector("#recording-list li.empty", timeout=10_000)
+    # --robot none: the console says "no robot" and disables robot actions, not recording
+    await page.wait_for_selector("body.no-robot", timeout=10_000)
+    assert not await page.is_disabled("#record-start")
 
     await page.click("#record-start")
     await page.wait_for_selector("#record-state[data-recording=true]", timeout=10_000)
