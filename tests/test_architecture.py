@@ -44,6 +44,20 @@ ALLOWED: dict[str, set[str]] = {
 # Known upward imports, each with its reason. Empty: keep it so.
 EXCEPTIONS: dict[tuple[str, str], str] = {}
 
+# Inside nodes/ (ARCHITECTURE.md, "Inside nodes/"): each module or package of nodes/ is one
+# node, except the ground floor below them all and the assembly above them all. A node imports
+# the ground and itself, never another node; the ground imports no node; only the assembly
+# imports nodes. base.py (Node, RobotNode) and options.py (NodeOptions) belong to the ground but
+# stay at nodes/ top: the floors above name them (server, robots, config).
+NODES_GROUND = {"ground", "base", "options"}
+NODES_ASSEMBLY = "assembly"
+# Known node → node imports, each with its reason.
+NODE_EXCEPTIONS: dict[tuple[str, str], str] = {
+    ("shell", "move_base"): "the shell's `cancel` command cancels the move_base goals through "
+                            "the node the assembly hands it (issue 20 item 2 moves it onto "
+                            "the bus)",
+}
+
 
 def floor_of(module: list[str]) -> str:
     """``['hitrobot_server', 'nodes', 'slamware', 'node']`` → ``'nodes'``."""
@@ -78,6 +92,29 @@ def violations(source: str, module: list[str], is_package: bool) -> list[str]:
             continue
         if dest not in ALLOWED.get(floor, set()) and (floor, dest) not in EXCEPTIONS:
             bad.append(f"{'.'.join(module)} imports {'.'.join(target)} ({floor} → {dest})")
+    return bad
+
+
+def node_of(module: list[str]) -> str | None:
+    """``['hitrobot_server', 'nodes', 'map_manager', 'node']`` → ``'map_manager'``; None
+    outside nodes/ (and for the nodes package itself)."""
+    return module[2] if len(module) > 2 and module[1] == "nodes" else None
+
+
+def node_violations(source: str, module: list[str], is_package: bool) -> list[str]:
+    """A node importing another node, or the ground importing a node (the assembly may)."""
+    here = node_of(module)
+    if here is None or here == NODES_ASSEMBLY:
+        return []
+    bad = []
+    for target in imported_modules(source, module, is_package):
+        dest = node_of(target)
+        if dest is None or dest == here or dest in NODES_GROUND:
+            continue
+        if (here, dest) not in NODE_EXCEPTIONS:
+            kind = "the ground" if here in NODES_GROUND else "a node"
+            bad.append(f"{'.'.join(module)} imports {'.'.join(target)} ({kind} imports node "
+                       f"{dest})")
     return bad
 
 
@@ -127,3 +164,41 @@ def test_the_rule_catches_an_upward_import():
     assert violations("from .. import nodes\n", ["hitrobot_server", "bus"], True)
     assert not violations("from ...bus.core import Bus\n", node, False)
     assert not violations("from . import params\n", node, False)
+
+
+def test_no_node_imports_another_node():
+    bad = []
+    for path, parts, is_package in project_modules():
+        bad += node_violations(path.read_text(encoding="utf-8"), parts, is_package)
+    assert not bad, "node → node imports (share it in nodes/ground, or wire it in assembly):\n" \
+        + "\n".join(bad)
+
+
+def test_node_exceptions_are_still_needed():
+    used = set()
+    for path, parts, is_package in project_modules():
+        for target in imported_modules(path.read_text(encoding="utf-8"), parts, is_package):
+            used.add((node_of(parts), node_of(target)))
+    assert set(NODE_EXCEPTIONS) <= used
+
+
+def test_the_nodes_rule_catches_a_node_importing_another():
+    """The checker itself: a node importing another node (relative, absolute, inside a
+    function) or the ground importing a node is reported; a node importing the ground or its
+    own package, and the assembly importing any node, are not."""
+    patrol = ["hitrobot_server", "nodes", "patrol"]
+    manager = ["hitrobot_server", "nodes", "map_manager", "node"]
+    ground = ["hitrobot_server", "nodes", "ground", "messages"]
+    assert node_violations("from .mapfiles import MapFilesNode\n", patrol, False)
+    assert node_violations("import hitrobot_server.nodes.graph\n", patrol, False)
+    assert node_violations("def f():\n    from ..patrol import PatrolNode\n", manager, False)
+    assert node_violations("from .. import shell\n", ground, False)
+    assert node_violations("from ..assembly import robot_nodes\n", ground, False)
+    assert node_violations("from .assembly import robot_nodes\n", patrol, False)
+    assert not node_violations("from .ground.namedfiles import NamedFiles\n", patrol, False)
+    assert not node_violations("from .base import RobotNode\n", patrol, False)
+    assert not node_violations("from .layers import Grid\n", manager, False)
+    assert not node_violations("from . import mapstore\n", ground, False)
+    assert not node_violations("from ..base import require_finite\n", ground, False)
+    assert not node_violations("from .patrol import PatrolNode\n",
+                               ["hitrobot_server", "nodes", "assembly"], False)

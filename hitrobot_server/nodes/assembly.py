@@ -59,6 +59,10 @@ def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend,
     are site-wide names, so the manager is global though made on the robot's view)."""
     robot = LocomotionBackend(backend, STAND_UP_SECONDS / settings.time_scale)
     frame = settings.slamware.map_frame
+    # Nodes handed to other nodes (no node imports another; they meet here or on the bus):
+    # the shell cancels move_base's goals, navigation reads the map manager's POIs, the route
+    # and graph nodes keep their default files beside the loaded map (mapfiles as MapDefaults)
+    # and locomotion names its map-frame odometry after the loaded map.
     move_base = MoveBaseNode(bus, robot, frame)
     map_manager = site_map or MapManager(bus, robot, settings, state)
     mapfiles = MapFilesNode(bus, robot, settings)
@@ -75,7 +79,7 @@ def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend,
         mapfiles,
         PatrolNode(bus, robot, settings, mapfiles, state),
         GraphNodeService(bus, robot, settings, mapfiles, state),
-        LocomotionNode(bus, robot, settings, lambda: mapfiles.loaded.frame),
+        LocomotionNode(bus, robot, settings, mapfiles.loaded),
     ]
 
 

@@ -13,9 +13,9 @@ import logging
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
-from . import messages as m
 from .base import RobotNode
-from .messages import map_frames, pose2d_of
+from .ground import messages as m
+from .ground.messages import map_frames, pose2d_of
 
 log = logging.getLogger(__name__)
 

@@ -31,8 +31,8 @@ from ..bus.core import Bus
 from ..robot.backend import ACTION_PREFIX, BackendError, NotConnectedError, RobotBackend
 from ..robot.model import HealthLevel
 from ..state import StateBinding, StateStore
-from . import messages as m
 from .base import RobotNode
+from .ground import messages as m
 
 OK, WARN, ERROR, STALE = 0, 1, 2, 3
 LEVEL_WORDS = {OK: "OK", WARN: "Warning", ERROR: "Error", STALE: "Stale"}

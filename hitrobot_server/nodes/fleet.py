@@ -32,8 +32,8 @@ from ..bus.services import STATUS_CANCELED, STATUS_SUCCEEDED, GoalHandle
 from ..bus.topics import RequestRejected
 from ..robot.backend import BackendError, RobotBackend
 from ..robot.model import HealthLevel, Pose2D
-from . import messages as m
 from .base import RobotNode
+from .ground import messages as m
 
 log = logging.getLogger(__name__)
 

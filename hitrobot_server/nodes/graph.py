@@ -29,9 +29,9 @@ from ..robot.model import ActionResult, Point2D
 from ..robot.motion import follow
 from ..state import StateBinding
 from .base import RobotNode
-from .mapfiles import GRAPH_FILE, MapFilesNode
-from .memory import NodeMemory
-from .namedfiles import FileError, NamedFiles, dump_yaml, load_yaml, number
+from .ground.loadedmap import GRAPH_FILE, MapDefaults
+from .ground.memory import NodeMemory
+from .ground.namedfiles import FileError, NamedFiles, dump_yaml, load_yaml, number
 from .options import NodeOptions
 
 log = logging.getLogger(__name__)
@@ -169,7 +169,7 @@ class GraphNodeService(RobotNode):
     """The route graph node."""
 
     def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions,
-                 mapfiles: MapFilesNode, state: StateBinding | None = None):
+                 mapfiles: MapDefaults, state: StateBinding | None = None):
         super().__init__(bus, "/graph", backend)
         self.memory = NodeMemory(state, "graph")
         self.backend: RobotBackend = backend

@@ -66,7 +66,7 @@ from ..robot.model import (
 from ..robot.motion import drive
 from ..robot.relocalization import localize_near
 from .base import RobotNode
-from .messages import GoalRejected, goal_pose, map_frames, pose_stamped, rejected
+from .ground.messages import GoalRejected, goal_pose, map_frames, pose_stamped, rejected
 
 log = logging.getLogger(__name__)
 

@@ -26,15 +26,15 @@ import logging
 import math
 import re
 import time
-from collections.abc import Callable
 
 from ..bus.core import Bus
 from ..bus.errors import BusError
 from ..robot.backend import NotConnectedError
 from ..robot.locomotion import ListenError, LocomotionBackend, parse_listen
 from ..robot.model import Odometry, Pose2D, Twist2D
-from . import messages as m
 from .base import RobotNode
+from .ground import messages as m
+from .ground.loadedmap import LoadedMap
 from .options import NodeOptions
 
 log = logging.getLogger(__name__)
@@ -100,11 +100,11 @@ class LocomotionNode(RobotNode):
     """stand_up, sit_down, set_listen, robot_state, /Odometry and the map-frame odometry."""
 
     def __init__(self, bus: Bus, backend: LocomotionBackend, settings: NodeOptions,
-                 map_name: Callable[[], str]):
+                 loaded_map: LoadedMap):
         super().__init__(bus, "/locomotion", backend)
         self.backend: LocomotionBackend = backend
         self.params = settings.slamware
-        self.map_name = map_name
+        self.loaded_map = loaded_map  # the map-files node's: names the map-frame odometry
         self.map_topic: str | None = None
         self._refused: str | None = None
         self.odom: Odometry | None = None
@@ -156,7 +156,7 @@ class LocomotionNode(RobotNode):
         return str(value) if value not in (None, "") else DEFAULT_ROBOT_ID
 
     def map_odometry_topic(self) -> str:
-        return f"/{topic_part(self.map_name())}/{topic_part(self.robot_id())}/Odometry"
+        return f"/{topic_part(self.loaded_map.frame)}/{topic_part(self.robot_id())}/Odometry"
 
     async def _slow(self) -> None:
         power = await self.backend.get_power_status()

@@ -8,8 +8,9 @@ walls, tracks, home, masks, POIs). A map folder may also hold the map's **defaul
 route file is saved while that map is loaded, and loading the map (through either service) makes
 them the current graph and route, as the SDK's ``loadMap()`` does.
 
-This module also holds :class:`LoadedMap`, which map is loaded (its name is the map frame name
-of waypoints and of the ``/{map_name}/{robot_id}/Odometry`` topic).
+Which map is loaded (:class:`~.ground.loadedmap.LoadedMap`; its name is the map frame name of
+waypoints and of the ``/{map_name}/{robot_id}/Odometry`` topic) is kept here, and handed to the
+route, graph and locomotion nodes by the assembly.
 """
 
 from __future__ import annotations
@@ -23,10 +24,11 @@ from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from .base import RobotNode
-from .map_manager.node import NODE_NAME as MAP_MANAGER
-from .map_manager.store import MapStore, StoreError, write_file
-from .messages import pose2d_of
-from .namedfiles import FileError, list_reply
+from .ground.loadedmap import LoadedMap
+from .ground.mapstore import MapStore, StoreError, write_file
+from .ground.messages import pose2d_of
+from .ground.namedfiles import FileError, list_reply
+from .ground.names import MAP_MANAGER
 from .options import NodeOptions
 
 log = logging.getLogger(__name__)
@@ -34,27 +36,12 @@ log = logging.getLogger(__name__)
 PKG = "hitrobot_msgs"
 LOAD_MAP_TOPIC = f"{MAP_MANAGER}/load_map"
 LOADED_PREFIX = "load_map: loaded map"
-GRAPH_FILE = "graph.yaml"
-ROUTE_FILE = "route.yaml"
-DEFAULT_MAP_NAME = "map"
 LOAD_TIMEOUT = 60.0
 
 
-class LoadedMap:
-    """Which saved map is loaded (None until one is); listeners hear every load."""
-
-    def __init__(self) -> None:
-        self.name: str | None = None
-        self.listeners: list[Callable[[str], None]] = []
-
-    @property
-    def frame(self) -> str:
-        """The map frame name: the loaded map's name, or ``map``."""
-        return self.name or DEFAULT_MAP_NAME
-
-
 class MapFilesNode(RobotNode):
-    """``list_map_files``, ``load_laser_map`` and ``set_map`` over the map manager's store."""
+    """``list_map_files``, ``load_laser_map`` and ``set_map`` over the map manager's store;
+    the route and graph nodes see it as their :class:`~.ground.loadedmap.MapDefaults`."""
 
     def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions):
         super().__init__(bus, "/map_files", backend)
@@ -142,8 +129,6 @@ class MapFilesNode(RobotNode):
     def _loaded(self, name: str) -> list[str]:
         """A map was loaded: remember it and apply its default graph and route."""
         self.loaded.name = name
-        for listener in list(self.loaded.listeners):
-            listener(name)
         notes = []
         for filename, apply in self.defaults.items():
             try:

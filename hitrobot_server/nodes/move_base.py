@@ -35,9 +35,9 @@ from ..robot import motion
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import MoveOptions, Point2D, Pose2D
 from ..robot.motion import GOAL_FLAGS, cancel_if_current, watch
-from . import messages as m
 from .base import RobotNode
-from .messages import map_frames, pose2d_of
+from .ground import messages as m
+from .ground.messages import map_frames, pose2d_of
 
 log = logging.getLogger(__name__)
 

@@ -59,9 +59,9 @@ from ..robot.model import (
     Pose2D,
 )
 from ..robot.motion import drive
-from . import messages as m
 from .base import RobotNode
-from .messages import GoalRejected, goal_pose, map_frames, pose_stamped, rejected
+from .ground import messages as m
+from .ground.messages import GoalRejected, goal_pose, map_frames, pose_stamped, rejected
 
 log = logging.getLogger(__name__)
 

@@ -26,8 +26,8 @@ from ..bus.topics import Message, RequestRejected
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from ..robot.model import ActionResult, MoveOptionFlag, MoveOptions, Point2D, Rect
 from ..robot.motion import follow
-from . import messages as m
 from .base import RobotNode, require_finite
+from .ground import messages as m
 
 NODE_NAME = "/navigation"
 PKG = "map_messages"

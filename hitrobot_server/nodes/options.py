@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..bus.names import GlobFilter, access_filters
-from .slamware.params import SlamwareParams
+from .ground.slamware_params import SlamwareParams
 
 
 @dataclass

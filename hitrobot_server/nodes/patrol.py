@@ -37,9 +37,9 @@ from ..robot.model import ActionInfo, ActionResult, Point2D
 from ..robot.motion import cancel_if_current, follow
 from ..state import StateBinding
 from .base import RobotNode
-from .mapfiles import ROUTE_FILE, MapFilesNode
-from .memory import NodeMemory
-from .namedfiles import FileError, NamedFiles, dump_yaml, list_reply, load_yaml, number
+from .ground.loadedmap import ROUTE_FILE, MapDefaults
+from .ground.memory import NodeMemory
+from .ground.namedfiles import FileError, NamedFiles, dump_yaml, list_reply, load_yaml, number
 from .options import NodeOptions
 
 log = logging.getLogger(__name__)
@@ -122,7 +122,7 @@ class PatrolNode(RobotNode):
     """``planning/*``: the current route, route files and the patrol loop."""
 
     def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions,
-                 mapfiles: MapFilesNode, state: StateBinding | None = None):
+                 mapfiles: MapDefaults, state: StateBinding | None = None):
         super().__init__(bus, NS, backend)
         self.memory = NodeMemory(state, "patrol")
         self.backend: RobotBackend = backend

@@ -46,8 +46,8 @@ import numpy as np
 from ..bus.core import Bus
 from ..robot.backend import RobotBackend
 from ..robot.model import LaserScan
-from . import messages as m
 from .base import RobotNode
+from .ground import messages as m
 
 log = logging.getLogger(__name__)
 

@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from hitrobot_server.nodes.messages import yaw_of
+from hitrobot_server.nodes.ground.messages import yaw_of
 
 from .robot_setup import RobotSetup
 

@@ -10,7 +10,7 @@ import threading
 import pytest
 import roslibpy
 
-from hitrobot_server.nodes.messages import yaw_of
+from hitrobot_server.nodes.ground.messages import yaw_of
 
 from ..helpers import Watcher, WsClient
 from .robot_setup import RobotSetup

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from hitrobot_server.nodes.namedfiles import (
+from hitrobot_server.nodes.ground.namedfiles import (
     FileError,
     NamedFiles,
     check_name,

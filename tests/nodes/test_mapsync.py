@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hitrobot_server.nodes.mapsync import GROW_MARGIN, MapHolder, tiles, window
+from hitrobot_server.nodes.ground.mapsync import GROW_MARGIN, MapHolder, tiles, window
 from hitrobot_server.robot.model import MapRegion, Rect
 
 

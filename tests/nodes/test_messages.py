@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from hitrobot_server.nodes import messages as m
+from hitrobot_server.nodes.ground import messages as m
 from hitrobot_server.robot.model import (
     BasicSensorInfo,
     BasicSensorValue,

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from hitrobot_server.nodes.messages import yaw_of
+from hitrobot_server.nodes.ground.messages import yaw_of
 from hitrobot_server.nodes.nav2_actions import PathProgress, resample, simplify
 from hitrobot_server.robot.model import Point2D
 from hitrobot_server.robot.sim.world import load_world

@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from hitrobot_server.nodes.messages import yaw_of
+from hitrobot_server.nodes.ground.messages import yaw_of
 from hitrobot_server.robot.sim.world import load_world
 
 from ..helpers import Watcher
@@ -394,7 +394,7 @@ async def test_invalid_requests_get_status_errors_and_change_nothing(robot):
 
 
 async def test_parameters_tf_and_device_info(start_robot):
-    from hitrobot_server.nodes.slamware import SlamwareParams
+    from hitrobot_server.nodes.options import SlamwareParams
 
     server = await start_robot(slamware=SlamwareParams(scan_pub_period=0.0,
                                                        map_frame="/slamware_map"))

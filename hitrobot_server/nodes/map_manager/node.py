@@ -27,10 +27,12 @@ from ...bus.topics import Message, RequestRejected
 from ...robot.backend import BackendError, NotConnectedError, RobotBackend
 from ...robot.model import ArtifactUsage, Line, MapRegion, Point2D, Pose2D, Rect
 from ...state import StateBinding
-from .. import messages as m
 from ..base import RobotNode
-from ..mapsync import MapHolder, tiles
-from ..memory import NodeMemory
+from ..ground import messages as m
+from ..ground.mapstore import MapStore, StoreError
+from ..ground.mapsync import MapHolder, tiles
+from ..ground.memory import NodeMemory
+from ..ground.names import MAP_MANAGER
 from ..options import NodeOptions
 from . import mapio
 from .layers import (
@@ -47,11 +49,10 @@ from .layers import (
     scan_hits,
 )
 from .pois import PoiError, PoiRegistry
-from .store import MapStore, StoreError
 
 log = logging.getLogger(__name__)
 
-NODE_NAME = "/map_manager"
+NODE_NAME = MAP_MANAGER
 PKG = "map_messages"
 MAP_TOPIC = "/map"
 MAP_FRAME = "/map"

@@ -1,6 +1,5 @@
 """The ``slamware_ros_sdk_server_node`` interface on the bus, backed by any RobotBackend."""
 
 from .node import NODE_NAME, SlamwareNode
-from .params import SlamwareParams
 
-__all__ = ["NODE_NAME", "SlamwareNode", "SlamwareParams"]
+__all__ = ["NODE_NAME", "SlamwareNode"]

@@ -34,10 +34,10 @@ from ...robot.model import (
 )
 from ...robot.motion import GOAL_FLAGS, follow
 from ...robot.relocalization import GOOD_QUALITY, settled_quality
-from .. import messages as m
 from ..base import RobotNode, require_finite
-from ..mapsync import MapHolder, tiles, window
-from .params import SlamwareParams
+from ..ground import messages as m
+from ..ground.mapsync import MapHolder, tiles, window
+from ..ground.slamware_params import SlamwareParams
 
 log = logging.getLogger(__name__)
 

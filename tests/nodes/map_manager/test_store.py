@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from hitrobot_server.nodes.map_manager.store import (
+from hitrobot_server.nodes.ground.mapstore import (
     MAX_NAME_LENGTH,
     MapStore,
     StoreError,
@@ -88,7 +88,7 @@ def test_failed_save_leaves_the_old_folder(tmp_path, monkeypatch):
             raise OSError(28, "No space left on device")
         write_file(path, data)
 
-    monkeypatch.setattr("hitrobot_server.nodes.map_manager.store.write_file", broken)
+    monkeypatch.setattr("hitrobot_server.nodes.ground.mapstore.write_file", broken)
     with pytest.raises(StoreError, match="No space left"):
         store.save("m", {"a": b"new", "b": b"new"})
     assert store.read("m", "a") == b"old"

@@ -64,7 +64,7 @@ async def modify_map(w: Watcher, op_id: str, region: list[dict], action: int,
 
 
 def current(w: Watcher) -> tuple[float, float, float]:
-    from hitrobot_server.nodes.messages import yaw_of
+    from hitrobot_server.nodes.ground.messages import yaw_of
 
     p = w.latest(f"{NS}/odom")["pose"]["pose"]
     return p["position"]["x"], p["position"]["y"], yaw_of(p["orientation"])

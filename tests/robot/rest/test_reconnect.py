@@ -7,7 +7,7 @@ import asyncio
 import logging
 import time
 
-from hitrobot_server.nodes.slamware import SlamwareParams
+from hitrobot_server.nodes.options import SlamwareParams
 from hitrobot_server.robot.factory import build_simulator
 from hitrobot_server.robot.rest.device import SimDevice
 

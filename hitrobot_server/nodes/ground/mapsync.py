@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from ..robot.model import MapRegion, Rect
+from ...robot.model import MapRegion, Rect
 from .messages import OCCUPANCY_LUT
 
 GROW_MARGIN = 32  # cells added around the map whenever it grows

@@ -11,11 +11,11 @@ import math
 
 import numpy as np
 
-from ..bus.clock import ros_time, wall_clock
-from ..bus.names import canonical
-from ..bus.services import STATUS_ABORTED, GoalOutcome
-from ..bus.topics import RequestRejected
-from ..robot.model import (
+from ...bus.clock import ros_time, wall_clock
+from ...bus.names import canonical
+from ...bus.services import STATUS_ABORTED, GoalOutcome
+from ...bus.topics import RequestRejected
+from ...robot.model import (
     BasicSensorInfo,
     BasicSensorValue,
     DeviceInfo,
@@ -25,7 +25,7 @@ from ..robot.model import (
     Pose2D,
     SensorType,
 )
-from .base import require_finite
+from ..base import require_finite
 
 TWO_PI = 2.0 * math.pi
 COMPENSATED_BINS = 360

@@ -2,8 +2,7 @@
 
 :class:`NamedFiles` is a folder of ``<name>.yaml`` files (names validated by the map store's
 own rule, atomic writes); the helpers read and write the versioned YAML documents and answer
-the ``list_*_files`` services. Below the route, graph and map-file nodes so none imports another
-for them.
+the ``list_*_files`` services.
 """
 
 from __future__ import annotations
@@ -14,7 +13,7 @@ from pathlib import Path
 
 import yaml
 
-from .map_manager.store import StoreError, remove_leftovers, validate_name, write_file
+from .mapstore import StoreError, inside, remove_leftovers, validate_name, write_file
 
 SUFFIX = ".yaml"
 
@@ -42,10 +41,8 @@ class NamedFiles:
         return [path.name for path in remove_leftovers(self.root)]
 
     def path(self, name: str) -> Path:
-        check_name(name)
-        root = self.root.resolve()
-        path = (root / f"{name}{SUFFIX}").resolve()
-        if path.parent != root:
+        path = inside(self.root, check_name(name) + SUFFIX)
+        if path is None:
             raise FileError(f"file name {name!r} leaves the store")
         return path
 

@@ -1,4 +1,6 @@
-"""Map folders on disk: one folder per saved map under the store (``--map-dir``).
+"""Map folders on disk: one folder per saved map under the store (``--map-dir``); the map
+manager saves them and the map-files node reads them. Its name rule, atomic write and
+containment check are also those of the route and graph folders (``namedfiles.py``).
 
 A folder name is a plain name, never a path: it is validated before anything touches the disk,
 and the resolved folder is checked to lie directly inside the store. Writing is atomic twice
@@ -48,6 +50,14 @@ def validate_name(name: str) -> str:
         raise StoreError(f"map folder name {name!r} may only use letters, digits, '_', '-', "
                          "'.' and inner spaces")
     return name
+
+
+def inside(root: Path, entry: str) -> Path | None:
+    """``root / entry`` resolved, or None when it does not lie directly inside ``root`` (a
+    link pointing elsewhere): what keeps every store's names from leaving its folder."""
+    root = root.resolve()
+    path = (root / entry).resolve()
+    return path if path.parent == root else None
 
 
 def write_file(path: Path, data: bytes) -> None:
@@ -101,10 +111,8 @@ class MapStore:
 
     def folder(self, name: str) -> Path:
         """The folder of map ``name`` (validated; guaranteed to be inside the store)."""
-        validate_name(name)
-        root = self.root.resolve()
-        path = (root / name).resolve()
-        if path.parent != root:
+        path = inside(self.root, validate_name(name))
+        if path is None:
             raise StoreError(f"map folder name {name!r} leaves the map store")
         return path
 

@@ -12,7 +12,7 @@ import asyncio
 import logging
 from typing import Any
 
-from ..state import StateBinding, StateStore
+from ...state import StateBinding, StateStore
 
 log = logging.getLogger(__name__)
 

@@ -1,0 +1,3 @@
+"""Names of nodes that other nodes address on the bus (a name, never the node's module)."""
+
+MAP_MANAGER = "/map_manager"
