@@ -8,8 +8,9 @@ import logging
 
 from ..protocol.errors import ProtocolError
 from ..protocol.jsonstream import JsonStreamDecoder
+from ..session.session import Session
+from .connection import DIRECT_WRITE_LIMIT, SessionFactory, keep_reading, run_session
 from .tls import HandshakeGate
-from .websocket import DIRECT_WRITE_LIMIT, SessionFactory, limit_unsent, pump, wait_for_room
 
 log = logging.getLogger(__name__)
 
@@ -33,7 +34,6 @@ async def start_tcp(
         if tls is not None and not await _handshake(tls, writer, address):
             return
         session = new_session(address, "tcp")
-        limit_unsent(writer.get_extra_info("socket"))
 
         async def send_frame(data: bytes, binary: bool) -> None:
             writer.write(data + b"\n")
@@ -45,20 +45,11 @@ async def start_tcp(
             writer.writelines([part for data, _binary in frames for part in (data, b"\n")])
             return True
 
-        if delay_between_messages <= 0:
-            session.outbox.direct = direct
-
-        out = asyncio.create_task(pump(session, send_frame, delay_between_messages))
-        inp = asyncio.create_task(_read(reader, session, max_frame_size))
         try:
-            await asyncio.wait({out, inp}, return_when=asyncio.FIRST_COMPLETED)
-            if session.outbox.closed and not out.done():  # the session asked to close: flush
-                await asyncio.wait({out}, timeout=2.0)
+            await run_session(session, _read(reader, session, max_frame_size),
+                              sock=writer.get_extra_info("socket"), send_frame=send_frame,
+                              direct=direct, delay=delay_between_messages)
         finally:
-            session.close()
-            inp.cancel()
-            if not out.done():
-                out.cancel()
             writer.close()
             with contextlib.suppress(ConnectionError, OSError):
                 await writer.wait_closed()
@@ -85,7 +76,7 @@ async def _handshake(gate: HandshakeGate, writer: asyncio.StreamWriter, address:
     return True
 
 
-async def _read(reader: asyncio.StreamReader, session, max_frame_size: int) -> None:
+async def _read(reader: asyncio.StreamReader, session: Session, max_frame_size: int) -> None:
     decoder = JsonStreamDecoder(max_message_size=max_frame_size)
     try:
         while True:
@@ -99,10 +90,7 @@ async def _read(reader: asyncio.StreamReader, session, max_frame_size: int) -> N
                     pending = session.handle(item)
                     if pending is not None:
                         await pending
-            if session.outbox.closed:
-                return
-            await wait_for_room(session)
-            if session.outbox.closed:
+            if not await keep_reading(session):
                 return
     except (ConnectionError, OSError):
         return

@@ -11,10 +11,8 @@ decisions.md asks: one port for the page and the bridge.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import inspect
 import logging
-import socket
 from collections.abc import Awaitable, Callable, Sequence
 
 from websockets.asyncio.server import Server, ServerConnection, broadcast, serve
@@ -25,46 +23,25 @@ from websockets.typing import Subprotocol
 
 from ..protocol.foxglove import SUBPROTOCOLS
 from ..session.foxglove import FoxgloveSession
-from ..session.session import Session
+from .connection import (
+    DIRECT_WRITE_LIMIT,
+    ClientSession,
+    SessionFactory,
+    keep_reading,
+    run_session,
+)
 from .http import QuietHttpLog
 from .tls import HandshakeGate, peer_address
 
 log = logging.getLogger(__name__)
 
-SessionFactory = Callable[[str, str], Session]
 FoxgloveFactory = Callable[[str, str], FoxgloveSession]  # (peer, subprotocol)
-ClientSession = Session | FoxgloveSession
 HttpHandler = Callable[[ServerConnection, Request], Response | Awaitable[Response] | None]
 
-
-# Above this many bytes in a socket's write buffer, frames wait in the outbox instead.
-DIRECT_WRITE_LIMIT = 64 * 1024
 # A message bigger than this goes out as WebSocket continuation frames of this size, so that
 # writing a 40 MB map is many short steps of the event loop instead of one of 100+ ms. Clients
 # see one message (RFC 6455 fragmentation, reassembled by every WebSocket implementation).
 CHUNK_BYTES = 1024 * 1024
-# Unsent bytes the kernel may hold per client socket. Beyond it frames wait in the outbox,
-# where the fair scheduler still chooses among them: a slow link's pose is not stuck behind
-# megabytes of map already handed to the kernel (TCP_NOTSENT_LOWAT, Linux and macOS).
-NOTSENT_LOWAT = 64 * 1024
-_TCP_NOTSENT_LOWAT = getattr(socket, "TCP_NOTSENT_LOWAT", None)
-
-
-def limit_unsent(sock) -> None:
-    """Keep the kernel's queue of unsent bytes short for this client (see NOTSENT_LOWAT)."""
-    if sock is None or _TCP_NOTSENT_LOWAT is None or sock.family not in (
-        socket.AF_INET, socket.AF_INET6
-    ):
-        return
-    with contextlib.suppress(OSError):
-        sock.setsockopt(socket.IPPROTO_TCP, _TCP_NOTSENT_LOWAT, NOTSENT_LOWAT)
-
-
-async def wait_for_room(session: Session) -> None:
-    """Backpressure: read no more input while the client's unread replies are over budget."""
-    room = session.outbox.room
-    if not room.is_set():
-        await room.wait()
 
 
 def choose_subprotocol(offered: Sequence[str], foxglove: bool) -> str | None:
@@ -75,23 +52,6 @@ def choose_subprotocol(offered: Sequence[str], foxglove: bool) -> str | None:
             if name in SUBPROTOCOLS:
                 return name
     return None
-
-
-async def pump(session: ClientSession, send_frame, delay: float) -> None:
-    """Drain the session's outbox into the connection until it closes."""
-    outbox = session.outbox
-    try:
-        while True:
-            frames = await outbox.get()
-            if frames is None:
-                return
-            for data, binary in frames:
-                await send_frame(data, binary)
-                if delay > 0:
-                    await asyncio.sleep(delay)
-            outbox.sent()
-    except (ConnectionClosed, ConnectionError, OSError):
-        return  # the peer went away mid-send; the reader side closes the session
 
 
 def direct_writer(ws: ServerConnection):
@@ -145,9 +105,6 @@ async def start_websocket(
             session = new_foxglove(peer, ws.subprotocol)
         else:
             session = new_session(peer, "ws")
-        limit_unsent(ws.transport.get_extra_info("socket") if ws.transport else None)
-        if delay_between_messages <= 0:
-            session.outbox.direct = direct_writer(ws)
 
         async def send_frame(data: bytes, binary: bool) -> None:
             if len(data) > CHUNK_BYTES:
@@ -157,17 +114,12 @@ async def start_websocket(
             else:
                 await ws.send(data, text=not binary)
 
-        writer = asyncio.create_task(pump(session, send_frame, delay_between_messages))
-        reader = asyncio.create_task(_read(ws, session))
         try:
-            await asyncio.wait({writer, reader}, return_when=asyncio.FIRST_COMPLETED)
-            if session.outbox.closed and not writer.done():  # the session asked to close: flush
-                await asyncio.wait({writer}, timeout=2.0)
+            await run_session(session, _read(ws, session),
+                              sock=ws.transport.get_extra_info("socket") if ws.transport else None,
+                              send_frame=send_frame, direct=direct_writer(ws),
+                              delay=delay_between_messages)
         finally:
-            session.close()
-            reader.cancel()
-            if not writer.done():
-                writer.cancel()
             if session.close_reason:  # 1008: policy violation, with the reason
                 await ws.close(1008, session.close_reason[:120])
             else:
@@ -241,10 +193,7 @@ async def _read(ws: ServerConnection, session: ClientSession) -> None:
             pending = session.receive(frame, binary=isinstance(frame, bytes))
             if pending is not None:  # a big op in the worker pool: the next frame waits for it
                 await pending
-            if session.outbox.closed:
-                return
-            await wait_for_room(session)
-            if session.outbox.closed:
+            if not await keep_reading(session):
                 return
     except ConnectionClosed:
         pass

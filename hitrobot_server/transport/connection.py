@@ -1,0 +1,95 @@
+"""One client connection's life, shared by the WebSocket and TCP transports: the socket's
+kernel queue kept short, the session's outbox pumped into the connection, its input read under
+backpressure, and the session flushed and closed when either side ends.
+
+The transports only say how bytes leave (``send_frame``, ``direct``) and come in (``read``);
+the order of the steps, the close flush and the release live here once.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import socket
+from collections.abc import Awaitable, Callable, Coroutine
+from typing import Any
+
+from websockets.exceptions import ConnectionClosed
+
+from ..session.foxglove import FoxgloveSession
+from ..session.session import Session
+
+ClientSession = Session | FoxgloveSession
+SessionFactory = Callable[[str, str], Session]  # (peer, transport name)
+SendFrame = Callable[[bytes, bool], Awaitable[None]]  # (data, binary)
+DirectWrite = Callable[[list], bool]  # frames written now, or False: the pump sends them
+
+# Above this many bytes in a socket's write buffer, frames wait in the outbox instead.
+DIRECT_WRITE_LIMIT = 64 * 1024
+# Unsent bytes the kernel may hold per client socket. Beyond it frames wait in the outbox,
+# where the fair scheduler still chooses among them: a slow link's pose is not stuck behind
+# megabytes of map already handed to the kernel (TCP_NOTSENT_LOWAT, Linux and macOS).
+NOTSENT_LOWAT = 64 * 1024
+_TCP_NOTSENT_LOWAT = getattr(socket, "TCP_NOTSENT_LOWAT", None)
+# How long a session that asked to close (an error it reports, a refusal) may flush its outbox.
+CLOSE_FLUSH_SECONDS = 2.0
+
+
+def limit_unsent(sock) -> None:
+    """Keep the kernel's queue of unsent bytes short for this client (see NOTSENT_LOWAT)."""
+    if sock is None or _TCP_NOTSENT_LOWAT is None or sock.family not in (
+        socket.AF_INET, socket.AF_INET6
+    ):
+        return
+    with contextlib.suppress(OSError):
+        sock.setsockopt(socket.IPPROTO_TCP, _TCP_NOTSENT_LOWAT, NOTSENT_LOWAT)
+
+
+async def keep_reading(session: ClientSession) -> bool:
+    """After one input: False once the session closed; otherwise wait while the client's
+    unread replies are over budget (backpressure: no more input is read meanwhile)."""
+    if session.outbox.closed:
+        return False
+    room = session.outbox.room
+    if not room.is_set():
+        await room.wait()
+    return not session.outbox.closed
+
+
+async def pump(session: ClientSession, send_frame: SendFrame, delay: float) -> None:
+    """Drain the session's outbox into the connection until it closes."""
+    outbox = session.outbox
+    try:
+        while True:
+            frames = await outbox.get()
+            if frames is None:
+                return
+            for data, binary in frames:
+                await send_frame(data, binary)
+                if delay > 0:
+                    await asyncio.sleep(delay)
+            outbox.sent()
+    except (ConnectionClosed, ConnectionError, OSError):
+        return  # the peer went away mid-send; the reader side closes the session
+
+
+async def run_session(session: ClientSession, read: Coroutine[Any, Any, None], *, sock,
+                      send_frame: SendFrame, direct: DirectWrite, delay: float) -> None:
+    """Serve one connection's session until the client or the session ends it: ``read``
+    feeds the session, the outbox goes out by ``direct`` writes while the socket keeps up (not
+    with a delay between messages) and by ``send_frame`` otherwise. Returns with the session
+    closed; the caller then closes its connection."""
+    limit_unsent(sock)
+    if delay <= 0:
+        session.outbox.direct = direct
+    writer = asyncio.create_task(pump(session, send_frame, delay))
+    reader = asyncio.create_task(read)
+    try:
+        await asyncio.wait({writer, reader}, return_when=asyncio.FIRST_COMPLETED)
+        if session.outbox.closed and not writer.done():  # the session asked to close: flush
+            await asyncio.wait({writer}, timeout=CLOSE_FLUSH_SECONDS)
+    finally:
+        session.close()
+        reader.cancel()
+        if not writer.done():
+            writer.cancel()
