@@ -10,7 +10,7 @@ from __future__ import annotations
 import asyncio
 import logging
 from collections.abc import Callable, Hashable, Iterable
-from typing import Any
+from typing import Any, TypeVar
 
 from ..types.registry import TypeRegistry, UnknownType
 from .action_interfaces import ActionInterfaces
@@ -34,6 +34,7 @@ from .tap import BusTap, ClientOp
 from .topics import Message, Origin, Reply, Subscriber, Topic
 
 log = logging.getLogger(__name__)
+T = TypeVar("T")
 
 
 class Bus:
@@ -88,10 +89,7 @@ class Bus:
             if topic is None:
                 raise BusError(f"topic '{name}' does not exist and no type was given")
             return topic
-        try:
-            mtype = self.types.msg(type_name)
-        except UnknownType as exc:
-            raise BusError(str(exc.args[0] if exc.args else exc)) from None
+        mtype = _known_type(self.types.msg, type_name)
         if topic is None:
             topic = self.topics[name] = Topic(name, mtype, self.types, latch)
         elif topic.mtype is not mtype and topic.mtype.name != mtype.name:
@@ -243,15 +241,8 @@ class Bus:
         that replaced it goes (:meth:`unadvertise_service`)."""
         name = canonical(name)
         current = self.services.get(name)
-        if client and current is not None and not current.client:
-            raise BusError(
-                f"service '{name}' is provided by the server ({current.node}) and cannot be "
-                "advertised by a client"
-            )
-        try:
-            stype = self.types.srv(type_name)
-        except UnknownType as exc:
-            raise BusError(str(exc.args[0] if exc.args else exc)) from None
+        _refuse_takeover("service", name, current, client)
+        stype = _known_type(self.types.srv, type_name)
         service = Service(name, stype, owner, node, handler, client)
         if current is not None and current.owner != owner:
             self._replaced.setdefault(name, []).append(current)
@@ -320,15 +311,8 @@ class Bus:
         """Register a provider; a client may replace a client's action, never a node's."""
         name = canonical(name)
         old = self.actions.get(name)
-        if client and old is not None and not old.client:
-            raise BusError(
-                f"action '{name}' is provided by the server ({old.node}) and cannot be "
-                "advertised by a client"
-            )
-        try:
-            atype = self.types.action(type_name)
-        except UnknownType as exc:
-            raise BusError(str(exc.args[0] if exc.args else exc)) from None
+        _refuse_takeover("action", name, old, client)
+        atype = _known_type(self.types.action, type_name)
         if old is not None:
             self._drop_interfaces(name)
             for goal in list(old.goals.values()):
@@ -433,3 +417,21 @@ class Bus:
         for name, action in list(self.actions.items()):
             if action.owner == owner:
                 self.unadvertise_action(name, owner)
+
+
+def _refuse_takeover(kind: str, name: str, current: Service | Action | None,
+                     client: bool) -> None:
+    """A client may replace a client's provider (as rosbridge lets it), never a node's: the
+    server's own services and actions are not for a client to take over."""
+    if client and current is not None and not current.client:
+        raise BusError(f"{kind} '{name}' is provided by the server ({current.node}) and "
+                       "cannot be advertised by a client")
+
+
+def _known_type(lookup: Callable[[str], T], type_name: str) -> T:
+    """``lookup(type_name)`` from the type registry; an unknown type is a :class:`BusError`
+    with the registry's reason."""
+    try:
+        return lookup(type_name)
+    except UnknownType as exc:
+        raise BusError(str(exc.args[0] if exc.args else exc)) from None
