@@ -127,6 +127,21 @@ def project_modules():
         yield path, parts, is_package
 
 
+def tree_violations(check) -> list[str]:
+    """``check`` (:func:`violations` or :func:`node_violations`) run on every project module."""
+    bad = []
+    for path, parts, is_package in project_modules():
+        bad += check(path.read_text(encoding="utf-8"), parts, is_package)
+    return bad
+
+
+def every_import():
+    """(importing module, imported module) for every import in the project, as dotted parts."""
+    for path, parts, is_package in project_modules():
+        for target in imported_modules(path.read_text(encoding="utf-8"), parts, is_package):
+            yield parts, target
+
+
 def test_every_floor_is_placed():
     """A new subpackage or top-level module gets a place in ALLOWED (and ARCHITECTURE.md)."""
     floors = {floor_of(parts) for _, parts, _ in project_modules()} - {""}
@@ -134,9 +149,7 @@ def test_every_floor_is_placed():
 
 
 def test_no_layer_imports_upward():
-    bad = []
-    for path, parts, is_package in project_modules():
-        bad += violations(path.read_text(encoding="utf-8"), parts, is_package)
+    bad = tree_violations(violations)
     assert not bad, "upward imports:\n" + "\n".join(bad)
 
 
@@ -146,10 +159,7 @@ def test_base_floors_import_nothing_of_ours():
 
 def test_exceptions_are_still_needed():
     """An exception that no module uses any more is removed, not kept as a hole."""
-    used = set()
-    for path, parts, is_package in project_modules():
-        for target in imported_modules(path.read_text(encoding="utf-8"), parts, is_package):
-            used.add((floor_of(parts), floor_of(target)))
+    used = {(floor_of(module), floor_of(target)) for module, target in every_import()}
     assert set(EXCEPTIONS) <= used
 
 
@@ -167,18 +177,14 @@ def test_the_rule_catches_an_upward_import():
 
 
 def test_no_node_imports_another_node():
-    bad = []
-    for path, parts, is_package in project_modules():
-        bad += node_violations(path.read_text(encoding="utf-8"), parts, is_package)
+    bad = tree_violations(node_violations)
     assert not bad, "node → node imports (share it in nodes/ground, or wire it in assembly):\n" \
         + "\n".join(bad)
 
 
 def test_node_exceptions_are_still_needed():
-    used = set()
-    for path, parts, is_package in project_modules():
-        for target in imported_modules(path.read_text(encoding="utf-8"), parts, is_package):
-            used.add((node_of(parts), node_of(target)))
+    """A node → node exception no module uses any more is removed, not kept as a hole."""
+    used = {(node_of(module), node_of(target)) for module, target in every_import()}
     assert set(NODE_EXCEPTIONS) <= used
 
 
