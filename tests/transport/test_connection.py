@@ -40,8 +40,12 @@ class Wire:
         return True
 
 
-async def forever() -> None:
-    await asyncio.Event().wait()  # a reader blocked on a socket that sends nothing
+async def error_then_close(session) -> None:
+    """A client op the session answers with an error status, then the session asks to close
+    while the reader stays blocked on a socket that sends nothing."""
+    session.receive(json.dumps({"op": "no_such_op"}))
+    session.close_connection()
+    await asyncio.Event().wait()
 
 
 async def test_a_session_that_asks_to_close_is_flushed_then_closed(hub):
@@ -50,12 +54,7 @@ async def test_a_session_that_asks_to_close_is_flushed_then_closed(hub):
     session = hub.open().session
     wire = Wire(keeps_up=False)
 
-    async def read() -> None:
-        session.receive(json.dumps({"op": "no_such_op"}))
-        session.close_connection()
-        await forever()
-
-    await run_session(session, read(), sock=None, send_frame=wire.send_frame,
+    await run_session(session, error_then_close(session), sock=None, send_frame=wire.send_frame,
                       direct=wire.write, delay=0.0)
     assert session.closed
     assert [m["op"] for m in wire.sent] == ["status"] and wire.sent[0]["level"] == "error"
@@ -86,12 +85,7 @@ async def test_direct_writes_only_without_a_delay_between_messages(hub, delay, d
     session = hub.open().session
     wire = Wire(keeps_up=True)
 
-    async def read() -> None:
-        session.receive(json.dumps({"op": "no_such_op"}))
-        session.close_connection()
-        await forever()
-
-    await run_session(session, read(), sock=None, send_frame=wire.send_frame,
+    await run_session(session, error_then_close(session), sock=None, send_frame=wire.send_frame,
                       direct=wire.write, delay=delay)
     written = wire.direct if direct else wire.sent
     assert [m["op"] for m in written] == ["status"]
