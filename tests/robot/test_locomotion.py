@@ -19,6 +19,8 @@ from hitrobot_server.robot.locomotion import (
 from hitrobot_server.robot.model import ActionDirection, Point2D
 from hitrobot_server.robot.sim.backend import SimBackend
 
+from ..helpers import until
+
 
 def test_parse_listen_formats():
     assert parse_listen("joy/gui<&>tablet-7") == ListenRequest("joy/gui", False, "tablet-7")
@@ -87,3 +89,23 @@ async def test_sitting_refuses_every_motion_and_standing_up_allows_it():
     finally:
         await robot.link.stop()
     assert locomotion.state == LocomotionState.COMM_DISABLED
+
+
+async def test_a_reboot_brings_the_locomotion_back_in_control():
+    """A robot that sat down comes back from a reboot as freshly started: the bundle's reboot
+    restarts the locomotion along with the robot (the gate never wraps power)."""
+    inner = SimBackend(build_simulator(), time_scale=4.0)
+    inner.reboot_delay = 0.1
+    robot = robot_of(inner, stand_up_seconds=0.2)
+    await robot.link.start()
+    try:
+        await robot.locomotion.sit_down()
+        with pytest.raises(BackendError, match="sitting"):
+            await robot.motion.rotate(0.3)
+        await robot.reboot()
+        assert robot.locomotion.state == LocomotionState.COMM_DISABLED  # offline meanwhile
+        await until(lambda: robot.connected, "the robot back from its reboot")
+        assert robot.locomotion.state == LocomotionState.IN_CONTROL
+        assert (await robot.motion.rotate(0.3)).action_id > 0
+    finally:
+        await robot.link.stop()
