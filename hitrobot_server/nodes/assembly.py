@@ -75,7 +75,8 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
         mapfiles,
         PatrolNode(bus, link, motion, here, settings, mapfiles, state),
         GraphNodeService(bus, link, motion, here, settings, mapfiles, state),
-        LocomotionNode(bus, robot, settings, lambda: mapfiles.loaded.frame),
+        LocomotionNode(bus, link, robot.locomotion, robot.sensors, robot.power, settings,
+                       lambda: mapfiles.loaded.frame),
     ]
 
 

@@ -30,9 +30,8 @@ from collections.abc import Callable
 
 from ..bus.core import Bus
 from ..bus.errors import BusError
-from ..robot.backend import NotConnectedError
-from ..robot.capabilities import Robot
-from ..robot.locomotion import ListenError, parse_listen
+from ..robot.backend import Link, NotConnectedError, PowerBackend, SensorBackend
+from ..robot.locomotion import ListenError, Locomotion, parse_listen
 from ..robot.model import Odometry, Pose2D, Twist2D
 from . import messages as m
 from .base import RobotNode
@@ -100,10 +99,12 @@ def topic_part(name: str) -> str:
 class LocomotionNode(RobotNode):
     """stand_up, sit_down, set_listen, robot_state, /Odometry and the map-frame odometry."""
 
-    def __init__(self, bus: Bus, robot: Robot, settings: NodeOptions,
-                 map_name: Callable[[], str]):
-        super().__init__(bus, "/locomotion", robot.link)
-        self.robot = robot
+    def __init__(self, bus: Bus, link: Link, locomotion: Locomotion, sensors: SensorBackend,
+                 power: PowerBackend, settings: NodeOptions, map_name: Callable[[], str]):
+        super().__init__(bus, "/locomotion", link)
+        self.locomotion = locomotion
+        self.sensors = sensors
+        self.power = power
         self.params = settings.slamware
         self.map_name = map_name
         self.map_topic: str | None = None
@@ -132,13 +133,13 @@ class LocomotionNode(RobotNode):
     async def _stand_up(self, request: dict) -> dict:
         if not self.link.connected:
             return {"success": False, "message": "the robot is not connected"}
-        await self.robot.locomotion.stand_up()
+        await self.locomotion.stand_up()
         return {"success": True, "message": "Trigger: started"}
 
     async def _sit_down(self, request: dict) -> dict:
         if not self.link.connected:
             return {"success": False, "message": "the robot is not connected"}
-        await self.robot.locomotion.sit_down()
+        await self.locomotion.sit_down()
         return {"success": True, "message": "Trigger: started"}
 
     async def _set_listen(self, request: dict) -> dict:
@@ -146,7 +147,7 @@ class LocomotionNode(RobotNode):
             parsed = parse_listen(request["data"])
         except ListenError as exc:
             return {"success": False, "message": str(exc)}
-        return {"success": True, "message": self.robot.locomotion.control.apply(parsed)}
+        return {"success": True, "message": self.locomotion.control.apply(parsed)}
 
     # ------------------------------------------------------------------ topics
     def robot_id(self) -> str:
@@ -160,9 +161,9 @@ class LocomotionNode(RobotNode):
         return f"/{topic_part(self.map_name())}/{topic_part(self.robot_id())}/Odometry"
 
     async def _slow(self) -> None:
-        power = await self.robot.power.get_power_status()
+        power = await self.power.get_power_status()
         self.percentage, self.charging = float(power.battery_percentage), power.is_charging
-        self.temperature = float(await self.robot.power.get_board_temperature())
+        self.temperature = float(await self.power.get_board_temperature())
 
     async def _tick(self) -> None:
         now = time.monotonic()
@@ -170,7 +171,7 @@ class LocomotionNode(RobotNode):
         connected = self.link.connected
         if connected:
             try:
-                odo = await self.robot.sensors.get_odometry()
+                odo = await self.sensors.get_odometry()
             except NotConnectedError:
                 connected = False
             else:
@@ -190,7 +191,7 @@ class LocomotionNode(RobotNode):
             self.wheel_vel[i] = w
 
     def _state(self, connected: bool) -> dict:
-        b = self.robot.locomotion
+        b = self.locomotion
         enabled = connected and b.motors_enabled
         status = (ECAT_CONN_ERROR if not connected
                   else OPERATION_ENABLED if enabled else READY_TO_SWITCH_ON)
