@@ -57,24 +57,24 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
     POIs) instead of getting its own; the fleet's first robot creates it (its map is the site's
     SLAM layer; ``/map_manager`` and ``/map`` are site-wide names, so the manager is global
     though made on the robot's view)."""
-    link, motion, here = robot.link, robot.motion, robot.localization
+    link, motion, localization = robot.link, robot.motion, robot.localization
     frame = settings.slamware.map_frame
-    move_base = MoveBaseNode(bus, link, motion, here, frame)
-    map_manager = site_map or MapManager(bus, link, robot.maps, here, settings, state)
-    mapfiles = MapFilesNode(bus, link, here, settings)
+    move_base = MoveBaseNode(bus, link, motion, localization, frame)
+    map_manager = site_map or MapManager(bus, link, robot.maps, localization, settings, state)
+    mapfiles = MapFilesNode(bus, link, localization, settings)
     return [
         SlamwareNode(bus, robot, settings.slamware),
-        ConventionalNode(bus, link, here, frame),
+        ConventionalNode(bus, link, localization, frame),
         move_base,
         ShellNode(bus, robot, settings.authenticate, move_base),
         *([] if site_map else [map_manager]),
-        NavigationNode(bus, link, motion, here, map_manager.pois.get),
+        NavigationNode(bus, link, motion, localization, map_manager.pois.get),
         PointCloudNode(bus, link, robot.sensors, frame),
-        Nav2ActionsNode(bus, link, motion, here, robot.sensors, frame),
+        Nav2ActionsNode(bus, link, motion, localization, robot.sensors, frame),
         IntelligentNavigationNode(bus, robot, frame),
         mapfiles,
-        PatrolNode(bus, link, motion, here, settings, mapfiles, state),
-        GraphNodeService(bus, link, motion, here, settings, mapfiles, state),
+        PatrolNode(bus, link, motion, localization, settings, mapfiles, state),
+        GraphNodeService(bus, link, motion, localization, settings, mapfiles, state),
         LocomotionNode(bus, link, robot.locomotion, robot.sensors, robot.power, settings,
                        lambda: mapfiles.loaded.frame),
     ]

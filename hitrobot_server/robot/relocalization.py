@@ -129,8 +129,8 @@ async def localize_near(robot: Robot, guess: Pose2D) -> tuple[bool, Pose2D, str]
     The pose is changed only when the scan matches the map near the guess; after the commit
     the robot's own quality must reach :data:`GOOD_QUALITY`, otherwise the pose it had before
     is restored. ``pose`` is where the robot then believes it is."""
-    here = robot.localization
-    before = await here.get_pose()
+    localization = robot.localization
+    before = await localization.get_pose()
     scan = await robot.sensors.get_laser_scan()
     finite = scan.ranges[np.isfinite(scan.ranges)]
     reach = SEARCH_HALF_SIZE + (float(finite.max()) if finite.size else 0.0) + 0.5
@@ -139,14 +139,14 @@ async def localize_near(robot: Robot, guess: Pose2D) -> tuple[bool, Pose2D, str]
     if not found.good or found.pose is None:
         return False, before, (f"the scan does not match the map near the guess "
                                f"(best score {found.score:.2f} < {MATCH_SCORE})")
-    now = await here.get_pose()
+    now = await localization.get_pose()
     commit = carry_forward(found.pose, scan.pose, now)
-    await here.set_pose(commit)
-    quality = await settled_quality(here)
+    await localization.set_pose(commit)
+    quality = await settled_quality(localization)
     if quality >= GOOD_QUALITY:
-        return True, await here.get_pose(), f"localized (quality {quality})"
-    current = await here.get_pose()
-    await here.set_pose(carry_forward(before, commit, current))
-    return False, await here.get_pose(), (
+        return True, await localization.get_pose(), f"localized (quality {quality})"
+    current = await localization.get_pose()
+    await localization.set_pose(carry_forward(before, commit, current))
+    return False, await localization.get_pose(), (
         f"localization did not converge (quality {quality} < {GOOD_QUALITY}); the previous "
         "pose was restored")

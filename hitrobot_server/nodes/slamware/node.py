@@ -426,8 +426,8 @@ class SlamwareNode(RobotNode):
         if opts["mvmt_type"]["is_valid"]:
             movement = _enum("options.mvmt_type.value.type", opts["mvmt_type"]["value"]["type"],
                              LocalizationMovement)
-        here = self.robot.localization
-        self._run(message, "recover_localization", lambda: here.recover_localization(
+        localization = self.robot.localization
+        self._run(message, "recover_localization", lambda: localization.recover_localization(
             None if area.is_empty else area, max_time, movement))
 
     def _on_clear_map(self, message: Message) -> None:
