@@ -1,7 +1,8 @@
 """The robots a server drives: one robot = its backend + its nodes, built by one function.
 
 :func:`start_robot` is the one place a robot is made (persistence of per-robot state and
-worker processes hook in here): its backend from its ``--robot`` entry, then its nodes — on the
+worker processes hook in here): its backend from its ``--robot`` entry, then its nodes, handed
+its capabilities (:func:`~hitrobot_server.robot.factory.robot_of`: the motion gated) — on the
 bus itself for the single unnamed robot (today's global names), on a :class:`NamespacedBus`
 under ``/NAME/`` with TF frames ``NAME/…`` for a named one.
 """
@@ -29,7 +30,9 @@ from .nodes.base import Node
 from .nodes.map_manager import MapManager
 from .nodes.options import NodeOptions
 from .robot.backend import RobotBackend
-from .robot.factory import build_backend, shared_world, sim_identity
+from .robot.capabilities import Robot
+from .robot.factory import build_backend, robot_of, shared_world, sim_identity
+from .robot.locomotion import STAND_UP_SECONDS
 from .robot.options import RobotEntry
 from .robot_state import RestStateBinder, open_state, report_restored
 from .state import StateBinding
@@ -88,16 +91,20 @@ async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
         backend = unit.backend = build_backend(options, world, unit.state.store)
         if backend is not None:
             await backend.start()
+        node_options = (robot_node_options(settings, entry) if entry.name
+                        else settings.node_options())
+        robot: Robot | None = None  # what the nodes get: the motion behind the locomotion gate
+        if backend is not None:
+            robot = robot_of(backend, STAND_UP_SECONDS / node_options.time_scale)
         if not entry.name:
             unit.bus = bus
-            unit.nodes = await start_nodes(bus, settings.node_options(), backend, unit.state)
-        elif backend is not None:
+            unit.nodes = await start_nodes(bus, node_options, robot, unit.state)
+        elif robot is not None:
             view = NamespacedBus(bus, Namespace(entry.name))
             view.params.set(ROBOT_ID_PARAM, entry.name)
             unit.bus = view
-            unit.nodes = await start_robot_nodes(
-                view, entry.name, robot_node_options(settings, entry), backend,  # type: ignore[arg-type]
-                site_map, unit.state)
+            unit.nodes = await start_robot_nodes(view, entry.name, node_options, robot, site_map,
+                                                 unit.state)
         if unit.state.store is not None:
             report_restored(unit.state.store, [*getattr(backend, "restored", []),
                                                *restored_summary(unit.nodes)])

@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 from ..bus.core import Bus
-from ..robot.backend import RobotBackend
-from ..robot.locomotion import STAND_UP_SECONDS, LocomotionBackend
+from ..robot.capabilities import Robot
 from ..state import StateBinding
 from .base import Node
 from .conventional import ConventionalNode
@@ -28,17 +27,17 @@ from .slamware import SlamwareNode
 from .tf_republisher import TFRepublisherNode
 
 
-async def start_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend | None,
+async def start_nodes(bus: Bus, settings: NodeOptions, robot: Robot | None,
                       state: StateBinding | None = None) -> list[Node]:
     """Create and start every node; robot-facing nodes only when a robot is attached.
     ``state``: that robot's state folder (what the operator builds survives restarts)."""
     nodes: list[Node] = [Rosapi(bus, settings), TFRepublisherNode(bus)]
     if settings.demo_services:
         nodes.append(DemoServices(bus))
-    if backend is not None:
-        nodes += robot_nodes(bus, settings, backend, state=state)
+    if robot is not None:
+        nodes += robot_nodes(bus, settings, robot, state=state)
     # runs without a robot too (the bridge part)
-    nodes.append(DiagnosticsNode(bus, backend, state))
+    nodes.append(DiagnosticsNode(bus, robot, state))
     await _start(nodes)
     return nodes
 
@@ -49,37 +48,39 @@ async def start_bridge_nodes(bus: Bus, settings: NodeOptions) -> list[Node]:
     return [Rosapi(bus, settings, params=False)]
 
 
-def robot_nodes(bus: Bus, settings: NodeOptions, backend: RobotBackend,
+def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
                 site_map: MapManager | None = None,
                 state: StateBinding | None = None) -> list[Node]:
-    """The robot-facing nodes, in start order. All of them drive the robot through the
-    locomotion gate, so a sitting robot refuses motion whichever interface asks. A robot of a
-    fleet is handed the site's map manager (its POIs) instead of getting its own; the fleet's
-    first robot creates it (its map is the site's SLAM layer; ``/map_manager`` and ``/map``
-    are site-wide names, so the manager is global though made on the robot's view)."""
-    robot = LocomotionBackend(backend, STAND_UP_SECONDS / settings.time_scale)
+    """The robot-facing nodes, in start order, each handed the capabilities it uses. They all
+    drive the robot through the locomotion gate (``robot.motion``), so a sitting robot refuses
+    motion whichever interface asks. A robot of a fleet is handed the site's map manager (its
+    POIs) instead of getting its own; the fleet's first robot creates it (its map is the site's
+    SLAM layer; ``/map_manager`` and ``/map`` are site-wide names, so the manager is global
+    though made on the robot's view)."""
+    link, motion, localization = robot.link, robot.motion, robot.localization
     frame = settings.slamware.map_frame
     # Nodes handed to other nodes (no node imports another; they meet here or on the bus):
     # the shell cancels move_base's goals, navigation reads the map manager's POIs, the route
     # and graph nodes keep their default files beside the loaded map (mapfiles as MapDefaults)
     # and locomotion names its map-frame odometry after the loaded map.
-    move_base = MoveBaseNode(bus, robot, frame)
-    map_manager = site_map or MapManager(bus, robot, settings, state)
-    mapfiles = MapFilesNode(bus, robot, settings)
+    move_base = MoveBaseNode(bus, link, motion, localization, frame)
+    map_manager = site_map or MapManager(bus, link, robot.maps, localization, settings, state)
+    mapfiles = MapFilesNode(bus, link, localization, settings)
     return [
         SlamwareNode(bus, robot, settings.slamware),
-        ConventionalNode(bus, robot, frame),
+        ConventionalNode(bus, link, localization, frame),
         move_base,
         ShellNode(bus, robot, settings.authenticate, move_base),
         *([] if site_map else [map_manager]),
-        NavigationNode(bus, robot, map_manager.pois.get),
-        PointCloudNode(bus, robot, frame),
-        Nav2ActionsNode(bus, robot, frame),
+        NavigationNode(bus, link, motion, localization, map_manager.pois.get),
+        PointCloudNode(bus, link, robot.sensors, frame),
+        Nav2ActionsNode(bus, link, motion, localization, robot.sensors, frame),
         IntelligentNavigationNode(bus, robot, frame),
         mapfiles,
-        PatrolNode(bus, robot, settings, mapfiles, state),
-        GraphNodeService(bus, robot, settings, mapfiles, state),
-        LocomotionNode(bus, robot, settings, mapfiles.loaded),
+        PatrolNode(bus, link, motion, localization, settings, mapfiles, state),
+        GraphNodeService(bus, link, motion, localization, settings, mapfiles, state),
+        LocomotionNode(bus, link, robot.locomotion, robot.sensors, robot.power, settings,
+                       mapfiles.loaded),
     ]
 
 
@@ -92,14 +93,14 @@ async def start_site_nodes(bus: Bus, settings: NodeOptions) -> list[Node]:
     return nodes
 
 
-async def start_robot_nodes(bus: Bus, name: str, settings: NodeOptions, backend: RobotBackend,
+async def start_robot_nodes(bus: Bus, name: str, settings: NodeOptions, robot: Robot,
                             site_map: MapManager | None,
                             state: StateBinding | None = None) -> list[Node]:
     """Robot ``name``'s nodes on its namespaced view ``bus``, with its own diagnostics and its
     state for the fleet."""
-    nodes = robot_nodes(bus, settings, backend, site_map, state)
-    nodes += [DiagnosticsNode(bus, backend, state, bridge=False),
-              FleetMemberNode(bus, backend, name)]
+    nodes = robot_nodes(bus, settings, robot, site_map, state)
+    nodes += [DiagnosticsNode(bus, robot, state, bridge=False),
+              FleetMemberNode(bus, robot, name)]
     await _start(nodes)
     return nodes
 

@@ -12,7 +12,7 @@ from typing import Any
 from ..bus.core import Bus
 from ..bus.services import ActionHandler, ServiceHandler
 from ..bus.topics import Message, RequestRejected
-from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.backend import BackendError, Link, NotConnectedError
 
 log = logging.getLogger(__name__)
 
@@ -61,14 +61,14 @@ class Node:
 class RobotNode(Node):
     """A node backed by the robot: owns background tasks, stopped by :meth:`stop`."""
 
-    def __init__(self, bus: Bus, name: str, backend: RobotBackend | None):
+    def __init__(self, bus: Bus, name: str, link: Link | None):
         super().__init__(bus, name)
-        self.backend = backend
+        self.link = link
         self._tasks: set[asyncio.Task] = set()
 
     @property
     def robot_connected(self) -> bool:
-        return self.backend is not None and self.backend.connected
+        return self.link is not None and self.link.connected
 
     def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:
         task = asyncio.ensure_future(coro)

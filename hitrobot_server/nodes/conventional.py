@@ -12,7 +12,7 @@ import logging
 
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
-from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.backend import BackendError, Link, LocalizationBackend, NotConnectedError
 from .base import RobotNode
 from .ground import messages as m
 from .ground.messages import map_frames, pose2d_of
@@ -26,9 +26,10 @@ ROBOT_POSE_PERIOD = 0.05
 class ConventionalNode(RobotNode):
     """``/robot_pose`` out, ``/initialpose`` in."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, map_frame: str = "/map"):
-        super().__init__(bus, "/robot_pose_publisher", backend)
-        self.backend: RobotBackend = backend
+    def __init__(self, bus: Bus, link: Link, localization: LocalizationBackend,
+                 map_frame: str = "/map"):
+        super().__init__(bus, "/robot_pose_publisher", link)
+        self.localization = localization
         self.frames = map_frames(map_frame)
         self.advertise("/robot_pose", "geometry_msgs/Pose")
         self.subscribe("/initialpose", "geometry_msgs/PoseWithCovarianceStamped",
@@ -38,7 +39,7 @@ class ConventionalNode(RobotNode):
         self.every(ROBOT_POSE_PERIOD, self._publish_pose)
 
     async def _publish_pose(self) -> None:
-        self.publish("/robot_pose", m.pose(await self.backend.get_pose()))
+        self.publish("/robot_pose", m.pose(await self.localization.get_pose()))
 
     def _on_initialpose(self, message: Message) -> None:
         msg = message.msg
@@ -47,12 +48,12 @@ class ConventionalNode(RobotNode):
             raise RequestRejected(
                 f"header.frame_id '{frame}' is not the map frame; give the pose in 'map'")
         pose = pose2d_of(msg["pose"]["pose"], "pose.pose")
-        if not self.backend.connected:
+        if not self.link.connected:
             raise RequestRejected("the robot is not connected")
 
         async def apply() -> None:
             try:
-                await self.backend.set_pose(pose)
+                await self.localization.set_pose(pose)
             except NotConnectedError:
                 message.reject("the robot is not connected")
             except BackendError as exc:

@@ -28,7 +28,8 @@ import time
 
 from .. import procmem
 from ..bus.core import Bus
-from ..robot.backend import ACTION_PREFIX, BackendError, NotConnectedError, RobotBackend
+from ..robot.backend import ACTION_PREFIX, BackendError, NotConnectedError
+from ..robot.capabilities import Robot
 from ..robot.model import HealthLevel
 from ..state import StateBinding, StateStore
 from .base import RobotNode
@@ -81,9 +82,10 @@ def memory_item() -> dict:
 
 
 class DiagnosticsNode(RobotNode):
-    def __init__(self, bus: Bus, backend: RobotBackend | None = None,
+    def __init__(self, bus: Bus, robot: Robot | None = None,
                  state: StateBinding | None = None, bridge: bool = True):
-        super().__init__(bus, "/diagnostic_aggregator", backend)
+        super().__init__(bus, "/diagnostic_aggregator", robot.link if robot else None)
+        self.robot = robot
         self.state = state
         self._device_id = ""
         self._bridge = bridge  # a fleet robot's own diagnostics leave the bridge to the site
@@ -94,7 +96,7 @@ class DiagnosticsNode(RobotNode):
 
     async def _publish(self) -> None:
         statuses: list[dict] = []
-        if self.backend is not None:
+        if self.robot is not None:
             robot = await self.robot_items()
             if not self._bridge:  # a fleet robot: its state folder with its own items
                 robot += self.state_items()
@@ -137,10 +139,10 @@ class DiagnosticsNode(RobotNode):
         return item
 
     async def robot_items(self) -> list[dict]:
-        assert self.backend is not None
-        kind = type(self.backend).__name__
+        assert self.robot is not None
+        kind = type(self.robot.link).__name__
         level, text, stale = ERROR, "not connected", "no data: the robot is not connected"
-        if self.backend.connected:
+        if self.link.connected:
             try:
                 return await self._robot_items(kind)
             except NotConnectedError:
@@ -153,14 +155,14 @@ class DiagnosticsNode(RobotNode):
                   for name in ("Battery", "Localization", "Motion", "Health"))]
 
     async def _robot_items(self, kind: str) -> list[dict]:
-        b = self.backend
+        b = self.robot
         assert b is not None
-        info = await b.get_device_info()
+        info = await b.sensors.get_device_info()
         hw = self._device_id = info.device_id
         items = [status("/Robot/Connection", OK, "connected", hw, backend=kind,
                         model=info.model_name, software_version=info.software_version)]
 
-        power = await b.get_power_status()
+        power = await b.power.get_power_status()
         pct = int(power.battery_percentage)
         state = ("charging" if power.is_charging else
                  "on dock" if power.is_dc_in else "discharging")
@@ -174,9 +176,9 @@ class DiagnosticsNode(RobotNode):
             docking_status=power.docking_status.value, power_stage=power.power_stage.value,
             sleep_mode=power.sleep_mode.value))
 
-        enabled = await b.get_localization_enabled()
-        quality = int(await b.get_localization_quality())
-        mapping = await b.get_map_update()
+        enabled = await b.localization.get_localization_enabled()
+        quality = int(await b.localization.get_localization_quality())
+        mapping = await b.maps.get_map_update()
         if not enabled:
             level, text = WARN, "localization disabled"
         elif quality < QUALITY_ERROR:
@@ -188,8 +190,8 @@ class DiagnosticsNode(RobotNode):
         items.append(status("/Robot/Localization", level, text, hw, quality=quality,
                             localization_enabled=enabled, map_update=mapping))
 
-        action = await b.get_current_action()
-        odo = await b.get_odometry()
+        action = await b.motion.get_current_action()
+        odo = await b.sensors.get_odometry()
         if action is None:
             text, values = "idle", {}
         else:
@@ -199,8 +201,8 @@ class DiagnosticsNode(RobotNode):
         items.append(status("/Robot/Motion", OK, text, hw, **values,
                             linear_velocity=odo.twist.vx, angular_velocity=odo.twist.omega))
 
-        health = await b.get_health()
-        temperature = await b.get_board_temperature()
+        health = await b.sensors.get_health()
+        temperature = await b.power.get_board_temperature()
         level = OK
         for err in health.errors:
             level = max(level, WARN if err.level == HealthLevel.WARN

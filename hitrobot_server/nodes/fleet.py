@@ -30,7 +30,8 @@ from dataclasses import dataclass, field
 from ..bus.core import Bus
 from ..bus.services import STATUS_CANCELED, STATUS_SUCCEEDED, GoalHandle
 from ..bus.topics import RequestRejected
-from ..robot.backend import BackendError, RobotBackend
+from ..robot.backend import BackendError
+from ..robot.capabilities import Robot
 from ..robot.model import HealthLevel, Pose2D
 from .base import RobotNode
 from .ground import messages as m
@@ -52,8 +53,10 @@ IDLE, MOVING, CHARGING, ERROR, OFFLINE = "idle", "moving", "charging", "error", 
 class FleetMemberNode(RobotNode):
     """One named robot's state on ``/fleet/members`` (2 Hz)."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, name: str):
-        super().__init__(bus, "/fleet_member", backend)
+    def __init__(self, bus: Bus, robot: Robot, name: str):
+        super().__init__(bus, "/fleet_member", robot.link)
+        self.motion, self.localization = robot.motion, robot.localization
+        self.sensors, self.power = robot.sensors, robot.power
         self.robot = name
         self.advertise(MEMBERS, f"{PKG}/FleetRobot")
 
@@ -64,15 +67,14 @@ class FleetMemberNode(RobotNode):
         self.publish(MEMBERS, await self.state())
 
     async def state(self) -> dict:
-        b = self.backend
-        assert b is not None
         msg = {"name": self.robot, "pose": m.pose(Pose2D(0, 0, 0)), "state": OFFLINE,
                "battery": 0.0, "task": 0, "message": "the robot is not connected"}
-        if not b.connected:
+        if not self.link.connected:
             return msg
         try:
-            pose, action, power, health = (await b.get_pose(), await b.get_current_action(),
-                                           await b.get_power_status(), await b.get_health())
+            pose, action, power, health = (
+                await self.localization.get_pose(), await self.motion.get_current_action(),
+                await self.power.get_power_status(), await self.sensors.get_health())
         except BackendError as exc:
             return {**msg, "message": str(exc)}
         msg.update(pose=m.pose(pose), battery=float(power.battery_percentage), message="")

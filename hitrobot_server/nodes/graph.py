@@ -24,7 +24,13 @@ from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING
 
 from ..bus.core import Bus
-from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.backend import (
+    BackendError,
+    Link,
+    LocalizationBackend,
+    MotionBackend,
+    NotConnectedError,
+)
 from ..robot.model import ActionResult, Point2D
 from ..robot.motion import follow
 from ..state import StateBinding
@@ -168,11 +174,13 @@ def shortest_path(graph: Graph, start: int, goal: int) -> list[int]:
 class GraphNodeService(RobotNode):
     """The route graph node."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions,
+    def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
+                 localization: LocalizationBackend, settings: NodeOptions,
                  mapfiles: MapDefaults, state: StateBinding | None = None):
-        super().__init__(bus, "/graph", backend)
+        super().__init__(bus, "/graph", link)
         self.memory = NodeMemory(state, "graph")
-        self.backend: RobotBackend = backend
+        self.motion = motion
+        self.localization = localization
         self.mapfiles = mapfiles
         self.files = NamedFiles(settings.map_store.parent / "graphs")
         if removed := self.files.clean_leftovers():  # created at start-up, before any save
@@ -263,7 +271,7 @@ class GraphNodeService(RobotNode):
         if goal not in {n.id for n in graph.nodes}:
             return {"success": False, "message": f"the graph has no node {goal}", "path": []}
         try:
-            pose = await self.backend.get_pose()
+            pose = await self.localization.get_pose()
         except NotConnectedError:
             return {"success": False, "message": "the robot is not connected", "path": []}
         except BackendError as exc:
@@ -277,8 +285,8 @@ class GraphNodeService(RobotNode):
         for node_id in path:
             node = where[node_id]
             try:
-                action = await self.backend.move_to([Point2D(node.x, node.y)])
-                final = await follow(self.backend, action)
+                action = await self.motion.move_to([Point2D(node.x, node.y)])
+                final = await follow(self.motion, action)
             except NotConnectedError:
                 return {"success": False, "message": "the robot is not connected",
                         "path": path}

@@ -53,7 +53,8 @@ from ..bus.services import (
     GoalHandle,
     GoalOutcome,
 )
-from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.backend import BackendError, NotConnectedError
+from ..robot.capabilities import Robot
 from ..robot.model import (
     ActionInfo,
     MoveOptionFlag,
@@ -141,9 +142,9 @@ def _state(action: ActionInfo) -> int:
 class IntelligentNavigationNode(RobotNode):
     """Serves the intelligent navigation action and the relocalization service."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, map_frame: str = "/map"):
-        super().__init__(bus, "/intelligent_navigation", backend)
-        self.backend: RobotBackend = backend
+    def __init__(self, bus: Bus, robot: Robot, map_frame: str = "/map"):
+        super().__init__(bus, "/intelligent_navigation", robot.link)
+        self.robot = robot
         self.map_frame = map_frame
         self.frames = map_frames(map_frame)
         self.running: set[GoalHandle] = set()
@@ -163,7 +164,7 @@ class IntelligentNavigationNode(RobotNode):
         try:
             target = goal_pose(self.frames, goal["pose"], "pose")
             options, summary = _options(goal)
-            if not self.backend.connected:
+            if not self.link.connected:
                 raise GoalRejected("the robot is not connected")
         except GoalRejected as exc:
             return rejected(str(exc))
@@ -172,14 +173,15 @@ class IntelligentNavigationNode(RobotNode):
             def on_poll(action: ActionInfo, odometry: Odometry) -> None:
                 self._feedback(handle, odometry.pose, _state(action))
 
+            motion = self.robot.motion
             end = await drive(
-                self.backend, handle.cancelled,
-                lambda: self.backend.move_to([Point2D(target.x, target.y)], options, target.yaw),
-                self.backend.get_odometry, on_poll)
+                motion, handle.cancelled,
+                lambda: motion.move_to([Point2D(target.x, target.y)], options, target.yaw),
+                self.robot.sensors.get_odometry, on_poll)
         finally:
             self.running.discard(handle)
         try:
-            pose = await self.backend.get_pose()
+            pose = await self.robot.localization.get_pose()
         except BackendError:
             pose = target if end.kind == "succeeded" else None
         if end.kind == "succeeded":
@@ -196,9 +198,9 @@ class IntelligentNavigationNode(RobotNode):
         for other in list(self.running):
             other.cancel()
         try:
-            current = await self.backend.get_current_action()
+            current = await self.robot.motion.get_current_action()
             if current is not None:
-                await self.backend.cancel_action()
+                await self.robot.motion.cancel_action()
         except NotConnectedError:
             return rejected("the robot is not connected")
         except BackendError as exc:
@@ -215,7 +217,7 @@ class IntelligentNavigationNode(RobotNode):
         except GoalRejected as exc:
             raise ServiceError(f"set_initialpose: {exc}") from None
         try:
-            good, refined, why = await localize_near(self.backend, pose)
+            good, refined, why = await localize_near(self.robot, pose)
         except NotConnectedError:
             raise ServiceError("set_initialpose: the robot is not connected") from None
         except BackendError as exc:

@@ -29,8 +29,8 @@ import time
 
 from ..bus.core import Bus
 from ..bus.errors import BusError
-from ..robot.backend import NotConnectedError
-from ..robot.locomotion import ListenError, LocomotionBackend, parse_listen
+from ..robot.backend import Link, NotConnectedError, PowerBackend, SensorBackend
+from ..robot.locomotion import ListenError, Locomotion, parse_listen
 from ..robot.model import Odometry, Pose2D, Twist2D
 from .base import RobotNode
 from .ground import messages as m
@@ -99,10 +99,12 @@ def topic_part(name: str) -> str:
 class LocomotionNode(RobotNode):
     """stand_up, sit_down, set_listen, robot_state, /Odometry and the map-frame odometry."""
 
-    def __init__(self, bus: Bus, backend: LocomotionBackend, settings: NodeOptions,
-                 loaded_map: LoadedMap):
-        super().__init__(bus, "/locomotion", backend)
-        self.backend: LocomotionBackend = backend
+    def __init__(self, bus: Bus, link: Link, locomotion: Locomotion, sensors: SensorBackend,
+                 power: PowerBackend, settings: NodeOptions, loaded_map: LoadedMap):
+        super().__init__(bus, "/locomotion", link)
+        self.locomotion = locomotion
+        self.sensors = sensors
+        self.power = power
         self.params = settings.slamware
         self.loaded_map = loaded_map  # the map-files node's: names the map-frame odometry
         self.map_topic: str | None = None
@@ -129,15 +131,15 @@ class LocomotionNode(RobotNode):
 
     # ------------------------------------------------------------------ services
     async def _stand_up(self, request: dict) -> dict:
-        if not self.backend.connected:
+        if not self.link.connected:
             return {"success": False, "message": "the robot is not connected"}
-        await self.backend.stand_up()
+        await self.locomotion.stand_up()
         return {"success": True, "message": "Trigger: started"}
 
     async def _sit_down(self, request: dict) -> dict:
-        if not self.backend.connected:
+        if not self.link.connected:
             return {"success": False, "message": "the robot is not connected"}
-        await self.backend.sit_down()
+        await self.locomotion.sit_down()
         return {"success": True, "message": "Trigger: started"}
 
     async def _set_listen(self, request: dict) -> dict:
@@ -145,7 +147,7 @@ class LocomotionNode(RobotNode):
             parsed = parse_listen(request["data"])
         except ListenError as exc:
             return {"success": False, "message": str(exc)}
-        return {"success": True, "message": self.backend.control.apply(parsed)}
+        return {"success": True, "message": self.locomotion.control.apply(parsed)}
 
     # ------------------------------------------------------------------ topics
     def robot_id(self) -> str:
@@ -159,17 +161,17 @@ class LocomotionNode(RobotNode):
         return f"/{topic_part(self.loaded_map.frame)}/{topic_part(self.robot_id())}/Odometry"
 
     async def _slow(self) -> None:
-        power = await self.backend.get_power_status()
+        power = await self.power.get_power_status()
         self.percentage, self.charging = float(power.battery_percentage), power.is_charging
-        self.temperature = float(await self.backend.get_board_temperature())
+        self.temperature = float(await self.power.get_board_temperature())
 
     async def _tick(self) -> None:
         now = time.monotonic()
         dt, self._last = min(now - self._last, 0.5), now
-        connected = self.backend.connected
+        connected = self.link.connected
         if connected:
             try:
-                odo = await self.backend.get_odometry()
+                odo = await self.sensors.get_odometry()
             except NotConnectedError:
                 connected = False
             else:
@@ -189,7 +191,7 @@ class LocomotionNode(RobotNode):
             self.wheel_vel[i] = w
 
     def _state(self, connected: bool) -> dict:
-        b = self.backend
+        b = self.locomotion
         enabled = connected and b.motors_enabled
         status = (ECAT_CONN_ERROR if not connected
                   else OPERATION_ENABLED if enabled else READY_TO_SWITCH_ON)

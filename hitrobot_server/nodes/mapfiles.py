@@ -22,7 +22,7 @@ from pathlib import Path
 
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
-from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.backend import BackendError, Link, LocalizationBackend, NotConnectedError
 from .base import RobotNode
 from .ground.loadedmap import LoadedMap
 from .ground.mapstore import MapStore, StoreError, write_file
@@ -43,9 +43,10 @@ class MapFilesNode(RobotNode):
     """``list_map_files``, ``load_laser_map`` and ``set_map`` over the map manager's store;
     the route and graph nodes see it as their :class:`~.ground.loadedmap.MapDefaults`."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions):
-        super().__init__(bus, "/map_files", backend)
-        self.backend: RobotBackend = backend
+    def __init__(self, bus: Bus, link: Link, localization: LocalizationBackend,
+                 settings: NodeOptions):
+        super().__init__(bus, "/map_files", link)
+        self.localization = localization
         self.store = MapStore(settings.map_store)
         self.loaded = LoadedMap()
         self.defaults: dict[str, Callable[[bytes], str]] = {}
@@ -72,7 +73,7 @@ class MapFilesNode(RobotNode):
         topic = self.bus.topic(LOAD_MAP_TOPIC)
         if topic is None or not any(key != (self, LOAD_MAP_TOPIC) for key in topic.subscribers):
             return {"success": False, "message": "the map manager is not running"}
-        if not self.backend.connected:
+        if not self.link.connected:
             return {"success": False, "message": "the robot is not connected"}
         loop = asyncio.get_running_loop()
         outcome: asyncio.Future[tuple[str, str]] = loop.create_future()
@@ -103,7 +104,7 @@ class MapFilesNode(RobotNode):
         except RequestRejected as exc:
             return {"success": False, "message": str(exc)}
         try:
-            await self.backend.set_pose(pose)
+            await self.localization.set_pose(pose)
         except NotConnectedError:
             return {"success": False, "message": "the robot is not connected"}
         except BackendError as exc:

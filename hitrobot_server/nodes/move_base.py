@@ -32,7 +32,13 @@ from dataclasses import dataclass, field
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
 from ..robot import motion
-from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.backend import (
+    BackendError,
+    Link,
+    LocalizationBackend,
+    MotionBackend,
+    NotConnectedError,
+)
 from ..robot.model import MoveOptions, Point2D, Pose2D
 from ..robot.motion import GOAL_FLAGS, cancel_if_current, watch
 from .base import RobotNode
@@ -83,10 +89,12 @@ class Goal:
 class MoveBaseNode(RobotNode):
     """The actionlib server for ``/move_base`` (the server name is configurable)."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, map_frame: str = "/map",
+    def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
+                 localization: LocalizationBackend, map_frame: str = "/map",
                  server: str = "/move_base"):
-        super().__init__(bus, server, backend)
-        self.backend: RobotBackend = backend
+        super().__init__(bus, server, link)
+        self.motion = motion
+        self.localization = localization
         self.server = server
         self.map_frame = map_frame
         self.frames = map_frames(map_frame)
@@ -172,7 +180,7 @@ class MoveBaseNode(RobotNode):
                 raise RequestRejected(f"field 'goal.target_pose.header.frame_id': '{frame}' is "
                                       "not the map frame")
             goal.target = pose2d_of(tp["pose"], "goal.target_pose.pose")
-            if not self.backend.connected:
+            if not self.link.connected:
                 raise RequestRejected("the robot is not connected")
         except RequestRejected as exc:
             self._finish(goal, REJECTED, str(exc))  # tells the publisher too
@@ -192,7 +200,7 @@ class MoveBaseNode(RobotNode):
             if goal.done:  # recalled or replaced while waiting for the robot
                 return
             try:
-                info = await self.backend.move_to(
+                info = await self.motion.move_to(
                     [Point2D(target.x, target.y)], MoveOptions(flags=GOAL_FLAGS), target.yaw)
             except NotConnectedError:
                 self._finish(goal, ABORTED, "the robot is not connected")
@@ -203,7 +211,7 @@ class MoveBaseNode(RobotNode):
             goal.action_id = info.action_id
             if goal.done:  # cancelled while the robot was being asked: undo
                 if goal.status == RECALLED and self.current is None:
-                    await cancel_if_current(self.backend, info.action_id, "move_base: ")
+                    await cancel_if_current(self.motion, info.action_id, "move_base: ")
                 return
             goal.status = ACTIVE
             self._publish_status()
@@ -212,7 +220,7 @@ class MoveBaseNode(RobotNode):
     async def _watch(self, goal: Goal) -> None:
         if goal.done or goal.action_id is None:
             return
-        end = await watch(self.backend, goal.action_id, self.backend.get_pose,
+        end = await watch(self.motion, goal.action_id, self.localization.get_pose,
                           lambda _action, pose: self._publish_feedback(goal, pose),
                           gone=lambda: goal.done or goal.status != ACTIVE, who="move_base: ")
         if end.kind == motion.SUCCEEDED:
@@ -262,5 +270,5 @@ class MoveBaseNode(RobotNode):
 
     async def _preempt(self, goal: Goal, text: str) -> None:
         async with self._lock:
-            await cancel_if_current(self.backend, goal.action_id, "move_base: ")
+            await cancel_if_current(self.motion, goal.action_id, "move_base: ")
         self._finish(goal, PREEMPTED, text)

@@ -5,14 +5,14 @@ Both are served on the bus with :meth:`Node.action`, so clients reach them with 
 ``ActionClient``).
 
 ``/compute_path_to_pose`` (``nav2_msgs/action/ComputePathToPose``) plans with the robot's own
-planner without moving (:meth:`RobotBackend.compute_path`): from ``start`` when ``use_start``,
+planner without moving (:meth:`MotionBackend.compute_path`): from ``start`` when ``use_start``,
 else from the robot's pose, to ``goal``. The result ``path`` (``nav_msgs/Path`` in the map
 frame) is the planned polyline resampled every :data:`PATH_SPACING` m, each pose facing along
 the path, the last one with the goal's orientation; ``planning_time`` is the wall time the
 planner took. ``planner_id`` is accepted and ignored (there is one planner). No path → ABORTED
 with the reason; so is a goal inside an obstacle whose nearest free spot is farther than
 :data:`GOAL_TOLERANCE` (the path would not lead to the goal). Over REST the server plans
-itself, on the robot's map, lines and blocked areas (:meth:`RobotBackend.compute_path`).
+itself, on the robot's map, lines and blocked areas (:meth:`MotionBackend.compute_path`).
 
 ``/follow_path`` (``nav2_msgs/action/FollowPath``) drives the given path: it is reduced to its
 corners (Douglas-Peucker, :data:`SIMPLIFY_TOLERANCE`) and handed to the robot as one
@@ -49,7 +49,14 @@ from ..bus.services import (
     GoalHandle,
     GoalOutcome,
 )
-from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.backend import (
+    BackendError,
+    Link,
+    LocalizationBackend,
+    MotionBackend,
+    NotConnectedError,
+    SensorBackend,
+)
 from ..robot.model import (
     ActionInfo,
     MoveOptionFlag,
@@ -179,9 +186,13 @@ class PathProgress:
 class Nav2ActionsNode(RobotNode):
     """Serves ``/compute_path_to_pose`` and ``/follow_path``."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, map_frame: str = "/map"):
-        super().__init__(bus, "/nav2_actions", backend)
-        self.backend: RobotBackend = backend
+    def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
+                 localization: LocalizationBackend, sensors: SensorBackend,
+                 map_frame: str = "/map"):
+        super().__init__(bus, "/nav2_actions", link)
+        self.motion = motion
+        self.localization = localization
+        self.sensors = sensors
         self.map_frame = map_frame
         self.frames = map_frames(map_frame)
         self.action(COMPUTE_PATH, "nav2_msgs/action/ComputePathToPose", self._compute_path)
@@ -193,12 +204,12 @@ class Nav2ActionsNode(RobotNode):
         try:
             target = goal_pose(self.frames, goal["goal"], "goal")
             start = goal_pose(self.frames, goal["start"], "start") if goal["use_start"] else None
-            if not self.backend.connected:
+            if not self.link.connected:
                 raise GoalRejected("the robot is not connected")
         except GoalRejected as exc:
             return rejected(str(exc))
         began = time.perf_counter()
-        planning = asyncio.ensure_future(self.backend.compute_path(start, target))
+        planning = asyncio.ensure_future(self.motion.compute_path(start, target))
         waiter = asyncio.ensure_future(handle.cancelled.wait())
         try:
             await asyncio.wait({planning, waiter}, return_when=asyncio.FIRST_COMPLETED)
@@ -247,9 +258,9 @@ class Nav2ActionsNode(RobotNode):
                     stamped = {**stamped, "header": {**stamped["header"],
                                                      "frame_id": header_frame}}
                 planar.append(goal_pose(self.frames, stamped, f"path.poses[{i}]"))
-            if not self.backend.connected:
+            if not self.link.connected:
                 raise GoalRejected("the robot is not connected")
-            robot = await self.backend.get_pose()
+            robot = await self.localization.get_pose()
         except GoalRejected as exc:
             return rejected(str(exc))
         except NotConnectedError:
@@ -273,9 +284,9 @@ class Nav2ActionsNode(RobotNode):
                 "speed": abs(odometry.twist.vx),
             })
 
-        end = await drive(self.backend, handle.cancelled,
-                          lambda: self.backend.move_to(targets, options, planar[-1].yaw),
-                          self.backend.get_odometry, on_poll)
+        end = await drive(self.motion, handle.cancelled,
+                          lambda: self.motion.move_to(targets, options, planar[-1].yaw),
+                          self.sensors.get_odometry, on_poll)
         if end.kind == "succeeded":
             handle.feedback({"distance_to_goal": 0.0, "speed": 0.0})
             return GoalOutcome(STATUS_SUCCEEDED, {"result": {}}, True)

@@ -23,7 +23,13 @@ from collections.abc import Callable
 
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
-from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.backend import (
+    BackendError,
+    Link,
+    LocalizationBackend,
+    MotionBackend,
+    NotConnectedError,
+)
 from ..robot.model import ActionResult, MoveOptionFlag, MoveOptions, Point2D, Rect
 from ..robot.motion import follow
 from .base import RobotNode, require_finite
@@ -64,8 +70,11 @@ def planning_area(start: tuple[float, float], goal: tuple[float, float],
 class NavigationNode(RobotNode):
     """StartNavigation / NavigateToPOI on top of the robot's ``move_to``."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, find_poi: Callable[[str], dict | None]):
-        super().__init__(bus, NODE_NAME, backend)
+    def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
+                 localization: LocalizationBackend, find_poi: Callable[[str], dict | None]):
+        super().__init__(bus, NODE_NAME, link)
+        self.motion = motion
+        self.localization = localization
         self.find_poi = find_poi
         self.advertise(UNREACHABLE_TOPIC, f"{PKG}/TargetUnreachable")
         self.subscribe(START_TOPIC, f"{PKG}/StartNavigation", self._on_start)
@@ -93,7 +102,7 @@ class NavigationNode(RobotNode):
         require_finite("distance_to_target", distance)
         if distance < 0:
             raise RequestRejected("field 'distance_to_target' must not be negative")
-        if not self.backend.connected:
+        if not self.link.connected:
             raise RequestRejected(f"{what}: the robot is not connected")
         target = Point2D(float(position["x"]), float(position["y"]))
         yaw = m.yaw_of(q)
@@ -102,15 +111,15 @@ class NavigationNode(RobotNode):
             try:
                 area = None
                 if fast_planning:
-                    pose = await self.backend.get_pose()
+                    pose = await self.localization.get_pose()
                     area = planning_area((pose.x, pose.y), (target.x, target.y))
                 options = MoveOptions(
                     flags=MoveOptionFlag.NONE if skip_final_turn else MoveOptionFlag.WITH_YAW,
                     acceptable_precision=float(distance) if distance > 0 else None,
                     planning_area=area,
                 )
-                final = await follow(self.backend,
-                                     await self.backend.move_to([target], options, yaw))
+                final = await follow(self.motion,
+                                     await self.motion.move_to([target], options, yaw))
                 if final is None:  # replaced and forgotten
                     return
                 action = final

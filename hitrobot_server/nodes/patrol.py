@@ -32,7 +32,13 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 
 from ..bus.core import Bus
-from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.backend import (
+    BackendError,
+    Link,
+    LocalizationBackend,
+    MotionBackend,
+    NotConnectedError,
+)
 from ..robot.model import ActionInfo, ActionResult, Point2D
 from ..robot.motion import cancel_if_current, follow
 from ..state import StateBinding
@@ -121,11 +127,13 @@ def nearest(waypoints: Sequence[Waypoint], x: float, y: float) -> int:
 class PatrolNode(RobotNode):
     """``planning/*``: the current route, route files and the patrol loop."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions,
+    def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
+                 localization: LocalizationBackend, settings: NodeOptions,
                  mapfiles: MapDefaults, state: StateBinding | None = None):
-        super().__init__(bus, NS, backend)
+        super().__init__(bus, NS, link)
         self.memory = NodeMemory(state, "patrol")
-        self.backend: RobotBackend = backend
+        self.motion = motion
+        self.localization = localization
         self.mapfiles = mapfiles
         self.files = NamedFiles(settings.map_store.parent / "routes")
         if removed := self.files.clean_leftovers():  # created at start-up, before any save
@@ -295,7 +303,7 @@ class PatrolNode(RobotNode):
         if not self.waypoints:
             return {"success": False, "message": "No waypoints loaded", "waypoint_index": 0}
         try:
-            pose = await self.backend.get_pose()
+            pose = await self.localization.get_pose()
         except NotConnectedError:
             return {"success": False, "message": "the robot is not connected",
                     "waypoint_index": 0}
@@ -322,7 +330,7 @@ class PatrolNode(RobotNode):
         await self._halt("restarted")
         w = self.waypoints[index]
         try:
-            action = await self.backend.move_to([Point2D(w.x, w.y)])
+            action = await self.motion.move_to([Point2D(w.x, w.y)])
         except NotConnectedError:
             return "the robot is not connected"
         except BackendError as exc:
@@ -341,8 +349,8 @@ class PatrolNode(RobotNode):
             task.cancel()
         if self.active:
             action_id, self._action_id = self._action_id, None
-            if self.backend.connected:
-                await cancel_if_current(self.backend, action_id, "patrol: ")
+            if self.link.connected:
+                await cancel_if_current(self.motion, action_id, "patrol: ")
             self._end(text)
 
     def _end(self, text: str) -> None:
@@ -362,9 +370,9 @@ class PatrolNode(RobotNode):
                 if action is None:
                     self.target, self.text = index, f"heading to waypoint {index}"
                     self._publish()
-                    action = await self.backend.move_to([Point2D(w.x, w.y)])
+                    action = await self.motion.move_to([Point2D(w.x, w.y)])
                     self._action_id = action.action_id
-                final = await follow(self.backend, action)
+                final = await follow(self.motion, action)
                 action = None
                 if final is None:
                     self._end("stopped: the robot's action was replaced by another command")

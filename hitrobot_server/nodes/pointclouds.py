@@ -44,7 +44,7 @@ from collections import deque
 import numpy as np
 
 from ..bus.core import Bus
-from ..robot.backend import RobotBackend
+from ..robot.backend import Link, SensorBackend
 from ..robot.model import LaserScan
 from .base import RobotNode
 from .ground import messages as m
@@ -184,9 +184,9 @@ def extrude(points: np.ndarray, heights: tuple[float, ...] = MERGED_HEIGHTS) -> 
 class PointCloudNode(RobotNode):
     """Publishes the three clouds from the robot's lidar frames."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, map_frame: str = "/map"):
-        super().__init__(bus, NODE_NAME, backend)
-        self.backend: RobotBackend = backend
+    def __init__(self, bus: Bus, link: Link, sensors: SensorBackend, map_frame: str = "/map"):
+        super().__init__(bus, NODE_NAME, link)
+        self.sensors = sensors
         self.map_frame = map_frame
         for name, value in DEFAULTS.items():
             key = f"{NODE_NAME}/{name}"
@@ -224,7 +224,7 @@ class PointCloudNode(RobotNode):
             self._scans.clear()
             return
         taken = self.bus.clock()  # the backend's own stamp orders frames, never goes out
-        scan = await self.backend.get_laser_scan()
+        scan = await self.sensors.get_laser_scan()
         fresh = scan.stamp != self._last_stamp
         if fresh:
             self._last_stamp = scan.stamp

@@ -33,7 +33,8 @@ from .. import __version__
 from ..bus.core import Bus
 from ..bus.errors import BusError
 from ..bus.topics import Message, RequestRejected
-from ..robot.backend import BackendError, NotConnectedError, RobotBackend, UnsupportedError
+from ..robot.backend import BackendError, NotConnectedError, UnsupportedError
+from ..robot.capabilities import Robot
 from ..types.convert import default_message
 from .base import RobotNode
 from .move_base import MoveBaseNode
@@ -61,10 +62,10 @@ ADMIN = "admin"
 class ShellNode(RobotNode):
     """Executes ``/cmd_string`` commands against the robot and publishes the mode."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, authenticate: bool = False,
+    def __init__(self, bus: Bus, robot: Robot, authenticate: bool = False,
                  move_base: MoveBaseNode | None = None):
-        super().__init__(bus, NODE_NAME, backend)
-        self.backend: RobotBackend = backend
+        super().__init__(bus, NODE_NAME, robot.link)
+        self.robot = robot
         self.authenticate = authenticate
         self.move_base = move_base
         self.mode: str | None = None
@@ -101,7 +102,7 @@ class ShellNode(RobotNode):
         if self._switching.locked():
             return
         generation = self._generation
-        mode = GMAPPING if await self.backend.get_map_update() else NAVIGATION
+        mode = GMAPPING if await self.robot.maps.get_map_update() else NAVIGATION
         if self._switching.locked() or generation != self._generation:
             return  # a switch started meanwhile: it publishes the mode itself
         if mode != self.mode:
@@ -116,12 +117,12 @@ class ShellNode(RobotNode):
             self._generation += 1
             self._publish_mode(BUSY)
             try:
-                await self.backend.set_localization_enabled(True)
-                await self.backend.set_map_update(mode == GMAPPING)
+                await self.robot.localization.set_localization_enabled(True)
+                await self.robot.maps.set_map_update(mode == GMAPPING)
             except BackendError as exc:
                 message.reject(f"{mode}: {_robot_error(exc)}")
                 try:
-                    actual = GMAPPING if await self.backend.get_map_update() else NAVIGATION
+                    actual = GMAPPING if await self.robot.maps.get_map_update() else NAVIGATION
                 except BackendError:
                     actual = None
                 if actual is not None:
@@ -141,7 +142,7 @@ class ShellNode(RobotNode):
         handler(message)
 
     def _require_robot(self, command: str) -> None:
-        if not self.backend.connected:
+        if not self.link.connected:
             raise RequestRejected(f"{command}: the robot is not connected")
 
     def _power(self, message: Message, command: str) -> None:
@@ -157,9 +158,9 @@ class ShellNode(RobotNode):
             log.warning("robot %s requested by %s", command, who)
             try:
                 if command == "shutdown":
-                    await self.backend.power_off()
+                    await self.robot.power.power_off()
                 else:
-                    await self.backend.reboot()
+                    await self.robot.reboot()
             except UnsupportedError as exc:
                 message.reject(f"{command}: {exc}")
             except BackendError as exc:
@@ -173,14 +174,14 @@ class ShellNode(RobotNode):
         goals = 0
         if self.move_base is not None:
             goals = self.move_base.cancel_all("cancelled by /cmd_string cancel")
-        if not self.backend.connected:
+        if not self.link.connected:
             if goals:
                 return
             raise RequestRejected("cancel: the robot is not connected")
 
         async def go() -> None:
             try:
-                await self.backend.cancel_action()
+                await self.robot.motion.cancel_action()
             except BackendError as exc:
                 message.reject(f"cancel: {_robot_error(exc)}")
 
@@ -212,7 +213,7 @@ class ShellNode(RobotNode):
     async def _version(self, message: Message) -> None:
         lines = [f"hitrobot-server {__version__}"]
         try:
-            info = await self.backend.get_device_info()
+            info = await self.robot.sensors.get_device_info()
         except BackendError as exc:
             lines.append(f"robot: {_robot_error(exc)}")
         else:

@@ -1,5 +1,7 @@
 """The robot side of the bridge: the backend boundary, its value types and the simulator.
 
-The Slamware node talks to a :class:`~hitrobot_server.robot.backend.RobotBackend`; the built-in
-simulator (:mod:`hitrobot_server.robot.sim`) and a future Slamware REST client implement it.
+Nodes talk to a robot's capabilities (:mod:`hitrobot_server.robot.backend`), bundled as a
+:class:`~hitrobot_server.robot.capabilities.Robot` with the motion behind the locomotion gate;
+the built-in simulator (:mod:`hitrobot_server.robot.sim`) and the Slamware REST client
+(:mod:`hitrobot_server.robot.rest`) implement them.
 """

@@ -1,20 +1,23 @@
-"""The robot backend boundary: everything the Slamware node asks of a robot.
+"""The robot boundary: the capabilities a node can ask of one robot.
 
-The node never talks to a robot directly; it awaits these methods. Two implementations are meant
-to exist: :class:`~hitrobot_server.robot.sim.backend.SimBackend` (the built-in simulator) and a
-Slamware REST client. The interface is therefore shaped after the REST API (actions with
-status/result/reason polled by id, lines by usage, bare getters and setters), so a REST client
-maps each method to one or two HTTP calls, while the simulator answers from memory.
+Nodes never talk to a robot directly; they await the methods of the capabilities they were
+handed. The boundary is shaped after the Slamware REST API (actions with status/result/reason
+polled by id, lines by usage, bare getters and setters), so a REST client maps each method to
+one or two HTTP calls, while the simulator answers from memory.
+
+It is split by concern into small protocols, so a node names just what it uses:
+:class:`Link` (reachable? connect, disconnect), :class:`MotionBackend` (actions and velocity),
+:class:`LocalizationBackend` (where the robot believes it is), :class:`MapBackend` (map, lines,
+home, blocked areas, whole-map transfer), :class:`SensorBackend` (odometry, lidar, bumpers,
+identity, health) and :class:`PowerBackend` (battery, shutdown, reboot). A backend
+(:class:`~hitrobot_server.robot.sim.backend.SimBackend`, the Slamware REST client) implements
+them all directly as one class, :class:`RobotBackend`; the nodes get them one by one, bundled in
+a :class:`~hitrobot_server.robot.capabilities.Robot` (with the motion behind the locomotion
+gate). Adding a capability method touches this file and the backends, nothing else.
 
 Conventions: poses are in the robot's map frame; failures raise :class:`BackendError`;
 ``NotConnectedError`` means the robot is unreachable (the node should drop the request and
 retry later, as ``slamware_ros_sdk_server_node`` does).
-
-The boundary is split by concern into small protocols -- :class:`MotionBackend` (actions and
-velocity), :class:`MapBackend` (map, localization, lines, home, whole-map transfer),
-:class:`SensorBackend` (odometry, lidar, bumpers, identity, health) and :class:`PowerBackend`
-(battery, shutdown) -- so a helper can ask for just the part it uses; :class:`RobotBackend`
-is all of them plus the connection lifecycle, and is what a backend implements.
 """
 
 from __future__ import annotations
@@ -58,6 +61,23 @@ class NotConnectedError(BackendError):
 
 class UnsupportedError(BackendError):
     """The robot does not offer this feature (e.g. a map kind other than the explore map)."""
+
+
+class Link(Protocol):
+    """The connection to one robot: whether it is reachable, connecting and disconnecting."""
+
+    @property
+    @abstractmethod
+    def connected(self) -> bool:
+        """Whether the robot is reachable right now."""
+
+    @abstractmethod
+    async def start(self) -> None:
+        """Connect (or start simulating); idempotent."""
+
+    @abstractmethod
+    async def stop(self) -> None:
+        """Disconnect (or stop simulating); idempotent."""
 
 
 class MotionBackend(Protocol):
@@ -140,8 +160,8 @@ class MotionBackend(Protocol):
         replaces any running action."""
 
 
-class MapBackend(Protocol):
-    """The robot's map and its place in it: localization, lines, home, whole-map transfer."""
+class LocalizationBackend(Protocol):
+    """Where the robot believes it is on its map, and how sure it is."""
 
     @abstractmethod
     async def get_pose(self) -> Pose2D:
@@ -171,6 +191,11 @@ class MapBackend(Protocol):
         movement: LocalizationMovement | None = None,
     ) -> ActionInfo:
         """Start a relocalization action searching ``area`` (whole map when ``None``/empty)."""
+
+
+class MapBackend(Protocol):
+    """The robot's map: cells, mapping switch, virtual lines, blocked areas, home, whole-map
+    transfer."""
 
     @abstractmethod
     async def get_known_area(self, kind: MapKind = MapKind.EXPLORERMAP) -> Rect:
@@ -308,18 +333,8 @@ class PowerBackend(Protocol):
         raise UnsupportedError("this robot cannot be rebooted remotely")
 
 
-class RobotBackend(MotionBackend, MapBackend, SensorBackend, PowerBackend):
-    """Async interface to one robot. Methods are cheap to await and never block the loop."""
-
-    @property
-    @abstractmethod
-    def connected(self) -> bool:
-        """Whether the robot is reachable right now."""
-
-    @abstractmethod
-    async def start(self) -> None:
-        """Connect (or start simulating); idempotent."""
-
-    @abstractmethod
-    async def stop(self) -> None:
-        """Disconnect (or stop simulating); idempotent."""
+class RobotBackend(Link, MotionBackend, LocalizationBackend, MapBackend, SensorBackend,
+                   PowerBackend):
+    """Every capability of one robot in one class: what a backend implements. Nodes never
+    name it; they name the capabilities they use. Methods are cheap to await and never block
+    the loop."""

@@ -1,4 +1,5 @@
-"""Which robot backs the bus: the built-in simulator, a Slamware robot over REST, or none."""
+"""Which robot backs the bus (the built-in simulator, a Slamware robot over REST, or none),
+and the capabilities the nodes get of it (:func:`robot_of`)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,8 @@ from typing import TYPE_CHECKING
 
 from ..state import StateStore
 from .backend import RobotBackend
+from .capabilities import Robot
+from .locomotion import STAND_UP_SECONDS, GatedMotion, Locomotion
 from .model import Pose2D
 from .options import RobotOptions
 
@@ -67,3 +70,11 @@ def build_backend(options: RobotOptions, world: SharedWorld | None = None,
         return world.add(options.sim_seed + len(world.robots), start, options.sim_speed, memory)
     simulator = build_simulator(options.world, options.sim_seed, options.sim_mapping)
     return SimBackend(simulator, time_scale=options.sim_speed, memory=memory)
+
+
+def robot_of(backend: RobotBackend, stand_up_seconds: float = STAND_UP_SECONDS) -> Robot:
+    """The capabilities the nodes get of ``backend``: its own, except the motion, which goes
+    through a fresh locomotion gate (``stand_up_seconds``: the stand-up transition)."""
+    locomotion = Locomotion(backend, backend, stand_up_seconds)
+    return Robot(link=backend, motion=GatedMotion(backend, locomotion), localization=backend,
+                 maps=backend, sensors=backend, power=backend, locomotion=locomotion)

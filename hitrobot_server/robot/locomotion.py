@@ -1,8 +1,8 @@
-"""The locomotion state machine and control mode, as a gate in front of a robot backend.
+"""The locomotion state machine and control mode, and the gate they put in front of motion.
 
-:class:`LocomotionBackend` wraps any :class:`RobotBackend` and passes every method through to it
-(written out, so reading the class shows the whole boundary), but its *motion* methods
-(``move_to``, ``move_by_direction``, ``move_by_theta``, ``rotate_to``, ``rotate``,
+:class:`Locomotion` is the state machine; :class:`GatedMotion` wraps a robot's motion
+capability only (:class:`~hitrobot_server.robot.backend.MotionBackend`): its commands that move
+the robot (``move_to``, ``move_by_direction``, ``move_by_theta``, ``rotate_to``, ``rotate``,
 ``go_home`` and a non-zero ``set_velocity``) raise :class:`BackendError` unless
 the robot is in a state that may move (``IN_CONTROL``). Every node that drives the robot (the
 Slamware topics, ``/cmd_vel``, ``/move_base``, ``/navigation``, patrols, graph navigation, the
@@ -12,7 +12,7 @@ allowed.
 
 States follow the seed's locomotion state values (0-9). The simulated robot starts in
 ``IN_CONTROL``; ``sit_down`` stops any motion and goes to ``SITDOWN_MODE``; ``stand_up`` goes to
-``STANDING_MODE`` and, after :attr:`LocomotionBackend.stand_up_seconds`, to ``IN_CONTROL``. While
+``STANDING_MODE`` and, after :attr:`Locomotion.stand_up_seconds`, to ``IN_CONTROL``. While
 the robot is unreachable the state reads ``COMM_DISABLED``; a reboot brings it back standing.
 
 The control mode (``set_listen``) says who may drive, reported in
@@ -40,27 +40,8 @@ import enum
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from .backend import BackendError, RobotBackend
-from .model import (
-    ActionDirection,
-    ActionInfo,
-    ArtifactUsage,
-    BasicSensorInfo,
-    BasicSensorValue,
-    DeviceInfo,
-    HealthInfo,
-    LaserScan,
-    Line,
-    LocalizationMovement,
-    MapKind,
-    MapRegion,
-    MoveOptions,
-    Odometry,
-    Point2D,
-    Pose2D,
-    PowerStatus,
-    Rect,
-)
+from .backend import BackendError, Link, MotionBackend
+from .model import ActionDirection, ActionInfo, MoveOptions, Point2D, Pose2D
 
 
 class LocomotionState(enum.IntEnum):
@@ -174,12 +155,17 @@ class ControlMode:
         return f"listening to {request.topic}"
 
 
-class LocomotionBackend(RobotBackend):
-    """A backend whose motion is gated by the locomotion state (see the module text)."""
+class Locomotion:
+    """The locomotion state machine of one robot (sit/stand, the control mode): the state is
+    the robot's own, but the bridge keeps it, so it reads ``COMM_DISABLED`` while ``link``
+    says the robot is unreachable. ``motion`` is the robot's ungated motion (sitting down stops
+    it)."""
 
-    def __init__(self, inner: RobotBackend, stand_up_seconds: float = STAND_UP_SECONDS,
+    def __init__(self, link: Link, motion: MotionBackend,
+                 stand_up_seconds: float = STAND_UP_SECONDS,
                  initial: LocomotionState = LocomotionState.IN_CONTROL):
-        self.inner = inner
+        self.link = link
+        self.motion = motion
         self.stand_up_seconds = stand_up_seconds
         self._initial = initial
         self._state = initial
@@ -187,16 +173,9 @@ class LocomotionBackend(RobotBackend):
         self.control = ControlMode()
 
     @property
-    def simulator(self):
-        """The wrapped simulator (sim tools and tests reach it through the gate); an
-        ``AttributeError`` when the wrapped robot is not simulated."""
-        return self.inner.simulator
-
-    # --- locomotion ----------------------------------------------------------------------
-    @property
     def state(self) -> LocomotionState:
         """The locomotion state; ``COMM_DISABLED`` while the robot is unreachable."""
-        return self._state if self.inner.connected else LocomotionState.COMM_DISABLED
+        return self._state if self.link.connected else LocomotionState.COMM_DISABLED
 
     @property
     def motion_allowed(self) -> bool:
@@ -215,9 +194,9 @@ class LocomotionBackend(RobotBackend):
         """Stop whatever the robot is doing and sit down (motion refused from now on)."""
         self._cancel_transition()
         self._state = LocomotionState.SITDOWN_MODE
-        if self.inner.connected:
+        if self.link.connected:
             with contextlib.suppress(BackendError):
-                await self.inner.cancel_action()  # also ends /cmd_vel velocity control
+                await self.motion.cancel_action()  # also ends /cmd_vel velocity control
 
     async def stand_up(self) -> None:
         """Start standing up: STANDING_MODE now, IN_CONTROL after the transition."""
@@ -236,69 +215,63 @@ class LocomotionBackend(RobotBackend):
     def check_motion(self, manual: bool = False) -> None:
         """Refuse motion the locomotion state or the control mode does not allow; ``manual``
         is teleoperation (velocity and MoveBy commands) as opposed to autonomous motion."""
-        if not self.inner.connected:
-            return  # the wrapped backend says "not connected" itself
+        if not self.link.connected:
+            return  # the robot's motion says "not connected" itself
         state = self._state
         if state not in MOTION_STATES:
             why = _WHY.get(state, "the robot is not in control")
             raise BackendError(f"motion refused: {why} (locomotion state {state.name})")
         self.control.check(manual)
 
-    # --- lifecycle -----------------------------------------------------------------------
-    @property
-    def connected(self) -> bool:
-        return self.inner.connected
-
-    async def start(self) -> None:
-        await self.inner.start()
-
-    async def stop(self) -> None:
+    def restarted(self) -> None:
+        """The robot rebooted: it comes back as freshly started."""
         self._cancel_transition()
-        await self.inner.stop()
+        self._state = self._initial
 
-    async def power_off(self) -> None:
-        await self.inner.power_off()
 
-    async def reboot(self) -> None:
-        await self.inner.reboot()
-        self._cancel_transition()
-        self._state = self._initial  # it comes back as freshly started
+class GatedMotion(MotionBackend):
+    """A robot's motion behind its :class:`Locomotion`: commands that move the robot are
+    checked first (see the module text); stopping and reading actions pass straight through."""
 
-    # --- motion (gated) ------------------------------------------------------------------
+    def __init__(self, inner: MotionBackend, locomotion: Locomotion):
+        self.inner = inner
+        self.locomotion = locomotion
+
+    # --- gated -----------------------------------------------------------------------
     async def move_to(self, targets: Sequence[Point2D], options: MoveOptions | None = None,
                       yaw: float = 0.0) -> ActionInfo:
-        self.check_motion()
+        self.locomotion.check_motion()
         return await self.inner.move_to(targets, options, yaw)
 
     async def move_by_direction(self, direction: ActionDirection,
                                 options: MoveOptions | None = None,
                                 duration: float = 0.5) -> ActionInfo:
-        self.check_motion(manual=True)
+        self.locomotion.check_motion(manual=True)
         return await self.inner.move_by_direction(direction, options, duration)
 
     async def move_by_theta(self, theta: float, options: MoveOptions | None = None,
                             duration: float = 0.5) -> ActionInfo:
-        self.check_motion(manual=True)
+        self.locomotion.check_motion(manual=True)
         return await self.inner.move_by_theta(theta, options, duration)
 
     async def rotate_to(self, yaw: float, options: MoveOptions | None = None) -> ActionInfo:
-        self.check_motion()
+        self.locomotion.check_motion()
         return await self.inner.rotate_to(yaw, options)
 
     async def rotate(self, angle: float, options: MoveOptions | None = None) -> ActionInfo:
-        self.check_motion()
+        self.locomotion.check_motion()
         return await self.inner.rotate(angle, options)
 
     async def go_home(self, options: MoveOptions | None = None) -> ActionInfo:
-        self.check_motion()
+        self.locomotion.check_motion()
         return await self.inner.go_home(options)
 
     async def set_velocity(self, linear: float, angular: float) -> None:
         if linear != 0.0 or angular != 0.0:  # a stop is always allowed
-            self.check_motion(manual=True)
+            self.locomotion.check_motion(manual=True)
         await self.inner.set_velocity(linear, angular)
 
-    # --- motion (never gated): passed through ----------------------------------------
+    # --- never gated -----------------------------------------------------------------
     async def compute_path(self, start: Pose2D | None, goal: Pose2D,
                            options: MoveOptions | None = None) -> list[Point2D]:
         return await self.inner.compute_path(start, goal, options)
@@ -317,105 +290,3 @@ class LocomotionBackend(RobotBackend):
 
     async def get_remaining_milestones(self) -> list[Point2D]:
         return await self.inner.get_remaining_milestones()
-
-    # --- map and localization: passed through ----------------------------------------
-    async def get_pose(self) -> Pose2D:
-        return await self.inner.get_pose()
-
-    async def set_pose(self, pose: Pose2D) -> None:
-        return await self.inner.set_pose(pose)
-
-    async def get_localization_enabled(self) -> bool:
-        return await self.inner.get_localization_enabled()
-
-    async def set_localization_enabled(self, enabled: bool) -> None:
-        return await self.inner.set_localization_enabled(enabled)
-
-    async def get_localization_quality(self) -> int:
-        return await self.inner.get_localization_quality()
-
-    async def recover_localization(self, area: Rect | None = None, max_time_ms: int | None = None,
-                                   movement: LocalizationMovement | None = None) -> ActionInfo:
-        return await self.inner.recover_localization(area, max_time_ms, movement)
-
-    async def get_known_area(self, kind: MapKind = MapKind.EXPLORERMAP) -> Rect:
-        return await self.inner.get_known_area(kind)
-
-    async def get_map(self, area: Rect | None = None,
-                      kind: MapKind = MapKind.EXPLORERMAP) -> MapRegion:
-        return await self.inner.get_map(area, kind)
-
-    async def clear_map(self, kind: MapKind = MapKind.EXPLORERMAP) -> None:
-        return await self.inner.clear_map(kind)
-
-    async def get_map_update(self, kind: MapKind = MapKind.EXPLORERMAP) -> bool:
-        return await self.inner.get_map_update(kind)
-
-    async def set_map_update(self, enabled: bool, kind: MapKind = MapKind.EXPLORERMAP) -> None:
-        return await self.inner.set_map_update(enabled, kind)
-
-    async def get_lines(self, usage: ArtifactUsage) -> list[Line]:
-        return await self.inner.get_lines(usage)
-
-    async def add_lines(self, usage: ArtifactUsage, lines: Sequence[Line]) -> list[Line]:
-        return await self.inner.add_lines(usage, lines)
-
-    async def remove_line(self, usage: ArtifactUsage, line_id: int) -> bool:
-        return await self.inner.remove_line(usage, line_id)
-
-    async def clear_lines(self, usage: ArtifactUsage) -> None:
-        return await self.inner.clear_lines(usage)
-
-    async def move_lines(self, usage: ArtifactUsage, lines: Sequence[Line]) -> bool:
-        return await self.inner.move_lines(usage, lines)
-
-    async def set_blocked_areas(self, areas: Sequence[Sequence[Point2D]]) -> None:
-        return await self.inner.set_blocked_areas(areas)
-
-    async def get_home_pose(self) -> Pose2D | None:
-        return await self.inner.get_home_pose()
-
-    async def set_home_pose(self, pose: Pose2D) -> None:
-        return await self.inner.set_home_pose(pose)
-
-    async def get_composite_map(self) -> bytes:
-        return await self.inner.get_composite_map()
-
-    async def check_composite_map(self, data: bytes) -> None:
-        return await self.inner.check_composite_map(data)
-
-    async def set_composite_map(self, data: bytes, pose: Pose2D) -> None:
-        return await self.inner.set_composite_map(data, pose)
-
-    async def install_map(self, explore: MapRegion | None, walls: Sequence[Line],
-                          tracks: Sequence[Line], home: Pose2D | None, pose: Pose2D) -> None:
-        return await self.inner.install_map(explore, walls, tracks, home, pose)
-
-    # --- sensors: passed through -----------------------------------------------------
-    async def get_odometry(self) -> Odometry:
-        return await self.inner.get_odometry()
-
-    async def get_laser_scan(self) -> LaserScan:
-        return await self.inner.get_laser_scan()
-
-    async def get_sensors_info(self) -> list[BasicSensorInfo]:
-        return await self.inner.get_sensors_info()
-
-    async def get_sensor_values(self) -> dict[int, BasicSensorValue]:
-        return await self.inner.get_sensor_values()
-
-    async def get_device_info(self) -> DeviceInfo:
-        return await self.inner.get_device_info()
-
-    async def get_health(self) -> HealthInfo:
-        return await self.inner.get_health()
-
-    async def clear_health_error(self, error_code: int) -> bool:
-        return await self.inner.clear_health_error(error_code)
-
-    # --- power: passed through -------------------------------------------------------
-    async def get_power_status(self) -> PowerStatus:
-        return await self.inner.get_power_status()
-
-    async def get_board_temperature(self) -> int:
-        return await self.inner.get_board_temperature()

@@ -5,10 +5,10 @@ navigation, ``/move_base``, the nav2 and intelligent-navigation actions) goes th
 helpers, so they all look at a running action at the same pace (:data:`POLL_PERIOD`) and never
 cancel an action that another command has started since.
 
-The locomotion gate: the backend the nodes hold is a
-:class:`~hitrobot_server.robot.locomotion.LocomotionBackend`; its motion methods refuse with
+The locomotion gate: the motion the nodes hold is a
+:class:`~hitrobot_server.robot.locomotion.GatedMotion`; its motion methods refuse with
 :class:`BackendError` while the robot sits, stands up or is claimed by another control source
-(:meth:`~hitrobot_server.robot.locomotion.LocomotionBackend.check_motion`). Starting a motion
+(:meth:`~hitrobot_server.robot.locomotion.Locomotion.check_motion`). Starting a motion
 here therefore either returns an action or raises that refusal, which the helpers turn into the
 caller's reply; stopping (:func:`cancel_if_current`) is never gated.
 """

@@ -18,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .backend import RobotBackend
+from .backend import LocalizationBackend
+from .capabilities import Robot
 from .model import LaserScan, MapRegion, Pose2D, Rect
 from .sim.geometry import compose, inverse, wrap_angle
 from .sim.grid import GridSpec, distance_field
@@ -108,43 +109,44 @@ QUALITY_WAIT = 3.0
 """Seconds to wait, after settling, for the quality to reach :data:`GOOD_QUALITY`."""
 
 
-async def settled_quality(backend: RobotBackend, settle: float = QUALITY_SETTLE,
+async def settled_quality(localization: LocalizationBackend, settle: float = QUALITY_SETTLE,
                           wait: float = QUALITY_WAIT, poll: float = 0.1) -> int:
     """The robot's localization quality once it had time to judge its current pose: read
     after ``settle`` seconds, then polled until it is good or ``wait`` more seconds passed."""
     loop = asyncio.get_running_loop()
     await asyncio.sleep(settle)
     deadline = loop.time() + wait
-    quality = await backend.get_localization_quality()
+    quality = await localization.get_localization_quality()
     while quality < GOOD_QUALITY and loop.time() < deadline:
         await asyncio.sleep(poll)
-        quality = await backend.get_localization_quality()
+        quality = await localization.get_localization_quality()
     return quality
 
 
-async def localize_near(backend: RobotBackend, guess: Pose2D) -> tuple[bool, Pose2D, str]:
+async def localize_near(robot: Robot, guess: Pose2D) -> tuple[bool, Pose2D, str]:
     """Validate ``guess`` against the map, then commit it: ``(localized, pose, why)``.
 
     The pose is changed only when the scan matches the map near the guess; after the commit
     the robot's own quality must reach :data:`GOOD_QUALITY`, otherwise the pose it had before
     is restored. ``pose`` is where the robot then believes it is."""
-    before = await backend.get_pose()
-    scan = await backend.get_laser_scan()
+    localization = robot.localization
+    before = await localization.get_pose()
+    scan = await robot.sensors.get_laser_scan()
     finite = scan.ranges[np.isfinite(scan.ranges)]
     reach = SEARCH_HALF_SIZE + (float(finite.max()) if finite.size else 0.0) + 0.5
-    region = await backend.get_map(Rect(guess.x - reach, guess.y - reach, 2 * reach, 2 * reach))
+    region = await robot.maps.get_map(Rect(guess.x - reach, guess.y - reach, 2 * reach, 2 * reach))
     found = await asyncio.to_thread(refine_guess, region, scan, guess)
     if not found.good or found.pose is None:
         return False, before, (f"the scan does not match the map near the guess "
                                f"(best score {found.score:.2f} < {MATCH_SCORE})")
-    now = await backend.get_pose()
+    now = await localization.get_pose()
     commit = carry_forward(found.pose, scan.pose, now)
-    await backend.set_pose(commit)
-    quality = await settled_quality(backend)
+    await localization.set_pose(commit)
+    quality = await settled_quality(localization)
     if quality >= GOOD_QUALITY:
-        return True, await backend.get_pose(), f"localized (quality {quality})"
-    current = await backend.get_pose()
-    await backend.set_pose(carry_forward(before, commit, current))
-    return False, await backend.get_pose(), (
+        return True, await localization.get_pose(), f"localized (quality {quality})"
+    current = await localization.get_pose()
+    await localization.set_pose(carry_forward(before, commit, current))
+    return False, await localization.get_pose(), (
         f"localization did not converge (quality {quality} < {GOOD_QUALITY}); the previous "
         "pose was restored")

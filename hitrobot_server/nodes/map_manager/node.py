@@ -24,7 +24,13 @@ import numpy as np
 
 from ...bus.core import Bus
 from ...bus.topics import Message, RequestRejected
-from ...robot.backend import BackendError, NotConnectedError, RobotBackend
+from ...robot.backend import (
+    BackendError,
+    Link,
+    LocalizationBackend,
+    MapBackend,
+    NotConnectedError,
+)
 from ...robot.model import ArtifactUsage, Line, MapRegion, Point2D, Pose2D, Rect
 from ...state import StateBinding
 from ..base import RobotNode
@@ -153,9 +159,12 @@ def decode_masks(data: bytes) -> dict[int, Mask]:
 class MapManager(RobotNode):
     """The map manager node; needs a robot (the SLAM layer is the robot's map)."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, settings: NodeOptions,
+    def __init__(self, bus: Bus, link: Link, maps: MapBackend,
+                 localization: LocalizationBackend, settings: NodeOptions,
                  state: StateBinding | None = None):
-        super().__init__(bus, NODE_NAME, backend)
+        super().__init__(bus, NODE_NAME, link)
+        self.maps = maps
+        self.localization = localization
         self.memory = NodeMemory(state, "map_manager")
         self.store = MapStore(settings.map_store)
         params = settings.slamware
@@ -273,7 +282,7 @@ class MapManager(RobotNode):
     async def _publish_home(self) -> None:
         """The dock on the latched ``home`` topic (consoles draw it), on change; a map without
         a dock publishes an empty frame id."""
-        home = await self.backend.get_home_pose()
+        home = await self.maps.get_home_pose()
         if home == self._home:
             return
         self._home = home
@@ -285,7 +294,7 @@ class MapManager(RobotNode):
              needs_robot: bool = True) -> None:
         """Run ``work`` in the background; its failure (or success text) goes to the
         publisher as a status."""
-        if needs_robot and not self.backend.connected:
+        if needs_robot and not self.link.connected:
             raise RequestRejected(f"{what}: the robot is not connected")
 
         async def go() -> None:
@@ -343,16 +352,16 @@ class MapManager(RobotNode):
                 self.publish_map()
             except LayerError as exc:
                 log.warning("/map: %s", exc)
-            if self._blocked_stale and self.backend.connected:
+            if self._blocked_stale and self.link.connected:
                 with contextlib.suppress(BackendError):
                     await self.push_blocked()
 
     async def _watch_connection(self) -> None:
         """A robot that (re)connects has forgotten our blocked areas: hand them over again."""
-        was = self.backend.connected
+        was = self.link.connected
         while True:
             await asyncio.sleep(RECONNECT_POLL)
-            now = self.backend.connected
+            now = self.link.connected
             if now and not was:
                 self._blocked_sent = None
                 self._blocked_stale = True
@@ -369,7 +378,7 @@ class MapManager(RobotNode):
             polygons = [[Point2D(x0, y0), Point2D(x1, y0), Point2D(x1, y1), Point2D(x0, y1)]
                         for x0, y0, x1, y1 in rects]
             try:
-                await self.backend.set_blocked_areas(polygons)
+                await self.maps.set_blocked_areas(polygons)
             except BackendError:
                 self._blocked_stale = True
                 raise
@@ -438,7 +447,7 @@ class MapManager(RobotNode):
     async def _install_map(self, grid: Grid, robot: dict | None = None) -> None:
         """Load an occupancy grid into the robot as its explore map (keeping its walls, tracks
         and home unless ``robot`` gives them), then have the Slamware node resync."""
-        b = self.backend
+        b = self.maps
         probe = await b.get_map(Rect(-0.5, -0.5, 1.0, 1.0))
         region = to_explore(grid, probe.resolution)
         if robot is None:
@@ -452,7 +461,7 @@ class MapManager(RobotNode):
 
             walls, tracks = lines(robot["virtual_walls"]), lines(robot["virtual_tracks"])
             home = None if robot["home"] is None else Pose2D(*robot["home"])
-        await b.install_map(region, walls, tracks, home, await b.get_pose())
+        await b.install_map(region, walls, tracks, home, await self.localization.get_pose())
         if self.bus.topic(self.topic_sync) is not None:
             self.publish(self.topic_sync, {})
 
@@ -513,7 +522,7 @@ class MapManager(RobotNode):
         state = bool(message.msg["state"])
 
         async def work() -> str:
-            await self.backend.set_map_update(state)
+            await self.maps.set_map_update(state)
             return "mapping on" if state else "mapping off"
 
         self._job(message, "do_mapping", work)
@@ -583,7 +592,7 @@ class MapManager(RobotNode):
                 grid = await self.robot_map()
                 if grid is None:
                     raise BackendError("the robot has no map to save yet")
-                b = self.backend
+                b = self.maps
                 robot = mapio.encode_robot(await b.get_lines(ArtifactUsage.VIRTUAL_WALL),
                                            await b.get_lines(ArtifactUsage.VIRTUAL_TRACK),
                                            await b.get_home_pose())
@@ -644,7 +653,7 @@ class MapManager(RobotNode):
 
     async def robot_map(self) -> Grid | None:
         """The robot's whole explore map, fetched in tiles as the Slamware node does."""
-        b = self.backend
+        b = self.maps
         known = await b.get_known_area()
         if known.is_empty:
             return None

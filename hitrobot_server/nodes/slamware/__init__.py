@@ -1,4 +1,4 @@
-"""The ``slamware_ros_sdk_server_node`` interface on the bus, backed by any RobotBackend."""
+"""The ``slamware_ros_sdk_server_node`` interface on the bus, backed by any robot's capabilities."""
 
 from .node import NODE_NAME, SlamwareNode
 

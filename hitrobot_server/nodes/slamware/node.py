@@ -1,9 +1,10 @@
 """``slamware_ros_sdk_server_node`` on the bus: the real node's topics, services and tf.
 
-The node only talks to a :class:`RobotBackend`; whether that is the simulator or a real
-robot over REST is not its business. Like the real node, each publisher is a worker with
-its own period (≤ 0 disables it) and requests arrive on topics; unlike the real node, a
-request we cannot carry out is reported to the client that sent it as a ``status`` error.
+The node only talks to a :class:`~hitrobot_server.robot.capabilities.Robot`'s capabilities;
+whether that is the simulator or a real robot over REST is not its business. Like the real
+node, each publisher is a worker with its own period (≤ 0 disables it) and requests arrive on
+topics; unlike the real node, a request we cannot carry out is reported to the client that sent
+it as a ``status`` error.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from typing import Any
 from ...bus.core import Bus
 from ...bus.errors import ServiceError
 from ...bus.topics import Message, RequestRejected
-from ...robot.backend import ACTION_PREFIX, BackendError, NotConnectedError, RobotBackend
+from ...robot.backend import ACTION_PREFIX, BackendError, NotConnectedError
+from ...robot.capabilities import Robot
 from ...robot.model import (
     ActionDirection,
     ActionInfo,
@@ -91,8 +93,9 @@ def _line(msg: dict, path: str) -> Line:
 class SlamwareNode(RobotNode):
     """Publishes the robot's state and executes requests exactly where the real node does."""
 
-    def __init__(self, bus: Bus, backend: RobotBackend, params: SlamwareParams | None = None):
-        super().__init__(bus, NODE_NAME, backend)
+    def __init__(self, bus: Bus, robot: Robot, params: SlamwareParams | None = None):
+        super().__init__(bus, NODE_NAME, robot.link)
+        self.robot = robot
         self.params = params or SlamwareParams()
         self.map = MapHolder()
         self._sync_requested = True
@@ -192,14 +195,14 @@ class SlamwareNode(RobotNode):
                 self.every(period, work, needs_robot=work != self._watch_connection)
 
     async def _watch_connection(self) -> None:
-        connected = self.backend.connected
+        connected = self.link.connected
         if connected and not self._was_connected:
             log.info("robot connected")
             self._sync_requested = True
             self.map.resolution = None
             self._sensors = []  # a (re)connected robot may have other sensors
             try:
-                info = await self.backend.get_device_info()
+                info = await self.robot.sensors.get_device_info()
                 self.publish(self.topic_device, m.device_info(info))
             except BackendError as exc:
                 log.warning("device info: %s", exc)
@@ -210,7 +213,7 @@ class SlamwareNode(RobotNode):
 
     # ------------------------------------------------------------------ publishers
     async def _publish_pose(self) -> None:
-        odo = await self.backend.get_odometry()
+        odo = await self.robot.sensors.get_odometry()
         p = self.params
         self._last_pose = odo.pose
         now = self.bus.clock()
@@ -232,7 +235,7 @@ class SlamwareNode(RobotNode):
     async def _publish_scan(self) -> None:
         began = time.monotonic()
         now = self.bus.clock()  # like the real node: the time the scan request started
-        scan = await self.backend.get_laser_scan()
+        scan = await self.robot.sensors.get_laser_scan()
         scan_time = time.monotonic() - began
         msg = m.laser_scan(scan, self.params.laser_frame, self.params.angle_compensate,
                            scan_time, now)
@@ -245,12 +248,12 @@ class SlamwareNode(RobotNode):
         ]})
 
     async def _update_map(self) -> None:
-        b = self.backend
+        b = self.robot
         if self.map.resolution is None:
-            probe = await b.get_map(Rect(-0.5, -0.5, 1.0, 1.0), MapKind.EXPLORERMAP)
+            probe = await b.maps.get_map(Rect(-0.5, -0.5, 1.0, 1.0), MapKind.EXPLORERMAP)
             self.map.reset(probe.resolution)
             self._sync_requested = True
-        known = await b.get_known_area(MapKind.EXPLORERMAP)
+        known = await b.maps.get_known_area(MapKind.EXPLORERMAP)
         if self._sync_requested:
             if known.is_empty:  # cleared: publish unknown cells instead of the old map
                 self.map.forget()
@@ -258,7 +261,7 @@ class SlamwareNode(RobotNode):
             self.map.clear()
             size = max(16.0, self.params.map_sync_once_get_max_wh)
             for tile in tiles(known, size):
-                region = await b.get_map(tile, MapKind.EXPLORERMAP)
+                region = await b.maps.get_map(tile, MapKind.EXPLORERMAP)
                 if not self.map.merge(region):
                     self.map.resolution = None
                     return
@@ -267,12 +270,12 @@ class SlamwareNode(RobotNode):
         if known.is_empty:
             self._sync_requested = True
             return
-        pose = self._last_pose or await b.get_pose()
+        pose = self._last_pose or await b.localization.get_pose()
         half = max(2.0, self.params.map_update_near_robot_half_wh)
         area = window(known, pose.x, pose.y, half)
         if area is None:
             return
-        region = await b.get_map(area, MapKind.EXPLORERMAP)
+        region = await b.maps.get_map(area, MapKind.EXPLORERMAP)
         if not self.map.merge(region):
             self.map.resolution = None
 
@@ -294,7 +297,7 @@ class SlamwareNode(RobotNode):
         self.publish(self.topic_map_info, info)
 
     async def _publish_sensors_info(self) -> None:
-        sensors = self._sensors = await self.backend.get_sensors_info()
+        sensors = self._sensors = await self.robot.sensors.get_sensors_info()
         signature = tuple((s.id, int(s.sensor_type), int(s.impact_type), s.install_pose)
                           for s in sensors)
         if signature != self._sensor_signature:  # the real node publishes on change only
@@ -304,13 +307,13 @@ class SlamwareNode(RobotNode):
 
     async def _publish_sensor_values(self) -> None:
         # the sensor list comes from the info worker (every 7 s), as in the real node
-        sensors = self._sensors or await self.backend.get_sensors_info()
-        values = await self.backend.get_sensor_values()
+        sensors = self._sensors or await self.robot.sensors.get_sensors_info()
+        values = await self.robot.sensors.get_sensor_values()
         data = [m.sensor_value(s, values[s.id]) for s in sensors if s.id in values]
         self.publish(self.topic_sensors_values, {"values_data": data})
 
     async def _publish_path(self) -> None:
-        points = await self.backend.get_remaining_path()
+        points = await self.robot.motion.get_remaining_path()
         frame = self.params.map_frame
         zero = {"secs": 0, "nsecs": 0}
         poses = [{"header": {"seq": 0, "stamp": zero, "frame_id": frame},
@@ -319,20 +322,20 @@ class SlamwareNode(RobotNode):
                                        "poses": poses})
 
     async def _publish_basic_state(self) -> None:
-        b = self.backend
-        power = await b.get_power_status()
+        b = self.robot
+        power = await b.power.get_power_status()
         self.publish(self.topic_state, {
-            "is_map_building_enabled": await b.get_map_update(MapKind.EXPLORERMAP),
-            "is_localization_enabled": await b.get_localization_enabled(),
-            "localization_quality": int(await b.get_localization_quality()),
-            "board_temperature": int(await b.get_board_temperature()),
+            "is_map_building_enabled": await b.maps.get_map_update(MapKind.EXPLORERMAP),
+            "is_localization_enabled": await b.localization.get_localization_enabled(),
+            "localization_quality": int(await b.localization.get_localization_quality()),
+            "board_temperature": int(await b.power.get_board_temperature()),
             "battery_percentage": int(power.battery_percentage),
             "is_dc_in": bool(power.is_dc_in),
             "is_charging": bool(power.is_charging),
         })
 
     async def _publish_lines(self, usage: ArtifactUsage) -> None:
-        lines = await self.backend.get_lines(usage)
+        lines = await self.robot.maps.get_lines(usage)
         topic = self.topic_walls if usage == ArtifactUsage.VIRTUAL_WALL else self.topic_tracks
         self.publish(topic, {"lines": [m.line(ln) for ln in lines]})
 
@@ -357,12 +360,12 @@ class SlamwareNode(RobotNode):
                 if result is False:
                     message.reject(f"{what}: the robot refused the request")
 
-        if not self.backend.connected:
+        if not self.link.connected:
             raise RequestRejected(f"{what}: the robot is not connected")
         self.spawn(go())
 
     async def _watch_action(self, message: Message, what: str, action: ActionInfo) -> None:
-        final = await follow(self.backend, action)
+        final = await follow(self.robot.motion, action)
         if final is None:  # replaced by a newer action, or forgotten by the robot
             return
         action = final
@@ -379,13 +382,13 @@ class SlamwareNode(RobotNode):
         require_finite("linear.x", t["linear"]["x"])
         require_finite("angular.z", t["angular"]["z"])
         self._run(message, "cmd_vel",
-                  lambda: self.backend.set_velocity(t["linear"]["x"], t["angular"]["z"]))
+                  lambda: self.robot.motion.set_velocity(t["linear"]["x"], t["angular"]["z"]))
 
     def _on_goal(self, message: Message) -> None:
         p = message.msg["pose"]
         target = _point(p["position"], "pose.position")
         yaw = _quaternion_yaw(p["orientation"], "pose.orientation")
-        self._run(message, "move_base_simple/goal", lambda: self.backend.move_to(
+        self._run(message, "move_base_simple/goal", lambda: self.robot.motion.move_to(
             [target], MoveOptions(flags=GOAL_FLAGS), yaw))
 
     def _on_sync_map(self, message: Message) -> None:
@@ -399,8 +402,8 @@ class SlamwareNode(RobotNode):
 
         async def set_pose() -> None:
             """Forced as the SDK does, but the publisher learns whether the robot agrees."""
-            await self.backend.set_pose(pose)
-            quality = await settled_quality(self.backend)
+            await self.robot.localization.set_pose(pose)
+            quality = await settled_quality(self.robot.localization)
             if quality >= GOOD_QUALITY:
                 message.reject(f"set_pose: localized (quality {quality})", level="info")
             else:
@@ -423,14 +426,15 @@ class SlamwareNode(RobotNode):
         if opts["mvmt_type"]["is_valid"]:
             movement = _enum("options.mvmt_type.value.type", opts["mvmt_type"]["value"]["type"],
                              LocalizationMovement)
-        self._run(message, "recover_localization", lambda: self.backend.recover_localization(
+        localization = self.robot.localization
+        self._run(message, "recover_localization", lambda: localization.recover_localization(
             None if area.is_empty else area, max_time, movement))
 
     def _on_clear_map(self, message: Message) -> None:
         kind = _enum("kind.kind", message.msg["kind"]["kind"], MapKind)
 
         async def clear() -> None:
-            await self.backend.clear_map(kind)
+            await self.robot.maps.clear_map(kind)
             self._sync_requested = True
 
         self._run(message, "clear_map", clear)
@@ -439,26 +443,26 @@ class SlamwareNode(RobotNode):
         msg = message.msg
         kind = _enum("kind.kind", msg["kind"]["kind"], MapKind)
         self._run(message, "set_map_update",
-                  lambda: self.backend.set_map_update(bool(msg["enabled"]), kind))
+                  lambda: self.robot.maps.set_map_update(bool(msg["enabled"]), kind))
 
     def _on_set_loc(self, message: Message) -> None:
         enabled = bool(message.msg["enabled"])
         self._run(message, "set_map_localization",
-                  lambda: self.backend.set_localization_enabled(enabled))
+                  lambda: self.robot.localization.set_localization_enabled(enabled))
 
     def _on_move_by_direction(self, message: Message) -> None:
         msg = message.msg
         direction = _enum("direction.direction", msg["direction"]["direction"], ActionDirection)
         opts = _move_options(msg["options"])
         self._run(message, "move_by_direction",
-                  lambda: self.backend.move_by_direction(direction, opts))
+                  lambda: self.robot.motion.move_by_direction(direction, opts))
 
     def _on_move_by_theta(self, message: Message) -> None:
         msg = message.msg
         require_finite("theta", msg["theta"])
         opts = _move_options(msg["options"])
         self._run(message, "move_by_theta",
-                  lambda: self.backend.move_by_theta(float(msg["theta"]), opts))
+                  lambda: self.robot.motion.move_by_theta(float(msg["theta"]), opts))
 
     def _on_move_to(self, message: Message) -> None:
         msg = message.msg
@@ -466,7 +470,7 @@ class SlamwareNode(RobotNode):
         require_finite("yaw", msg["yaw"])
         opts = _move_options(msg["options"])
         self._run(message, "move_to",
-                  lambda: self.backend.move_to([target], opts, float(msg["yaw"])))
+                  lambda: self.robot.motion.move_to([target], opts, float(msg["yaw"])))
 
     def _on_move_to_locations(self, message: Message) -> None:
         msg = message.msg
@@ -476,26 +480,26 @@ class SlamwareNode(RobotNode):
         require_finite("yaw", msg["yaw"])
         opts = _move_options(msg["options"])
         self._run(message, "move_to_locations",
-                  lambda: self.backend.move_to(targets, opts, float(msg["yaw"])))
+                  lambda: self.robot.motion.move_to(targets, opts, float(msg["yaw"])))
 
     def _on_rotate_to(self, message: Message) -> None:
         msg = message.msg
         yaw = _quaternion_yaw(msg["orientation"], "orientation")
         opts = _move_options(msg["options"])
-        self._run(message, "rotate_to", lambda: self.backend.rotate_to(yaw, opts))
+        self._run(message, "rotate_to", lambda: self.robot.motion.rotate_to(yaw, opts))
 
     def _on_rotate(self, message: Message) -> None:
         msg = message.msg
         angle = _quaternion_yaw(msg["rotation"], "rotation")
         opts = _move_options(msg["options"])
-        self._run(message, "rotate", lambda: self.backend.rotate(angle, opts))
+        self._run(message, "rotate", lambda: self.robot.motion.rotate(angle, opts))
 
     def _on_go_home(self, message: Message) -> None:
-        self._run(message, "go_home", self.backend.go_home)
+        self._run(message, "go_home", self.robot.motion.go_home)
 
     def _on_cancel(self, message: Message) -> None:
         async def cancel() -> None:
-            stopped = await self.backend.cancel_action()
+            stopped = await self.robot.motion.cancel_action()
             what = "nothing to cancel" if stopped is None else \
                 f"cancelled {stopped.action_name.removeprefix(ACTION_PREFIX)}"
             message.reject(f"cancel_action: {what}", level="info")
@@ -508,18 +512,18 @@ class SlamwareNode(RobotNode):
 
     def _on_add_line(self, message: Message) -> None:
         usage, ln = self._usage(message.msg), _line(message.msg["line"], "line")
-        self._run(message, "add_line", lambda: self.backend.add_lines(usage, [ln]))
+        self._run(message, "add_line", lambda: self.robot.maps.add_lines(usage, [ln]))
 
     def _on_add_lines(self, message: Message) -> None:
         usage = self._usage(message.msg)
         lines = [_line(x, f"lines[{i}]") for i, x in enumerate(message.msg["lines"])]
-        self._run(message, "add_lines", lambda: self.backend.add_lines(usage, lines))
+        self._run(message, "add_lines", lambda: self.robot.maps.add_lines(usage, lines))
 
     def _on_remove_line(self, message: Message) -> None:
         usage, line_id = self._usage(message.msg), int(message.msg["id"])
 
         async def remove() -> bool:
-            if not await self.backend.remove_line(usage, line_id):
+            if not await self.robot.maps.remove_line(usage, line_id):
                 raise BackendError(f"no {usage.name.lower()} with id {line_id}")
             return True
 
@@ -527,7 +531,7 @@ class SlamwareNode(RobotNode):
 
     def _on_clear_lines(self, message: Message) -> None:
         usage = self._usage(message.msg)
-        self._run(message, "clear_lines", lambda: self.backend.clear_lines(usage))
+        self._run(message, "clear_lines", lambda: self.robot.maps.clear_lines(usage))
 
     def _on_move_line(self, message: Message) -> None:
         usage, ln = self._usage(message.msg), _line(message.msg["line"], "line")
@@ -539,7 +543,7 @@ class SlamwareNode(RobotNode):
         self._run(message, "move_lines", lambda: self._move_lines(usage, lines))
 
     async def _move_lines(self, usage: ArtifactUsage, lines: list[Line]) -> bool:
-        if not await self.backend.move_lines(usage, lines):
+        if not await self.robot.maps.move_lines(usage, lines):
             ids = ", ".join(str(ln.id) for ln in lines)
             raise BackendError(f"no {usage.name.lower()} with id(s) {ids}")
         return True
@@ -547,7 +551,7 @@ class SlamwareNode(RobotNode):
     # ------------------------------------------------------------------ services
     async def _sync_get_stcm(self, request: dict) -> dict:
         try:
-            return {"raw_stcm": await self.backend.get_composite_map()}
+            return {"raw_stcm": await self.robot.maps.get_composite_map()}
         except BackendError as exc:
             raise ServiceError(f"sync_get_stcm: {exc}") from None
 
@@ -557,25 +561,25 @@ class SlamwareNode(RobotNode):
         map at the given pose (it replaces the old one, so no separate clear), localize again,
         resync the map copy. If the robot refuses the load, localization and mapping are put
         back as they were."""
-        b = self.backend
+        b = self.robot
         data = bytes(request["raw_stcm"])
         if not data:
             raise ServiceError("sync_set_stcm: field 'raw_stcm' is empty")
         pose = m.pose2d(request["robot_pose"])
         try:
-            await b.check_composite_map(data)
-            localizing = await b.get_localization_enabled()
-            mapping = await b.get_map_update(MapKind.EXPLORERMAP)
-            await b.cancel_action()
-            await b.set_localization_enabled(False)
-            await b.set_map_update(False, MapKind.EXPLORERMAP)
+            await b.maps.check_composite_map(data)
+            localizing = await b.localization.get_localization_enabled()
+            mapping = await b.maps.get_map_update(MapKind.EXPLORERMAP)
+            await b.motion.cancel_action()
+            await b.localization.set_localization_enabled(False)
+            await b.maps.set_map_update(False, MapKind.EXPLORERMAP)
             try:
-                await b.set_composite_map(data, pose)
+                await b.maps.set_composite_map(data, pose)
             except BackendError:
-                await b.set_map_update(mapping, MapKind.EXPLORERMAP)
-                await b.set_localization_enabled(localizing)
+                await b.maps.set_map_update(mapping, MapKind.EXPLORERMAP)
+                await b.localization.set_localization_enabled(localizing)
                 raise
-            await b.set_localization_enabled(True)
+            await b.localization.set_localization_enabled(True)
         except BackendError as exc:
             raise ServiceError(f"sync_set_stcm: {exc}") from None
         self._sync_requested = True
