@@ -35,7 +35,7 @@ import zenoh
 
 from ..types.registry import UnknownType
 from .action_interfaces import hidden_names
-from .cdr import codec_for, encode_message
+from .cdr import codec_for
 from .core import Bus
 from .errors import ServiceError
 from .link import PARAM_SERVICES, RemoteGraph
@@ -358,7 +358,7 @@ class ZenohLink:
         )
 
     def _encode(self, message: Message) -> bytes:
-        return encode_message(self.codec, message)
+        return message.encoded.cdr(self.codec)
 
     def _deliver(self, name: str, payload: bytes, latched: bool = False) -> None:
         topic = self.bus.topics.get(name)
@@ -374,7 +374,7 @@ class ZenohLink:
             log.warning("zenoh: dropped a sample on %s: %s", name, exc)
             return
         message = Message(topic, msg, self.bus.clock(), None, _REMOTE)
-        message.cache[("cdr",)] = payload  # a recorder (bus tap) writes these very bytes
+        message.encoded.received_cdr(payload)  # a recorder (bus tap) writes these very bytes
         topic.fan_out(message)
         for tap in self.bus.taps:
             tap.message(message)

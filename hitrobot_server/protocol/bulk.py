@@ -22,6 +22,10 @@ from .fragment import fragment_bytes, fragment_size_for
 
 Frame = tuple[bytes, bool]  # (payload, is_binary)
 
+OFFLOAD_BYTES = 256 * 1024
+"""Ops and messages at least this big (JSON bytes, or an estimate) leave the event loop. Inline,
+256 kB cost about 5 ms to parse, convert and encode, a pool round trip about 1 ms."""
+
 COMPACT_MIN = 1024
 """Lists shorter than this are cheap to pickle as they are."""
 
@@ -200,3 +204,46 @@ def publish_frames(
     if fragment_size and len(data) > fragment_size:
         return fragments(data, fragment_size, frag_id)
     return [(data, False)]
+
+
+# ------------------------------------------------------------------------ sizes
+def approx_size(value: object) -> int:
+    """Rough JSON size of a canonical message, without encoding it (an over-estimate is fine:
+    it only decides inline or offloaded). Looks into dicts and the first item of a list; one
+    call per nested dict, so a LaserScan costs three calls."""
+    kind = type(value)
+    if kind is dict:
+        total = 16 * len(value)
+        for item in value.values():
+            kind = type(item)
+            if kind is dict:
+                total += approx_size(item)
+            elif kind is list:
+                total += _list_size(item)
+            elif kind is bytes or kind is np.ndarray or kind is str:
+                total += _flat_size(item)
+            else:
+                total += 12
+        return total
+    if kind is list:
+        return _list_size(value)
+    return _flat_size(value)
+
+
+def _list_size(value: list) -> int:
+    if not value:
+        return 2
+    first = type(value[0])
+    each = approx_size(value[0]) if first is dict or first is list else 12
+    return each * len(value)
+
+
+def _flat_size(value: object) -> int:
+    kind = type(value)
+    if kind is bytes:
+        return len(value) * 4 // 3
+    if kind is np.ndarray:
+        return value.size * (4 if value.itemsize == 1 else 24)
+    if kind is str:
+        return len(value) + 2
+    return 12

@@ -1,0 +1,295 @@
+"""Every wire encoding of one bus message, made once and shared by every reader.
+
+A message fanned out to fifty clients is serialised once per (encoding, topic spelling), not
+fifty times — the main cost rosbridge pays per client (rosbridge #332, #559). The encodings
+live here, on the message (``Message.encoded``): the JSON body and publish op, png, cbor,
+cbor-raw, ROS 2 CDR (Foxglove, the Zenoh link, the recorder), Foxglove data frames and the
+frames one subscriber gets (fragmented or not). Each is keyed by a :class:`Key` (an
+:class:`Encoding` and the topic spelling it names), and each set of frames is either ready (a
+list) or :class:`PendingFrames`: a big message's text frames are built in the worker pool (the
+session passes its runner), and the outbox waits for them in place.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from collections.abc import Awaitable, Callable, Hashable, Iterable
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
+
+from ..protocol import bulk, cbor, ops, rawmsg
+from ..protocol import foxglove as fg
+from ..protocol.bulk import Frame
+from ..protocol.fragment import FragmentIds
+from ..types import jsoncodec
+from ..types.registry import MsgType, TypeRegistry
+
+if TYPE_CHECKING:
+    from .topics import Topic
+
+log = logging.getLogger(__name__)
+
+fragment_ids = FragmentIds()
+"""One counter for every fragmented op this process sends (topic data and replies alike), so
+two groups of fragments on one connection never share an id."""
+
+Run = Callable[..., Awaitable[list[Frame]]]
+"""Runs ``fn(*args)`` away from the event loop (``session.offload.run``: the worker pool)."""
+
+
+class Encoding(IntEnum):
+    """What a cached encoding is (an int, so keys hash in C on the fan-out path)."""
+
+    BODY = 0  # the message alone as JSON: the ``msg`` of a publish op
+    JSON = 1  # a ``publish`` op as JSON (compression ``none``)
+    PNG = 2  # that op as a ``png`` op
+    CBOR = 3  # a ``publish`` op as CBOR
+    CBOR_RAW = 4  # a ``publish`` op carrying ROS 1 bytes in CBOR
+    CDR = 5  # the message as ROS 2 CDR (no topic: the same bytes for every reader)
+    FOXGLOVE = 6  # a Foxglove message data frame (variant: the subscription id)
+
+
+COMPRESSIONS: dict[str, Encoding] = {
+    "none": Encoding.JSON,
+    "png": Encoding.PNG,
+    "cbor": Encoding.CBOR,
+    "cbor-raw": Encoding.CBOR_RAW,
+}
+"""rosbridge's compressions, weakest first, and the encoding each asks for."""
+
+_BINARY = frozenset({Encoding.CBOR, Encoding.CBOR_RAW})
+
+
+class Key(NamedTuple):
+    """One cached encoding: what it is, for which topic spelling, in which variant (the
+    fragment size of a subscriber's frames, a Foxglove subscription id)."""
+
+    encoding: Encoding
+    topic: str = ""
+    variant: Hashable = None
+
+
+_BODY = Key(Encoding.BODY)
+_CDR = Key(Encoding.CDR)
+
+
+def strongest(compressions: Iterable[str]) -> str:
+    """rosbridge's rule when one client subscribes twice: none < png < cbor < cbor-raw."""
+    return max(compressions, key=ops.COMPRESSIONS.index, default="none")
+
+
+def is_binary(compression: str) -> bool:
+    """Whether a compression needs binary (WebSocket) frames."""
+    return COMPRESSIONS[compression] in _BINARY
+
+
+class PendingFrames:
+    """Frames being built away from the event loop, and the bytes they are charged at until
+    then (an estimate). A queue holding one waits for it in place."""
+
+    __slots__ = ("future", "size")
+
+    def __init__(self, future: asyncio.Future[list[Frame]], size: int):
+        self.future = future
+        self.size = size
+
+    def done(self) -> bool:
+        return self.future.done()
+
+    def ok(self) -> bool:
+        """Done, with frames (not failed, not cancelled)."""
+        f = self.future
+        return f.done() and not f.cancelled() and f.exception() is None
+
+    def frames(self) -> list[Frame] | None:
+        """The frames once done; None (logged) when building them failed or was cancelled."""
+        if self.future.cancelled():
+            return None
+        exc = self.future.exception()
+        if exc is not None:
+            log.error("encoding a big message failed; it is skipped for this client: %r", exc)
+            return None
+        return self.future.result()
+
+
+Frames = list[Frame] | PendingFrames
+"""What a queue holds for one message or reply: its frames, ready or pending."""
+
+
+def nbytes(frames: Frames) -> int:
+    """Bytes to charge for frames: their length, or a pending set's estimate."""
+    if isinstance(frames, PendingFrames):
+        return frames.size
+    return sum(len(f[0]) for f in frames)
+
+
+@dataclass(frozen=True, slots=True)
+class Seed:
+    """What a publisher already has of a message's encodings: the length of the op it came in
+    (its size, near enough) and, when the converter left the message as the client wrote it,
+    the client's own ``publish`` op as the outgoing JSON for ``topic`` (session/publish.py)."""
+
+    size: int
+    topic: str = ""
+    publish_json: bytes | None = None
+
+
+class Codec(Protocol):
+    """A CDR encoder (``bus.cdr.Ros2Codec``; not imported here: it loads rosbags' store)."""
+
+    def encode(self, msg: dict, mtype: MsgType) -> bytes: ...
+
+
+class Encoded:
+    """The encodings of one bus message (see the module docstring); pure apart from
+    :meth:`frames`, which starts the worker-pool build of a big message's text frames."""
+
+    __slots__ = ("topic", "msg", "stamp", "_bytes", "_frames", "_size")
+
+    def __init__(self, topic: Topic, msg: dict, stamp: float):
+        self.topic = topic
+        self.msg = msg
+        self.stamp = stamp
+        self._bytes: dict[Key, bytes] = {}
+        self._frames: dict[Key, Frames] = {}
+        self._size: int | None = None
+
+    # ------------------------------------------------------------ what a publisher knows
+    def seed(self, seed: Seed) -> None:
+        self._size = seed.size
+        if seed.publish_json is not None:
+            self._bytes[Key(Encoding.JSON, seed.topic)] = seed.publish_json
+
+    def known(self, encoding: Encoding, topic: str = "") -> bytes | None:
+        """An encoding if someone already made it (the recorder writes CDR it finds)."""
+        return self._bytes.get(Key(encoding, topic))
+
+    def size(self) -> int:
+        """Estimated JSON size of the body, computed once (or given by the publisher)."""
+        if self._size is None:
+            self._size = bulk.approx_size(self.msg)
+        return self._size
+
+    # ------------------------------------------------------------ single encodings
+    def body(self) -> bytes:
+        data = self._bytes.get(_BODY)
+        if data is None:
+            data = self._bytes[_BODY] = jsoncodec.dumps(self.msg)
+        return data
+
+    def publish_json(self, topic: str) -> bytes:
+        """``{"op":"publish","topic":T,"msg":…}`` with the body serialised once."""
+        key = Key(Encoding.JSON, topic)
+        data = self._bytes.get(key)
+        if data is None:
+            data = self._bytes[key] = bulk.publish_json(topic, self.body())
+        return data
+
+    def publish_png(self, topic: str) -> bytes:
+        key = Key(Encoding.PNG, topic)
+        data = self._bytes.get(key)
+        if data is None:
+            data = self._bytes[key] = bulk.publish_png(topic, self.msg, self.publish_json(topic))
+        return data
+
+    def publish_cbor(self, topic: str) -> bytes:
+        key = Key(Encoding.CBOR, topic)
+        data = self._bytes.get(key)
+        if data is None:
+            t = self.topic
+            data = self._bytes[key] = cbor.encode_publish_cbor(topic, self.msg, t.mtype, t.types)
+        return data
+
+    def publish_cbor_raw(self, topic: str) -> bytes:
+        key = Key(Encoding.CBOR_RAW, topic)
+        data = self._bytes.get(key)
+        if data is None:
+            secs = int(self.stamp)
+            nsecs = int(round((self.stamp - secs) * 1e9))
+            t = self.topic
+            data = self._bytes[key] = rawmsg.encode_publish_cbor_raw(
+                topic, self.msg, t.mtype, t.types, (secs, nsecs)
+            )
+        return data
+
+    def cdr(self, codec: Codec) -> bytes:
+        """ROS 2 CDR, the same bytes for the Zenoh link, every Foxglove client and the
+        recorder (``bus.cdr.codec_for`` gives one codec per registry)."""
+        data = self._bytes.get(_CDR)
+        if data is None:
+            data = self._bytes[_CDR] = codec.encode(self.msg, self.topic.mtype)
+        return data
+
+    def received_cdr(self, payload: bytes) -> None:
+        """The message arrived as these CDR bytes (Zenoh): readers reuse them as they are."""
+        self._bytes[_CDR] = payload
+
+    def foxglove(self, sub_id: int, cdr: bytes) -> bytes:
+        """The Foxglove message data frame of subscription ``sub_id`` around ``cdr``."""
+        key = Key(Encoding.FOXGLOVE, "", sub_id)
+        data = self._bytes.get(key)
+        if data is None:
+            data = self._bytes[key] = fg.message_data(sub_id, fg.nanoseconds(self.stamp), cdr)
+        return data
+
+    # ------------------------------------------------------------ a subscriber's frames
+    def frames(
+        self, topic: str, compression: str, fragment_size: int | None, offload: Run | None = None
+    ) -> Frames:
+        """The frames one subscriber gets; fragments only text ops and only when asked to.
+
+        Made once per (compression, topic spelling, fragment size) and shared by every such
+        subscriber. A big message with variable arrays, for a text compression, is built by
+        ``offload`` (when given) and is :class:`PendingFrames` until its frames are back.
+        """
+        key = Key(COMPRESSIONS[compression], topic, fragment_size)
+        found = self._frames.get(key)
+        if found is None:
+            found = self._frames[key] = self._make_frames(key, offload)
+        elif isinstance(found, PendingFrames) and found.ok():
+            found = self._frames[key] = found.future.result()
+        return found
+
+    def _make_frames(self, key: Key, offload: Run | None) -> Frames:
+        encoding, topic, fragment_size = key
+        if encoding is Encoding.CBOR:
+            return [(self.publish_cbor(topic), True)]
+        if encoding is Encoding.CBOR_RAW:
+            return [(self.publish_cbor_raw(topic), True)]
+        if (
+            offload is not None
+            and Key(Encoding.JSON, topic) not in self._bytes
+            and has_lists(self.topic.mtype, self.topic.types)
+            and self.size() >= bulk.OFFLOAD_BYTES
+        ):
+            return self._offloaded(offload, key)
+        data = self.publish_png(topic) if encoding is Encoding.PNG else self.publish_json(topic)
+        if fragment_size and len(data) > fragment_size:
+            return bulk.fragments(data, fragment_size, fragment_ids.next())
+        return [(data, False)]
+
+    def _offloaded(self, offload: Run, key: Key) -> PendingFrames:
+        encoding, topic, fragment_size = key
+        compression = "png" if encoding is Encoding.PNG else "none"
+        future = asyncio.ensure_future(
+            offload(
+                bulk.publish_frames, topic, self.msg, compression, fragment_size,
+                fragment_ids.next(),
+            )
+        )
+        return PendingFrames(future, self.size())
+
+
+def has_lists(mtype: MsgType, reg: TypeRegistry) -> bool:
+    """Whether a message of this type can hold a variable-length array (at any depth); one
+    that cannot (Twist, Odometry, String, ...) is never big enough to leave the event loop."""
+    memo: dict[str, Any] = reg.plan_cache("has_lists")
+    found = memo.get(mtype.name)
+    if found is None:
+        memo[mtype.name] = False  # a recursive type cannot loop forever here
+        found = memo[mtype.name] = any(
+            f.array == 0 or (f.is_msg and has_lists(reg.msg(f.type), reg)) for f in mtype.fields
+        )
+    return found
