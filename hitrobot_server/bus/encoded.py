@@ -13,13 +13,16 @@ session passes its runner), and the outbox waits for them in place.
 from __future__ import annotations
 
 import asyncio
+import functools
 import logging
 from collections.abc import Awaitable, Callable, Hashable, Iterable
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
-from ..protocol import bulk, cbor, ops, rawmsg
+import orjson
+
+from ..protocol import bulk, cbor, ops, png, rawmsg
 from ..protocol import foxglove as fg
 from ..protocol.bulk import Frame
 from ..protocol.fragment import FragmentIds
@@ -118,13 +121,6 @@ Frames = list[Frame] | PendingFrames
 """What a queue holds for one message or reply: its frames, ready or pending."""
 
 
-def nbytes(frames: Frames) -> int:
-    """Bytes to charge for frames: their length, or a pending set's estimate."""
-    if isinstance(frames, PendingFrames):
-        return frames.size
-    return sum(len(f[0]) for f in frames)
-
-
 @dataclass(frozen=True, slots=True)
 class Seed:
     """What a publisher already has of a message's encodings: the length of the op it came in
@@ -173,25 +169,22 @@ class Encoded:
         return self._size
 
     # ------------------------------------------------------------ single encodings
-    def body(self) -> bytes:
-        data = self._bytes.get(_BODY)
-        if data is None:
-            data = self._bytes[_BODY] = jsoncodec.dumps(self.msg)
-        return data
-
     def publish_json(self, topic: str) -> bytes:
-        """``{"op":"publish","topic":T,"msg":…}`` with the body serialised once."""
+        """``{"op":"publish","topic":T,"msg":…}``, the body serialised once for every spelling."""
         key = Key(Encoding.JSON, topic)
         data = self._bytes.get(key)
         if data is None:
-            data = self._bytes[key] = bulk.publish_json(topic, self.body())
+            body = self._bytes.get(_BODY)
+            if body is None:
+                body = self._bytes[_BODY] = jsoncodec.dumps(self.msg)
+            data = self._bytes[key] = publish_json(topic, body)
         return data
 
     def publish_png(self, topic: str) -> bytes:
         key = Key(Encoding.PNG, topic)
         data = self._bytes.get(key)
         if data is None:
-            data = self._bytes[key] = bulk.publish_png(topic, self.msg, self.publish_json(topic))
+            data = self._bytes[key] = publish_png(topic, self.msg, self.publish_json(topic))
         return data
 
     def publish_cbor(self, topic: str) -> bytes:
@@ -244,42 +237,107 @@ class Encoded:
         subscriber. A big message with variable arrays, for a text compression, is built by
         ``offload`` (when given) and is :class:`PendingFrames` until its frames are back.
         """
-        key = Key(COMPRESSIONS[compression], topic, fragment_size)
+        encoding = COMPRESSIONS[compression]
+        key = Key(encoding, topic, fragment_size)
         found = self._frames.get(key)
-        if found is None:
-            found = self._frames[key] = self._make_frames(key, offload)
-        elif isinstance(found, PendingFrames) and found.ok():
-            found = self._frames[key] = found.future.result()
-        return found
-
-    def _make_frames(self, key: Key, offload: Run | None) -> Frames:
-        encoding, topic, fragment_size = key
+        if found is not None:
+            if isinstance(found, PendingFrames) and found.ok():
+                found = self._frames[key] = found.future.result()
+            return found
         if encoding is Encoding.CBOR:
-            return [(self.publish_cbor(topic), True)]
-        if encoding is Encoding.CBOR_RAW:
-            return [(self.publish_cbor_raw(topic), True)]
-        if (
+            found = [(self.publish_cbor(topic), True)]
+        elif encoding is Encoding.CBOR_RAW:
+            found = [(self.publish_cbor_raw(topic), True)]
+        elif (
             offload is not None
             and Key(Encoding.JSON, topic) not in self._bytes
             and has_lists(self.topic.mtype, self.topic.types)
             and self.size() >= bulk.OFFLOAD_BYTES
         ):
-            return self._offloaded(offload, key)
-        data = self.publish_png(topic) if encoding is Encoding.PNG else self.publish_json(topic)
-        if fragment_size and len(data) > fragment_size:
-            return bulk.fragments(data, fragment_size, fragment_ids.next())
-        return [(data, False)]
+            found = self._offloaded(offload, topic, compression, fragment_size)
+        else:
+            data = self.publish_png(topic) if encoding is Encoding.PNG else self.publish_json(topic)
+            if fragment_size and len(data) > fragment_size:
+                found = bulk.fragments(data, fragment_size, fragment_ids.next())
+            else:
+                found = [(data, False)]
+        self._frames[key] = found
+        return found
 
-    def _offloaded(self, offload: Run, key: Key) -> PendingFrames:
-        encoding, topic, fragment_size = key
-        compression = "png" if encoding is Encoding.PNG else "none"
+    def _offloaded(
+        self, offload: Run, topic: str, compression: str, fragment_size: int | None
+    ) -> PendingFrames:
+        frag_id = fragment_ids.next()
         future = asyncio.ensure_future(
-            offload(
-                bulk.publish_frames, topic, self.msg, compression, fragment_size,
-                fragment_ids.next(),
-            )
+            offload(publish_frames, topic, self.msg, compression, fragment_size, frag_id)
         )
         return PendingFrames(future, self.size())
+
+
+# ------------------------------------------------------------ pure publish-op encoders
+@functools.lru_cache(maxsize=1024)
+def _publish_head(topic: str) -> bytes:
+    return b'{"op":"publish","topic":' + orjson.dumps(topic) + b',"msg":'
+
+
+def publish_json(topic: str, msg_json: bytes) -> bytes:
+    """``{"op":"publish","topic":T,"msg":…}`` around an already serialised body."""
+    return b"".join((_publish_head(topic), msg_json, b"}"))
+
+
+VERBATIM_MIN = 2048
+"""Publish ops shorter than this are re-encoded: checking the text costs about 2 us, encoding
+a 2 kB message about as much, a 14 kB LaserScan 12 us."""
+
+
+def verbatim_publish(text: str | bytes, op: dict) -> bytes | None:
+    """The outgoing ``publish`` op cut from the client's own ``publish`` text, or None.
+
+    Only for a message the converter left as it was (``from_json_verbatim``): then the text
+    of its ``msg`` already is its JSON, and re-encoding it would be wasted work (a third of
+    the cost of relaying a LaserScan). The keys around ``msg`` are re-serialised and must
+    match the text exactly, so whatever sits between them is the ``msg`` value as parsed
+    (with duplicate keys, a last-wins parser reads exactly what was validated); NaN/Infinity
+    literals, which only the lenient fallback parser accepts, are never passed on.
+    """
+    data = text.encode() if type(text) is str else text
+    keys = list(op)
+    if keys == ["op", "topic", "msg"]:  # the op already is {"op":"publish","topic":T,"msg":…}
+        head, tail = _publish_head(op["topic"]), b"}"
+    else:  # e.g. roslibjs: {"op","id","topic","msg","latch"}
+        at = keys.index("msg")
+        head = b"{" + b"".join(_member(k, op[k]) + b"," for k in keys[:at]) + b'"msg":'
+        tail = b"".join(b"," + _member(k, op[k]) for k in keys[at + 1 :]) + b"}"
+    if not (data.startswith(head) and data.endswith(tail)) or len(data) < len(head) + len(tail):
+        return None
+    if (b"N" in data and b"NaN" in data) or (b"I" in data and b"Infinity" in data):
+        return None  # (one byte is a memchr; the 3-byte search costs 10 us on a LaserScan)
+    if tail == b"}" and head == _publish_head(op["topic"]):
+        return data
+    return publish_json(op["topic"], data[len(head) : len(data) - len(tail)])
+
+
+def _member(key: str, value: object) -> bytes:
+    return orjson.dumps(key) + b":" + orjson.dumps(value)
+
+
+def publish_png(topic: str, msg: dict, op_json: bytes) -> bytes:
+    """The ``png`` op of a publish whose JSON text is ``op_json``."""
+    if not op_json.isascii():  # roslibjs 1.x decodes png pixels as Latin-1
+        op_json = jsoncodec.dumps_ascii({"op": "publish", "topic": topic, "msg": msg})
+    return png.png_op(op_json)
+
+def publish_frames(
+    topic: str, msg: dict, compression: str, fragment_size: int | None, frag_id: str
+) -> list[Frame]:
+    """Every frame one text subscriber (``none`` or ``png``) gets for one message: what the
+    worker pool builds for a big one, byte for byte what :meth:`Encoded.frames` makes."""
+    data = publish_json(topic, jsoncodec.dumps(msg))
+    if compression == "png":
+        data = publish_png(topic, msg, data)
+    if fragment_size and len(data) > fragment_size:
+        return bulk.fragments(data, fragment_size, frag_id)
+    return [(data, False)]
 
 
 def has_lists(mtype: MsgType, reg: TypeRegistry) -> bool:

@@ -36,10 +36,20 @@ from collections import deque
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 
-from ..bus.encoded import Frames, PendingFrames, nbytes
+from ..bus.encoded import Frames, PendingFrames
 from ..protocol.bulk import Frame
 
 DirectWrite = Callable[[list[Frame]], bool]
+
+
+def nbytes(frames: Frames) -> int:
+    """Bytes a queue charges for frames: their length, or a pending set's estimate."""
+    if isinstance(frames, PendingFrames):
+        return frames.size
+    total = 0
+    for data, _binary in frames:
+        total += len(data)
+    return total
 
 QUANTUM = 16 * 1024
 """Bytes a stream may send per round-robin turn (more if its next frame is bigger)."""

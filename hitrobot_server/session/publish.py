@@ -4,9 +4,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ..bus.encoded import Seed
+from ..bus.encoded import VERBATIM_MIN, Seed, verbatim_publish
 from ..bus.names import canonical, valid_name
-from ..protocol.bulk import VERBATIM_MIN, verbatim_publish
 from ..protocol.errors import ProtocolError
 from ..types.convert import from_json_verbatim
 

@@ -18,7 +18,6 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..bus.core import Bus
-from ..bus.encoded import nbytes
 from ..bus.errors import BusError
 from ..bus.names import CLIENT_NODE_PREFIX
 from ..bus.topics import Origin
@@ -31,7 +30,7 @@ from ..types.convert import ConversionError
 from . import offload
 from .actions import ActionOps
 from .options import SessionOptions
-from .outbox import Outbox
+from .outbox import Outbox, nbytes
 from .publish import PublishOps
 from .replies import json_frames, reply_frames
 from .services import ServiceOps

@@ -19,7 +19,6 @@ from hitrobot_server.bus.encoded import (
     PendingFrames,
     Seed,
     is_binary,
-    nbytes,
     strongest,
 )
 from hitrobot_server.bus.topics import Message
@@ -93,7 +92,6 @@ def test_one_subscribers_frames_are_shared_by_every_subscriber_like_it(bus):
     assert enc.frames("/chatter", "cbor", None) == [(enc.publish_cbor("/chatter"), True)]
     assert enc.frames("/chatter", "cbor-raw", None)[0][1] is True
     assert enc.frames("/chatter", "png", None) is not frames
-    assert nbytes(frames) == len(enc.publish_json("/chatter"))
 
 
 def test_a_seed_is_what_subscribers_get(bus):
@@ -126,7 +124,6 @@ async def test_a_big_message_is_pending_until_its_frames_are_built(bus):
     pending = enc.frames("/map", "none", None, gate)
     assert isinstance(pending, PendingFrames) and not pending.done()
     assert pending.size == enc.size() >= bulk.OFFLOAD_BYTES
-    assert nbytes(pending) == pending.size
     assert enc.frames("/map", "none", None, gate) is pending  # one build for every subscriber
     await asyncio.sleep(0)
     assert gate.runs == 1

@@ -18,7 +18,7 @@ import pytest
 from PIL import Image
 
 from hitrobot_server.bus.core import Bus
-from hitrobot_server.bus.encoded import PendingFrames, has_lists
+from hitrobot_server.bus.encoded import VERBATIM_MIN, PendingFrames, has_lists, publish_frames
 from hitrobot_server.protocol import bulk, cbor, rawmsg
 from hitrobot_server.session import offload
 from hitrobot_server.session.options import SessionOptions
@@ -159,11 +159,11 @@ def test_compacted_message_encodes_byte_for_byte_like_the_inline_one(type_name):
     mtype = reg.msg(type_name)
     inline, offloaded = canonical_pair(type_name, SAMPLES[type_name])
     topic = "/t"
-    json_inline = bulk.publish_frames(topic, inline, "none", None, "f:1")
-    assert bulk.publish_frames(topic, offloaded, "none", None, "f:1") == json_inline
-    assert bulk.publish_frames(topic, offloaded, "png", None, "f:1") == bulk.publish_frames(
+    json_inline = publish_frames(topic, inline, "none", None, "f:1")
+    assert publish_frames(topic, offloaded, "none", None, "f:1") == json_inline
+    assert publish_frames(topic, offloaded, "png", None, "f:1") == publish_frames(
         topic, inline, "png", None, "f:1")
-    assert bulk.publish_frames(topic, offloaded, "none", 5000, "f:1") == bulk.publish_frames(
+    assert publish_frames(topic, offloaded, "none", 5000, "f:1") == publish_frames(
         topic, inline, "none", 5000, "f:1")
     assert cbor.encode_publish_cbor(topic, offloaded, mtype, reg) == cbor.encode_publish_cbor(
         topic, inline, mtype, reg)
@@ -272,10 +272,10 @@ async def test_a_canonical_publish_is_relayed_as_the_clients_own_text(bus):
     pub, sub = session(bus), session(bus)
     await feed(pub, {"op": "advertise", "topic": "/a", "type": "std_msgs/Float64MultiArray"})
     await feed(sub, {"op": "subscribe", "topic": "/a"})
-    values = ",".join(f"{i}.5" for i in range(400))  # > bulk.VERBATIM_MIN: worth reusing
+    values = ",".join(f"{i}.5" for i in range(400))  # > VERBATIM_MIN: worth reusing
     body = '{"data":[' + values + '],"layout":{"dim":[],"data_offset":0}}'  # not field order
     roslibjs = f'{{"op":"publish","id":"publish:/a:1","topic":"/a","msg":{body},"latch":false}}'
-    assert len(roslibjs) >= bulk.VERBATIM_MIN
+    assert len(roslibjs) >= VERBATIM_MIN
     await feed(pub, roslibjs)
     frames = await sub.outbox.get()
     assert frames == [(f'{{"op":"publish","topic":"/a","msg":{body}}}'.encode(), False)]
@@ -304,7 +304,7 @@ async def test_a_publish_in_the_seeds_spelling_is_relayed_in_the_sdks(bus):
     line = {"id": 1, "start": {"x": 0.5, "y": 0.5}, "end": {"x": 1.5, "y": 0.5}}
     body = {"usage": {"usage": 0}, "line": [line] * 40}
     text = publish_text(topic, body)
-    assert len(text) >= bulk.VERBATIM_MIN
+    assert len(text) >= VERBATIM_MIN
     await feed(pub, text)
     msg = (await next_op(sub, "publish", timeout=10))["msg"]
     assert "line" not in msg and len(msg["lines"]) == 40
