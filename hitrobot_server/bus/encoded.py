@@ -54,13 +54,13 @@ class Encoding(IntEnum):
     FOXGLOVE = 6  # a Foxglove message data frame (variant: the subscription id)
 
 
-COMPRESSIONS: dict[str, Encoding] = {
+_BY_COMPRESSION: dict[str, Encoding] = {
     "none": Encoding.JSON,
     "png": Encoding.PNG,
     "cbor": Encoding.CBOR,
     "cbor-raw": Encoding.CBOR_RAW,
 }
-"""rosbridge's compressions, weakest first, and the encoding each asks for."""
+"""The encoding each of rosbridge's compressions (``ops.COMPRESSIONS``) asks for."""
 
 _BINARY = frozenset({Encoding.CBOR, Encoding.CBOR_RAW})
 
@@ -85,7 +85,7 @@ def strongest(compressions: Iterable[str]) -> str:
 
 def is_binary(compression: str) -> bool:
     """Whether a compression needs binary (WebSocket) frames."""
-    return COMPRESSIONS[compression] in _BINARY
+    return _BY_COMPRESSION[compression] in _BINARY
 
 
 class PendingFrames:
@@ -118,7 +118,7 @@ class PendingFrames:
 
 
 Frames = list[Frame] | PendingFrames
-"""What a queue holds for one message or reply: its frames, ready or pending."""
+"""One message's or reply's frames as a queue holds them: ready, or pending."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -237,7 +237,7 @@ class Encoded:
         subscriber. A big message with variable arrays, for a text compression, is built by
         ``offload`` (when given) and is :class:`PendingFrames` until its frames are back.
         """
-        encoding = COMPRESSIONS[compression]
+        encoding = _BY_COMPRESSION[compression]
         key = Key(encoding, topic, fragment_size)
         found = self._frames.get(key)
         if found is not None:
@@ -326,6 +326,7 @@ def publish_png(topic: str, msg: dict, op_json: bytes) -> bytes:
     if not op_json.isascii():  # roslibjs 1.x decodes png pixels as Latin-1
         op_json = jsoncodec.dumps_ascii({"op": "publish", "topic": topic, "msg": msg})
     return png.png_op(op_json)
+
 
 def publish_frames(
     topic: str, msg: dict, compression: str, fragment_size: int | None, frag_id: str
