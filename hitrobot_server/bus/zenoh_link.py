@@ -326,7 +326,7 @@ class ZenohLink:
         topic = self.bus.topics.get(name)
         try:
             if topic is not None and topic.last is not None and topic.last.origin is not _REMOTE:
-                query.reply(query.key_expr, self._encode(topic.last))
+                query.reply(query.key_expr, topic.last.encoded.cdr(self.codec))
         finally:
             query.drop()
 
@@ -357,9 +357,6 @@ class ZenohLink:
             timeout=5.0,
         )
 
-    def _encode(self, message: Message) -> bytes:
-        return message.encoded.cdr(self.codec)
-
     def _deliver(self, name: str, payload: bytes, latched: bool = False) -> None:
         topic = self.bus.topics.get(name)
         if topic is None:
@@ -387,7 +384,7 @@ class ZenohLink:
         _key, publisher, gid = pub
         attachment = pack_attachment(next(self._seq), time.time_ns(), gid)
         try:
-            publisher.put(self._encode(message), attachment=attachment)
+            publisher.put(message.encoded.cdr(self.codec), attachment=attachment)
         except Exception as exc:
             log.warning("zenoh: cannot send %s: %s", topic.name, exc)
 

@@ -4,7 +4,7 @@ The twin of :class:`~hitrobot_server.session.session.Session` for clients that a
 ``foxglove.websocket.v1`` (or ``foxglove.sdk.v1``) subprotocol: same transport interface
 (``receive``, ``outbox``, ``close``), same bus, same per-client send bound. Every bus topic the
 ``--topics-glob`` allows is a channel (CDR, ``ros2msg`` schema) kept current as topics come and
-go; a message's CDR is encoded once (cached on the bus message, shared with the Zenoh link) and
+go; a message's CDR is encoded once (its ``Encoded``, shared with the Zenoh link) and
 every subscriber gets it behind its own 13-byte header. Protocol parsing and building are in
 protocol/foxglove.py; this module holds the per-client state.
 """
