@@ -4,10 +4,10 @@ A message fanned out to fifty clients is serialised once per (encoding, topic sp
 fifty times — the main cost rosbridge pays per client (rosbridge #332, #559). The encodings
 live here, on the message (``Message.encoded``): the JSON body and publish op, png, cbor,
 cbor-raw, ROS 2 CDR (Foxglove, the Zenoh link, the recorder), Foxglove data frames and the
-frames one subscriber gets (fragmented or not). Each is keyed by a :class:`Key` (an
-:class:`Encoding` and the topic spelling it names), and each set of frames is either ready (a
-list) or :class:`PendingFrames`: a big message's text frames are built in the worker pool (the
-session passes its runner), and the outbox waits for them in place.
+frames one subscriber gets (fragmented or not). Each is keyed by a ``Key`` (an
+:class:`Encoding`, the topic spelling it names, a variant), and each set of frames is either
+ready (a list) or :class:`PendingFrames`: a big message's text frames are built in the worker
+pool (the session passes its runner), and the outbox waits for them in place.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import logging
 from collections.abc import Awaitable, Callable, Hashable, Iterable
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import orjson
 
@@ -65,17 +65,13 @@ _BY_COMPRESSION: dict[str, Encoding] = {
 _BINARY = frozenset({Encoding.CBOR, Encoding.CBOR_RAW})
 
 
-class Key(NamedTuple):
-    """One cached encoding: what it is, for which topic spelling, in which variant (the
-    fragment size of a subscriber's frames, a Foxglove subscription id)."""
+Key = tuple[Encoding, str, Hashable]
+"""One cached encoding: what it is, for which topic spelling, in which variant (the fragment
+size of a subscriber's frames, a Foxglove subscription id). A plain tuple: it is built for
+every subscriber of every message, where a class's constructor would cost a third more."""
 
-    encoding: Encoding
-    topic: str = ""
-    variant: Hashable = None
-
-
-_BODY = Key(Encoding.BODY)
-_CDR = Key(Encoding.CDR)
+_BODY: Key = (Encoding.BODY, "", None)
+_CDR: Key = (Encoding.CDR, "", None)
 
 
 def strongest(compressions: Iterable[str]) -> str:
@@ -156,11 +152,11 @@ class Encoded:
     def seed(self, seed: Seed) -> None:
         self._size = seed.size
         if seed.publish_json is not None:
-            self._bytes[Key(Encoding.JSON, seed.topic)] = seed.publish_json
+            self._bytes[(Encoding.JSON, seed.topic, None)] = seed.publish_json
 
     def known(self, encoding: Encoding, topic: str = "") -> bytes | None:
         """An encoding if someone already made it (the recorder writes CDR it finds)."""
-        return self._bytes.get(Key(encoding, topic))
+        return self._bytes.get((encoding, topic, None))
 
     def size(self) -> int:
         """Estimated JSON size of the body, computed once (or given by the publisher)."""
@@ -171,7 +167,7 @@ class Encoded:
     # ------------------------------------------------------------ single encodings
     def publish_json(self, topic: str) -> bytes:
         """``{"op":"publish","topic":T,"msg":…}``, the body serialised once for every spelling."""
-        key = Key(Encoding.JSON, topic)
+        key: Key = (Encoding.JSON, topic, None)
         data = self._bytes.get(key)
         if data is None:
             body = self._bytes.get(_BODY)
@@ -181,14 +177,14 @@ class Encoded:
         return data
 
     def publish_png(self, topic: str) -> bytes:
-        key = Key(Encoding.PNG, topic)
+        key: Key = (Encoding.PNG, topic, None)
         data = self._bytes.get(key)
         if data is None:
             data = self._bytes[key] = publish_png(topic, self.msg, self.publish_json(topic))
         return data
 
     def publish_cbor(self, topic: str) -> bytes:
-        key = Key(Encoding.CBOR, topic)
+        key: Key = (Encoding.CBOR, topic, None)
         data = self._bytes.get(key)
         if data is None:
             t = self.topic
@@ -196,7 +192,7 @@ class Encoded:
         return data
 
     def publish_cbor_raw(self, topic: str) -> bytes:
-        key = Key(Encoding.CBOR_RAW, topic)
+        key: Key = (Encoding.CBOR_RAW, topic, None)
         data = self._bytes.get(key)
         if data is None:
             secs = int(self.stamp)
@@ -221,7 +217,7 @@ class Encoded:
 
     def foxglove(self, sub_id: int, cdr: bytes) -> bytes:
         """The Foxglove message data frame of subscription ``sub_id`` around ``cdr``."""
-        key = Key(Encoding.FOXGLOVE, "", sub_id)
+        key: Key = (Encoding.FOXGLOVE, "", sub_id)
         data = self._bytes.get(key)
         if data is None:
             data = self._bytes[key] = fg.message_data(sub_id, fg.nanoseconds(self.stamp), cdr)
@@ -238,7 +234,7 @@ class Encoded:
         ``offload`` (when given) and is :class:`PendingFrames` until its frames are back.
         """
         encoding = _BY_COMPRESSION[compression]
-        key = Key(encoding, topic, fragment_size)
+        key: Key = (encoding, topic, fragment_size)
         found = self._frames.get(key)
         if found is not None:
             if isinstance(found, PendingFrames) and found.ok():
@@ -250,7 +246,7 @@ class Encoded:
             found = [(self.publish_cbor_raw(topic), True)]
         elif (
             offload is not None
-            and Key(Encoding.JSON, topic) not in self._bytes
+            and (Encoding.JSON, topic, None) not in self._bytes
             and has_lists(self.topic.mtype, self.topic.types)
             and self.size() >= bulk.OFFLOAD_BYTES
         ):
