@@ -17,9 +17,9 @@ the pose behind seconds of images. Here, for each client:
   topic that fits its share loses nothing). A stream may also hold at most ``depth`` entries
   (a subscription's ``queue_length``; 1 = only the latest value). Drops are counted per stream
   (:meth:`drops`) and ``on_thinned(key)`` is called on a stream's first drop.
-* An entry may be :class:`~hitrobot_server.bus.encoded.PendingFrames` (a big message being encoded
-  in the worker pool, charged at its estimate): its stream waits for it in place while the
-  other streams go on.
+* An entry may be ``PendingFrames`` (bus/encoded.py: a big message or reply being encoded in
+  the worker pool, charged at its estimate): its stream waits for it in place while the other
+  streams go on.
 
 Interface for transports: ``direct`` (a synchronous write used while nothing is queued: the
 fast path), ``get()`` → the next frames to write (or None once closed and drained) then
@@ -50,6 +50,7 @@ def nbytes(frames: Frames) -> int:
     for data, _binary in frames:
         total += len(data)
     return total
+
 
 QUANTUM = 16 * 1024
 """Bytes a stream may send per round-robin turn (more if its next frame is bigger)."""
@@ -124,7 +125,7 @@ class Outbox:
     ) -> bool:
         """Queue frames; returns False when they were dropped (topic data, no room).
 
-        PendingFrames frames are charged at their estimate until they are built. ``key`` and
+        Pending frames are charged at their estimate until they are built. ``key`` and
         ``depth`` place topic data in its stream (ignored for control frames). A message larger
         than the whole limit is still sent when no other topic data is queued, so a big map
         always gets through.
