@@ -59,17 +59,12 @@ _codecs: weakref.WeakKeyDictionary[TypeRegistry, Ros2Codec] = weakref.WeakKeyDic
 
 
 def codec_for(types: TypeRegistry) -> Ros2Codec:
-    """The one codec of a registry, so the CDR cached on a message (key ``("cdr",)``) is the
+    """The one codec of a registry, so the CDR kept on a message (``Encoded.cdr``) is the
     same bytes for the Zenoh link and the Foxglove sessions."""
     codec = _codecs.get(types)
     if codec is None:
         codec = _codecs[types] = Ros2Codec(types)
     return codec
-
-
-def encode_message(codec: Ros2Codec, message: Any) -> bytes:
-    """A bus message's CDR, encoded once and cached on the message for every reader."""
-    return message.cached(("cdr",), lambda: codec.encode(message.msg, message.topic.mtype))
 
 
 class Ros2Codec:

@@ -10,11 +10,12 @@ from __future__ import annotations
 import asyncio
 import logging
 from collections.abc import Callable, Hashable, Iterable
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from ..types.registry import TypeRegistry, UnknownType
 from .action_interfaces import ActionInterfaces
 from .clock import wall_clock
+from .encoded import Seed
 from .errors import ActionError, BusError, ServiceError
 from .link import BusLink, RemoteGraph
 from .names import CLIENT_NODE_PREFIX, canonical
@@ -124,19 +125,19 @@ class Bus:
         stamp: float | None = None,
         reply: Reply | None = None,
         origin: Origin | None = None,
-        encoded: dict[Hashable, Any] | None = None,
+        seed: Seed | None = None,
     ) -> Message:
         """Fan ``msg`` (canonical dict) out to every subscriber of an existing topic.
 
-        ``reply`` reaches the publisher when a subscriber refuses the message; ``encoded``
-        seeds the message's encode cache (a client's own text of it, see session/publish.py).
+        ``reply`` reaches the publisher when a subscriber refuses the message; ``seed`` is
+        what the publisher already has of its encodings (a client's own text of it).
         """
         topic = self.topics.get(name) or self.topics.get(canonical(name))
         if topic is None:
             raise BusError(f"topic '{canonical(name)}' does not exist")
         message = Message(topic, msg, self.clock() if stamp is None else stamp, reply, origin)
-        if encoded:
-            message.cache.update(encoded)
+        if seed is not None:
+            message.encoded.seed(seed)
         topic.fan_out(message)
         if self.link is not None:
             self.link.published(message)

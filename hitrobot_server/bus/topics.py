@@ -1,4 +1,4 @@
-"""Typed topics: publishers, subscribers, latching, and the shared per-message encode cache."""
+"""Typed topics: publishers, subscribers, latching; a message and its shared encodings."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ import itertools
 import logging
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass
-from typing import Any
 
 from ..types.registry import MsgType, TypeRegistry
+from .encoded import Encoded
 
 log = logging.getLogger(__name__)
 
@@ -18,12 +18,11 @@ _seq = itertools.count(1)
 class Message:
     """One published message as every subscriber sees it.
 
-    Wire encodings are computed by whoever needs them and kept in ``cache`` so that a
-    message fanned out to fifty clients is serialised once per (topic spelling, encoding),
-    not fifty times — the main cost rosbridge pays per client (rosbridge #332, #559).
+    Its wire encodings are made by whoever needs them first and kept in ``encoded``
+    (bus/encoded.py), shared by every subscriber.
     """
 
-    __slots__ = ("topic", "msg", "stamp", "seq", "cache", "reply", "origin")
+    __slots__ = ("topic", "msg", "stamp", "seq", "encoded", "reply", "origin")
 
     def __init__(
         self,
@@ -37,7 +36,7 @@ class Message:
         self.msg = msg
         self.stamp = stamp
         self.seq = next(_seq)
-        self.cache: dict[Hashable, Any] = {}
+        self.encoded = Encoded(topic, msg, stamp)
         self.reply = reply
         self.origin = origin  # None for in-process publishers
 
@@ -49,13 +48,6 @@ class Message:
         """
         if self.reply is not None:
             self.reply(level, text)
-
-    def cached(self, key: Hashable, make: Callable[[], Any]) -> Any:
-        try:
-            return self.cache[key]
-        except KeyError:
-            value = self.cache[key] = make()
-            return value
 
 
 Subscriber = Callable[[Message], None]

@@ -35,7 +35,7 @@ import zenoh
 
 from ..types.registry import UnknownType
 from .action_interfaces import hidden_names
-from .cdr import codec_for, encode_message
+from .cdr import codec_for
 from .core import Bus
 from .errors import ServiceError
 from .link import PARAM_SERVICES, RemoteGraph
@@ -326,7 +326,7 @@ class ZenohLink:
         topic = self.bus.topics.get(name)
         try:
             if topic is not None and topic.last is not None and topic.last.origin is not _REMOTE:
-                query.reply(query.key_expr, self._encode(topic.last))
+                query.reply(query.key_expr, topic.last.encoded.cdr(self.codec))
         finally:
             query.drop()
 
@@ -357,9 +357,6 @@ class ZenohLink:
             timeout=5.0,
         )
 
-    def _encode(self, message: Message) -> bytes:
-        return encode_message(self.codec, message)
-
     def _deliver(self, name: str, payload: bytes, latched: bool = False) -> None:
         topic = self.bus.topics.get(name)
         if topic is None:
@@ -374,7 +371,7 @@ class ZenohLink:
             log.warning("zenoh: dropped a sample on %s: %s", name, exc)
             return
         message = Message(topic, msg, self.bus.clock(), None, _REMOTE)
-        message.cache[("cdr",)] = payload  # a recorder (bus tap) writes these very bytes
+        message.encoded.received_cdr(payload)  # a recorder (bus tap) writes these very bytes
         topic.fan_out(message)
         for tap in self.bus.taps:
             tap.message(message)
@@ -387,7 +384,7 @@ class ZenohLink:
         _key, publisher, gid = pub
         attachment = pack_attachment(next(self._seq), time.time_ns(), gid)
         try:
-            publisher.put(self._encode(message), attachment=attachment)
+            publisher.put(message.encoded.cdr(self.codec), attachment=attachment)
         except Exception as exc:
             log.warning("zenoh: cannot send %s: %s", topic.name, exc)
 

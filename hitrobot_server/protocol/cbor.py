@@ -7,7 +7,6 @@ crashed rosbridge, #864) and accept numpy arrays anywhere a list is allowed.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 import cbor2
@@ -16,7 +15,7 @@ import numpy as np
 from hitrobot_server.types import jsoncodec
 from hitrobot_server.types.registry import MsgType, TypeRegistry
 
-Encoder = Callable[[Any], Any]
+from .fieldplan import Build, Entries, Leaves, compile_plan
 
 # ROS base type → (RFC 8746 tag, little-endian numpy dtype). uint8/char go out as byte strings.
 _TYPED_ARRAYS = {
@@ -72,7 +71,11 @@ def _time(value: Any) -> dict[str, int]:
     return {"secs": int(value["secs"]), "nsecs": int(value["nsecs"])}
 
 
-def _scalar_encoder(typ: str) -> Encoder:
+def _time_encoder(_typ: str, _reg: TypeRegistry) -> Build:
+    return _time
+
+
+def _scalar_encoder(typ: str) -> Build:
     if typ in ("float32", "float64"):
         return float
     if typ in _INTS:
@@ -82,48 +85,33 @@ def _scalar_encoder(typ: str) -> Encoder:
     return str
 
 
-def _typed_array(tag: int, dtype: str) -> Encoder:
+def _typed_array(tag: int, dtype: str) -> Build:
     return lambda value: cbor2.CBORTag(tag, np.asarray(value, dtype=dtype).tobytes())
 
 
-def _field_encoder(field_type: str, is_msg: bool, array: int | None, reg: TypeRegistry) -> Encoder:
-    if is_msg:
-        elem = _plan(reg.msg(field_type), reg)
-    elif field_type in ("time", "duration"):
-        elem = _time
-    elif array is None:
-        return _scalar_encoder(field_type)
-    elif field_type in ("uint8", "char"):
+def _array_encoder(field_type: str) -> Build:
+    if field_type in ("uint8", "char"):
         return _as_bytes
-    elif field_type in _TYPED_ARRAYS:
+    if field_type in _TYPED_ARRAYS:
         return _typed_array(*_TYPED_ARRAYS[field_type])
-    elif field_type == "bool":
+    if field_type == "bool":
         return lambda value: [bool(x) for x in value]
-    else:
-        return lambda value: [str(x) for x in value]
-    if array is None:
-        return elem
-    return lambda value: [elem(x) for x in value]
+    return lambda value: [str(x) for x in value]
 
 
-def _plan(mtype: MsgType, reg: TypeRegistry) -> Encoder:
-    plans = reg.plan_cache("cbor")
-    plan = plans.get(mtype.name)
-    if plan is None:
-        entries = tuple(
-            (f.name, _field_encoder(f.type, f.is_msg, f.array, reg)) for f in mtype.fields
-        )
+def _message_encoder(_mtype: MsgType, entries: Entries, _reg: TypeRegistry) -> Build:
+    def encode(msg: dict[str, Any]) -> dict[str, Any]:
+        return {name: enc(msg[name]) for name, enc in entries}
 
-        def plan(msg: dict[str, Any]) -> dict[str, Any]:
-            return {name: enc(msg[name]) for name, enc in entries}
+    return encode
 
-        plans[mtype.name] = plan
-    return plan
+
+_LEAVES = Leaves("cbor", _scalar_encoder, _time_encoder, _array_encoder, _message_encoder)
 
 
 def to_cbor_value(msg: dict[str, Any], mtype: MsgType, reg: TypeRegistry) -> dict[str, Any]:
     """Canonical message → values that ``cbor2.dumps`` encodes the way rosbridge clients expect."""
-    return _plan(mtype, reg)(msg)
+    return compile_plan(mtype, reg, _LEAVES)(msg)
 
 
 def encode_publish_cbor(

@@ -7,7 +7,6 @@ canonical dict is first rebuilt as rosbags message objects.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 import cbor2
@@ -20,15 +19,14 @@ from hitrobot_server.types.registry import (
     TypeRegistry,
 )
 
-Builder = Callable[[Any], Any]
-
+from .fieldplan import Build, Entries, Leaves, compile_plan
 
 
 def _identity(value: Any) -> Any:
     return value
 
 
-def _numeric_array(dtype: type[np.generic]) -> Builder:
+def _numeric_array(dtype: type[np.generic]) -> Build:
     def build(value: Any) -> np.ndarray:
         if isinstance(value, bytes | bytearray | memoryview):
             return np.frombuffer(value, dtype=dtype)
@@ -37,45 +35,36 @@ def _numeric_array(dtype: type[np.generic]) -> Builder:
     return build
 
 
-def _time_builder(cls: Any) -> Builder:
+def _time_builder(field_type: str, reg: TypeRegistry) -> Build:
+    cls = reg.typestore.types[ROSBAGS_TIME_TYPES[field_type]]
     return lambda value: cls(sec=int(value["secs"]), nanosec=int(value["nsecs"]))
 
 
-def _field_builder(field_type: str, is_msg: bool, array: int | None, reg: TypeRegistry) -> Builder:
-    if is_msg:
-        elem = _plan(reg.msg(field_type), reg)
-    elif field_type in ROSBAGS_TIME_TYPES:
-        elem = _time_builder(reg.typestore.types[ROSBAGS_TIME_TYPES[field_type]])
-    elif array is None:
-        return _identity
-    elif field_type == "string":
+def _scalar_builder(_field_type: str) -> Build:
+    return _identity
+
+
+def _array_builder(field_type: str) -> Build:
+    if field_type == "string":
         return list
-    else:
-        return _numeric_array(NUMPY_DTYPES[field_type])
-    if array is None:
-        return elem
-    return lambda value: [elem(x) for x in value]
+    return _numeric_array(NUMPY_DTYPES[field_type])
 
 
-def _plan(mtype: MsgType, reg: TypeRegistry) -> Builder:
-    plans = reg.plan_cache("ros1")
-    plan = plans.get(mtype.name)
-    if plan is None:
-        cls = reg.typestore.types[mtype.name]
-        entries = tuple(
-            (f.name, _field_builder(f.type, f.is_msg, f.array, reg)) for f in mtype.fields
-        )
+def _message_builder(mtype: MsgType, entries: Entries, reg: TypeRegistry) -> Build:
+    cls = reg.typestore.types[mtype.name]
 
-        def plan(msg: dict[str, Any]) -> Any:
-            return cls(**{name: build(msg[name]) for name, build in entries})
+    def make(msg: dict[str, Any]) -> Any:
+        return cls(**{name: build(msg[name]) for name, build in entries})
 
-        plans[mtype.name] = plan
-    return plan
+    return make
+
+
+_LEAVES = Leaves("ros1", _scalar_builder, _time_builder, _array_builder, _message_builder)
 
 
 def serialize_ros1(msg: dict[str, Any], mtype: MsgType, reg: TypeRegistry) -> bytes:
-    """ROS 1 wire bytes of a canonical message."""
-    return bytes(reg.typestore.serialize_ros1(_plan(mtype, reg)(msg), mtype.name))
+    """ROS 1 wire bytes of a canonical message (as rosbags objects first)."""
+    return bytes(reg.typestore.serialize_ros1(compile_plan(mtype, reg, _LEAVES)(msg), mtype.name))
 
 
 def encode_publish_cbor_raw(

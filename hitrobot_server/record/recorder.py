@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..bus.core import Bus
+from ..bus.encoded import Encoding
 from ..bus.names import GlobFilter
 from ..bus.tap import ClientOp
 from ..bus.topics import Message
@@ -165,7 +166,7 @@ class Recorder:
     def _enqueue(self, message: Message, log_time: float | None = None) -> None:
         topic = message.topic
         stamp = int(message.stamp * 1e9)
-        cdr = message.cache.get(("cdr",))
+        cdr = message.encoded.known(Encoding.CDR)
         size = ITEM_OVERHEAD + (len(cdr) if cdr is not None else estimate_size(message.msg))
         when = stamp if log_time is None else int(log_time * 1e9)
         self._put(Item(topic.name, topic.type_name, topic.latched, when, stamp, message.seq,

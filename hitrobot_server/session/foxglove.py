@@ -4,7 +4,7 @@ The twin of :class:`~hitrobot_server.session.session.Session` for clients that a
 ``foxglove.websocket.v1`` (or ``foxglove.sdk.v1``) subprotocol: same transport interface
 (``receive``, ``outbox``, ``close``), same bus, same per-client send bound. Every bus topic the
 ``--topics-glob`` allows is a channel (CDR, ``ros2msg`` schema) kept current as topics come and
-go; a message's CDR is encoded once (cached on the bus message, shared with the Zenoh link) and
+go; a message's CDR is encoded once (its ``Encoded``, shared with the Zenoh link) and
 every subscriber gets it behind its own 13-byte header. Protocol parsing and building are in
 protocol/foxglove.py; this module holds the per-client state.
 """
@@ -20,15 +20,16 @@ from collections.abc import Callable, Coroutine
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..bus.cdr import Ros2Codec, codec_for, encode_message
+from ..bus.cdr import Ros2Codec, codec_for
 from ..bus.core import Bus
+from ..bus.encoded import Frames
 from ..bus.errors import BusError
 from ..bus.names import canonical, valid_name
 from ..bus.topics import Message, Origin, Topic
 from ..protocol import foxglove as fg
 from ..types.registry import MsgType, SrvType, UnknownType
 from .options import SessionOptions
-from .outbox import Frames, Outbox
+from .outbox import Outbox
 from .session import release_client
 
 log = logging.getLogger(__name__)
@@ -291,7 +292,7 @@ class FoxgloveSession:
     def _deliver(self, sub_id: int, message: Message) -> None:
         """Called by the bus for every message; must never block or raise."""
         try:
-            cdr = encode_message(self.codec, message)
+            cdr = message.encoded.cdr(self.codec)
         except Exception as exc:
             name = message.topic.name
             if name not in self._bad_encodings:
@@ -299,11 +300,7 @@ class FoxgloveSession:
                 self._status(fg.WARNING, f"topic '{name}': a message could not be encoded as "
                              f"CDR ({exc}); such messages are skipped")
             return
-        frame = message.cached(
-            ("foxglove", sub_id),
-            lambda: fg.message_data(sub_id, fg.nanoseconds(message.stamp), cdr),
-        )
-        self._send_data([(frame, True)], message.topic.name)
+        self._send_data([(message.encoded.foxglove(sub_id, cdr), True)], message.topic.name)
 
     def _op_unsubscribe(self, op: dict) -> None:
         for sub_id in op["subscriptionIds"]:

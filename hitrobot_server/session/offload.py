@@ -2,7 +2,7 @@
 
 Parsing a 10 MB publish, or encoding it as JSON or png, takes 100-500 ms of C code that holds
 the GIL (see protocol/bulk.py); on the event loop that is 100-500 ms in which no other client
-gets an answer. Ops and messages of at least :data:`OFFLOAD_BYTES` go to a small process pool
+gets an answer. Ops and messages of at least ``bulk.OFFLOAD_BYTES`` go to a small process pool
 instead; smaller ones stay inline, where a pool round trip (~1 ms) would cost more than the work.
 The pool starts on first use, so a server that never sees a big message never pays for it.
 """
@@ -18,13 +18,7 @@ from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, TypeVar
 
-import numpy as np
-
 T = TypeVar("T")
-
-OFFLOAD_BYTES = 256 * 1024
-"""Ops and messages at least this big (JSON bytes, or an estimate) leave the event loop. Inline,
-256 kB cost about 5 ms to parse, convert and encode, a pool round trip about 1 ms."""
 
 WORKERS = max(1, min(2, (os.cpu_count() or 2) - 1))
 """One worker on 2 cores (the loop keeps a core; two measured no better there), two above."""
@@ -62,45 +56,3 @@ async def run(fn: Callable[..., T], *args: Any) -> T:
         if _pool is pool:
             _pool = None
         raise
-
-
-def approx_size(value: object) -> int:
-    """Rough JSON size of a canonical message, without encoding it (an over-estimate is fine:
-    it only decides inline or offloaded). Looks into dicts and the first item of a list; one
-    call per nested dict, so a LaserScan costs three calls."""
-    kind = type(value)
-    if kind is dict:
-        total = 16 * len(value)
-        for item in value.values():
-            kind = type(item)
-            if kind is dict:
-                total += approx_size(item)
-            elif kind is list:
-                total += _list_size(item)
-            elif kind is bytes or kind is np.ndarray or kind is str:
-                total += _flat_size(item)
-            else:
-                total += 12
-        return total
-    if kind is list:
-        return _list_size(value)
-    return _flat_size(value)
-
-
-def _list_size(value: list) -> int:
-    if not value:
-        return 2
-    first = type(value[0])
-    each = approx_size(value[0]) if first is dict or first is list else 12
-    return each * len(value)
-
-
-def _flat_size(value: object) -> int:
-    kind = type(value)
-    if kind is bytes:
-        return len(value) * 4 // 3
-    if kind is np.ndarray:
-        return value.size * (4 if value.itemsize == 1 else 24)
-    if kind is str:
-        return len(value) + 2
-    return 12

@@ -17,30 +17,40 @@ the pose behind seconds of images. Here, for each client:
   topic that fits its share loses nothing). A stream may also hold at most ``depth`` entries
   (a subscription's ``queue_length``; 1 = only the latest value). Drops are counted per stream
   (:meth:`drops`) and ``on_thinned(key)`` is called on a stream's first drop.
-* An entry may be a future of its frames (a big message being encoded in the worker pool): its
-  stream waits for it in place while the other streams go on.
+* An entry may be ``PendingFrames`` (bus/encoded.py: a big message or reply being encoded in
+  the worker pool, charged at its estimate): its stream waits for it in place while the other
+  streams go on.
 
 Interface for transports: ``direct`` (a synchronous write used while nothing is queued: the
 fast path), ``get()`` → the next frames to write (or None once closed and drained) then
 ``sent()``, and ``room`` (an event set while the control bytes are within ``budget``; a transport
 reads no input while it is clear: backpressure for a client that does not read its replies).
-Interface for producers: ``put(frames, droppable=False, size=None, key=None, depth=None)``.
+Interface for producers: ``put(frames, droppable=False, key=None, depth=None)``.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-import logging
 from collections import deque
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 
-log = logging.getLogger(__name__)
+from ..bus.encoded import Frames, PendingFrames
+from ..protocol.bulk import Frame
 
-Frame = tuple[bytes, bool]  # (payload, is_binary)
-Frames = list[Frame] | asyncio.Future  # a future resolves to list[Frame]
 DirectWrite = Callable[[list[Frame]], bool]
+
+
+def nbytes(frames: Frames) -> int:
+    """Bytes a queue charges for frames: their length, or a pending set's estimate."""
+    if isinstance(frames, PendingFrames):
+        return frames.size
+    total = 0
+    for data, _binary in frames:
+        total += len(data)
+    return total
+
 
 QUANTUM = 16 * 1024
 """Bytes a stream may send per round-robin turn (more if its next frame is bigger)."""
@@ -110,20 +120,19 @@ class Outbox:
         self,
         frames: Frames,
         droppable: bool = False,
-        size: int | None = None,
         key: Hashable = None,
         depth: int | None = None,
     ) -> bool:
         """Queue frames; returns False when they were dropped (topic data, no room).
 
-        ``size`` is the byte count to charge for a future of frames (an estimate). ``key`` and
+        Pending frames are charged at their estimate until they are built. ``key`` and
         ``depth`` place topic data in its stream (ignored for control frames). A message larger
         than the whole limit is still sent when no other topic data is queued, so a big map
         always gets through.
         """
         if self.closed:
             return False
-        pending = isinstance(frames, asyncio.Future)
+        pending = isinstance(frames, PendingFrames)
         if (
             not pending
             and not self._bytes
@@ -134,13 +143,10 @@ class Outbox:
             and self.direct(frames)
         ):
             return True
-        if not pending:
-            size = sum(len(f[0]) for f in frames)
-        elif size is None:
-            size = 0
+        size = nbytes(frames)
         entry = _Entry(frames, size)
         if pending:
-            frames.add_done_callback(self._ready)
+            frames.future.add_done_callback(self._ready)
         if not droppable:
             self._control.append(entry)
             self._control_bytes += size
@@ -245,10 +251,10 @@ class Outbox:
         while self._control:
             entry = self._control[0]
             frames = entry.frames
-            if isinstance(frames, asyncio.Future):
+            if isinstance(frames, PendingFrames):
                 if not frames.done():
                     break  # control frames keep their order: wait for this one
-                frames = _result(frames)
+                frames = frames.frames()
             self._control.popleft()
             self._uncharge_control(entry.size)
             if frames is not None:
@@ -259,12 +265,12 @@ class Outbox:
         while self._active and waiting < len(self._active):
             stream = self._active[0]
             entry = stream.entries[0]
-            if isinstance(entry.frames, asyncio.Future):
+            if isinstance(entry.frames, PendingFrames):
                 if not entry.frames.done():
                     waiting += 1  # its stream waits in place; the others go on
                     self._active.rotate(-1)
                     continue
-                frames = _result(entry.frames)
+                frames = entry.frames.frames()
                 if frames is None:
                     self._remove_head(stream, entry.size)
                     continue
@@ -347,14 +353,3 @@ class Outbox:
         self.direct = None
         self.on_thinned = None
         self.room.set()
-
-
-def _result(future: asyncio.Future) -> list[Frame] | None:
-    """A finished future's frames; None (logged) when encoding failed or was cancelled."""
-    if future.cancelled():
-        return None
-    exc = future.exception()
-    if exc is not None:
-        log.error("encoding a big message failed; it is skipped for this client: %r", exc)
-        return None
-    return future.result()

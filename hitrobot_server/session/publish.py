@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from ..bus.encoded import VERBATIM_MIN, Seed, verbatim_publish
 from ..bus.names import canonical, valid_name
-from ..protocol.bulk import VERBATIM_MIN, verbatim_publish
 from ..protocol.errors import ProtocolError
 from ..types.convert import from_json_verbatim
 
@@ -80,13 +80,12 @@ class PublishOps:
         if topic.mtype.fields and len(topic.mtype.fields) == 1 and not isinstance(body, dict):
             body = {topic.mtype.fields[0].name: body}  # seed 4.1: "msg": <string> on /cmd_string
         value, missing, verbatim = from_json_verbatim(topic.mtype, body, s.types)
-        encoded = None
+        seed = None
         if s.frame is not None and len(s.frame) >= VERBATIM_MIN:
-            encoded = {"size": len(s.frame)}  # the op's length is the message's size, near enough
+            text = None
             if verbatim and body is msg.get("msg"):
                 text = verbatim_publish(s.frame, msg)  # the client's text is the outgoing op
-                if text is not None:
-                    encoded["json", msg["topic"]] = text
+            seed = Seed(len(s.frame), msg["topic"], text)  # the op's length: the message's size
         if missing:
             s.status(
                 "warning",
@@ -97,7 +96,7 @@ class PublishOps:
         def reply(level: str, text: str) -> None:
             s.status(level, f"publish to '{name}': {text}", op_id)
 
-        s.bus.publish(name, value, reply=reply, origin=s.origin, encoded=encoded)
+        s.bus.publish(name, value, reply=reply, origin=s.origin, seed=seed)
 
     def close(self) -> None:
         for name in list(self.ads):

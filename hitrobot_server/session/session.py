@@ -30,11 +30,11 @@ from ..types.convert import ConversionError
 from . import offload
 from .actions import ActionOps
 from .options import SessionOptions
-from .outbox import Frames, Outbox
+from .outbox import Outbox, nbytes
 from .publish import PublishOps
+from .replies import json_frames, reply_frames
 from .services import ServiceOps
 from .subscribe import SubscribeOps
-from .wire import json_frames, reply_frames
 
 log = logging.getLogger(__name__)
 Pending = Awaitable[None] | None  # what receive/handle return: None, or a task to await
@@ -141,7 +141,7 @@ class Session:
     # ------------------------------------------------------------------ input
     def receive(self, data: str | bytes, binary: bool = False) -> Pending:
         """One WebSocket frame (text JSON, or binary CBOR) or a re-assembled text."""
-        if len(data) >= offload.OFFLOAD_BYTES:
+        if len(data) >= bulk.OFFLOAD_BYTES:
             if not self.authenticated:  # nothing big is parsed for a client not logged in
                 self._reject_unauthenticated("message", None)
                 return None
@@ -279,7 +279,7 @@ class Session:
         self._arm_fragment_timer()
 
     def _op_png(self, msg: dict) -> Pending:
-        if len(msg["data"]) >= offload.OFFLOAD_BYTES:
+        if len(msg["data"]) >= bulk.OFFLOAD_BYTES:
             decode = functools.partial(bulk.decode_png, max_bytes=self.settings.max_frame_size)
             return self._offload(decode, msg["data"], msg.get("id"))
         try:
@@ -325,12 +325,8 @@ class Session:
         """Queue a reply op; replies are never dropped by the send buffer."""
         size = fragment_size or self.settings.max_message_size
         frames = reply_frames(obj, size, compression)
-        if type(frames) is list:
-            charged = sum(len(f[0]) for f in frames)
-            self.outbox.put(frames)
-        else:  # a big reply being built in the worker pool: charged at its estimate
-            charged = offload.approx_size(obj)
-            self.outbox.put(frames, size=charged)
+        charged = nbytes(frames)  # a big reply being built in the worker pool: its estimate
+        self.outbox.put(frames)
         self.reply_bytes += (charged - self.reply_bytes) / 8  # the running mean reply size
         self._check_replies()
 
@@ -346,17 +342,6 @@ class Session:
             )
             return MIN_FRAGMENT_SIZE
         return size
-
-    def send_frames(
-        self,
-        frames: Frames,
-        droppable: bool,
-        size: int | None = None,
-        key: object = None,
-        depth: int | None = None,
-    ) -> None:
-        """Queue topic data (``droppable``) in stream ``key`` (see session/outbox.py)."""
-        self.outbox.put(frames, droppable, size, key=key, depth=depth)
 
     def _check_replies(self) -> None:
         """Past twice ``--reply-buffer-limit`` of unread replies the client is disconnected:

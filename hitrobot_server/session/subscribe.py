@@ -20,10 +20,11 @@ from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from ..bus.encoded import is_binary, strongest
 from ..bus.topics import Message, Topic
 from ..protocol.errors import ProtocolError
+from . import offload
 from .publish import check_topic_name
-from .wire import is_binary, message_size, publish_frames, strongest
 
 if TYPE_CHECKING:
     from .session import Session
@@ -88,7 +89,7 @@ class ClientSubscription:
     def _queue(self, message: Message) -> None:
         """Queue a message; a full queue, or this client's queues over their byte limit, drop
         their oldest first (and, with nothing left to drop, the newest)."""
-        size = message_size(message)  # an estimate: encoding here would put big maps on the loop
+        size = message.encoded.size()  # an estimate: encoding here would put big maps on the loop
         ops = self.ops
         limit = self.session.settings.send_buffer_limit
         while self._pending and (
@@ -127,11 +128,10 @@ class ClientSubscription:
             self._arm(time.monotonic())
 
     def _send(self, message: Message) -> None:
-        frames = publish_frames(message, self.topic_str, self.compression, self.fragment_size)
-        size = None if type(frames) is list else message_size(message)  # a future: estimate
-        self.session.send_frames(
-            frames, droppable=True, size=size, key=self.topic_str, depth=self.queue_length or None
+        frames = message.encoded.frames(
+            self.topic_str, self.compression, self.fragment_size, offload.run
         )
+        self.session.outbox.put(frames, True, self.topic_str, self.queue_length or None)
 
     def cancel(self) -> None:
         if self._timer is not None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hitrobot_server.bus.encoded import verbatim_publish
 from hitrobot_server.protocol import bulk
 
 
@@ -50,9 +51,9 @@ def _op(text: str) -> dict:
 
 def test_verbatim_publish_reuses_the_clients_text():
     text = '{"op":"publish","topic":"/s","msg":{"data":"x","n":[1.5,2.5]}}'
-    assert bulk.verbatim_publish(text, _op(text)) == text.encode()
+    assert verbatim_publish(text, _op(text)) == text.encode()
     roslibjs = '{"op":"publish","id":"publish:/s:7","topic":"/s","msg":{"data":"x"},"latch":false}'
-    assert bulk.verbatim_publish(roslibjs, _op(roslibjs)) == (
+    assert verbatim_publish(roslibjs, _op(roslibjs)) == (
         b'{"op":"publish","topic":"/s","msg":{"data":"x"}}')
 
 
@@ -65,13 +66,13 @@ def test_verbatim_publish_reuses_the_clients_text():
 ])
 def test_verbatim_publish_refuses_text_it_cannot_vouch_for(text):
     import json
-    assert bulk.verbatim_publish(text, json.loads(text)) is None
+    assert verbatim_publish(text, json.loads(text)) is None
 
 
 def test_duplicate_keys_still_read_as_what_was_validated():
     import json
     text = '{"op":"publish","topic":"/s","msg":{"data":"old"},"msg":{"data":"new"}}'
-    out = bulk.verbatim_publish(text, _op(text))
+    out = verbatim_publish(text, _op(text))
     assert json.loads(out) == {"op": "publish", "topic": "/s", "msg": {"data": "new"}}
 
 

@@ -18,8 +18,9 @@ import pytest
 from PIL import Image
 
 from hitrobot_server.bus.core import Bus
+from hitrobot_server.bus.encoded import VERBATIM_MIN, PendingFrames, has_lists, publish_frames
 from hitrobot_server.protocol import bulk, cbor, rawmsg
-from hitrobot_server.session import offload, wire
+from hitrobot_server.session import offload
 from hitrobot_server.session.options import SessionOptions
 from hitrobot_server.session.session import Session
 from hitrobot_server.types.convert import from_json
@@ -28,7 +29,7 @@ from hitrobot_server.types.registry import TypeRegistry
 from ..helpers import WsClient
 from .test_encodings import decode_png_op
 
-BIG = 700  # a BIG x BIG OccupancyGrid is ~1.2 MB of JSON: well over offload.OFFLOAD_BYTES
+BIG = 700  # a BIG x BIG OccupancyGrid is ~1.2 MB of JSON: well over bulk.OFFLOAD_BYTES
 
 
 def grid(size: int, seed: int = 0) -> dict:
@@ -82,7 +83,7 @@ async def test_a_small_message_never_overtakes_an_earlier_big_one(bus):
     await feed(pub, {"op": "advertise", "topic": "/map", "type": "nav_msgs/OccupancyGrid"})
     await feed(sub, {"op": "subscribe", "topic": "/map"})
     big, small = grid(BIG, 1), grid(2, 2)
-    assert len(publish_text("/map", big)) >= offload.OFFLOAD_BYTES
+    assert len(publish_text("/map", big)) >= bulk.OFFLOAD_BYTES
     await feed(pub, publish_text("/map", big))
     await feed(pub, publish_text("/map", small))  # published while the big one is encoded
     first = await next_op(sub, "publish")
@@ -158,11 +159,11 @@ def test_compacted_message_encodes_byte_for_byte_like_the_inline_one(type_name):
     mtype = reg.msg(type_name)
     inline, offloaded = canonical_pair(type_name, SAMPLES[type_name])
     topic = "/t"
-    json_inline = bulk.publish_frames(topic, inline, "none", None, "f:1")
-    assert bulk.publish_frames(topic, offloaded, "none", None, "f:1") == json_inline
-    assert bulk.publish_frames(topic, offloaded, "png", None, "f:1") == bulk.publish_frames(
+    json_inline = publish_frames(topic, inline, "none", None, "f:1")
+    assert publish_frames(topic, offloaded, "none", None, "f:1") == json_inline
+    assert publish_frames(topic, offloaded, "png", None, "f:1") == publish_frames(
         topic, inline, "png", None, "f:1")
-    assert bulk.publish_frames(topic, offloaded, "none", 5000, "f:1") == bulk.publish_frames(
+    assert publish_frames(topic, offloaded, "none", 5000, "f:1") == publish_frames(
         topic, inline, "none", 5000, "f:1")
     assert cbor.encode_publish_cbor(topic, offloaded, mtype, reg) == cbor.encode_publish_cbor(
         topic, inline, mtype, reg)
@@ -184,10 +185,10 @@ async def test_offloaded_frames_equal_the_inline_encoding(bus, compression, frag
                      "fragment_size": fragment_size})
     await feed(pub, publish_text("/map", grid(BIG, 7)))
     message = captured[0]
-    offloaded = wire.publish_frames(message, "/map", compression, fragment_size)
-    frames = await offloaded if isinstance(offloaded, asyncio.Future) else offloaded
-    json_inline = wire.publish_json(message, "/map")  # the inline builders, never offloaded
-    inline = wire.publish_png(message, "/map") if compression == "png" else json_inline
+    offloaded = message.encoded.frames("/map", compression, fragment_size, offload.run)
+    frames = await offloaded.future if isinstance(offloaded, PendingFrames) else offloaded
+    json_inline = message.encoded.publish_json("/map")  # the inline builders, never offloaded
+    inline = message.encoded.publish_png("/map") if compression == "png" else json_inline
     if fragment_size:
         assert len(frames) > 1
         ops = [orjson.loads(f) for f, _ in frames]
@@ -217,7 +218,7 @@ async def test_big_malformed_ops_get_the_same_status_errors(bus):
         assert error["level"] == "error" and error["id"] == f"bad-{bad}"
         assert expected in error["msg"]
 
-    await feed(pub, {"op": "png", "id": "p1", "data": "A" * offload.OFFLOAD_BYTES})
+    await feed(pub, {"op": "png", "id": "p1", "data": "A" * bulk.OFFLOAD_BYTES})
     error = await next_op(pub, "status")
     assert error["id"] == "p1" and "field 'data' is not a valid PNG payload" in error["msg"]
 
@@ -271,10 +272,10 @@ async def test_a_canonical_publish_is_relayed_as_the_clients_own_text(bus):
     pub, sub = session(bus), session(bus)
     await feed(pub, {"op": "advertise", "topic": "/a", "type": "std_msgs/Float64MultiArray"})
     await feed(sub, {"op": "subscribe", "topic": "/a"})
-    values = ",".join(f"{i}.5" for i in range(400))  # > bulk.VERBATIM_MIN: worth reusing
+    values = ",".join(f"{i}.5" for i in range(400))  # > VERBATIM_MIN: worth reusing
     body = '{"data":[' + values + '],"layout":{"dim":[],"data_offset":0}}'  # not field order
     roslibjs = f'{{"op":"publish","id":"publish:/a:1","topic":"/a","msg":{body},"latch":false}}'
-    assert len(roslibjs) >= bulk.VERBATIM_MIN
+    assert len(roslibjs) >= VERBATIM_MIN
     await feed(pub, roslibjs)
     frames = await sub.outbox.get()
     assert frames == [(f'{{"op":"publish","topic":"/a","msg":{body}}}'.encode(), False)]
@@ -303,18 +304,18 @@ async def test_a_publish_in_the_seeds_spelling_is_relayed_in_the_sdks(bus):
     line = {"id": 1, "start": {"x": 0.5, "y": 0.5}, "end": {"x": 1.5, "y": 0.5}}
     body = {"usage": {"usage": 0}, "line": [line] * 40}
     text = publish_text(topic, body)
-    assert len(text) >= bulk.VERBATIM_MIN
+    assert len(text) >= VERBATIM_MIN
     await feed(pub, text)
     msg = (await next_op(sub, "publish", timeout=10))["msg"]
     assert "line" not in msg and len(msg["lines"]) == 40
 
 def test_only_types_with_variable_arrays_can_be_big():
     reg = TypeRegistry.default()
-    assert wire.has_lists(reg.msg("nav_msgs/OccupancyGrid"), reg)
-    assert wire.has_lists(reg.msg("nav_msgs/Path"), reg)  # poses[]
-    assert wire.has_lists(reg.msg("visualization_msgs/MarkerArray"), reg)  # nested
-    assert not wire.has_lists(reg.msg("nav_msgs/Odometry"), reg)  # fixed covariance[36]
-    assert not wire.has_lists(reg.msg("std_msgs/String"), reg)
+    assert has_lists(reg.msg("nav_msgs/OccupancyGrid"), reg)
+    assert has_lists(reg.msg("nav_msgs/Path"), reg)  # poses[]
+    assert has_lists(reg.msg("visualization_msgs/MarkerArray"), reg)  # nested
+    assert not has_lists(reg.msg("nav_msgs/Odometry"), reg)  # fixed covariance[36]
+    assert not has_lists(reg.msg("std_msgs/String"), reg)
 
 
 async def test_big_hostile_ops_are_checked_like_small_ones(bus):
@@ -326,14 +327,14 @@ async def test_big_hostile_ops_are_checked_like_small_ones(bus):
     # a NaN literal sends the text to the lenient parser, which would accept the surrogate
     text = text.replace('"frame_id":"map"', '"frame_id":"bad\\ud800"')
     text = text.replace('"resolution":0.05', '"resolution":NaN')
-    assert len(text) >= offload.OFFLOAD_BYTES
+    assert len(text) >= bulk.OFFLOAD_BYTES
     await feed(pub, text)
     error = await next_op(pub, "status")
     assert error["level"] == "error" and error["id"] == "surrogate"
     assert "ud800" not in error["msg"]  # the value itself is never echoed
 
     big_int = cbor2.dumps({"op": "publish", "id": "bigint", "topic": "/map",
-                                "msg": {"data": [2**70] + [0] * offload.OFFLOAD_BYTES}})
+                                "msg": {"data": [2**70] + [0] * bulk.OFFLOAD_BYTES}})
     pending = pub.receive(big_int, binary=True)
     assert pending is not None  # it went to the worker
     await pending
@@ -344,7 +345,7 @@ async def test_big_hostile_ops_are_checked_like_small_ones(bus):
     bomb = io.BytesIO()
     Image.new("RGB", (side, side)).save(bomb, format="PNG")
     data = base64.b64encode(bomb.getvalue()).decode()
-    data += "=" * (offload.OFFLOAD_BYTES - len(data) + 4 - (offload.OFFLOAD_BYTES % 4))
+    data += "=" * (bulk.OFFLOAD_BYTES - len(data) + 4 - (bulk.OFFLOAD_BYTES % 4))
     small = Session(bus, SessionOptions(max_frame_size=1_000_000))
     await feed(small, {"op": "png", "id": "bomb", "data": data})
     error = await next_op(small, "status")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 
+from hitrobot_server.bus.encoded import PendingFrames
 from hitrobot_server.session.outbox import QUANTUM, Outbox
 
 
@@ -147,7 +148,7 @@ async def test_a_pending_future_holds_only_its_own_stream():
     sent: list = []
     box.direct = lambda fr: sent.append(fr) or True
     future = asyncio.get_running_loop().create_future()
-    assert box.put(future, droppable=True, size=100, key="/map")
+    assert box.put(PendingFrames(future, 100), droppable=True, key="/map")
     assert box.buffered == 100
     box.put(frames(2), droppable=True, key="/map")  # behind the future, in its stream
     box.put(frames(3), droppable=True, key="/pose")  # another stream: not held
@@ -167,13 +168,13 @@ async def test_a_failed_or_cancelled_future_is_skipped_and_a_cancelled_get_leave
     box = Outbox()
     failed = asyncio.get_running_loop().create_future()
     failed.set_exception(RuntimeError("encoder broke"))
-    box.put(failed, droppable=True)
+    box.put(PendingFrames(failed, 0), droppable=True)
     box.put(frames(3), droppable=True)
     assert await box.get() == frames(3)
     box.sent()
 
     shared = asyncio.get_running_loop().create_future()
-    box.put(shared, droppable=True)
+    box.put(PendingFrames(shared, 0), droppable=True)
     getter = asyncio.ensure_future(box.get())
     await asyncio.sleep(0)
     getter.cancel()  # this client's pump goes away
