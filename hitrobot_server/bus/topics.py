@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..types.registry import MsgType, TypeRegistry
+from .requests import Reply, Status
 
 log = logging.getLogger(__name__)
 
@@ -30,7 +31,7 @@ class Message:
         topic: Topic,
         msg: dict,
         stamp: float,
-        reply: Reply | None = None,
+        reply: Status | None = None,
         origin: Origin | None = None,
     ):
         self.topic = topic
@@ -38,17 +39,8 @@ class Message:
         self.stamp = stamp
         self.seq = next(_seq)
         self.cache: dict[Hashable, Any] = {}
-        self.reply = reply
+        self.reply = Reply(reply)  # a node's answer to the publisher, if it published a request
         self.origin = origin  # None for in-process publishers
-
-    def reject(self, text: str, level: str = "error") -> None:
-        """Tell the publisher (if it is a client) that its message was refused, and why.
-
-        Robot nodes validate requests published on topics, sometimes only after awaiting the
-        robot; this is how the error still reaches the client that sent it.
-        """
-        if self.reply is not None:
-            self.reply(level, text)
 
     def cached(self, key: Hashable, make: Callable[[], Any]) -> Any:
         try:
@@ -59,7 +51,6 @@ class Message:
 
 
 Subscriber = Callable[[Message], None]
-Reply = Callable[[str, str], None]  # (level, text) → a status message to the publisher
 
 
 @dataclass(frozen=True, slots=True)
@@ -115,6 +106,6 @@ class Topic:
             try:
                 callback(message)
             except RequestRejected as exc:
-                message.reject(str(exc))
+                message.reply.fail(str(exc))
             except Exception:
                 log.exception("subscriber %r of %s failed", key, self.name)

@@ -12,9 +12,10 @@ import logging
 
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
-from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.backend import RobotBackend
 from . import messages as m
 from .base import RobotNode
+from .ground.requests import answer, require_robot
 from .messages import map_frames, pose2d_of
 
 log = logging.getLogger(__name__)
@@ -47,15 +48,5 @@ class ConventionalNode(RobotNode):
             raise RequestRejected(
                 f"header.frame_id '{frame}' is not the map frame; give the pose in 'map'")
         pose = pose2d_of(msg["pose"]["pose"], "pose.pose")
-        if not self.backend.connected:
-            raise RequestRejected("the robot is not connected")
-
-        async def apply() -> None:
-            try:
-                await self.backend.set_pose(pose)
-            except NotConnectedError:
-                message.reject("the robot is not connected")
-            except BackendError as exc:
-                message.reject(f"set pose failed: {exc}")
-
-        self.spawn(apply())
+        require_robot(self.backend, "")  # /initialpose answers are not labelled
+        self.spawn(answer(message.reply, "", self.backend.set_pose(pose), failed="set pose failed"))

@@ -34,6 +34,7 @@ from ..robot.backend import BackendError, RobotBackend
 from ..robot.model import HealthLevel, Pose2D
 from . import messages as m
 from .base import RobotNode
+from .ground.requests import NOT_CONNECTED
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +68,7 @@ class FleetMemberNode(RobotNode):
         b = self.backend
         assert b is not None
         msg = {"name": self.robot, "pose": m.pose(Pose2D(0, 0, 0)), "state": OFFLINE,
-               "battery": 0.0, "task": 0, "message": "the robot is not connected"}
+               "battery": 0.0, "task": 0, "message": NOT_CONNECTED}
         if not b.connected:
             return msg
         try:

@@ -29,6 +29,7 @@ from ..robot.model import ActionResult, Point2D
 from ..robot.motion import follow
 from ..state import StateBinding
 from .base import RobotNode
+from .ground.requests import NOT_CONNECTED
 from .mapfiles import GRAPH_FILE, MapFilesNode
 from .memory import NodeMemory
 from .namedfiles import FileError, NamedFiles, dump_yaml, load_yaml, number
@@ -265,7 +266,7 @@ class GraphNodeService(RobotNode):
         try:
             pose = await self.backend.get_pose()
         except NotConnectedError:
-            return {"success": False, "message": "the robot is not connected", "path": []}
+            return {"success": False, "message": NOT_CONNECTED, "path": []}
         except BackendError as exc:
             return {"success": False, "message": f"robot pose unavailable: {exc}", "path": []}
         start = nearest_node(graph, pose.x, pose.y)
@@ -280,7 +281,7 @@ class GraphNodeService(RobotNode):
                 action = await self.backend.move_to([Point2D(node.x, node.y)])
                 final = await follow(self.backend, action)
             except NotConnectedError:
-                return {"success": False, "message": "the robot is not connected",
+                return {"success": False, "message": NOT_CONNECTED,
                         "path": path}
             except BackendError as exc:
                 return {"success": False, "path": path,

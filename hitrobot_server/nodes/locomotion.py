@@ -35,6 +35,7 @@ from ..robot.locomotion import ListenError, LocomotionBackend, parse_listen
 from ..robot.model import Odometry, Pose2D, Twist2D
 from . import messages as m
 from .base import RobotNode
+from .ground.requests import NOT_CONNECTED
 from .options import NodeOptions
 
 log = logging.getLogger(__name__)
@@ -130,13 +131,13 @@ class LocomotionNode(RobotNode):
     # ------------------------------------------------------------------ services
     async def _stand_up(self, request: dict) -> dict:
         if not self.backend.connected:
-            return {"success": False, "message": "the robot is not connected"}
+            return {"success": False, "message": NOT_CONNECTED}
         await self.backend.stand_up()
         return {"success": True, "message": "Trigger: started"}
 
     async def _sit_down(self, request: dict) -> dict:
         if not self.backend.connected:
-            return {"success": False, "message": "the robot is not connected"}
+            return {"success": False, "message": NOT_CONNECTED}
         await self.backend.sit_down()
         return {"success": True, "message": "Trigger: started"}
 

@@ -23,6 +23,7 @@ from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
 from ..robot.backend import BackendError, NotConnectedError, RobotBackend
 from .base import RobotNode
+from .ground.requests import NOT_CONNECTED
 from .map_manager.node import NODE_NAME as MAP_MANAGER
 from .map_manager.store import MapStore, StoreError, write_file
 from .messages import pose2d_of
@@ -86,7 +87,7 @@ class MapFilesNode(RobotNode):
         if topic is None or not any(key != (self, LOAD_MAP_TOPIC) for key in topic.subscribers):
             return {"success": False, "message": "the map manager is not running"}
         if not self.backend.connected:
-            return {"success": False, "message": "the robot is not connected"}
+            return {"success": False, "message": NOT_CONNECTED}
         loop = asyncio.get_running_loop()
         outcome: asyncio.Future[tuple[str, str]] = loop.create_future()
 
@@ -118,7 +119,7 @@ class MapFilesNode(RobotNode):
         try:
             await self.backend.set_pose(pose)
         except NotConnectedError:
-            return {"success": False, "message": "the robot is not connected"}
+            return {"success": False, "message": NOT_CONNECTED}
         except BackendError as exc:
             return {"success": False, "message": f"setting the initial pose failed: {exc}"}
         return {"success": True, "message": "Map saved."}  # sic: the seed's success text
@@ -129,15 +130,12 @@ class MapFilesNode(RobotNode):
         if message.origin is None:
             return  # ours (load_laser_map handles its own outcome) or another node's
         name = message.msg["filename"]
-        original = message.reply
 
-        def reply(level: str, text: str) -> None:
+        def loaded(level: str, text: str) -> None:
             if level == "info" and text.startswith(LOADED_PREFIX):
                 self._loaded(name)
-            if original is not None:
-                original(level, text)
 
-        message.reply = reply
+        message.reply.observe(loaded)
 
     def _loaded(self, name: str) -> list[str]:
         """A map was loaded: remember it and apply its default graph and route."""

@@ -37,6 +37,7 @@ from ..robot.model import ActionInfo, ActionResult, Point2D
 from ..robot.motion import cancel_if_current, follow
 from ..state import StateBinding
 from .base import RobotNode
+from .ground.requests import NOT_CONNECTED
 from .mapfiles import ROUTE_FILE, MapFilesNode
 from .memory import NodeMemory
 from .namedfiles import FileError, NamedFiles, dump_yaml, list_reply, load_yaml, number
@@ -297,7 +298,7 @@ class PatrolNode(RobotNode):
         try:
             pose = await self.backend.get_pose()
         except NotConnectedError:
-            return {"success": False, "message": "the robot is not connected",
+            return {"success": False, "message": NOT_CONNECTED,
                     "waypoint_index": 0}
         except BackendError as exc:
             return {"success": False, "message": f"robot pose unavailable: {exc}",
@@ -324,7 +325,7 @@ class PatrolNode(RobotNode):
         try:
             action = await self.backend.move_to([Point2D(w.x, w.y)])
         except NotConnectedError:
-            return "the robot is not connected"
+            return NOT_CONNECTED
         except BackendError as exc:
             return f"the robot refused waypoint {index}: {exc}"
         self.active, self.target, self.laps = True, index, 0

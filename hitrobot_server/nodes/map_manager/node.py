@@ -24,11 +24,12 @@ import numpy as np
 
 from ...bus.core import Bus
 from ...bus.topics import Message, RequestRejected
-from ...robot.backend import BackendError, NotConnectedError, RobotBackend
+from ...robot.backend import BackendError, RobotBackend
 from ...robot.model import ArtifactUsage, Line, MapRegion, Point2D, Pose2D, Rect
 from ...state import StateBinding
 from .. import messages as m
 from ..base import RobotNode
+from ..ground.requests import answer, require_robot
 from ..mapsync import MapHolder, tiles
 from ..memory import NodeMemory
 from ..options import NodeOptions
@@ -74,6 +75,8 @@ PENDING_SCANS = 4
 RECONNECT_POLL = 0.5
 BLOCKED_RETRY = 2.0
 """Seconds between attempts to hand the robot blocked areas it refused or missed."""
+REQUEST_ERRORS = (StoreError, mapio.MapFileError, PoiError, LayerError)
+"""A request's own errors: the publisher hears their text, as it does a robot error's."""
 
 
 def to_explore(grid: Grid, resolution: float) -> MapRegion:
@@ -284,24 +287,9 @@ class MapManager(RobotNode):
              needs_robot: bool = True) -> None:
         """Run ``work`` in the background; its failure (or success text) goes to the
         publisher as a status."""
-        if needs_robot and not self.backend.connected:
-            raise RequestRejected(f"{what}: the robot is not connected")
-
-        async def go() -> None:
-            try:
-                text = await work()
-            except NotConnectedError:
-                message.reject(f"{what}: the robot is not connected")
-            except (BackendError, StoreError, mapio.MapFileError, PoiError, LayerError) as exc:
-                message.reject(f"{what}: {exc}")
-            except Exception as exc:
-                log.exception("%s failed", what)
-                message.reject(f"{what} failed: {exc}")
-            else:
-                if text:
-                    message.reject(f"{what}: {text}", level="info")
-
-        self.spawn(go())
+        if needs_robot:
+            require_robot(self.backend, what)
+        self.spawn(answer(message.reply, what, work(), known=REQUEST_ERRORS))
 
     # ------------------------------------------------------------------ /map
     def _resolution(self) -> float:
@@ -531,7 +519,7 @@ class MapManager(RobotNode):
 
         async def acknowledge() -> None:  # once the change is on disk
             await self.memory.durable()
-            message.reject(f"{what}: {text}", level="info")
+            message.reply.ok(f"{what}: {text}")
 
         self.spawn(acknowledge())
 

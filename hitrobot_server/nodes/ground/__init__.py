@@ -1,0 +1,1 @@
+"""The nodes' ground floor: what several nodes share. It imports no node."""

@@ -1,0 +1,64 @@
+"""Carrying out a request published on a topic, and what its publisher is told.
+
+Robot nodes take requests on topics and answer through the message's :class:`Reply` once the
+robot has answered them; this is the one place that turns robot errors into those answers, so
+every node words "the robot is not connected" (and the rest) the same way.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Awaitable
+from typing import Protocol
+
+from ...bus.requests import Reply
+from ...bus.topics import RequestRejected
+from ...robot.backend import BackendError, NotConnectedError
+
+log = logging.getLogger(__name__)
+
+NOT_CONNECTED = "the robot is not connected"
+
+
+class Connection(Protocol):
+    """Anything that knows whether the robot answers (a backend, a capability of one)."""
+
+    @property
+    def connected(self) -> bool: ...
+
+
+def labelled(what: str, text: str) -> str:
+    """``what: text``, or ``text`` alone for a request that names no operation."""
+    return f"{what}: {text}" if what else text
+
+
+def robot_error(exc: Exception) -> str:
+    """The text of a robot failure: its own, but one wording for an offline robot."""
+    return NOT_CONNECTED if isinstance(exc, NotConnectedError) else str(exc)
+
+
+def require_robot(robot: Connection, what: str) -> None:
+    """Refuse ``what`` at once while the robot is offline; the publisher hears why."""
+    if not robot.connected:
+        raise RequestRejected(labelled(what, NOT_CONNECTED))
+
+
+async def answer(reply: Reply, what: str, work: Awaitable[str | None], *,
+                 known: tuple[type[Exception], ...] = (), failed: str | None = None) -> None:
+    """Await ``work`` and answer the publisher: the text it returns as ok (nothing when it
+    returns none, e.g. when it answered itself); a robot error, or one of the ``known``
+    request errors, as a failure labelled ``what`` (``failed`` when given, except for an
+    offline robot); anything else is logged and reported as ``what failed``.
+    """
+    try:
+        text = await work
+    except NotConnectedError:
+        reply.fail(labelled(what, NOT_CONNECTED))
+    except (BackendError, *known) as exc:
+        reply.fail(labelled(what if failed is None else failed, str(exc)))
+    except Exception as exc:
+        log.exception("%s failed", what or "a request")
+        reply.fail(f"{what} failed: {exc}" if what else f"failed: {exc}")
+    else:
+        if text:
+            reply.ok(labelled(what, text))
