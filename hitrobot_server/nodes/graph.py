@@ -24,12 +24,12 @@ from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING
 
 from ..bus.core import Bus
-from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.backend import BackendError, RobotBackend
 from ..robot.model import ActionResult, Point2D
 from ..robot.motion import follow
 from ..state import StateBinding
 from .base import RobotNode
-from .ground.requests import NOT_CONNECTED
+from .ground.requests import robot_error
 from .mapfiles import GRAPH_FILE, MapFilesNode
 from .memory import NodeMemory
 from .namedfiles import FileError, NamedFiles, dump_yaml, load_yaml, number
@@ -265,10 +265,9 @@ class GraphNodeService(RobotNode):
             return {"success": False, "message": f"the graph has no node {goal}", "path": []}
         try:
             pose = await self.backend.get_pose()
-        except NotConnectedError:
-            return {"success": False, "message": NOT_CONNECTED, "path": []}
         except BackendError as exc:
-            return {"success": False, "message": f"robot pose unavailable: {exc}", "path": []}
+            return {"success": False, "message": robot_error(exc, "robot pose unavailable"),
+                    "path": []}
         start = nearest_node(graph, pose.x, pose.y)
         try:
             path = shortest_path(graph, start.id, goal)
@@ -280,12 +279,9 @@ class GraphNodeService(RobotNode):
             try:
                 action = await self.backend.move_to([Point2D(node.x, node.y)])
                 final = await follow(self.backend, action)
-            except NotConnectedError:
-                return {"success": False, "message": NOT_CONNECTED,
-                        "path": path}
             except BackendError as exc:
-                return {"success": False, "path": path,
-                        "message": f"the robot refused the way to node {node_id}: {exc}"}
+                return {"success": False, "path": path, "message": robot_error(
+                    exc, f"the robot refused the way to node {node_id}")}
             if final is None or final.result != ActionResult.SUCCESS:
                 why = "replaced by another command" if final is None else (
                     final.reason or final.result.name.lower())

@@ -21,9 +21,9 @@ from pathlib import Path
 
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
-from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.backend import BackendError, RobotBackend
 from .base import RobotNode
-from .ground.requests import NOT_CONNECTED
+from .ground.requests import NOT_CONNECTED, robot_error
 from .map_manager.node import NODE_NAME as MAP_MANAGER
 from .map_manager.store import MapStore, StoreError, write_file
 from .messages import pose2d_of
@@ -118,10 +118,9 @@ class MapFilesNode(RobotNode):
             return {"success": False, "message": str(exc)}
         try:
             await self.backend.set_pose(pose)
-        except NotConnectedError:
-            return {"success": False, "message": NOT_CONNECTED}
         except BackendError as exc:
-            return {"success": False, "message": f"setting the initial pose failed: {exc}"}
+            return {"success": False,
+                    "message": robot_error(exc, "setting the initial pose failed")}
         return {"success": True, "message": "Map saved."}  # sic: the seed's success text
 
     # ------------------------------------------------------------------ loads

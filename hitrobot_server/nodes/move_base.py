@@ -32,12 +32,12 @@ from dataclasses import dataclass, field
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
 from ..robot import motion
-from ..robot.backend import BackendError, NotConnectedError, RobotBackend
+from ..robot.backend import BackendError, RobotBackend
 from ..robot.model import MoveOptions, Point2D, Pose2D
 from ..robot.motion import GOAL_FLAGS, cancel_if_current, watch
 from . import messages as m
 from .base import RobotNode
-from .ground.requests import NOT_CONNECTED, require_robot
+from .ground.requests import require_robot, robot_error
 from .messages import map_frames, pose2d_of
 
 log = logging.getLogger(__name__)
@@ -194,11 +194,8 @@ class MoveBaseNode(RobotNode):
             try:
                 info = await self.backend.move_to(
                     [Point2D(target.x, target.y)], MoveOptions(flags=GOAL_FLAGS), target.yaw)
-            except NotConnectedError:
-                self._finish(goal, ABORTED, NOT_CONNECTED)
-                return
             except BackendError as exc:
-                self._finish(goal, ABORTED, f"the robot refused the goal: {exc}")
+                self._finish(goal, ABORTED, robot_error(exc, "the robot refused the goal"))
                 return
             goal.action_id = info.action_id
             if goal.done:  # cancelled while the robot was being asked: undo

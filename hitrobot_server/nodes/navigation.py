@@ -99,7 +99,7 @@ class NavigationNode(RobotNode):
         yaw = m.yaw_of(q)
         reply = message.reply
 
-        async def go() -> None:
+        async def navigate() -> None:
             area = None
             if fast_planning:
                 pose = await self.backend.get_pose()
@@ -121,4 +121,4 @@ class NavigationNode(RobotNode):
             else:  # cancelled or superseded by another motion: not an error
                 reply.info(f"{what}: {action.reason or 'cancelled'}")
 
-        self.spawn(answer(reply, what, go()))
+        self.spawn(answer(reply, what, navigate()))

@@ -37,7 +37,7 @@ from ..robot.model import ActionInfo, ActionResult, Point2D
 from ..robot.motion import cancel_if_current, follow
 from ..state import StateBinding
 from .base import RobotNode
-from .ground.requests import NOT_CONNECTED
+from .ground.requests import robot_error
 from .mapfiles import ROUTE_FILE, MapFilesNode
 from .memory import NodeMemory
 from .namedfiles import FileError, NamedFiles, dump_yaml, list_reply, load_yaml, number
@@ -297,11 +297,8 @@ class PatrolNode(RobotNode):
             return {"success": False, "message": "No waypoints loaded", "waypoint_index": 0}
         try:
             pose = await self.backend.get_pose()
-        except NotConnectedError:
-            return {"success": False, "message": NOT_CONNECTED,
-                    "waypoint_index": 0}
         except BackendError as exc:
-            return {"success": False, "message": f"robot pose unavailable: {exc}",
+            return {"success": False, "message": robot_error(exc, "robot pose unavailable"),
                     "waypoint_index": 0}
         index = nearest(self.waypoints, pose.x, pose.y)
         error = await self._begin(index)
@@ -324,10 +321,8 @@ class PatrolNode(RobotNode):
         w = self.waypoints[index]
         try:
             action = await self.backend.move_to([Point2D(w.x, w.y)])
-        except NotConnectedError:
-            return NOT_CONNECTED
         except BackendError as exc:
-            return f"the robot refused waypoint {index}: {exc}"
+            return robot_error(exc, f"the robot refused waypoint {index}")
         self.active, self.target, self.laps = True, index, 0
         self.text = f"heading to waypoint {index}"
         self._action_id = action.action_id

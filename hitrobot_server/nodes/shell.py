@@ -149,7 +149,7 @@ class ShellNode(RobotNode):
                                   f"may {command} the robot (yours: '{level}')")
         require_robot(self.backend, command)
 
-        async def go() -> str:
+        async def power() -> str:
             who = origin.node if origin is not None else "an in-process node"
             log.warning("robot %s requested by %s", command, who)
             if command == "shutdown":
@@ -158,7 +158,7 @@ class ShellNode(RobotNode):
                 await self.backend.reboot()
             return "the robot is going down"
 
-        self.spawn(answer(message.reply, command, go()))
+        self.spawn(answer(message.reply, command, power()))
 
     def _cancel(self, message: Message) -> None:
         goals = 0
@@ -168,10 +168,10 @@ class ShellNode(RobotNode):
             return
         require_robot(self.backend, "cancel")
 
-        async def go() -> None:
+        async def stop_motion() -> None:
             await self.backend.cancel_action()
 
-        self.spawn(answer(message.reply, "cancel", go()))
+        self.spawn(answer(message.reply, "cancel", stop_motion()))
 
     def _map_request(self, message: Message, command: str) -> None:
         """Ask the map manager on the client's behalf (its origin goes with the request, for

@@ -32,9 +32,10 @@ def labelled(what: str, text: str) -> str:
     return f"{what}: {text}" if what else text
 
 
-def robot_error(exc: Exception) -> str:
-    """The text of a robot failure: its own, but one wording for an offline robot."""
-    return NOT_CONNECTED if isinstance(exc, NotConnectedError) else str(exc)
+def robot_error(exc: Exception, failed: str = "") -> str:
+    """The text of a robot failure: one plain wording for an offline robot; any other keeps
+    its own text, after ``failed`` when given (``robot pose unavailable: …``)."""
+    return NOT_CONNECTED if isinstance(exc, NotConnectedError) else labelled(failed, str(exc))
 
 
 def require_robot(robot: Connection, what: str) -> None:
@@ -55,7 +56,7 @@ async def answer(reply: Reply, what: str, work: Awaitable[str | None], *,
     except NotConnectedError:
         reply.fail(labelled(what, NOT_CONNECTED))
     except (BackendError, *known) as exc:
-        reply.fail(labelled(what if failed is None else failed, str(exc)))
+        reply.fail(robot_error(exc, what if failed is None else failed))
     except Exception as exc:
         log.exception("%s failed", what or "a request")
         reply.fail(f"{what} failed: {exc}" if what else f"failed: {exc}")

@@ -346,7 +346,7 @@ class SlamwareNode(RobotNode):
         the real node says nothing then, we watch the action and tell the requester why.
         """
 
-        async def go() -> None:
+        async def carry_out() -> None:
             result = await call()
             if isinstance(result, ActionInfo):
                 await self._watch_action(message.reply, what, result)
@@ -354,7 +354,7 @@ class SlamwareNode(RobotNode):
                 message.reply.fail(f"{what}: the robot refused the request")
 
         require_robot(self.backend, what)
-        self.spawn(answer(message.reply, what, go()))
+        self.spawn(answer(message.reply, what, carry_out()))
 
     async def _watch_action(self, reply: Reply, what: str, action: ActionInfo) -> None:
         final = await follow(self.backend, action)

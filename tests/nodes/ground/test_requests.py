@@ -107,4 +107,8 @@ def test_an_offline_robot_refuses_the_request_at_once():
 
 def test_robot_error_words_only_the_offline_robot():
     assert robot_error(NotConnectedError("socket closed")) == NOT_CONNECTED
+    assert robot_error(NotConnectedError("socket closed"), "robot pose unavailable") \
+        == NOT_CONNECTED
     assert robot_error(BackendError("no such POI")) == "no such POI"
+    assert robot_error(BackendError("stuck"), "the robot refused waypoint 2") \
+        == "the robot refused waypoint 2: stuck"
