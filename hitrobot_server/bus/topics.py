@@ -24,7 +24,7 @@ class Message:
     not fifty times — the main cost rosbridge pays per client (rosbridge #332, #559).
     """
 
-    __slots__ = ("topic", "msg", "stamp", "seq", "cache", "reply", "origin")
+    __slots__ = ("topic", "msg", "stamp", "seq", "cache", "origin", "_status", "_reply")
 
     def __init__(
         self,
@@ -39,8 +39,17 @@ class Message:
         self.stamp = stamp
         self.seq = next(_seq)
         self.cache: dict[Hashable, Any] = {}
-        self.reply = Reply(reply)  # a node's answer to the publisher, if it published a request
         self.origin = origin  # None for in-process publishers
+        self._status = reply
+        self._reply: Reply | None = None
+
+    @property
+    def reply(self) -> Reply:
+        """How a node answers the publisher of a request; made when first used, so a plain
+        publish never builds one."""
+        if self._reply is None:
+            self._reply = Reply(self._status)
+        return self._reply
 
     def cached(self, key: Hashable, make: Callable[[], Any]) -> Any:
         try:
