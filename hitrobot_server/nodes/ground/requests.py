@@ -47,9 +47,10 @@ def require_robot(robot: Connection, what: str) -> None:
 async def answer(reply: Reply, what: str, work: Awaitable[str | None], *,
                  known: tuple[type[Exception], ...] = (), failed: str | None = None) -> None:
     """Await ``work`` and answer the publisher: the text it returns as ok (nothing when it
-    returns none, e.g. when it answered itself); a robot error, or one of the ``known``
-    request errors, as a failure labelled ``what`` (``failed`` when given, except for an
-    offline robot); anything else is logged and reported as ``what failed``.
+    returns none, e.g. when it answered itself); an offline robot as ``what: the robot is not
+    connected``; another robot error, or one of the ``known`` request errors, with its text
+    after ``what`` (after ``failed`` when given); anything else is logged and reported after
+    ``what failed`` (or ``failed``).
     """
     try:
         text = await work
@@ -58,8 +59,9 @@ async def answer(reply: Reply, what: str, work: Awaitable[str | None], *,
     except (BackendError, *known) as exc:
         reply.fail(robot_error(exc, what if failed is None else failed))
     except Exception as exc:
-        log.exception("%s failed", what or "a request")
-        reply.fail(f"{what} failed: {exc}" if what else f"failed: {exc}")
+        label = failed or f"{what} failed"
+        log.exception("%s", label)
+        reply.fail(labelled(label, str(exc)))
     else:
         if text:
             reply.ok(labelled(what, text))

@@ -74,6 +74,8 @@ async def test_an_unlabelled_request_with_its_own_failure_label():
         == [("error", NOT_CONNECTED)]
     assert await outcome(raises(BackendError("pose rejected")), "", failed="set pose failed") \
         == [("error", "set pose failed: pose rejected")]
+    assert await outcome(raises(KeyError("x")), "", failed="set pose failed") \
+        == [("error", "set pose failed: 'x'")]
 
 
 async def test_a_cancelled_request_is_not_answered():
