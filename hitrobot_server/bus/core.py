@@ -20,6 +20,7 @@ from .errors import ActionError, BusError, ServiceError
 from .link import BusLink, RemoteGraph
 from .names import CLIENT_NODE_PREFIX, canonical
 from .params import ParamStore
+from .requests import Status
 from .services import (
     STATUS_ABORTED,
     STATUS_CANCELED,
@@ -32,7 +33,7 @@ from .services import (
     ServiceHandler,
 )
 from .tap import BusTap, ClientOp
-from .topics import Message, Origin, Reply, Subscriber, Topic
+from .topics import Message, Origin, Subscriber, Topic
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -123,7 +124,7 @@ class Bus:
         name: str,
         msg: dict,
         stamp: float | None = None,
-        reply: Reply | None = None,
+        reply: Status | None = None,
         origin: Origin | None = None,
         seed: Seed | None = None,
     ) -> Message:

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 from ..types.registry import MsgType, TypeRegistry
 from .encoded import Encoded
+from .requests import Reply, Status
 
 log = logging.getLogger(__name__)
 
@@ -22,14 +23,14 @@ class Message:
     (bus/encoded.py), shared by every subscriber.
     """
 
-    __slots__ = ("topic", "msg", "stamp", "seq", "encoded", "reply", "origin")
+    __slots__ = ("topic", "msg", "stamp", "seq", "encoded", "origin", "_status", "_reply")
 
     def __init__(
         self,
         topic: Topic,
         msg: dict,
         stamp: float,
-        reply: Reply | None = None,
+        reply: Status | None = None,
         origin: Origin | None = None,
     ):
         self.topic = topic
@@ -37,21 +38,20 @@ class Message:
         self.stamp = stamp
         self.seq = next(_seq)
         self.encoded = Encoded(topic, msg, stamp)
-        self.reply = reply
         self.origin = origin  # None for in-process publishers
+        self._status = reply
+        self._reply: Reply | None = None
 
-    def reject(self, text: str, level: str = "error") -> None:
-        """Tell the publisher (if it is a client) that its message was refused, and why.
-
-        Robot nodes validate requests published on topics, sometimes only after awaiting the
-        robot; this is how the error still reaches the client that sent it.
-        """
-        if self.reply is not None:
-            self.reply(level, text)
+    @property
+    def reply(self) -> Reply:
+        """How a node answers the publisher of a request; made when first used, so a plain
+        publish never builds one."""
+        if self._reply is None:
+            self._reply = Reply(self._status)
+        return self._reply
 
 
 Subscriber = Callable[[Message], None]
-Reply = Callable[[str, str], None]  # (level, text) → a status message to the publisher
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,6 +107,6 @@ class Topic:
             try:
                 callback(message)
             except RequestRejected as exc:
-                message.reject(str(exc))
+                message.reply.fail(str(exc))
             except Exception:
                 log.exception("subscriber %r of %s failed", key, self.name)

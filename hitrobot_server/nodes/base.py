@@ -41,8 +41,8 @@ class Node:
         return self.bus.publish(topic, msg)
 
     def subscribe(self, topic: str, type_name: str, callback: Callable[[Message], None]) -> None:
-        """``callback`` gets the Message: ``.msg`` is the data; raising RequestRejected or
-        calling ``.reject(text)`` later sends the publishing client a status error."""
+        """``callback`` gets the Message: ``.msg`` is the data; raising RequestRejected sends
+        the publishing client a status error, and ``.reply`` answers it later."""
         key = (self, topic)
         self.bus.subscribe(topic, type_name, key, self.name, callback)
         self._subs.append((topic, key))

@@ -12,10 +12,11 @@ import logging
 
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
-from ..robot.backend import BackendError, Link, LocalizationBackend, NotConnectedError
+from ..robot.backend import Link, LocalizationBackend
 from .base import RobotNode
 from .ground import messages as m
 from .ground.messages import map_frames, pose2d_of
+from .ground.requests import answer, require_robot
 
 log = logging.getLogger(__name__)
 
@@ -48,15 +49,6 @@ class ConventionalNode(RobotNode):
             raise RequestRejected(
                 f"header.frame_id '{frame}' is not the map frame; give the pose in 'map'")
         pose = pose2d_of(msg["pose"]["pose"], "pose.pose")
-        if not self.link.connected:
-            raise RequestRejected("the robot is not connected")
-
-        async def apply() -> None:
-            try:
-                await self.localization.set_pose(pose)
-            except NotConnectedError:
-                message.reject("the robot is not connected")
-            except BackendError as exc:
-                message.reject(f"set pose failed: {exc}")
-
-        self.spawn(apply())
+        require_robot(self.link, "")  # /initialpose answers are not labelled
+        self.spawn(answer(message.reply, "", self.localization.set_pose(pose),
+                          failed="set pose failed"))

@@ -34,6 +34,7 @@ from ..robot.model import HealthLevel
 from ..state import StateBinding, StateStore
 from .base import RobotNode
 from .ground import messages as m
+from .ground.requests import NOT_CONNECTED
 
 OK, WARN, ERROR, STALE = 0, 1, 2, 3
 LEVEL_WORDS = {OK: "OK", WARN: "Warning", ERROR: "Error", STALE: "Stale"}
@@ -141,7 +142,7 @@ class DiagnosticsNode(RobotNode):
     async def robot_items(self) -> list[dict]:
         assert self.robot is not None
         kind = type(self.robot.link).__name__
-        level, text, stale = ERROR, "not connected", "no data: the robot is not connected"
+        level, text, stale = ERROR, "not connected", f"no data: {NOT_CONNECTED}"
         if self.link.connected:
             try:
                 return await self._robot_items(kind)

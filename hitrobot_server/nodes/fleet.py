@@ -35,6 +35,7 @@ from ..robot.capabilities import Robot
 from ..robot.model import HealthLevel, Pose2D
 from .base import RobotNode
 from .ground import messages as m
+from .ground.requests import NOT_CONNECTED
 
 log = logging.getLogger(__name__)
 
@@ -68,7 +69,7 @@ class FleetMemberNode(RobotNode):
 
     async def state(self) -> dict:
         msg = {"name": self.robot, "pose": m.pose(Pose2D(0, 0, 0)), "state": OFFLINE,
-               "battery": 0.0, "task": 0, "message": "the robot is not connected"}
+               "battery": 0.0, "task": 0, "message": NOT_CONNECTED}
         if not self.link.connected:
             return msg
         try:

@@ -24,13 +24,7 @@ from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING
 
 from ..bus.core import Bus
-from ..robot.backend import (
-    BackendError,
-    Link,
-    LocalizationBackend,
-    MotionBackend,
-    NotConnectedError,
-)
+from ..robot.backend import BackendError, Link, LocalizationBackend, MotionBackend
 from ..robot.model import ActionResult, Point2D
 from ..robot.motion import follow
 from ..state import StateBinding
@@ -38,6 +32,7 @@ from .base import RobotNode
 from .ground.loadedmap import GRAPH_FILE, MapDefaults
 from .ground.memory import NodeMemory
 from .ground.namedfiles import FileError, NamedFiles, dump_yaml, load_yaml, number
+from .ground.requests import robot_error
 from .options import NodeOptions
 
 log = logging.getLogger(__name__)
@@ -272,10 +267,9 @@ class GraphNodeService(RobotNode):
             return {"success": False, "message": f"the graph has no node {goal}", "path": []}
         try:
             pose = await self.localization.get_pose()
-        except NotConnectedError:
-            return {"success": False, "message": "the robot is not connected", "path": []}
         except BackendError as exc:
-            return {"success": False, "message": f"robot pose unavailable: {exc}", "path": []}
+            return {"success": False, "message": robot_error(exc, "robot pose unavailable"),
+                    "path": []}
         start = nearest_node(graph, pose.x, pose.y)
         try:
             path = shortest_path(graph, start.id, goal)
@@ -287,12 +281,9 @@ class GraphNodeService(RobotNode):
             try:
                 action = await self.motion.move_to([Point2D(node.x, node.y)])
                 final = await follow(self.motion, action)
-            except NotConnectedError:
-                return {"success": False, "message": "the robot is not connected",
-                        "path": path}
             except BackendError as exc:
-                return {"success": False, "path": path,
-                        "message": f"the robot refused the way to node {node_id}: {exc}"}
+                return {"success": False, "path": path, "message": robot_error(
+                    exc, f"the robot refused the way to node {node_id}")}
             if final is None or final.result != ActionResult.SUCCESS:
                 why = "replaced by another command" if final is None else (
                     final.reason or final.result.name.lower())

@@ -68,6 +68,7 @@ from ..robot.motion import drive
 from ..robot.relocalization import localize_near
 from .base import RobotNode
 from .ground.messages import GoalRejected, goal_pose, map_frames, pose_stamped, rejected
+from .ground.requests import NOT_CONNECTED, robot_error
 
 log = logging.getLogger(__name__)
 
@@ -165,7 +166,7 @@ class IntelligentNavigationNode(RobotNode):
             target = goal_pose(self.frames, goal["pose"], "pose")
             options, summary = _options(goal)
             if not self.link.connected:
-                raise GoalRejected("the robot is not connected")
+                raise GoalRejected(NOT_CONNECTED)
         except GoalRejected as exc:
             return rejected(str(exc))
         self.running.add(handle)
@@ -202,7 +203,7 @@ class IntelligentNavigationNode(RobotNode):
             if current is not None:
                 await self.robot.motion.cancel_action()
         except NotConnectedError:
-            return rejected("the robot is not connected")
+            return rejected(NOT_CONNECTED)
         except BackendError as exc:
             return GoalOutcome(STATUS_ABORTED, {"message": f"stop failed: {exc}",
                                                 "result": False}, True)
@@ -218,10 +219,8 @@ class IntelligentNavigationNode(RobotNode):
             raise ServiceError(f"set_initialpose: {exc}") from None
         try:
             good, refined, why = await localize_near(self.robot, pose)
-        except NotConnectedError:
-            raise ServiceError("set_initialpose: the robot is not connected") from None
         except BackendError as exc:
-            raise ServiceError(f"set_initialpose: {exc}") from None
+            raise ServiceError(f"set_initialpose: {robot_error(exc)}") from None
         log.info("set_initialpose (%.2f, %.2f, %.2f): %s", pose.x, pose.y, pose.yaw, why)
         sigma_xy, sigma_yaw = (0.05, 0.05) if good else (1.0, math.pi)
         covariance = [0.0] * 36

@@ -35,6 +35,7 @@ from ..robot.model import Odometry, Pose2D, Twist2D
 from .base import RobotNode
 from .ground import messages as m
 from .ground.loadedmap import LoadedMap
+from .ground.requests import NOT_CONNECTED
 from .options import NodeOptions
 
 log = logging.getLogger(__name__)
@@ -132,13 +133,13 @@ class LocomotionNode(RobotNode):
     # ------------------------------------------------------------------ services
     async def _stand_up(self, request: dict) -> dict:
         if not self.link.connected:
-            return {"success": False, "message": "the robot is not connected"}
+            return {"success": False, "message": NOT_CONNECTED}
         await self.locomotion.stand_up()
         return {"success": True, "message": "Trigger: started"}
 
     async def _sit_down(self, request: dict) -> dict:
         if not self.link.connected:
-            return {"success": False, "message": "the robot is not connected"}
+            return {"success": False, "message": NOT_CONNECTED}
         await self.locomotion.sit_down()
         return {"success": True, "message": "Trigger: started"}
 

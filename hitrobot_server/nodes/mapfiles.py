@@ -22,13 +22,14 @@ from pathlib import Path
 
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
-from ..robot.backend import BackendError, Link, LocalizationBackend, NotConnectedError
+from ..robot.backend import BackendError, Link, LocalizationBackend
 from .base import RobotNode
 from .ground.loadedmap import LoadedMap
 from .ground.mapstore import MapStore, StoreError, write_file
 from .ground.messages import pose2d_of
 from .ground.namedfiles import FileError, list_reply
 from .ground.names import MAP_MANAGER
+from .ground.requests import NOT_CONNECTED, robot_error
 from .options import NodeOptions
 
 log = logging.getLogger(__name__)
@@ -74,7 +75,7 @@ class MapFilesNode(RobotNode):
         if topic is None or not any(key != (self, LOAD_MAP_TOPIC) for key in topic.subscribers):
             return {"success": False, "message": "the map manager is not running"}
         if not self.link.connected:
-            return {"success": False, "message": "the robot is not connected"}
+            return {"success": False, "message": NOT_CONNECTED}
         loop = asyncio.get_running_loop()
         outcome: asyncio.Future[tuple[str, str]] = loop.create_future()
 
@@ -105,10 +106,9 @@ class MapFilesNode(RobotNode):
             return {"success": False, "message": str(exc)}
         try:
             await self.localization.set_pose(pose)
-        except NotConnectedError:
-            return {"success": False, "message": "the robot is not connected"}
         except BackendError as exc:
-            return {"success": False, "message": f"setting the initial pose failed: {exc}"}
+            return {"success": False,
+                    "message": robot_error(exc, "setting the initial pose failed")}
         return {"success": True, "message": "Map saved."}  # sic: the seed's success text
 
     # ------------------------------------------------------------------ loads
@@ -117,15 +117,12 @@ class MapFilesNode(RobotNode):
         if message.origin is None:
             return  # ours (load_laser_map handles its own outcome) or another node's
         name = message.msg["filename"]
-        original = message.reply
 
-        def reply(level: str, text: str) -> None:
+        def loaded(level: str, text: str) -> None:
             if level == "info" and text.startswith(LOADED_PREFIX):
                 self._loaded(name)
-            if original is not None:
-                original(level, text)
 
-        message.reply = reply
+        message.reply.observe(loaded)
 
     def _loaded(self, name: str) -> list[str]:
         """A map was loaded: remember it and apply its default graph and route."""

@@ -37,13 +37,13 @@ from ..robot.backend import (
     Link,
     LocalizationBackend,
     MotionBackend,
-    NotConnectedError,
 )
 from ..robot.model import MoveOptions, Point2D, Pose2D
 from ..robot.motion import GOAL_FLAGS, cancel_if_current, watch
 from .base import RobotNode
 from .ground import messages as m
 from .ground.messages import map_frames, pose2d_of
+from .ground.requests import require_robot, robot_error
 
 log = logging.getLogger(__name__)
 
@@ -156,8 +156,8 @@ class MoveBaseNode(RobotNode):
         self.publish(f"{self.server}/result", {
             "header": self._header("result"), "status": self._goal_status(goal), "result": {}})
         if goal.message is not None and status in (ABORTED, REJECTED):
-            goal.message.reject(f"goal '{goal.id}' {'aborted' if status == ABORTED else 'rejected'}"
-                                f": {text}")
+            goal.message.reply.fail(f"goal '{goal.id}' "
+                                    f"{'aborted' if status == ABORTED else 'rejected'}: {text}")
 
     # ------------------------------------------------------------------ goals
     def _on_goal(self, message: Message) -> None:
@@ -169,7 +169,7 @@ class MoveBaseNode(RobotNode):
         if goal_id["stamp"]["secs"] == 0 and goal_id["stamp"]["nsecs"] == 0:
             goal_id["stamp"] = m.stamp(now)  # actionlib stamps goals sent without one
         if goal_id["id"] in self.goals:
-            message.reject(f"goal id '{goal_id['id']}' is already known; goal ignored", "warning")
+            message.reply.warn(f"goal id '{goal_id['id']}' is already known; goal ignored")
             return
         goal = Goal(goal_id, message=message)
         self.goals[goal.id] = goal
@@ -180,8 +180,7 @@ class MoveBaseNode(RobotNode):
                 raise RequestRejected(f"field 'goal.target_pose.header.frame_id': '{frame}' is "
                                       "not the map frame")
             goal.target = pose2d_of(tp["pose"], "goal.target_pose.pose")
-            if not self.link.connected:
-                raise RequestRejected("the robot is not connected")
+            require_robot(self.link, "")
         except RequestRejected as exc:
             self._finish(goal, REJECTED, str(exc))  # tells the publisher too
             return
@@ -202,11 +201,8 @@ class MoveBaseNode(RobotNode):
             try:
                 info = await self.motion.move_to(
                     [Point2D(target.x, target.y)], MoveOptions(flags=GOAL_FLAGS), target.yaw)
-            except NotConnectedError:
-                self._finish(goal, ABORTED, "the robot is not connected")
-                return
             except BackendError as exc:
-                self._finish(goal, ABORTED, f"the robot refused the goal: {exc}")
+                self._finish(goal, ABORTED, robot_error(exc, "the robot refused the goal"))
                 return
             goal.action_id = info.action_id
             if goal.done:  # cancelled while the robot was being asked: undo
@@ -244,7 +240,7 @@ class MoveBaseNode(RobotNode):
         targets = [g for g in self.goals.values() if not g.done and (
             everything or g.id == cancel_id or (stamp != (0, 0) and g.stamp <= stamp))]
         if not targets and cancel_id and cancel_id not in self.goals:
-            message.reject(f"no goal with id '{cancel_id}'", "warning")
+            message.reply.warn(f"no goal with id '{cancel_id}'")
         for goal in targets:
             self.cancel_goal(goal, CANCEL_TEXT)
 

@@ -69,6 +69,7 @@ from ..robot.motion import drive
 from .base import RobotNode
 from .ground import messages as m
 from .ground.messages import GoalRejected, goal_pose, map_frames, pose_stamped, rejected
+from .ground.requests import NOT_CONNECTED
 
 log = logging.getLogger(__name__)
 
@@ -205,7 +206,7 @@ class Nav2ActionsNode(RobotNode):
             target = goal_pose(self.frames, goal["goal"], "goal")
             start = goal_pose(self.frames, goal["start"], "start") if goal["use_start"] else None
             if not self.link.connected:
-                raise GoalRejected("the robot is not connected")
+                raise GoalRejected(NOT_CONNECTED)
         except GoalRejected as exc:
             return rejected(str(exc))
         began = time.perf_counter()
@@ -259,12 +260,12 @@ class Nav2ActionsNode(RobotNode):
                                                      "frame_id": header_frame}}
                 planar.append(goal_pose(self.frames, stamped, f"path.poses[{i}]"))
             if not self.link.connected:
-                raise GoalRejected("the robot is not connected")
+                raise GoalRejected(NOT_CONNECTED)
             robot = await self.localization.get_pose()
         except GoalRejected as exc:
             return rejected(str(exc))
         except NotConnectedError:
-            return rejected("the robot is not connected")
+            return rejected(NOT_CONNECTED)
         xy = np.array([(p.x, p.y) for p in planar], dtype=np.float64)
         corners = simplify(xy, SIMPLIFY_TOLERANCE)
         if len(corners) > 1 and math.hypot(corners[0, 0] - robot.x,

@@ -24,16 +24,15 @@ from collections.abc import Callable
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
 from ..robot.backend import (
-    BackendError,
     Link,
     LocalizationBackend,
     MotionBackend,
-    NotConnectedError,
 )
 from ..robot.model import ActionResult, MoveOptionFlag, MoveOptions, Point2D, Rect
 from ..robot.motion import follow
 from .base import RobotNode, require_finite
 from .ground import messages as m
+from .ground.requests import answer, require_robot
 
 NODE_NAME = "/navigation"
 PKG = "map_messages"
@@ -102,40 +101,32 @@ class NavigationNode(RobotNode):
         require_finite("distance_to_target", distance)
         if distance < 0:
             raise RequestRejected("field 'distance_to_target' must not be negative")
-        if not self.link.connected:
-            raise RequestRejected(f"{what}: the robot is not connected")
+        require_robot(self.link, what)
         target = Point2D(float(position["x"]), float(position["y"]))
         yaw = m.yaw_of(q)
+        reply = message.reply
 
-        async def go() -> None:
-            try:
-                area = None
-                if fast_planning:
-                    pose = await self.localization.get_pose()
-                    area = planning_area((pose.x, pose.y), (target.x, target.y))
-                options = MoveOptions(
-                    flags=MoveOptionFlag.NONE if skip_final_turn else MoveOptionFlag.WITH_YAW,
-                    acceptable_precision=float(distance) if distance > 0 else None,
-                    planning_area=area,
-                )
-                final = await follow(self.motion,
-                                     await self.motion.move_to([target], options, yaw))
-                if final is None:  # replaced and forgotten
-                    return
-                action = final
-            except NotConnectedError:
-                message.reject(f"{what}: the robot is not connected")
-                return
-            except BackendError as exc:
-                message.reject(f"{what}: {exc}")
+        async def navigate() -> None:
+            area = None
+            if fast_planning:
+                pose = await self.localization.get_pose()
+                area = planning_area((pose.x, pose.y), (target.x, target.y))
+            options = MoveOptions(
+                flags=MoveOptionFlag.NONE if skip_final_turn else MoveOptionFlag.WITH_YAW,
+                acceptable_precision=float(distance) if distance > 0 else None,
+                planning_area=area,
+            )
+            action = await follow(self.motion,
+                                  await self.motion.move_to([target], options, yaw))
+            if action is None:  # replaced and forgotten
                 return
             if action.result == ActionResult.SUCCESS:
-                message.reject(f"{what}: arrived", level="info")
+                reply.ok(f"{what}: arrived")
             elif action.result == ActionResult.FAILED:
                 why = action.reason or "unknown"
                 self.publish(UNREACHABLE_TOPIC, {"reason": unreachable_reason(why)})
-                message.reject(f"{what}: target unreachable: {why}")
+                reply.fail(f"{what}: target unreachable: {why}")
             else:  # cancelled or superseded by another motion: not an error
-                message.reject(f"{what}: {action.reason or 'cancelled'}", level="info")
+                reply.info(f"{what}: {action.reason or 'cancelled'}")
 
-        self.spawn(go())
+        self.spawn(answer(reply, what, navigate()))

@@ -46,6 +46,7 @@ from .base import RobotNode
 from .ground.loadedmap import ROUTE_FILE, MapDefaults
 from .ground.memory import NodeMemory
 from .ground.namedfiles import FileError, NamedFiles, dump_yaml, list_reply, load_yaml, number
+from .ground.requests import robot_error
 from .options import NodeOptions
 
 log = logging.getLogger(__name__)
@@ -304,11 +305,8 @@ class PatrolNode(RobotNode):
             return {"success": False, "message": "No waypoints loaded", "waypoint_index": 0}
         try:
             pose = await self.localization.get_pose()
-        except NotConnectedError:
-            return {"success": False, "message": "the robot is not connected",
-                    "waypoint_index": 0}
         except BackendError as exc:
-            return {"success": False, "message": f"robot pose unavailable: {exc}",
+            return {"success": False, "message": robot_error(exc, "robot pose unavailable"),
                     "waypoint_index": 0}
         index = nearest(self.waypoints, pose.x, pose.y)
         error = await self._begin(index)
@@ -331,10 +329,8 @@ class PatrolNode(RobotNode):
         w = self.waypoints[index]
         try:
             action = await self.motion.move_to([Point2D(w.x, w.y)])
-        except NotConnectedError:
-            return "the robot is not connected"
         except BackendError as exc:
-            return f"the robot refused waypoint {index}: {exc}"
+            return robot_error(exc, f"the robot refused waypoint {index}")
         self.active, self.target, self.laps = True, index, 0
         self.text = f"heading to waypoint {index}"
         self._action_id = action.action_id

@@ -33,10 +33,11 @@ from .. import __version__
 from ..bus.core import Bus
 from ..bus.errors import BusError
 from ..bus.topics import Message, RequestRejected
-from ..robot.backend import BackendError, NotConnectedError, UnsupportedError
+from ..robot.backend import BackendError
 from ..robot.capabilities import Robot
 from ..types.convert import default_message
 from .base import RobotNode
+from .ground.requests import answer, require_robot, robot_error
 from .move_base import MoveBaseNode
 
 log = logging.getLogger(__name__)
@@ -109,7 +110,7 @@ class ShellNode(RobotNode):
             self._publish_mode(mode)
 
     def _switch(self, message: Message, mode: str) -> None:
-        self._require_robot(mode)
+        require_robot(self.link, mode)
         self.spawn(self._do_switch(message, mode))
 
     async def _do_switch(self, message: Message, mode: str) -> None:
@@ -120,7 +121,7 @@ class ShellNode(RobotNode):
                 await self.robot.localization.set_localization_enabled(True)
                 await self.robot.maps.set_map_update(mode == GMAPPING)
             except BackendError as exc:
-                message.reject(f"{mode}: {_robot_error(exc)}")
+                message.reply.fail(f"{mode}: {robot_error(exc)}")
                 try:
                     actual = GMAPPING if await self.robot.maps.get_map_update() else NAVIGATION
                 except BackendError:
@@ -141,55 +142,41 @@ class ShellNode(RobotNode):
             raise RequestRejected(f"unknown command '{command}'; known commands: {known}")
         handler(message)
 
-    def _require_robot(self, command: str) -> None:
-        if not self.link.connected:
-            raise RequestRejected(f"{command}: the robot is not connected")
-
     def _power(self, message: Message, command: str) -> None:
         origin = message.origin
         if self.authenticate and origin is not None and origin.auth_level != ADMIN:
             level = origin.auth_level or "none"
             raise RequestRejected(f"{command}: only clients authenticated at level '{ADMIN}' "
                                   f"may {command} the robot (yours: '{level}')")
-        self._require_robot(command)
+        require_robot(self.link, command)
 
-        async def go() -> None:
+        async def power() -> str:
             who = origin.node if origin is not None else "an in-process node"
             log.warning("robot %s requested by %s", command, who)
-            try:
-                if command == "shutdown":
-                    await self.robot.power.power_off()
-                else:
-                    await self.robot.reboot()
-            except UnsupportedError as exc:
-                message.reject(f"{command}: {exc}")
-            except BackendError as exc:
-                message.reject(f"{command}: {_robot_error(exc)}")
+            if command == "shutdown":
+                await self.robot.power.power_off()
             else:
-                message.reject(f"{command}: the robot is going down", level="info")
+                await self.robot.reboot()
+            return "the robot is going down"
 
-        self.spawn(go())
+        self.spawn(answer(message.reply, command, power()))
 
     def _cancel(self, message: Message) -> None:
         goals = 0
         if self.move_base is not None:
             goals = self.move_base.cancel_all("cancelled by /cmd_string cancel")
-        if not self.link.connected:
-            if goals:
-                return
-            raise RequestRejected("cancel: the robot is not connected")
+        if goals and not self.link.connected:
+            return
+        require_robot(self.link, "cancel")
 
-        async def go() -> None:
-            try:
-                await self.robot.motion.cancel_action()
-            except BackendError as exc:
-                message.reject(f"cancel: {_robot_error(exc)}")
+        async def stop_motion() -> None:
+            await self.robot.motion.cancel_action()
 
-        self.spawn(go())
+        self.spawn(answer(message.reply, "cancel", stop_motion()))
 
     def _map_request(self, message: Message, command: str) -> None:
-        """Hand the request to the map manager, which answers the client itself (the
-        original publisher's reply and origin go with the message)."""
+        """Ask the map manager on the client's behalf (its origin goes with the request, for
+        authorisation and the audit trail) and relay the manager's answer to the client."""
         topic_name, filename = MAP_REQUESTS[command]
         topic = self.bus.topic(topic_name)
         try:
@@ -208,14 +195,20 @@ class ShellNode(RobotNode):
                                   f"'{self.bus.types.short(topic.type_name)}', not "
                                   f"'{MAP_REQUEST_TYPE}'")
         body["filename"] = filename
-        self.bus.publish(topic_name, body, reply=message.reply, origin=message.origin)
+        client = message.reply
+
+        def relay(level: str, text: str) -> None:
+            """The map manager answers the shell's request; the client hears that answer."""
+            client.send(level, text)
+
+        self.bus.publish(topic_name, body, reply=relay, origin=message.origin)
 
     async def _version(self, message: Message) -> None:
         lines = [f"hitrobot-server {__version__}"]
         try:
             info = await self.robot.sensors.get_device_info()
         except BackendError as exc:
-            lines.append(f"robot: {_robot_error(exc)}")
+            lines.append(f"robot: {robot_error(exc)}")
         else:
             lines += [
                 f"robot: {info.model_name} by {info.manufacturer_name}, device {info.device_id}",
@@ -226,8 +219,4 @@ class ShellNode(RobotNode):
             ]
         text = "\n".join(lines)
         self.publish(VERSION_TOPIC, {"data": text})
-        message.reject(text, level="info")
-
-
-def _robot_error(exc: BackendError) -> str:
-    return "the robot is not connected" if isinstance(exc, NotConnectedError) else str(exc)
+        message.reply.ok(text)

@@ -146,7 +146,7 @@ def test_subscriber_can_reject_a_message_back_to_its_publisher(bus):
     replies = []
     bus.publish("/cmd", {"data": "bad"}, reply=lambda level, text: replies.append((level, text)))
     bus.publish("/cmd", {"data": "good"}, reply=lambda level, text: replies.append((level, text)))
-    later[1].reject("found out later")  # e.g. after awaiting the robot
+    later[1].reply.fail("found out later")  # e.g. after awaiting the robot
     assert replies == [("error", "field 'data' must not be 'bad'"), ("error", "found out later")]
 
 

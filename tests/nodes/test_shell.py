@@ -10,6 +10,7 @@ import time
 import pytest
 
 from hitrobot_server import __version__
+from hitrobot_server.bus.names import CLIENT_NODE_PREFIX
 from hitrobot_server.nodes.base import Node
 
 from ..helpers import Watcher
@@ -113,6 +114,30 @@ async def test_map_commands_go_to_the_map_manager(robot):
                        ("/map_manager/load_map", "localization"),
                        ("/map_manager/load_map", "navigation")]
     finally:
+        probe.close()
+
+
+async def test_the_map_managers_answer_to_the_shell_reaches_the_client(robot):
+    """The shell asks on the client's behalf (its origin goes along) and relays the answer."""
+    probe = Node(robot.server.bus, "/map_manager_answerer")
+    origins = []
+
+    def answer(message):
+        origins.append(message.origin)
+        message.reply.ok("save_map: heard you")
+
+    probe.subscribe("/map_manager/save_map", "map_messages/SaveMap", answer)
+    w = await Watcher.open(robot.server.port)
+    try:
+        await w.client.send({"op": "set_level", "level": "info"})
+        await command(w, "save_map", "relayed")
+        status = await status_for(w, "relayed")
+        assert (status["level"], status["msg"]) == (
+            "info", "publish to '/cmd_string': save_map: heard you")
+        assert len(origins) == 1 and origins[0] is not None
+        assert origins[0].node.startswith(CLIENT_NODE_PREFIX)
+    finally:
+        await w.close()
         probe.close()
 
 

@@ -29,7 +29,6 @@ from ...robot.backend import (
     Link,
     LocalizationBackend,
     MapBackend,
-    NotConnectedError,
 )
 from ...robot.model import ArtifactUsage, Line, MapRegion, Point2D, Pose2D, Rect
 from ...state import StateBinding
@@ -39,6 +38,7 @@ from ..ground.mapstore import MapStore, StoreError
 from ..ground.mapsync import MapHolder, tiles
 from ..ground.memory import NodeMemory
 from ..ground.names import MAP_MANAGER
+from ..ground.requests import answer, require_robot
 from ..options import NodeOptions
 from . import mapio
 from .layers import (
@@ -81,6 +81,8 @@ PENDING_SCANS = 4
 RECONNECT_POLL = 0.5
 BLOCKED_RETRY = 2.0
 """Seconds between attempts to hand the robot blocked areas it refused or missed."""
+REQUEST_ERRORS = (StoreError, mapio.MapFileError, PoiError, LayerError)
+"""A request's own errors: the publisher hears their text, as it does a robot error's."""
 
 
 def to_explore(grid: Grid, resolution: float) -> MapRegion:
@@ -294,24 +296,9 @@ class MapManager(RobotNode):
              needs_robot: bool = True) -> None:
         """Run ``work`` in the background; its failure (or success text) goes to the
         publisher as a status."""
-        if needs_robot and not self.link.connected:
-            raise RequestRejected(f"{what}: the robot is not connected")
-
-        async def go() -> None:
-            try:
-                text = await work()
-            except NotConnectedError:
-                message.reject(f"{what}: the robot is not connected")
-            except (BackendError, StoreError, mapio.MapFileError, PoiError, LayerError) as exc:
-                message.reject(f"{what}: {exc}")
-            except Exception as exc:
-                log.exception("%s failed", what)
-                message.reject(f"{what} failed: {exc}")
-            else:
-                if text:
-                    message.reject(f"{what}: {text}", level="info")
-
-        self.spawn(go())
+        if needs_robot:
+            require_robot(self.link, what)
+        self.spawn(answer(message.reply, what, work(), known=REQUEST_ERRORS))
 
     # ------------------------------------------------------------------ /map
     def _resolution(self) -> float:
@@ -541,7 +528,7 @@ class MapManager(RobotNode):
 
         async def acknowledge() -> None:  # once the change is on disk
             await self.memory.durable()
-            message.reject(f"{what}: {text}", level="info")
+            message.reply.ok(f"{what}: {text}")
 
         self.spawn(acknowledge())
 

@@ -17,8 +17,9 @@ from typing import Any
 
 from ...bus.core import Bus
 from ...bus.errors import ServiceError
+from ...bus.requests import Reply
 from ...bus.topics import Message, RequestRejected
-from ...robot.backend import ACTION_PREFIX, BackendError, NotConnectedError
+from ...robot.backend import ACTION_PREFIX, BackendError
 from ...robot.capabilities import Robot
 from ...robot.model import (
     ActionDirection,
@@ -39,6 +40,7 @@ from ...robot.relocalization import GOOD_QUALITY, settled_quality
 from ..base import RobotNode, require_finite
 from ..ground import messages as m
 from ..ground.mapsync import MapHolder, tiles, window
+from ..ground.requests import answer, require_robot
 from ..ground.slamware_params import SlamwareParams
 
 log = logging.getLogger(__name__)
@@ -347,35 +349,28 @@ class SlamwareNode(RobotNode):
         the real node says nothing then, we watch the action and tell the requester why.
         """
 
-        async def go() -> None:
-            try:
-                result = await call()
-                if isinstance(result, ActionInfo):
-                    await self._watch_action(message, what, result)
-            except NotConnectedError:
-                message.reject(f"{what}: the robot is not connected")
-            except BackendError as exc:
-                message.reject(f"{what}: {exc}")
-            else:
-                if result is False:
-                    message.reject(f"{what}: the robot refused the request")
+        async def carry_out() -> None:
+            result = await call()
+            if isinstance(result, ActionInfo):
+                await self._watch_action(message.reply, what, result)
+            elif result is False:
+                message.reply.fail(f"{what}: the robot refused the request")
 
-        if not self.link.connected:
-            raise RequestRejected(f"{what}: the robot is not connected")
-        self.spawn(go())
+        require_robot(self.link, what)
+        self.spawn(answer(message.reply, what, carry_out()))
 
-    async def _watch_action(self, message: Message, what: str, action: ActionInfo) -> None:
+    async def _watch_action(self, reply: Reply, what: str, action: ActionInfo) -> None:
         final = await follow(self.robot.motion, action)
         if final is None:  # replaced by a newer action, or forgotten by the robot
             return
         action = final
         if action.result == ActionResult.SUCCESS:
-            message.reject(f"{what}: done", level="info")
+            reply.ok(f"{what}: done")
         elif action.result == ActionResult.ABORTED:  # cancelled or superseded: not an error
-            message.reject(f"{what}: {action.reason or 'cancelled'}", level="info")
+            reply.info(f"{what}: {action.reason or 'cancelled'}")
         else:
             why = action.reason or action.result.name.lower()
-            message.reject(f"{what} failed: {why}")
+            reply.fail(f"{what} failed: {why}")
 
     def _on_cmd_vel(self, message: Message) -> None:
         t = message.msg
@@ -405,11 +400,11 @@ class SlamwareNode(RobotNode):
             await self.robot.localization.set_pose(pose)
             quality = await settled_quality(self.robot.localization)
             if quality >= GOOD_QUALITY:
-                message.reject(f"set_pose: localized (quality {quality})", level="info")
+                message.reply.ok(f"set_pose: localized (quality {quality})")
             else:
-                message.reject(f"set_pose: the pose was set but localization has not converged "
-                               f"(quality {quality} < {GOOD_QUALITY}); use /set_initialpose or "
-                               "recover_localization", level="warning")
+                message.reply.warn(f"set_pose: the pose was set but localization has not "
+                                   f"converged (quality {quality} < {GOOD_QUALITY}); use "
+                                   "/set_initialpose or recover_localization")
 
         self._run(message, "set_pose", set_pose)
 
@@ -502,7 +497,7 @@ class SlamwareNode(RobotNode):
             stopped = await self.robot.motion.cancel_action()
             what = "nothing to cancel" if stopped is None else \
                 f"cancelled {stopped.action_name.removeprefix(ACTION_PREFIX)}"
-            message.reject(f"cancel_action: {what}", level="info")
+            message.reply.ok(f"cancel_action: {what}")
 
         self._run(message, "cancel_action", cancel)
 
