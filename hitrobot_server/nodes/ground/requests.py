@@ -9,22 +9,14 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Awaitable
-from typing import Protocol
 
 from ...bus.requests import Reply
 from ...bus.topics import RequestRejected
-from ...robot.backend import BackendError, NotConnectedError
+from ...robot.backend import BackendError, Link, NotConnectedError
 
 log = logging.getLogger(__name__)
 
 NOT_CONNECTED = "the robot is not connected"
-
-
-class Connection(Protocol):
-    """Anything that knows whether the robot answers (a backend, a capability of one)."""
-
-    @property
-    def connected(self) -> bool: ...
 
 
 def labelled(what: str, text: str) -> str:
@@ -38,9 +30,9 @@ def robot_error(exc: Exception, failed: str = "") -> str:
     return NOT_CONNECTED if isinstance(exc, NotConnectedError) else labelled(failed, str(exc))
 
 
-def require_robot(robot: Connection, what: str) -> None:
+def require_robot(link: Link, what: str) -> None:
     """Refuse ``what`` at once while the robot is offline; the publisher hears why."""
-    if not robot.connected:
+    if not link.connected:
         raise RequestRejected(labelled(what, NOT_CONNECTED))
 
 
