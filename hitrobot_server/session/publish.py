@@ -6,67 +6,69 @@ from typing import TYPE_CHECKING
 
 from ..bus.names import canonical, valid_name
 from ..protocol.bulk import VERBATIM_MIN, verbatim_publish
-from ..protocol.errors import ProtocolError
+from ..protocol.errors import MessageId, ProtocolError
+from ..protocol.ops import ABSENT, Advertise, Publish, Unadvertise
 from ..types.convert import from_json_verbatim
 
 if TYPE_CHECKING:
-    from .session import Session
+    from .context import OpContext
 
 
-def check_topic_name(session: Session, op: str, topic: str, op_id) -> str:
+def check_topic_name(client: OpContext, op: str, topic: str, op_id: MessageId) -> str:
     """Canonical name, or a status error naming the field when unusable or glob-denied.
 
     Accepted spellings are remembered per client: a 1 kHz publisher should not pay for
     validation and glob matching on every message.
     """
-    name = session.topic_names.get(topic)
+    name = client.topic_names.get(topic)
     if name is not None:
         return name
     if not valid_name(topic):
         raise ProtocolError(f"{op}: field 'topic' is not a valid topic name: {topic!r}", op_id)
     name = canonical(topic)
-    if not session.settings.topics_filter.allows(name):
+    if not client.settings.topics_filter.allows(name):
         raise ProtocolError(f"{op}: topic '{name}' is not allowed by --topics-glob", op_id)
-    if len(session.topic_names) < 4096:  # bounded: a client cycling names cannot grow it
-        session.topic_names[topic] = name
+    if len(client.topic_names) < 4096:  # bounded: a client cycling names cannot grow it
+        client.topic_names[topic] = name
     return name
 
 
 class PublishOps:
     """This client's publisher registrations: advertise ids per topic, as rosbridge keeps them."""
 
-    def __init__(self, session: Session):
-        self.session = session
+    def __init__(self, client: OpContext):
+        self.client = client
         self.ads: dict[str, set] = {}
 
-    def advertise(self, msg: dict) -> None:
-        s = self.session
-        name = check_topic_name(s, "advertise", msg["topic"], msg.get("id"))
-        topic = s.bus.advertise(name, msg["type"], s, s.node, latch=bool(msg.get("latch", False)))
-        self.ads.setdefault(topic.name, set()).add(msg.get("id"))
-        s.status("info", f"advertised '{name}' as {s.types.short(topic.type_name)}", msg.get("id"))
+    def advertise(self, op: Advertise) -> None:
+        c = self.client
+        name = check_topic_name(c, "advertise", op.topic, op.id)
+        topic = c.bus.advertise(name, op.type, c, c.node, latch=op.latch)
+        self.ads.setdefault(topic.name, set()).add(op.id)
+        c.status("info", f"advertised '{name}' as {c.bus.types.short(topic.type_name)}", op.id)
 
-    def unadvertise(self, msg: dict) -> None:
-        s = self.session
-        name = check_topic_name(s, "unadvertise", msg["topic"], msg.get("id"))
+    def unadvertise(self, op: Unadvertise) -> None:
+        c = self.client
+        name = check_topic_name(c, "unadvertise", op.topic, op.id)
         ids = self.ads.get(name)
         if ids is None:
-            what = "does not exist" if s.bus.topic(name) is None else "is not advertised by you"
-            s.status("warning", f"unadvertise: topic '{name}' {what}", msg.get("id"))
+            what = "does not exist" if c.bus.topic(name) is None else "is not advertised by you"
+            c.status("warning", f"unadvertise: topic '{name}' {what}", op.id)
             return
-        op_id = msg.get("id")
+        op_id = op.id
         if op_id is not None and op_id in ids and len(ids) > 1:
             ids.discard(op_id)
             return
         del self.ads[name]
-        s.bus.unadvertise(name, s)
-        s.status("info", f"unadvertised '{name}'", op_id)
+        c.bus.unadvertise(name, c)
+        c.status("info", f"unadvertised '{name}'", op_id)
 
-    def publish(self, msg: dict) -> None:
-        s = self.session
-        op_id = msg.get("id")
-        name = check_topic_name(s, "publish", msg["topic"], op_id)
-        topic = s.bus.topic(name)
+    def publish(self, op: Publish, frame: str | bytes | None = None) -> None:
+        """``frame`` is the op's JSON text when known: it may go out as the outgoing op."""
+        c = self.client
+        op_id = op.id
+        name = check_topic_name(c, "publish", op.topic, op_id)
+        topic = c.bus.topic(name)
         if topic is None:
             raise ProtocolError(
                 f"publish: cannot infer the type of topic '{name}': it does not exist; "
@@ -74,32 +76,32 @@ class PublishOps:
                 op_id,
             )
         if name not in self.ads:  # implicit advertise, like rosbridge
-            s.bus.advertise(name, None, s, s.node, latch=bool(msg.get("latch", False)))
+            c.bus.advertise(name, None, c, c.node, latch=op.latch)
             self.ads[name] = {None}
-        body = msg.get("msg", {})
+        body = {} if op.msg is ABSENT else op.msg
         if topic.mtype.fields and len(topic.mtype.fields) == 1 and not isinstance(body, dict):
             body = {topic.mtype.fields[0].name: body}  # seed 4.1: "msg": <string> on /cmd_string
-        value, missing, verbatim = from_json_verbatim(topic.mtype, body, s.types)
+        value, missing, verbatim = from_json_verbatim(topic.mtype, body, c.bus.types)
         encoded = None
-        if s.frame is not None and len(s.frame) >= VERBATIM_MIN:
-            encoded = {"size": len(s.frame)}  # the op's length is the message's size, near enough
-            if verbatim and body is msg.get("msg"):
-                text = verbatim_publish(s.frame, msg)  # the client's text is the outgoing op
+        if frame is not None and len(frame) >= VERBATIM_MIN:
+            encoded = {"size": len(frame)}  # the op's length is the message's size, near enough
+            if verbatim and body is op.msg:
+                text = verbatim_publish(frame, op.raw)  # the client's text is the outgoing op
                 if text is not None:
-                    encoded["json", msg["topic"]] = text
+                    encoded["json", op.topic] = text
         if missing:
-            s.status(
+            c.status(
                 "warning",
                 f"publish: message for '{name}' lacks field(s) {', '.join(missing)}; defaults used",
                 op_id,
             )
 
         def reply(level: str, text: str) -> None:
-            s.status(level, f"publish to '{name}': {text}", op_id)
+            c.status(level, f"publish to '{name}': {text}", op_id)
 
-        s.bus.publish(name, value, reply=reply, origin=s.origin, encoded=encoded)
+        c.bus.publish(name, value, reply=reply, origin=c.origin, encoded=encoded)
 
     def close(self) -> None:
         for name in list(self.ads):
-            self.session.bus.unadvertise(name, self.session)
+            self.client.bus.unadvertise(name, self.client)
         self.ads.clear()
