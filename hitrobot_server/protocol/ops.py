@@ -36,6 +36,27 @@ class FieldSpec:
     enum: tuple[str, ...] = ()
     minimum: int | None = None
 
+    @property
+    def valid_types(self) -> frozenset[type] | None:
+        """Python types that are valid here with nothing more to check (``None``: any value),
+        so the usual field costs one set lookup; anything else gets the full check."""
+        if not self.types:
+            return None
+        if self.enum or self.minimum is not None:
+            return frozenset()
+        return frozenset(t for name in self.types for t in _PYTHON_TYPES[name])
+
+
+_PYTHON_TYPES: dict[str, tuple[type, ...]] = {
+    "string": (str,),
+    "integer": (int,),
+    "number": (int, float),
+    "boolean": (bool,),
+    "object": (dict,),
+    "array": (list,),
+    "null": (type(None),),
+}
+
 
 @dataclass(frozen=True)
 class OpSpec:
@@ -45,6 +66,10 @@ class OpSpec:
     fields: tuple[FieldSpec, ...]
     cls: type
     keeps_raw: bool = False  # the value also holds the decoded op (``raw``)
+    checks: tuple[tuple[FieldSpec, frozenset[type] | None], ...] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "checks", tuple((f, f.valid_types) for f in self.fields))
 
     @property
     def required(self) -> tuple[str, ...]:
@@ -418,13 +443,15 @@ def validate_op(msg: dict) -> Op:
     if spec is None:
         raise ProtocolError(f"unknown op '{op}'", message_id(msg))
     values: dict[str, Any] = {}
-    for field_spec in spec.fields:
+    for field_spec, valid_types in spec.checks:
         name = field_spec.name
         if name not in msg:
             if field_spec.required:
                 raise ProtocolError(f"{op}: missing required field '{name}'", message_id(msg))
             continue
         value = values[name] = msg[name]
+        if valid_types is None or type(value) in valid_types:
+            continue
         problem = _check_field(op, field_spec, value)
         if problem is not None:
             raise ProtocolError(problem, message_id(msg))

@@ -10,6 +10,7 @@ from hitrobot_server.protocol.ops import (
     OPS,
     Publish,
     Subscribe,
+    _check_field,
     json_type,
     parse_message,
     validate_op,
@@ -135,7 +136,20 @@ def test_spec_fields_are_the_value_fields_in_order():
     for spec in OPS.values():
         names = tuple(f.name for f in dataclasses.fields(spec.cls) if f.name != "raw")
         assert names == spec.names
-        assert spec.cls.OP == spec.op
+        assert spec.op == spec.cls.OP
+
+
+SAMPLES = [None, True, False, 0, -1, 7, 1.5, float("nan"), "", "none", "png", {}, {"a": 1}, [],
+           [1], b"x"]
+
+
+def test_the_quick_type_check_never_passes_what_the_full_check_rejects():
+    for spec in OPS.values():
+        for field in spec.fields:
+            for value in SAMPLES:
+                quick = field.valid_types is None or type(value) in field.valid_types
+                if quick:
+                    assert _check_field(spec.op, field, value) is None, (spec.op, field, value)
 
 
 @pytest.mark.parametrize(
