@@ -25,7 +25,6 @@ class OpContext(Protocol):
     settings: SessionOptions
     node: str  # the client's node name on the bus
     transport: str  # "ws" or "tcp": binary compressions need WebSocket frames
-    topic_names: dict[str, str]  # accepted topic spellings → canonical names
     outbox: Outbox  # per-topic drop counts and streams of its subscriptions
 
     @property

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ..bus.names import canonical, valid_name
+from ..bus.names import GlobFilter, canonical, valid_name
 from ..protocol.bulk import VERBATIM_MIN, verbatim_publish
 from ..protocol.errors import MessageId, ProtocolError
 from ..protocol.ops import ABSENT, Advertise, Publish, Unadvertise
@@ -14,42 +14,52 @@ if TYPE_CHECKING:
     from .context import OpContext
 
 
-def check_topic_name(client: OpContext, op: str, topic: str, op_id: MessageId) -> str:
-    """Canonical name, or a status error naming the field when unusable or glob-denied.
+class TopicNames:
+    """One client's accepted topic spellings and their canonical names (its publish and
+    subscribe ops share them). Remembered per client: a 1 kHz publisher should not pay for
+    validation and glob matching on every message."""
 
-    Accepted spellings are remembered per client: a 1 kHz publisher should not pay for
-    validation and glob matching on every message.
-    """
-    name = client.topic_names.get(topic)
-    if name is not None:
+    LIMIT = 4096  # bounded: a client cycling names cannot grow it
+
+    def __init__(self, allowed: GlobFilter):
+        self.allowed = allowed  # --topics-glob
+        self.known: dict[str, str] = {}
+
+    def check(self, op: str, topic: str, op_id: MessageId) -> str:
+        """Canonical name, or a status error naming the field when unusable or glob-denied."""
+        name = self.known.get(topic)
+        if name is not None:
+            return name
+        if not valid_name(topic):
+            raise ProtocolError(
+                f"{op}: field 'topic' is not a valid topic name: {topic!r}", op_id
+            )
+        name = canonical(topic)
+        if not self.allowed.allows(name):
+            raise ProtocolError(f"{op}: topic '{name}' is not allowed by --topics-glob", op_id)
+        if len(self.known) < self.LIMIT:
+            self.known[topic] = name
         return name
-    if not valid_name(topic):
-        raise ProtocolError(f"{op}: field 'topic' is not a valid topic name: {topic!r}", op_id)
-    name = canonical(topic)
-    if not client.settings.topics_filter.allows(name):
-        raise ProtocolError(f"{op}: topic '{name}' is not allowed by --topics-glob", op_id)
-    if len(client.topic_names) < 4096:  # bounded: a client cycling names cannot grow it
-        client.topic_names[topic] = name
-    return name
 
 
 class PublishOps:
     """This client's publisher registrations: advertise ids per topic, as rosbridge keeps them."""
 
-    def __init__(self, client: OpContext):
+    def __init__(self, client: OpContext, topic_names: TopicNames):
         self.client = client
+        self.topic_names = topic_names
         self.ads: dict[str, set] = {}
 
     def advertise(self, op: Advertise) -> None:
         c = self.client
-        name = check_topic_name(c, "advertise", op.topic, op.id)
+        name = self.topic_names.check("advertise", op.topic, op.id)
         topic = c.bus.advertise(name, op.type, c, c.node, latch=op.latch)
         self.ads.setdefault(topic.name, set()).add(op.id)
         c.status("info", f"advertised '{name}' as {c.bus.types.short(topic.type_name)}", op.id)
 
     def unadvertise(self, op: Unadvertise) -> None:
         c = self.client
-        name = check_topic_name(c, "unadvertise", op.topic, op.id)
+        name = self.topic_names.check("unadvertise", op.topic, op.id)
         ids = self.ads.get(name)
         if ids is None:
             what = "does not exist" if c.bus.topic(name) is None else "is not advertised by you"
@@ -67,7 +77,7 @@ class PublishOps:
         """``frame`` is the op's JSON text when known: it may go out as the outgoing op."""
         c = self.client
         op_id = op.id
-        name = check_topic_name(c, "publish", op.topic, op_id)
+        name = self.topic_names.check("publish", op.topic, op_id)
         topic = c.bus.topic(name)
         if topic is None:
             raise ProtocolError(

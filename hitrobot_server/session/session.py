@@ -31,7 +31,7 @@ from . import offload
 from .actions import ActionOps
 from .options import SessionOptions
 from .outbox import Frames, Outbox
-from .publish import PublishOps
+from .publish import PublishOps, TopicNames
 from .services import ServiceOps
 from .subscribe import SubscribeOps
 from .wire import json_frames, reply_frames
@@ -107,9 +107,9 @@ class Session:
         self.reply_bytes = 0.0  # running mean size of its replies: what a call will cost
         self._tasks: set[asyncio.Task] = set()
         self.on_close: list[Callable[[Session], None]] = []
-        self.topic_names: dict[str, str] = {}  # accepted topic spellings → canonical names
-        self.publishing = PublishOps(self)
-        self.subscriptions = SubscribeOps(self)
+        topic_names = TopicNames(settings.topics_filter)
+        self.publishing = PublishOps(self, topic_names)
+        self.subscriptions = SubscribeOps(self, topic_names)
         self.service_ops = ServiceOps(self)
         self.action_ops = ActionOps(self)
         # publish is not here: it also takes the op's text (see handle)

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 from ..bus.topics import Message, Topic
 from ..protocol.errors import ProtocolError
 from ..protocol.ops import Subscribe, Unsubscribe
-from .publish import check_topic_name
+from .publish import TopicNames
 from .wire import is_binary, message_size, publish_frames, strongest
 
 if TYPE_CHECKING:
@@ -143,8 +143,9 @@ class ClientSubscription:
 
 
 class SubscribeOps:
-    def __init__(self, client: OpContext):
+    def __init__(self, client: OpContext, topic_names: TopicNames):
         self.client = client
+        self.topic_names = topic_names
         self.subs: dict[str, ClientSubscription] = {}
         self.queued = 0  # bytes in all throttle queues of this client
 
@@ -152,7 +153,7 @@ class SubscribeOps:
         c = self.client
         op_id = op.id
         topic_str = op.topic
-        name = check_topic_name(c, "subscribe", topic_str, op_id)
+        name = self.topic_names.check("subscribe", topic_str, op_id)
         compression = op.compression
         if is_binary(compression) and c.transport != "ws":
             c.status(
