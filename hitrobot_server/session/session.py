@@ -81,7 +81,6 @@ class Session:
         self.bus = bus
         self.shared = shared or Shared.for_options(settings)
         self.settings = settings
-        self.types = bus.types
         self.peer = peer
         self.transport = transport
         self.client_id = next(_client_ids)
