@@ -1,7 +1,11 @@
-"""Declarative field specs of every client→server op, and validation against them.
+"""Every client→server op as a frozen value class whose fields carry their specs, and
+validation against them.
 
-The specs are data so that one table drives both the validator here and the JSON Schemas in
-``protocol/schemas`` (a test checks the two agree). Type names are JSON Schema's.
+Each op is declared once, as a dataclass (``Publish``, ``Subscribe``, ``CallService``, …); its
+fields' specs make the table :data:`OPS` that drives the validator here and that the JSON
+Schemas in ``protocol/schemas`` are checked against (a test checks the two agree). Type names
+are JSON Schema's. :func:`validate_op` returns the op's value, so handlers read attributes
+instead of re-reading (and re-checking) dict keys.
 
 Validation is strict where clients are consistent and lenient only where they are not:
 
@@ -18,7 +22,7 @@ Validation is strict where clients are consistent and lenient only where they ar
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields, replace
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypeVar
 
 from .errors import MessageId, ProtocolError, message_id
 from .status import LEVELS
@@ -121,7 +125,10 @@ def _optional_id() -> Any:
 OPS: dict[str, OpSpec] = {}
 
 
-def _register(cls: type) -> type:
+_Op = TypeVar("_Op", bound=type)
+
+
+def _register(cls: _Op) -> _Op:
     """Add an op class to :data:`OPS`: its fields' specs, in declaration order."""
     specs = tuple(
         replace(f.metadata[_SPEC], name=f.name) for f in fields(cls) if _SPEC in f.metadata
@@ -132,11 +139,10 @@ def _register(cls: type) -> type:
 
 # One frozen value per op, checked against its fields' specs by validate_op. Declaration order
 # is the order fields are checked in and the order of the JSON Schemas' properties.
-_FROZEN = {"frozen": True, "slots": True, "kw_only": True}
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Fragment:
     OP: ClassVar[str] = "fragment"
     id: MessageId = _req(*_ID)
@@ -146,7 +152,7 @@ class Fragment:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Png:
     OP: ClassVar[str] = "png"
     id: MessageId = _optional_id()
@@ -156,7 +162,7 @@ class Png:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class SetLevel:
     OP: ClassVar[str] = "set_level"
     id: MessageId = _optional_id()
@@ -164,7 +170,7 @@ class SetLevel:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Auth:
     OP: ClassVar[str] = "auth"
     id: MessageId = _optional_id()
@@ -178,7 +184,7 @@ class Auth:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Advertise:
     OP: ClassVar[str] = "advertise"
     id: MessageId = _optional_id()
@@ -189,7 +195,7 @@ class Advertise:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Unadvertise:
     OP: ClassVar[str] = "unadvertise"
     id: MessageId = _optional_id()
@@ -197,7 +203,7 @@ class Unadvertise:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Publish:
     """``raw`` is the decoded op itself: its keys, in the client's order, let the client's own
     text be sent on as the outgoing publish (protocol/bulk.verbatim_publish)."""
@@ -212,7 +218,7 @@ class Publish:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Subscribe:
     OP: ClassVar[str] = "subscribe"
     id: MessageId = _optional_id()
@@ -225,7 +231,7 @@ class Subscribe:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Unsubscribe:
     OP: ClassVar[str] = "unsubscribe"
     id: MessageId = _optional_id()
@@ -233,7 +239,7 @@ class Unsubscribe:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class CallService:
     """``compression`` is any string here: an unknown one is answered by a failed
     ``service_response`` (session/services.py), not by a status alone."""
@@ -249,7 +255,7 @@ class CallService:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class AdvertiseService:
     OP: ClassVar[str] = "advertise_service"
     id: MessageId = _optional_id()
@@ -258,7 +264,7 @@ class AdvertiseService:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class UnadvertiseService:
     OP: ClassVar[str] = "unadvertise_service"
     id: MessageId = _optional_id()
@@ -266,7 +272,7 @@ class UnadvertiseService:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class ServiceResponse:
     OP: ClassVar[str] = "service_response"
     service: str = _req("string")
@@ -276,7 +282,7 @@ class ServiceResponse:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class AdvertiseAction:
     OP: ClassVar[str] = "advertise_action"
     id: MessageId = _optional_id()
@@ -285,7 +291,7 @@ class AdvertiseAction:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class UnadvertiseAction:
     OP: ClassVar[str] = "unadvertise_action"
     id: MessageId = _optional_id()
@@ -293,7 +299,7 @@ class UnadvertiseAction:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class SendActionGoal:
     OP: ClassVar[str] = "send_action_goal"
     id: MessageId = _optional_id()
@@ -306,7 +312,7 @@ class SendActionGoal:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class CancelActionGoal:
     OP: ClassVar[str] = "cancel_action_goal"
     action: str = _req("string")
@@ -314,7 +320,7 @@ class CancelActionGoal:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class ActionFeedback:
     OP: ClassVar[str] = "action_feedback"
     action: str = _req("string")
@@ -323,7 +329,7 @@ class ActionFeedback:
 
 
 @_register
-@dataclass(**_FROZEN)
+@dataclass(frozen=True, slots=True, kw_only=True)
 class ActionResult:
     OP: ClassVar[str] = "action_result"
     action: str = _req("string")
