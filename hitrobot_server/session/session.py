@@ -204,10 +204,11 @@ class Session:
         ``frame`` is the JSON text ``obj`` was decoded from, when known: a publish may send it
         on as the outgoing op instead of encoding the message again.
         """
-        op_id = message_id(obj)
         if not self.authenticated and not (isinstance(obj, dict) and obj.get("op") == "auth"):
-            op = obj.get("op") if isinstance(obj, dict) else None
-            self._reject_unauthenticated(op if isinstance(op, str) else "message", op_id)
+            name = obj.get("op") if isinstance(obj, dict) else None
+            self._reject_unauthenticated(
+                name if isinstance(name, str) else "message", message_id(obj)
+            )
             return None
         try:
             op = ops.validate_op(ops.parse_message(obj))
@@ -218,13 +219,13 @@ class Session:
             return self._handlers[type(op)](op)
         except ProtocolError as exc:
             self.service_ops.invalid_response(obj, exc.msg)
-            self.status(exc.level, exc.msg, exc.id if exc.id is not None else op_id)
+            self.status(exc.level, exc.msg, exc.id if exc.id is not None else message_id(obj))
         except (BusError, ConversionError) as exc:
-            op = obj.get("op") if isinstance(obj, dict) else "?"
-            self.status("error", f"{op}: {exc}", op_id)
+            name = obj.get("op") if isinstance(obj, dict) else "?"
+            self.status("error", f"{name}: {exc}", message_id(obj))
         except Exception as exc:
             log.exception("client %s: op failed", self.node)
-            self.status("error", f"internal error: {exc}", op_id)
+            self.status("error", f"internal error: {exc}", message_id(obj))
         return None
 
     def _replies_full(self, op: ops.CallService | ops.SendActionGoal) -> bool:
