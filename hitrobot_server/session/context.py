@@ -15,7 +15,7 @@ from ..bus.core import Bus
 from ..bus.topics import Origin
 from ..protocol.ops import CallService, SendActionGoal, Subscribe
 from .options import SessionOptions
-from .outbox import Frames, Outbox
+from .outbox import Outbox
 
 
 class OpContext(Protocol):
@@ -25,7 +25,7 @@ class OpContext(Protocol):
     settings: SessionOptions
     node: str  # the client's node name on the bus
     transport: str  # "ws" or "tcp": binary compressions need WebSocket frames
-    outbox: Outbox  # per-topic drop counts and streams of its subscriptions
+    outbox: Outbox  # where its subscriptions queue topic data (per-topic streams, drops)
 
     @property
     def origin(self) -> Origin:
@@ -40,17 +40,6 @@ class OpContext(Protocol):
         self, obj: dict, *, fragment_size: int | None = None, compression: str = "none"
     ) -> None:
         """Queue a reply op."""
-        ...
-
-    def send_frames(
-        self,
-        frames: Frames,
-        droppable: bool,
-        size: int | None = None,
-        key: object = None,
-        depth: int | None = None,
-    ) -> None:
-        """Queue topic data in stream ``key``."""
         ...
 
     def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:

@@ -30,7 +30,7 @@ from ..types.convert import ConversionError
 from . import offload
 from .actions import ActionOps
 from .options import SessionOptions
-from .outbox import Frames, Outbox
+from .outbox import Outbox
 from .publish import PublishOps, TopicNames
 from .services import ServiceOps
 from .subscribe import SubscribeOps
@@ -344,17 +344,6 @@ class Session:
             )
             return MIN_FRAGMENT_SIZE
         return size
-
-    def send_frames(
-        self,
-        frames: Frames,
-        droppable: bool,
-        size: int | None = None,
-        key: object = None,
-        depth: int | None = None,
-    ) -> None:
-        """Queue topic data (``droppable``) in stream ``key`` (see session/outbox.py)."""
-        self.outbox.put(frames, droppable, size, key=key, depth=depth)
 
     def _check_replies(self) -> None:
         """Past twice ``--reply-buffer-limit`` of unread replies the client is disconnected:

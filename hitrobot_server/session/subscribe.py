@@ -130,8 +130,8 @@ class ClientSubscription:
     def _send(self, message: Message) -> None:
         frames = publish_frames(message, self.topic_str, self.compression, self.fragment_size)
         size = None if type(frames) is list else message_size(message)  # a future: estimate
-        self.client.send_frames(
-            frames, droppable=True, size=size, key=self.topic_str, depth=self.queue_length or None
+        self.client.outbox.put(
+            frames, True, size, key=self.topic_str, depth=self.queue_length or None
         )
 
     def cancel(self) -> None:
