@@ -33,6 +33,8 @@ from __future__ import annotations
 import re
 from typing import Any
 
+from ..protocol.ops import json_type
+
 TYPE_NAMES = ("string", "number", "integer", "boolean", "object", "array", "null", "bytes")
 OPERATORS = (
     "$any",
@@ -201,30 +203,9 @@ def _scalar_equal(pattern: Any, value: Any) -> bool:
     return isinstance(value, str) and pattern == value
 
 
-def type_name(value: Any) -> str:
-    """The ``$type`` name of a decoded value (``integer`` for ints, ``number`` for floats)."""
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "boolean"
-    if isinstance(value, int):
-        return "integer"
-    if isinstance(value, float):
-        return "number"
-    if isinstance(value, str):
-        return "string"
-    if isinstance(value, dict):
-        return "object"
-    if isinstance(value, list):
-        return "array"
-    if isinstance(value, bytes | bytearray):
-        return "bytes"
-    return type(value).__name__
-
-
 def _apply(op: str, arg: Any, value: Any, path: str, found: dict[str, Any]) -> str | None:
     """Check one operator; ``None`` when it holds."""
-    kind = type_name(value)
+    kind = json_type(value)
     if op == "$any":
         return None
     if op == "$absent":

@@ -1,7 +1,11 @@
-"""Declarative field specs of every client→server op, and validation against them.
+"""Every client→server op as a frozen value class whose fields carry their specs, and
+validation against them.
 
-The specs are data so that one table drives both the validator here and the JSON Schemas in
-``protocol/schemas`` (a test checks the two agree). Type names are JSON Schema's.
+Each op is declared once, as a dataclass (``Publish``, ``Subscribe``, ``CallService``, …); its
+fields' specs make the table :data:`OPS` that drives the validator here and that the JSON
+Schemas in ``protocol/schemas`` are checked against (a test checks the two agree). Type names
+are JSON Schema's. :func:`validate_op` returns the op's value, so handlers read attributes
+instead of re-reading (and re-checking) dict keys.
 
 Validation is strict where clients are consistent and lenient only where they are not:
 
@@ -17,9 +21,10 @@ Validation is strict where clients are consistent and lenient only where they ar
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields, replace
+from typing import Any, ClassVar, TypeVar
 
-from .errors import ProtocolError, message_id
+from .errors import MessageId, ProtocolError, message_id
 from .status import LEVELS
 
 COMPRESSIONS: tuple[str, ...] = ("none", "png", "cbor", "cbor-raw")
@@ -35,13 +40,40 @@ class FieldSpec:
     enum: tuple[str, ...] = ()
     minimum: int | None = None
 
+    @property
+    def valid_types(self) -> frozenset[type] | None:
+        """Python types that are valid here with nothing more to check (``None``: any value),
+        so the usual field costs one set lookup; anything else gets the full check."""
+        if not self.types:
+            return None
+        if self.enum or self.minimum is not None:
+            return frozenset()
+        return frozenset(t for name in self.types for t in _PYTHON_TYPES[name])
+
+
+_PYTHON_TYPES: dict[str, tuple[type, ...]] = {
+    "string": (str,),
+    "integer": (int,),
+    "number": (int, float),
+    "boolean": (bool,),
+    "object": (dict,),
+    "array": (list,),
+    "null": (type(None),),
+}
+
 
 @dataclass(frozen=True)
 class OpSpec:
-    """The fields of one op, in the order they are checked."""
+    """The fields of one op, in the order they are checked, and the class of its values."""
 
     op: str
     fields: tuple[FieldSpec, ...]
+    cls: type
+    keeps_raw: bool = False  # the value also holds the decoded op (``raw``)
+    checks: tuple[tuple[FieldSpec, frozenset[type] | None], ...] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "checks", tuple((f, f.valid_types) for f in self.fields))
 
     @property
     def required(self) -> tuple[str, ...]:
@@ -55,131 +87,271 @@ class OpSpec:
 
 
 _ID = ("string", "integer")
-_OPTIONAL_ID = FieldSpec("id", (*_ID, "null"))
+_ARGS = ("object", "array", "null")
+_SPEC = "spec"  # the key of a field's FieldSpec in its dataclass metadata
 
 
-def _req(name: str, *types: str, minimum: int | None = None) -> FieldSpec:
-    return FieldSpec(name, types, required=True, minimum=minimum)
+class _Absent:
+    """An optional field the client left out, where that differs from sending ``null``."""
+
+    __slots__ = ()
+
+    def __repr__(self) -> str:
+        return "ABSENT"
+
+
+ABSENT: Any = _Absent()
+
+
+def _req(*types: str, enum: tuple[str, ...] = (), minimum: int | None = None) -> Any:
+    """A required field of these JSON types."""
+    spec = FieldSpec("", types, required=True, enum=enum, minimum=minimum)
+    return field(metadata={_SPEC: spec})
 
 
 def _opt(
-    name: str, *types: str, enum: tuple[str, ...] = (), minimum: int | None = None
-) -> FieldSpec:
-    return FieldSpec(name, types, enum=enum, minimum=minimum)
+    *types: str, default: Any = None, enum: tuple[str, ...] = (), minimum: int | None = None
+) -> Any:
+    """An optional field; ``default`` when the client leaves it out."""
+    spec = FieldSpec("", types, enum=enum, minimum=minimum)
+    return field(default=default, metadata={_SPEC: spec})
 
 
-def _spec(op: str, *fields: FieldSpec) -> OpSpec:
-    """An op spec; every op has an optional ``id`` unless it declares ``id`` itself."""
-    if not any(f.name == "id" for f in fields):
-        fields = (_OPTIONAL_ID, *fields)
-    return OpSpec(op, fields)
+def _optional_id() -> Any:
+    """The ``id`` most ops have: optional, and ``null`` means none."""
+    return _opt(*_ID, "null")
 
 
-_ARGS = ("object", "array", "null")
+OPS: dict[str, OpSpec] = {}
 
-OPS: dict[str, OpSpec] = {
-    spec.op: spec
-    for spec in (
-        _spec(
-            "fragment",
-            _req("id", *_ID),
-            _req("data", "string"),
-            _req("num", "integer", minimum=0),
-            _req("total", "integer", minimum=1),
-        ),
-        _spec(
-            "png",
-            _req("data", "string"),
-            _opt("num", "integer", minimum=0),
-            _opt("total", "integer", minimum=1),
-        ),
-        _spec("set_level", FieldSpec("level", ("string",), required=True, enum=LEVELS)),
-        _spec(
-            "auth",
-            _req("mac", "string"),
-            _req("client", "string"),
-            _req("dest", "string"),
-            _req("rand", "string"),
-            _req("t", "number"),
-            _req("level", "string"),
-            _req("end", "number"),
-        ),
-        _spec(
-            "advertise",
-            _req("topic", "string"),
-            _req("type", "string"),
-            _opt("latch", "boolean"),
-            _opt("queue_size", "integer", minimum=0),
-        ),
-        _spec("unadvertise", _req("topic", "string")),
-        _spec(
-            "publish",
-            _req("topic", "string"),
-            _opt("msg"),
-            _opt("latch", "boolean"),
-            _opt("queue_size", "integer", minimum=0),
-        ),
-        _spec(
-            "subscribe",
-            _req("topic", "string"),
-            _opt("type", "string"),
-            _opt("throttle_rate", "integer", minimum=0),
-            _opt("queue_length", "integer", minimum=0),
-            _opt("fragment_size", "integer", minimum=1),
-            _opt("compression", "string", enum=COMPRESSIONS),
-        ),
-        _spec("unsubscribe", _req("topic", "string")),
-        _spec(
-            "call_service",
-            _req("service", "string"),
-            _opt("args", *_ARGS),
-            _opt("fragment_size", "integer", "null", minimum=1),
-            _opt("compression", "string"),
-            _opt("timeout", "number", "null"),
-            _opt("type", "string"),
-        ),
-        _spec("advertise_service", _req("service", "string"), _req("type", "string")),
-        _spec("unadvertise_service", _req("service", "string")),
-        _spec(
-            "service_response",
-            _req("service", "string"),
-            _req("id", *_ID),
-            _req("result", "boolean"),
-            _opt("values"),
-        ),
-        _spec("advertise_action", _req("action", "string"), _req("type", "string")),
-        _spec("unadvertise_action", _req("action", "string")),
-        _spec(
-            "send_action_goal",
-            _req("action", "string"),
-            _req("action_type", "string"),
-            _opt("args", *_ARGS),
-            _opt("feedback", "boolean"),
-            _opt("fragment_size", "integer", "null", minimum=1),
-            _opt("compression", "string"),
-        ),
-        _spec("cancel_action_goal", _req("action", "string"), _req("id", *_ID)),
-        _spec(
-            "action_feedback",
-            _req("action", "string"),
-            _req("id", *_ID),
-            _req("values", "object"),
-        ),
-        _spec(
-            "action_result",
-            _req("action", "string"),
-            _req("id", *_ID),
-            _opt("values"),
-            _req("status", "integer"),
-            _req("result", "boolean"),
-        ),
+
+_Op = TypeVar("_Op", bound=type)
+
+
+def _register(cls: _Op) -> _Op:
+    """Add an op class to :data:`OPS`: its fields' specs, in declaration order."""
+    specs = tuple(
+        replace(f.metadata[_SPEC], name=f.name) for f in fields(cls) if _SPEC in f.metadata
     )
-}
+    OPS[cls.OP] = OpSpec(cls.OP, specs, cls, keeps_raw="raw" in cls.__dataclass_fields__)
+    return cls
+
+
+# One frozen value per op, checked against its fields' specs by validate_op. Declaration order
+# is the order fields are checked in and the order of the JSON Schemas' properties.
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Fragment:
+    OP: ClassVar[str] = "fragment"
+    id: MessageId = _req(*_ID)
+    data: str = _req("string")
+    num: int = _req("integer", minimum=0)
+    total: int = _req("integer", minimum=1)
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Png:
+    OP: ClassVar[str] = "png"
+    id: MessageId = _optional_id()
+    data: str = _req("string")
+    num: int | None = _opt("integer", minimum=0)
+    total: int | None = _opt("integer", minimum=1)
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SetLevel:
+    OP: ClassVar[str] = "set_level"
+    id: MessageId = _optional_id()
+    level: str = _req("string", enum=LEVELS)
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Auth:
+    OP: ClassVar[str] = "auth"
+    id: MessageId = _optional_id()
+    mac: str = _req("string")
+    client: str = _req("string")
+    dest: str = _req("string")
+    rand: str = _req("string")
+    t: float = _req("number")
+    level: str = _req("string")
+    end: float = _req("number")
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Advertise:
+    OP: ClassVar[str] = "advertise"
+    id: MessageId = _optional_id()
+    topic: str = _req("string")
+    type: str = _req("string")
+    latch: bool = _opt("boolean", default=False)
+    queue_size: int | None = _opt("integer", minimum=0)
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Unadvertise:
+    OP: ClassVar[str] = "unadvertise"
+    id: MessageId = _optional_id()
+    topic: str = _req("string")
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Publish:
+    """``raw`` is the decoded op itself: its keys, in the client's order, let the client's own
+    text be sent on as the outgoing publish (protocol/bulk.verbatim_publish)."""
+
+    OP: ClassVar[str] = "publish"
+    id: MessageId = _optional_id()
+    topic: str = _req("string")
+    msg: Any = _opt(default=ABSENT)
+    latch: bool = _opt("boolean", default=False)
+    queue_size: int | None = _opt("integer", minimum=0)
+    raw: dict = field(default_factory=dict, repr=False, compare=False)
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Subscribe:
+    OP: ClassVar[str] = "subscribe"
+    id: MessageId = _optional_id()
+    topic: str = _req("string")
+    type: str | None = _opt("string")
+    throttle_rate: int = _opt("integer", default=0, minimum=0)
+    queue_length: int = _opt("integer", default=0, minimum=0)
+    fragment_size: int | None = _opt("integer", minimum=1)
+    compression: str = _opt("string", default="none", enum=COMPRESSIONS)
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Unsubscribe:
+    OP: ClassVar[str] = "unsubscribe"
+    id: MessageId = _optional_id()
+    topic: str = _req("string")
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class CallService:
+    """``compression`` is any string here: an unknown one is answered by a failed
+    ``service_response`` (session/services.py), not by a status alone."""
+
+    OP: ClassVar[str] = "call_service"
+    id: MessageId = _optional_id()
+    service: str = _req("string")
+    args: dict | list | None = _opt(*_ARGS)
+    fragment_size: int | None = _opt("integer", "null", minimum=1)
+    compression: str | None = _opt("string")
+    timeout: float | None = _opt("number", "null")
+    type: str | None = _opt("string")
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class AdvertiseService:
+    OP: ClassVar[str] = "advertise_service"
+    id: MessageId = _optional_id()
+    service: str = _req("string")
+    type: str = _req("string")
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class UnadvertiseService:
+    OP: ClassVar[str] = "unadvertise_service"
+    id: MessageId = _optional_id()
+    service: str = _req("string")
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ServiceResponse:
+    OP: ClassVar[str] = "service_response"
+    service: str = _req("string")
+    id: MessageId = _req(*_ID)
+    result: bool = _req("boolean")
+    values: Any = _opt()
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class AdvertiseAction:
+    OP: ClassVar[str] = "advertise_action"
+    id: MessageId = _optional_id()
+    action: str = _req("string")
+    type: str = _req("string")
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class UnadvertiseAction:
+    OP: ClassVar[str] = "unadvertise_action"
+    id: MessageId = _optional_id()
+    action: str = _req("string")
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SendActionGoal:
+    OP: ClassVar[str] = "send_action_goal"
+    id: MessageId = _optional_id()
+    action: str = _req("string")
+    action_type: str = _req("string")
+    args: dict | list | None = _opt(*_ARGS)
+    feedback: bool = _opt("boolean", default=False)
+    fragment_size: int | None = _opt("integer", "null", minimum=1)
+    compression: str | None = _opt("string")
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class CancelActionGoal:
+    OP: ClassVar[str] = "cancel_action_goal"
+    action: str = _req("string")
+    id: MessageId = _req(*_ID)
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ActionFeedback:
+    OP: ClassVar[str] = "action_feedback"
+    action: str = _req("string")
+    id: MessageId = _req(*_ID)
+    values: dict = _req("object")
+
+
+@_register
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ActionResult:
+    OP: ClassVar[str] = "action_result"
+    action: str = _req("string")
+    id: MessageId = _req(*_ID)
+    values: Any = _opt()
+    status: int = _req("integer")
+    result: bool = _req("boolean")
+
+
+Op = (
+    Fragment | Png | SetLevel | Auth | Advertise | Unadvertise | Publish | Subscribe
+    | Unsubscribe | CallService | AdvertiseService | UnadvertiseService | ServiceResponse
+    | AdvertiseAction | UnadvertiseAction | SendActionGoal | CancelActionGoal | ActionFeedback
+    | ActionResult
+)
+"""Any validated client→server op."""
 
 
 def json_type(value: object) -> str:
-    """The JSON Schema type name of a decoded JSON value (``integer`` for ints, ``number`` for
-    floats); the Python type name for anything JSON cannot produce."""
+    """The JSON Schema type name of a decoded value (``integer`` for ints, ``number`` for
+    floats), ``bytes`` for CBOR's byte strings, else the Python type name. Op validation and
+    the conformance matcher's ``$type`` both name types with it."""
     if value is None:
         return "null"
     if isinstance(value, bool):
@@ -194,6 +366,8 @@ def json_type(value: object) -> str:
         return "object"
     if isinstance(value, list):
         return "array"
+    if isinstance(value, bytes | bytearray):
+        return "bytes"
     return type(value).__name__
 
 
@@ -262,23 +436,31 @@ def parse_message(obj: object) -> dict:
     return obj
 
 
-def validate_op(msg: dict) -> dict:
-    """Check a parsed message against the spec of its op and return it unchanged.
+def validate_op(msg: dict) -> Op:
+    """Check a parsed message against the spec of its op and return its typed, frozen value.
 
     Checks that the op is known, that required fields are present and that every known field
     has the right type, enum value and range. The first problem raises :class:`ProtocolError`
-    naming the op and the field, tagged with the message's id when valid.
+    naming the op and the field, tagged with the message's id when valid. Unknown fields are
+    left out of the value; fields the client left out get their defaults.
     """
     op = msg["op"]
     spec = OPS.get(op)
     if spec is None:
         raise ProtocolError(f"unknown op '{op}'", message_id(msg))
-    for field in spec.fields:
-        if field.name not in msg:
-            if field.required:
-                raise ProtocolError(f"{op}: missing required field '{field.name}'", message_id(msg))
+    values: dict[str, Any] = {}
+    for field_spec, valid_types in spec.checks:
+        name = field_spec.name
+        if name not in msg:
+            if field_spec.required:
+                raise ProtocolError(f"{op}: missing required field '{name}'", message_id(msg))
             continue
-        problem = _check_field(op, field, msg[field.name])
+        value = values[name] = msg[name]
+        if valid_types is None or type(value) in valid_types:
+            continue
+        problem = _check_field(op, field_spec, value)
         if problem is not None:
             raise ProtocolError(problem, message_id(msg))
-    return msg
+    if spec.keeps_raw:
+        values["raw"] = msg
+    return spec.cls(**values)

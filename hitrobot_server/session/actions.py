@@ -15,32 +15,40 @@ from ..bus.services import (
     GoalOutcome,
 )
 from ..protocol.errors import ProtocolError
+from ..protocol.ops import (
+    ActionFeedback,
+    ActionResult,
+    AdvertiseAction,
+    CancelActionGoal,
+    SendActionGoal,
+    UnadvertiseAction,
+)
 from ..types.convert import ConversionError, from_json
 from .services import args_to_request, split_id, too_many_in_flight
 
 if TYPE_CHECKING:
-    from .session import Session
+    from .context import OpContext
 
 
 class ActionOps:
-    def __init__(self, session: Session):
-        self.session = session
+    def __init__(self, client: OpContext):
+        self.client = client
         self.goals: dict[Any, GoalHandle] = {}  # goals this client sent, by its id
         self.provided: set[str] = set()
         self.serving: dict[str, tuple[asyncio.Future, GoalHandle]] = {}  # goals we were handed
         self._counters: dict[str, itertools.count] = {}
 
     # ------------------------------------------------------------- client side
-    def send_action_goal(self, msg: dict) -> None:
-        s = self.session
-        action_str, op_id = split_id(msg["action"], msg.get("id"))
+    def send_action_goal(self, op: SendActionGoal) -> None:
+        c = self.client
+        action_str, op_id = split_id(op.action, op.id)
         name = canonical(action_str)
-        base = {"action": msg["action"]}
+        base = {"action": op.action}
         if op_id is not None:
             base["id"] = op_id
 
         def fail(text: str) -> None:
-            s.send(
+            c.send(
                 {
                     "op": "action_result",
                     **base,
@@ -49,22 +57,22 @@ class ActionOps:
                     "result": False,
                 }
             )
-            s.status("error", f"send_action_goal: {text}", op_id)
+            c.status("error", f"send_action_goal: {text}", op_id)
 
-        limit = s.settings.max_requests_in_flight
+        limit = c.settings.max_requests_in_flight
         if len(self.goals) >= limit:
             fail(too_many_in_flight(limit, "action goals"))
             return
-        action = s.bus.action(name)
+        action = c.bus.action(name)
         if action is None:
             fail(f"action '{name}' does not exist")
             return
-        wanted = msg.get("action_type")
+        wanted = op.action_type
         if wanted:
             try:
-                if s.types.action(wanted).name != action.atype.name:
+                if c.bus.types.action(wanted).name != action.atype.name:
                     fail(
-                        f"action '{name}' has type '{s.types.short(action.type_name)}', "
+                        f"action '{name}' has type '{c.bus.types.short(action.type_name)}', "
                         f"not '{wanted}'"
                     )
                     return
@@ -72,7 +80,7 @@ class ActionOps:
                 fail(str(exc.args[0] if exc.args else exc))
                 return
         try:
-            goal = args_to_request("send_action_goal", action.atype.goal, msg.get("args"), s, op_id)
+            goal = args_to_request("send_action_goal", action.atype.goal, op.args, c, op_id)
         except ProtocolError as exc:
             fail(exc.msg.removeprefix("send_action_goal: "))
             return
@@ -80,16 +88,16 @@ class ActionOps:
             raise ProtocolError(
                 f"send_action_goal: a goal with id {op_id!r} is still running", op_id
             )
-        want_feedback = bool(msg.get("feedback", False))
-        frag = s.fragment_size(msg)
+        want_feedback = op.feedback
+        frag = c.fragment_size(op)
 
         def on_feedback(values: dict) -> None:
             if want_feedback:
-                s.send({"op": "action_feedback", **base, "values": values}, fragment_size=frag)
+                c.send({"op": "action_feedback", **base, "values": values}, fragment_size=frag)
 
-        s.bus.client_called("send_action_goal", name, s.origin)
+        c.bus.client_called("send_action_goal", name, c.origin)
         try:
-            handle, task = s.bus.start_goal(name, goal, on_feedback)
+            handle, task = c.bus.start_goal(name, goal, on_feedback)
         except ActionError as exc:
             fail(str(exc))
             return
@@ -101,7 +109,7 @@ class ActionOps:
             if t.cancelled():
                 return
             out: GoalOutcome = t.result()
-            s.send(
+            c.send(
                 {
                     "op": "action_result",
                     **base,
@@ -114,36 +122,33 @@ class ActionOps:
 
         task.add_done_callback(done)
 
-    def cancel_action_goal(self, msg: dict) -> None:
-        handle = self.goals.get(msg["id"])
+    def cancel_action_goal(self, op: CancelActionGoal) -> None:
+        handle = self.goals.get(op.id)
         if handle is None:
-            raise ProtocolError(
-                f"cancel_action_goal: no running goal with id {msg['id']!r}", msg["id"]
-            )
+            raise ProtocolError(f"cancel_action_goal: no running goal with id {op.id!r}", op.id)
         handle.cancel()
-        self.session.status("info", f"cancel requested for goal {msg['id']!r}", msg["id"])
+        self.client.status("info", f"cancel requested for goal {op.id!r}", op.id)
 
     # ------------------------------------------------------------- provider side
-    def advertise_action(self, msg: dict) -> None:
-        s = self.session
-        action_str = msg["action"]
+    def advertise_action(self, op: AdvertiseAction) -> None:
+        c = self.client
+        action_str = op.action
         if not valid_name(action_str):
             raise ProtocolError(
-                f"advertise_action: field 'action' is not a valid name: {action_str!r}",
-                msg.get("id"),
+                f"advertise_action: field 'action' is not a valid name: {action_str!r}", op.id
             )
         name = canonical(action_str)
         counter = self._counters.setdefault(name, itertools.count(1))
-        type_name = msg["type"]
+        type_name = op.type
 
         async def handler(handle: GoalHandle) -> GoalOutcome:
             gid = f"action_goal:{name}:{next(counter)}"
             fut = asyncio.get_running_loop().create_future()
             self.serving[gid] = (fut, handle)
             handle.on_cancel.append(
-                lambda: s.send({"op": "cancel_action_goal", "id": gid, "action": name})
+                lambda: c.send({"op": "cancel_action_goal", "id": gid, "action": name})
             )
-            s.send(
+            c.send(
                 {
                     "op": "send_action_goal",
                     "id": gid,
@@ -158,49 +163,51 @@ class ActionOps:
             finally:
                 self.serving.pop(gid, None)
 
-        s.bus.advertise_action(name, type_name, s, s.node, handler, client=True)
+        c.bus.advertise_action(name, type_name, c, c.node, handler, client=True)
         self.provided.add(name)
-        s.status("info", f"advertised action '{name}'", msg.get("id"))
+        c.status("info", f"advertised action '{name}'", op.id)
 
-    def unadvertise_action(self, msg: dict) -> None:
-        s = self.session
-        name = canonical(msg["action"])
-        if name not in self.provided or not s.bus.unadvertise_action(name, s):
+    def unadvertise_action(self, op: UnadvertiseAction) -> None:
+        c = self.client
+        name = canonical(op.action)
+        if name not in self.provided or not c.bus.unadvertise_action(name, c):
             raise ProtocolError(
-                f"unadvertise_action: action '{name}' is not advertised by you", msg.get("id")
+                f"unadvertise_action: action '{name}' is not advertised by you", op.id
             )
         self.provided.discard(name)
         self._fail_serving(name, f"action '{name}' was unadvertised")
-        s.status("info", f"unadvertised action '{name}'", msg.get("id"))
+        c.status("info", f"unadvertised action '{name}'", op.id)
 
-    def _entry(self, op: str, msg: dict) -> tuple[asyncio.Future, GoalHandle]:
-        entry = self.serving.get(msg["id"]) if isinstance(msg["id"], str) else None
+    def _entry(self, op: ActionFeedback | ActionResult) -> tuple[asyncio.Future, GoalHandle]:
+        entry = self.serving.get(op.id)  # a string or an integer: the spec's check
         if entry is None:
-            raise ProtocolError(f"{op}: no goal with id {msg['id']!r} was sent to you", msg["id"])
+            raise ProtocolError(f"{op.OP}: no goal with id {op.id!r} was sent to you", op.id)
         return entry
 
-    def action_feedback(self, msg: dict) -> None:
-        _fut, handle = self._entry("action_feedback", msg)
+    def action_feedback(self, op: ActionFeedback) -> None:
+        _fut, handle = self._entry(op)
         try:
-            values, _ = from_json(handle.action.atype.feedback, msg["values"], self.session.types)
+            values, _ = from_json(handle.action.atype.feedback, op.values, self.client.bus.types)
         except ConversionError as exc:
-            raise ProtocolError(f"action_feedback: field 'values': {exc}", msg["id"]) from None
+            raise ProtocolError(f"action_feedback: field 'values': {exc}", op.id) from None
         handle.feedback(values)
 
-    def action_result(self, msg: dict) -> None:
-        fut, handle = self._entry("action_result", msg)
+    def action_result(self, op: ActionResult) -> None:
+        fut, handle = self._entry(op)
         if fut.done():
             return
-        values = msg.get("values")
-        if msg["result"]:
+        values = op.values
+        if op.result:
             try:
-                values, _ = from_json(handle.action.atype.result, values or {}, self.session.types)
+                values, _ = from_json(
+                    handle.action.atype.result, values or {}, self.client.bus.types
+                )
             except ConversionError as exc:
                 fut.set_result(GoalOutcome(STATUS_ABORTED, f"invalid result: {exc}", False))
-                raise ProtocolError(f"action_result: field 'values': {exc}", msg["id"]) from None
+                raise ProtocolError(f"action_result: field 'values': {exc}", op.id) from None
         elif not isinstance(values, str) or not values:
-            values = f"goal failed (status {msg['status']})"
-        fut.set_result(GoalOutcome(int(msg["status"]), values, bool(msg["result"])))
+            values = f"goal failed (status {op.status})"
+        fut.set_result(GoalOutcome(op.status, values, op.result))
 
     def _fail_serving(self, name: str | None, text: str) -> None:
         for _gid, (fut, handle) in list(self.serving.items()):
@@ -211,7 +218,7 @@ class ActionOps:
         for handle in list(self.goals.values()):
             handle.cancel()
         self.goals.clear()
-        self._fail_serving(None, f"the action provider ({self.session.node}) disconnected")
+        self._fail_serving(None, f"the action provider ({self.client.node}) disconnected")
         for name in list(self.provided):
-            self.session.bus.unadvertise_action(name, self.session)
+            self.client.bus.unadvertise_action(name, self.client)
         self.provided.clear()

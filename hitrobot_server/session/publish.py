@@ -5,68 +5,80 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from ..bus.encoded import VERBATIM_MIN, Seed, verbatim_publish
-from ..bus.names import canonical, valid_name
-from ..protocol.errors import ProtocolError
+from ..bus.names import GlobFilter, canonical, valid_name
+from ..protocol.errors import MessageId, ProtocolError
+from ..protocol.ops import ABSENT, Advertise, Publish, Unadvertise
 from ..types.convert import from_json_verbatim
 
 if TYPE_CHECKING:
-    from .session import Session
+    from .context import OpContext
 
 
-def check_topic_name(session: Session, op: str, topic: str, op_id) -> str:
-    """Canonical name, or a status error naming the field when unusable or glob-denied.
+class TopicNames:
+    """One client's accepted topic spellings and their canonical names (its publish and
+    subscribe ops share them). Remembered per client: a 1 kHz publisher should not pay for
+    validation and glob matching on every message."""
 
-    Accepted spellings are remembered per client: a 1 kHz publisher should not pay for
-    validation and glob matching on every message.
-    """
-    name = session.topic_names.get(topic)
-    if name is not None:
+    LIMIT = 4096  # bounded: a client cycling names cannot grow it
+
+    def __init__(self, allowed: GlobFilter):
+        self.allowed = allowed  # --topics-glob
+        self.known: dict[str, str] = {}
+
+    def check(self, op: str, topic: str, op_id: MessageId) -> str:
+        """Canonical name, or a status error naming the field when unusable or glob-denied."""
+        name = self.known.get(topic)
+        if name is not None:
+            return name
+        if not valid_name(topic):
+            raise ProtocolError(
+                f"{op}: field 'topic' is not a valid topic name: {topic!r}", op_id
+            )
+        name = canonical(topic)
+        if not self.allowed.allows(name):
+            raise ProtocolError(f"{op}: topic '{name}' is not allowed by --topics-glob", op_id)
+        if len(self.known) < self.LIMIT:
+            self.known[topic] = name
         return name
-    if not valid_name(topic):
-        raise ProtocolError(f"{op}: field 'topic' is not a valid topic name: {topic!r}", op_id)
-    name = canonical(topic)
-    if not session.settings.topics_filter.allows(name):
-        raise ProtocolError(f"{op}: topic '{name}' is not allowed by --topics-glob", op_id)
-    if len(session.topic_names) < 4096:  # bounded: a client cycling names cannot grow it
-        session.topic_names[topic] = name
-    return name
 
 
 class PublishOps:
     """This client's publisher registrations: advertise ids per topic, as rosbridge keeps them."""
 
-    def __init__(self, session: Session):
-        self.session = session
+    def __init__(self, client: OpContext, topic_names: TopicNames):
+        self.client = client
+        self.topic_names = topic_names
         self.ads: dict[str, set] = {}
 
-    def advertise(self, msg: dict) -> None:
-        s = self.session
-        name = check_topic_name(s, "advertise", msg["topic"], msg.get("id"))
-        topic = s.bus.advertise(name, msg["type"], s, s.node, latch=bool(msg.get("latch", False)))
-        self.ads.setdefault(topic.name, set()).add(msg.get("id"))
-        s.status("info", f"advertised '{name}' as {s.types.short(topic.type_name)}", msg.get("id"))
+    def advertise(self, op: Advertise) -> None:
+        c = self.client
+        name = self.topic_names.check("advertise", op.topic, op.id)
+        topic = c.bus.advertise(name, op.type, c, c.node, latch=op.latch)
+        self.ads.setdefault(topic.name, set()).add(op.id)
+        c.status("info", f"advertised '{name}' as {c.bus.types.short(topic.type_name)}", op.id)
 
-    def unadvertise(self, msg: dict) -> None:
-        s = self.session
-        name = check_topic_name(s, "unadvertise", msg["topic"], msg.get("id"))
+    def unadvertise(self, op: Unadvertise) -> None:
+        c = self.client
+        name = self.topic_names.check("unadvertise", op.topic, op.id)
         ids = self.ads.get(name)
         if ids is None:
-            what = "does not exist" if s.bus.topic(name) is None else "is not advertised by you"
-            s.status("warning", f"unadvertise: topic '{name}' {what}", msg.get("id"))
+            what = "does not exist" if c.bus.topic(name) is None else "is not advertised by you"
+            c.status("warning", f"unadvertise: topic '{name}' {what}", op.id)
             return
-        op_id = msg.get("id")
+        op_id = op.id
         if op_id is not None and op_id in ids and len(ids) > 1:
             ids.discard(op_id)
             return
         del self.ads[name]
-        s.bus.unadvertise(name, s)
-        s.status("info", f"unadvertised '{name}'", op_id)
+        c.bus.unadvertise(name, c)
+        c.status("info", f"unadvertised '{name}'", op_id)
 
-    def publish(self, msg: dict) -> None:
-        s = self.session
-        op_id = msg.get("id")
-        name = check_topic_name(s, "publish", msg["topic"], op_id)
-        topic = s.bus.topic(name)
+    def publish(self, op: Publish, frame: str | bytes | None = None) -> None:
+        """``frame`` is the op's JSON text when known: it may go out as the outgoing op."""
+        c = self.client
+        op_id = op.id
+        name = self.topic_names.check("publish", op.topic, op_id)
+        topic = c.bus.topic(name)
         if topic is None:
             raise ProtocolError(
                 f"publish: cannot infer the type of topic '{name}': it does not exist; "
@@ -74,31 +86,31 @@ class PublishOps:
                 op_id,
             )
         if name not in self.ads:  # implicit advertise, like rosbridge
-            s.bus.advertise(name, None, s, s.node, latch=bool(msg.get("latch", False)))
+            c.bus.advertise(name, None, c, c.node, latch=op.latch)
             self.ads[name] = {None}
-        body = msg.get("msg", {})
+        body = {} if op.msg is ABSENT else op.msg
         if topic.mtype.fields and len(topic.mtype.fields) == 1 and not isinstance(body, dict):
             body = {topic.mtype.fields[0].name: body}  # seed 4.1: "msg": <string> on /cmd_string
-        value, missing, verbatim = from_json_verbatim(topic.mtype, body, s.types)
+        value, missing, verbatim = from_json_verbatim(topic.mtype, body, c.bus.types)
         seed = None
-        if s.frame is not None and len(s.frame) >= VERBATIM_MIN:
+        if frame is not None and len(frame) >= VERBATIM_MIN:
             text = None
-            if verbatim and body is msg.get("msg"):
-                text = verbatim_publish(s.frame, msg)  # the client's text is the outgoing op
-            seed = Seed(len(s.frame), msg["topic"], text)  # the op's length: the message's size
+            if verbatim and body is op.msg:
+                text = verbatim_publish(frame, op.raw)  # the client's text is the outgoing op
+            seed = Seed(len(frame), op.topic, text)  # the op's length: the message's size
         if missing:
-            s.status(
+            c.status(
                 "warning",
                 f"publish: message for '{name}' lacks field(s) {', '.join(missing)}; defaults used",
                 op_id,
             )
 
         def reply(level: str, text: str) -> None:
-            s.status(level, f"publish to '{name}': {text}", op_id)
+            c.status(level, f"publish to '{name}': {text}", op_id)
 
-        s.bus.publish(name, value, reply=reply, origin=s.origin, seed=seed)
+        c.bus.publish(name, value, reply=reply, origin=c.origin, seed=seed)
 
     def close(self) -> None:
         for name in list(self.ads):
-            self.session.bus.unadvertise(name, self.session)
+            self.client.bus.unadvertise(name, self.client)
         self.ads.clear()

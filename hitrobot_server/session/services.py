@@ -5,20 +5,26 @@ from __future__ import annotations
 import asyncio
 import itertools
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..bus.errors import ServiceError
 from ..bus.names import canonical, valid_name
-from ..protocol.errors import ProtocolError
-from ..protocol.ops import COMPRESSIONS
+from ..protocol.errors import MessageId, ProtocolError
+from ..protocol.ops import (
+    COMPRESSIONS,
+    AdvertiseService,
+    CallService,
+    ServiceResponse,
+    UnadvertiseService,
+)
 from ..types.convert import ConversionError, from_json
 from ..types.registry import MsgType
 
 if TYPE_CHECKING:
-    from .session import Session
+    from .context import OpContext
 
 
-def split_id(name: str, op_id: Any) -> tuple[str, Any]:
+def split_id(name: str, op_id: MessageId) -> tuple[str, MessageId]:
     """Honour the deprecated ``"/name#ID"`` spelling when no ``id`` is given."""
     if "#" in name:
         name, _, suffix = name.partition("#")
@@ -27,24 +33,26 @@ def split_id(name: str, op_id: Any) -> tuple[str, Any]:
     return name, op_id
 
 
-def args_to_request(op: str, mtype: MsgType, args: Any, session: Session, op_id: Any) -> dict:
+def args_to_request(
+    op: str, mtype: MsgType, args: dict | list | None, client: OpContext, op_id: MessageId
+) -> dict:
     """``args`` as object, list (zipped with the request fields) or null → a request message."""
     if args is None:
         args = {}
     elif isinstance(args, list):
         if len(args) > len(mtype.fields):
             raise ProtocolError(
-                f"{op}: field 'args' has {len(args)} values but {session.types.short(mtype.name)} "
-                f"has {len(mtype.fields)} field(s)",
+                f"{op}: field 'args' has {len(args)} values but "
+                f"{client.bus.types.short(mtype.name)} has {len(mtype.fields)} field(s)",
                 op_id,
             )
         args = {f.name: v for f, v in zip(mtype.fields, args, strict=False)}
     try:
-        value, missing = from_json(mtype, args, session.types)
+        value, missing = from_json(mtype, args, client.bus.types)
     except ConversionError as exc:
         raise ProtocolError(f"{op}: field 'args': {exc}", op_id) from None
     if missing:
-        session.status("warning", f"{op}: args lack field(s) {', '.join(missing)}", op_id)
+        client.status("warning", f"{op}: args lack field(s) {', '.join(missing)}", op_id)
     return value
 
 
@@ -55,33 +63,33 @@ def too_many_in_flight(limit: int, what: str) -> str:
 
 
 class ServiceOps:
-    def __init__(self, session: Session):
-        self.session = session
+    def __init__(self, client: OpContext):
+        self.client = client
         self.provided: set[str] = set()
         self.pending: dict[str, tuple[asyncio.Future, MsgType, str]] = {}
         self._counters: dict[str, itertools.count] = {}
         self.in_flight = 0  # this client's calls waiting for their answer
 
     # ------------------------------------------------------------- calling
-    def call_service(self, msg: dict) -> None:
-        s = self.session
-        service_str, op_id = split_id(msg["service"], msg.get("id"))
+    def call_service(self, op: CallService) -> None:
+        c = self.client
+        service_str, op_id = split_id(op.service, op.id)
         name = canonical(service_str)
         if not valid_name(service_str):
             raise ProtocolError(
                 f"call_service: field 'service' is not a valid name: {service_str!r}", op_id
             )
-        reply = {"op": "service_response", "service": msg["service"]}
+        reply = {"op": "service_response", "service": op.service}
         if op_id is not None:
             reply["id"] = op_id
-        frag = s.fragment_size(msg)
-        compression = msg.get("compression") or "none"
+        frag = c.fragment_size(op)
+        compression = op.compression or "none"
 
         def fail(text: str) -> None:
-            s.send({**reply, "values": text, "result": False}, fragment_size=frag)
-            s.status("error", f"call_service: {text}", op_id)
+            c.send({**reply, "values": text, "result": False}, fragment_size=frag)
+            c.status("error", f"call_service: {text}", op_id)
 
-        limit = s.settings.max_requests_in_flight
+        limit = c.settings.max_requests_in_flight
         if self.in_flight >= limit:
             fail(too_many_in_flight(limit, "service calls"))
             return
@@ -91,61 +99,59 @@ class ServiceOps:
             return
         if compression not in ("none", "png"):
             compression = "none"  # binary service replies would break JSON-only clients
-        timeout = msg.get("timeout")
+        timeout = op.timeout  # a number (the spec's check), but NaN and < 0 get here too
         if timeout is not None and not (math.isfinite(timeout) and timeout >= 0):
             fail(f"field 'timeout' must be a finite number of seconds, 0 or more, got {timeout}")
             return
 
-        if not s.settings.services_filter.allows(name):
+        if not c.settings.services_filter.allows(name):
             fail(f"service '{name}' is not allowed by --services-glob")
             return
-        service = s.bus.service(name)
+        service = c.bus.service(name)
         if service is None:
             fail(f"service '{name}' does not exist")
             return
         try:
-            request = args_to_request(
-                "call_service", service.stype.request, msg.get("args"), s, op_id
-            )
+            request = args_to_request("call_service", service.stype.request, op.args, c, op_id)
         except ProtocolError as exc:
             fail(exc.msg.removeprefix("call_service: "))
             return
         if timeout is None:
-            timeout = s.settings.call_service_timeout
+            timeout = c.settings.call_service_timeout
 
-        s.bus.client_called("call_service", name, s.origin)
+        c.bus.client_called("call_service", name, c.origin)
 
         async def run() -> None:
             try:
-                values = await s.bus.call_service(name, request, timeout)
+                values = await c.bus.call_service(name, request, timeout)
             except ServiceError as exc:
                 if exc.values is not None:  # the provider's own failure values, as rosbridge
-                    s.send({**reply, "values": exc.values, "result": False}, fragment_size=frag)
+                    c.send({**reply, "values": exc.values, "result": False}, fragment_size=frag)
                 else:
                     fail(str(exc))
                 return
             finally:
                 self.in_flight -= 1
-            s.send(
+            c.send(
                 {**reply, "values": values, "result": True},
                 fragment_size=frag,
                 compression=compression,
             )
 
         self.in_flight += 1
-        s.spawn(run())
+        c.spawn(run())
 
     # ------------------------------------------------------------- providing
-    def advertise_service(self, msg: dict) -> None:
-        s = self.session
-        op_id = msg.get("id")
-        service_str = msg["service"]
+    def advertise_service(self, op: AdvertiseService) -> None:
+        c = self.client
+        op_id = op.id
+        service_str = op.service
         if not valid_name(service_str):
             raise ProtocolError(
                 f"advertise_service: field 'service' is not a valid name: {service_str!r}", op_id
             )
         name = canonical(service_str)
-        if not s.settings.services_filter.allows(name):
+        if not c.settings.services_filter.allows(name):
             raise ProtocolError(
                 f"advertise_service: service '{name}' is not allowed by --services-glob", op_id
             )
@@ -155,39 +161,38 @@ class ServiceOps:
             rid = f"service_request:{name}:{next(counter)}"
             fut = asyncio.get_running_loop().create_future()
             self.pending[rid] = (fut, service.stype.response, name)
-            s.send({"op": "call_service", "id": rid, "service": name, "args": request})
+            c.send({"op": "call_service", "id": rid, "service": name, "args": request})
             try:
                 return await fut
             finally:
                 self.pending.pop(rid, None)
 
-        service = s.bus.advertise_service(name, msg["type"], s, s.node, handler, client=True)
+        service = c.bus.advertise_service(name, op.type, c, c.node, handler, client=True)
         self.provided.add(name)
-        s.status("info", f"advertised service '{name}'", op_id)
+        c.status("info", f"advertised service '{name}'", op_id)
 
-    def unadvertise_service(self, msg: dict) -> None:
-        s = self.session
-        name = canonical(msg["service"])
-        if name not in self.provided or not s.bus.unadvertise_service(name, s):
+    def unadvertise_service(self, op: UnadvertiseService) -> None:
+        c = self.client
+        name = canonical(op.service)
+        if name not in self.provided or not c.bus.unadvertise_service(name, c):
             self.provided.discard(name)
             raise ProtocolError(
-                f"unadvertise_service: service '{name}' is not advertised by you", msg.get("id")
+                f"unadvertise_service: service '{name}' is not advertised by you", op.id
             )
         self.provided.discard(name)
         self._fail_pending(name, f"service '{name}' was unadvertised")
-        s.status("info", f"unadvertised service '{name}'", msg.get("id"))
+        c.status("info", f"unadvertised service '{name}'", op.id)
 
-    def service_response(self, msg: dict) -> None:
-        s = self.session
-        rid = msg["id"]
-        entry = self.pending.get(rid) if isinstance(rid, str) else None
+    def service_response(self, op: ServiceResponse) -> None:
+        rid = op.id
+        entry = self.pending.get(rid)  # a string or an integer: the spec's check
         if entry is None:
             raise ProtocolError(f"service_response: no pending request with id {rid!r}", rid)
         fut, mtype, name = entry
         if fut.done():
             return
-        values = msg.get("values")
-        if msg["result"] is False and not isinstance(values, dict):
+        values = op.values
+        if not op.result and not isinstance(values, dict):
             text = (
                 values
                 if isinstance(values, str) and values
@@ -196,11 +201,11 @@ class ServiceOps:
             fut.set_exception(ServiceError(text))
             return
         try:
-            value, _missing = from_json(mtype, values or {}, s.types)
+            value, _missing = from_json(mtype, values or {}, self.client.bus.types)
         except ConversionError as exc:
             fut.set_exception(ServiceError(f"service '{name}' sent an invalid response: {exc}"))
             raise ProtocolError(f"service_response: field 'values': {exc}", rid) from None
-        if msg["result"] is False:
+        if not op.result:
             fut.set_exception(ServiceError(f"service '{name}' answered result:false", value))
         else:
             fut.set_result(value)
@@ -223,7 +228,7 @@ class ServiceOps:
 
     def close(self) -> None:
         """A provider that disconnects fails its pending calls; its services disappear."""
-        self._fail_pending(None, f"the provider of this service ({self.session.node}) disconnected")
+        self._fail_pending(None, f"the provider of this service ({self.client.node}) disconnected")
         for name in list(self.provided):
-            self.session.bus.unadvertise_service(name, self.session)
+            self.client.bus.unadvertise_service(name, self.client)
         self.provided.clear()

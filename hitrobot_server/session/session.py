@@ -14,7 +14,7 @@ import itertools
 import logging
 import time
 from collections.abc import Awaitable, Callable, Coroutine
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any
 
 from ..bus.core import Bus
@@ -24,14 +24,14 @@ from ..bus.topics import Origin
 from ..protocol import auth, bulk, cbor, ops, png
 from ..protocol.errors import ProtocolError, message_id, status_op
 from ..protocol.fragment import MIN_FRAGMENT_SIZE, Defragmenter, FragmentBudget
-from ..protocol.status import set_level, should_send
+from ..protocol.status import should_send
 from ..types import jsoncodec
 from ..types.convert import ConversionError
 from . import offload
 from .actions import ActionOps
 from .options import SessionOptions
 from .outbox import Outbox, nbytes
-from .publish import PublishOps
+from .publish import PublishOps, TopicNames
 from .replies import json_frames, reply_frames
 from .services import ServiceOps
 from .subscribe import SubscribeOps
@@ -49,7 +49,7 @@ ERROR_STATUSES_PER_SECOND = 50
 bogus ops cannot make the server hold a flood of errors."""
 BEHIND_BYTES = 64 * 1024
 
-REFUSED_WHEN_FULL = frozenset({"call_service", "send_action_goal"})
+REFUSED_WHEN_FULL = (ops.CallService, ops.SendActionGoal)
 """Ops refused while the client's replies are over ``--reply-buffer-limit``: each would queue
 another reply for a client that does not read the ones it has."""
 
@@ -81,7 +81,6 @@ class Session:
         self.bus = bus
         self.shared = shared or Shared.for_options(settings)
         self.settings = settings
-        self.types = bus.types
         self.peer = peer
         self.transport = transport
         self.client_id = next(_client_ids)
@@ -93,7 +92,6 @@ class Session:
         self.auth_level: str | None = None
         self.closed = False
         self.close_reason = ""  # why the server closed the connection, if it did
-        self.frame: str | bytes | None = None  # the text of the op being handled, if known
         self._defrag = Defragmenter(
             fragment_timeout=settings.fragment_timeout,
             max_bytes=settings.max_frame_size,
@@ -108,31 +106,31 @@ class Session:
         self.reply_bytes = 0.0  # running mean size of its replies: what a call will cost
         self._tasks: set[asyncio.Task] = set()
         self.on_close: list[Callable[[Session], None]] = []
-        self.topic_names: dict[str, str] = {}  # accepted topic spellings → canonical names
-        self.publishing = PublishOps(self)
-        self.subscriptions = SubscribeOps(self)
+        topic_names = TopicNames(settings.topics_filter)
+        self.publishing = PublishOps(self, topic_names)
+        self.subscriptions = SubscribeOps(self, topic_names)
         self.service_ops = ServiceOps(self)
         self.action_ops = ActionOps(self)
-        self._handlers: dict[str, Callable[[dict], Pending]] = {
-            "fragment": self._op_fragment,
-            "png": self._op_png,
-            "set_level": self._op_set_level,
-            "auth": self._op_auth,
-            "advertise": self.publishing.advertise,
-            "unadvertise": self.publishing.unadvertise,
-            "publish": self.publishing.publish,
-            "subscribe": self.subscriptions.subscribe,
-            "unsubscribe": self.subscriptions.unsubscribe,
-            "call_service": self.service_ops.call_service,
-            "advertise_service": self.service_ops.advertise_service,
-            "unadvertise_service": self.service_ops.unadvertise_service,
-            "service_response": self.service_ops.service_response,
-            "advertise_action": self.action_ops.advertise_action,
-            "unadvertise_action": self.action_ops.unadvertise_action,
-            "send_action_goal": self.action_ops.send_action_goal,
-            "cancel_action_goal": self.action_ops.cancel_action_goal,
-            "action_feedback": self.action_ops.action_feedback,
-            "action_result": self.action_ops.action_result,
+        # publish is not here: it also takes the op's text (see handle)
+        self._handlers: dict[type, Callable[[Any], Pending]] = {
+            ops.Fragment: self._op_fragment,
+            ops.Png: self._op_png,
+            ops.SetLevel: self._op_set_level,
+            ops.Auth: self._op_auth,
+            ops.Advertise: self.publishing.advertise,
+            ops.Unadvertise: self.publishing.unadvertise,
+            ops.Subscribe: self.subscriptions.subscribe,
+            ops.Unsubscribe: self.subscriptions.unsubscribe,
+            ops.CallService: self.service_ops.call_service,
+            ops.AdvertiseService: self.service_ops.advertise_service,
+            ops.UnadvertiseService: self.service_ops.unadvertise_service,
+            ops.ServiceResponse: self.service_ops.service_response,
+            ops.AdvertiseAction: self.action_ops.advertise_action,
+            ops.UnadvertiseAction: self.action_ops.unadvertise_action,
+            ops.SendActionGoal: self.action_ops.send_action_goal,
+            ops.CancelActionGoal: self.action_ops.cancel_action_goal,
+            ops.ActionFeedback: self.action_ops.action_feedback,
+            ops.ActionResult: self.action_ops.action_result,
         }
         self.origin = Origin(self.node, peer=peer)
         bus.register_node(self.node)
@@ -155,13 +153,7 @@ class Session:
                 return None
             self.status("error", f"invalid {kind}: {exc}", getattr(exc, "id", None))
             return None
-        if binary:
-            return self.handle(obj)
-        self.frame = data  # a publish may send this text on as it is
-        try:
-            return self.handle(obj)
-        finally:
-            self.frame = None
+        return self.handle(obj, None if binary else data)  # a publish may send its text on
 
     def stream_error(self, error: ProtocolError) -> None:
         """Report unparseable input of a byte stream (TCP). Before auth it closes, like any
@@ -206,31 +198,37 @@ class Session:
 
         return self.spawn(run())
 
-    def handle(self, obj: object) -> Pending:
-        """Run one decoded op; every failure becomes a status message, never an exception."""
-        op_id = message_id(obj)
+    def handle(self, obj: object, frame: str | bytes | None = None) -> Pending:
+        """Run one decoded op; every failure becomes a status message, never an exception.
+
+        ``frame`` is the JSON text ``obj`` was decoded from, when known: a publish may send it
+        on as the outgoing op instead of encoding the message again.
+        """
         if not self.authenticated and not (isinstance(obj, dict) and obj.get("op") == "auth"):
-            op = obj.get("op") if isinstance(obj, dict) else None
-            self._reject_unauthenticated(op if isinstance(op, str) else "message", op_id)
+            name = obj.get("op") if isinstance(obj, dict) else None
+            self._reject_unauthenticated(
+                name if isinstance(name, str) else "message", message_id(obj)
+            )
             return None
         try:
-            msg = ops.parse_message(obj)
-            ops.validate_op(msg)
-            if msg["op"] in REFUSED_WHEN_FULL and self._replies_full(msg):
+            op = ops.validate_op(ops.parse_message(obj))
+            if isinstance(op, ops.Publish):
+                return self.publishing.publish(op, frame)
+            if isinstance(op, REFUSED_WHEN_FULL) and self._replies_full(op):
                 return None
-            return self._handlers[msg["op"]](msg)
+            return self._handlers[type(op)](op)
         except ProtocolError as exc:
             self.service_ops.invalid_response(obj, exc.msg)
-            self.status(exc.level, exc.msg, exc.id if exc.id is not None else op_id)
+            self.status(exc.level, exc.msg, exc.id if exc.id is not None else message_id(obj))
         except (BusError, ConversionError) as exc:
-            op = obj.get("op") if isinstance(obj, dict) else "?"
-            self.status("error", f"{op}: {exc}", op_id)
+            name = obj.get("op") if isinstance(obj, dict) else "?"
+            self.status("error", f"{name}: {exc}", message_id(obj))
         except Exception as exc:
             log.exception("client %s: op failed", self.node)
-            self.status("error", f"internal error: {exc}", op_id)
+            self.status("error", f"internal error: {exc}", message_id(obj))
         return None
 
-    def _replies_full(self, msg: dict) -> bool:
+    def _replies_full(self, op: ops.CallService | ops.SendActionGoal) -> bool:
         """Refuse a request while this client's unread replies are over the budget (the
         transport has stopped reading its input, but one read may hold many ops)."""
         limit = self.settings.reply_buffer_limit
@@ -238,21 +236,21 @@ class Session:
         calls = self.service_ops.in_flight  # this client's call_service ops not answered yet
         if not limit or queued + calls * self.reply_bytes <= limit:
             return False
-        text = (f"{msg['op']}: too many requests in flight: {calls} call(s) "
+        text = (f"{op.OP}: too many requests in flight: {calls} call(s) "
                 f"pending and {queued} bytes of replies not read yet "
                 f"(--reply-buffer-limit {limit}); refused")
-        if msg["op"] == "call_service":
-            reply = {"op": "service_response", "service": msg["service"], "values": text,
+        if isinstance(op, ops.CallService):
+            reply = {"op": "service_response", "service": op.service, "values": text,
                      "result": False}
-            if msg.get("id") is not None:
-                reply["id"] = msg["id"]
+            if op.id is not None:
+                reply["id"] = op.id
             self.send(reply)
-        self.status("error", text, msg.get("id"))
+        self.status("error", text, op.id)
         return True
 
-    def _op_fragment(self, msg: dict) -> Pending:
+    def _op_fragment(self, op: ops.Fragment) -> Pending:
         try:
-            text = self._defrag.add(msg, time.monotonic())
+            text = self._defrag.add(asdict(op), time.monotonic())
         finally:
             self._arm_fragment_timer()
         return None if text is None else self.receive(text)
@@ -278,41 +276,41 @@ class Session:
             )
         self._arm_fragment_timer()
 
-    def _op_png(self, msg: dict) -> Pending:
-        if len(msg["data"]) >= bulk.OFFLOAD_BYTES:
+    def _op_png(self, op: ops.Png) -> Pending:
+        if len(op.data) >= bulk.OFFLOAD_BYTES:
             decode = functools.partial(bulk.decode_png, max_bytes=self.settings.max_frame_size)
-            return self._offload(decode, msg["data"], msg.get("id"))
+            return self._offload(decode, op.data, op.id)
         try:
-            text = png.decode(msg["data"], self.settings.max_frame_size)
+            text = png.decode(op.data, self.settings.max_frame_size)
         except Exception as exc:
             raise ProtocolError(
-                f"png: field 'data' is not a valid PNG payload: {exc}", msg.get("id")
+                f"png: field 'data' is not a valid PNG payload: {exc}", op.id
             ) from None
         return self.receive(text)
 
-    def _op_set_level(self, msg: dict) -> None:
-        self.status_level = set_level(msg)
-        self.status("info", f"status level set to {self.status_level}", msg.get("id"))
+    def _op_set_level(self, op: ops.SetLevel) -> None:
+        self.status_level = op.level  # one of LEVELS: the op's spec checked it
+        self.status("info", f"status level set to {self.status_level}", op.id)
 
-    def _op_auth(self, msg: dict) -> None:
+    def _op_auth(self, op: ops.Auth) -> None:
         if not self.settings.authenticate:
-            self.status("info", "auth: authentication is not enabled; ignored", msg.get("id"))
+            self.status("info", "auth: authentication is not enabled; ignored", op.id)
             return
         if self.authenticated:
-            self.status("warning", "auth: already authenticated", msg.get("id"))
+            self.status("warning", "auth: already authenticated", op.id)
             return
         now = time.time()
-        if not auth.verify(msg, self.settings.auth_secret or "", now):
-            self.status("error", "auth: authentication failed; closing", msg.get("id"))
+        if not auth.verify(asdict(op), self.settings.auth_secret or "", now):
+            self.status("error", "auth: authentication failed; closing", op.id)
             self.close_connection()
-        elif not self.shared.auth_replays.use(msg["mac"], msg["t"], now):
-            self.status("error", "auth: this MAC was already used; closing", msg.get("id"))
+        elif not self.shared.auth_replays.use(op.mac, op.t, now):
+            self.status("error", "auth: this MAC was already used; closing", op.id)
             self.close_connection()
         else:
             self.authenticated = True
-            self.auth_level = msg.get("level")
+            self.auth_level = op.level
             self.origin = Origin(self.node, self.auth_level, peer=self.peer)
-            self.status("info", f"authenticated at level {self.auth_level!r}", msg.get("id"))
+            self.status("info", f"authenticated at level {self.auth_level!r}", op.id)
 
     def _reject_unauthenticated(self, what: str, op_id: Any) -> None:
         self.status("error", f"{what}: not authenticated; send 'auth' first", op_id)
@@ -330,15 +328,15 @@ class Session:
         self.reply_bytes += (charged - self.reply_bytes) / 8  # the running mean reply size
         self._check_replies()
 
-    def fragment_size(self, msg: dict) -> int | None:
+    def fragment_size(self, op: ops.Subscribe | ops.CallService | ops.SendActionGoal) -> int | None:
         """The op's ``fragment_size``, raised to the floor (with a warning) when below it."""
-        size = msg.get("fragment_size")
+        size = op.fragment_size
         if size is not None and size < MIN_FRAGMENT_SIZE:
             self.status(
                 "warning",
-                f"{msg['op']}: field 'fragment_size' {size} is below the minimum of "
+                f"{op.OP}: field 'fragment_size' {size} is below the minimum of "
                 f"{MIN_FRAGMENT_SIZE}; fragments of {MIN_FRAGMENT_SIZE} characters are sent",
-                msg.get("id"),
+                op.id,
             )
             return MIN_FRAGMENT_SIZE
         return size

@@ -23,11 +23,12 @@ from typing import TYPE_CHECKING
 from ..bus.encoded import is_binary, strongest
 from ..bus.topics import Message, Topic
 from ..protocol.errors import ProtocolError
+from ..protocol.ops import Subscribe, Unsubscribe
 from . import offload
-from .publish import check_topic_name
+from .publish import TopicNames
 
 if TYPE_CHECKING:
-    from .session import Session
+    from .context import OpContext
 
 MAX_QUEUE_LENGTH = 1000
 """Most messages one throttled subscription queues, whatever ``queue_length`` asks for."""
@@ -48,8 +49,8 @@ class ClientSubscription:
     ``publish`` must echo that string (roslibjs dispatches on it).
     """
 
-    def __init__(self, session: Session, topic_str: str, ops: SubscribeOps):
-        self.session = session
+    def __init__(self, client: OpContext, topic_str: str, ops: SubscribeOps):
+        self.client = client
         self.ops = ops  # holds the byte count of all this client's queues
         self.topic_str = topic_str
         self.topic: Topic | None = None
@@ -68,7 +69,7 @@ class ClientSubscription:
         self.throttle = min(p.throttle_rate for p in ps) / 1000.0
         self.queue_length = max(p.queue_length for p in ps)
         sizes = [p.fragment_size for p in ps if p.fragment_size]
-        self.fragment_size = min(sizes) if sizes else self.session.settings.max_message_size
+        self.fragment_size = min(sizes) if sizes else self.client.settings.max_message_size
         self.compression = strongest(p.compression for p in ps)
         while len(self._pending) > max(self.queue_length, 1):
             self._pop()
@@ -91,7 +92,7 @@ class ClientSubscription:
         their oldest first (and, with nothing left to drop, the newest)."""
         size = message.encoded.size()  # an estimate: encoding here would put big maps on the loop
         ops = self.ops
-        limit = self.session.settings.send_buffer_limit
+        limit = self.client.settings.send_buffer_limit
         while self._pending and (
             len(self._pending) >= max(self.queue_length, 1) or ops.queued + size > limit
         ):
@@ -106,7 +107,7 @@ class ClientSubscription:
     def dropped(self) -> int:
         """Messages of this topic this client did not get (queues full: a slow link); read by
         the diagnostics node, which sees this subscriber on the bus."""
-        return self.throttle_dropped + self.session.outbox.drops(self.topic_str)
+        return self.throttle_dropped + self.client.outbox.drops(self.topic_str)
 
     def _pop(self) -> Message:
         message, size = self._pending.popleft()
@@ -131,7 +132,7 @@ class ClientSubscription:
         frames = message.encoded.frames(
             self.topic_str, self.compression, self.fragment_size, offload.run
         )
-        self.session.outbox.put(frames, True, self.topic_str, self.queue_length or None)
+        self.client.outbox.put(frames, True, self.topic_str, self.queue_length or None)
 
     def cancel(self) -> None:
         if self._timer is not None:
@@ -142,67 +143,62 @@ class ClientSubscription:
 
 
 class SubscribeOps:
-    def __init__(self, session: Session):
-        self.session = session
+    def __init__(self, client: OpContext, topic_names: TopicNames):
+        self.client = client
+        self.topic_names = topic_names
         self.subs: dict[str, ClientSubscription] = {}
         self.queued = 0  # bytes in all throttle queues of this client
 
-    def subscribe(self, msg: dict) -> None:
-        s = self.session
-        op_id = msg.get("id")
-        topic_str = msg["topic"]
-        name = check_topic_name(s, "subscribe", topic_str, op_id)
-        compression = msg.get("compression") or "none"
-        if is_binary(compression) and s.transport != "ws":
-            s.status(
+    def subscribe(self, op: Subscribe) -> None:
+        c = self.client
+        op_id = op.id
+        topic_str = op.topic
+        name = self.topic_names.check("subscribe", topic_str, op_id)
+        compression = op.compression
+        if is_binary(compression) and c.transport != "ws":
+            c.status(
                 "warning",
                 f"subscribe: compression '{compression}' needs WebSocket binary frames; "
                 "sending JSON on this TCP connection",
                 op_id,
             )
             compression = "none"
-        queue_length = int(msg.get("queue_length") or 0)
+        queue_length = op.queue_length
         if queue_length > MAX_QUEUE_LENGTH:
-            s.status(
+            c.status(
                 "warning",
                 f"subscribe: queue_length {queue_length} clamped to {MAX_QUEUE_LENGTH}; a "
-                f"client's throttle queues also hold at most {s.settings.send_buffer_limit} "
+                f"client's throttle queues also hold at most {c.settings.send_buffer_limit} "
                 "bytes (--send-buffer-limit), oldest dropped first",
                 op_id,
             )
             queue_length = MAX_QUEUE_LENGTH
-        params = SubParams(
-            int(msg.get("throttle_rate") or 0),
-            queue_length,
-            s.fragment_size(msg),
-            compression,
-        )
-        type_name = msg.get("type") or None
+        params = SubParams(op.throttle_rate, queue_length, c.fragment_size(op), compression)
+        type_name = op.type or None
         sub = self.subs.get(topic_str)
         if sub is None:
-            sub = ClientSubscription(s, topic_str, self)
+            sub = ClientSubscription(c, topic_str, self)
             sub.params[op_id] = params
             sub.update()
             try:
-                sub.topic = s.bus.subscribe(name, type_name, (s, topic_str), s.node, sub)
+                sub.topic = c.bus.subscribe(name, type_name, (c, topic_str), c.node, sub)
             except Exception:
                 sub.cancel()
                 raise
             self.subs[topic_str] = sub
         else:
             if type_name is not None:  # same checks as a first subscribe, for a clear error
-                s.bus.subscribe(name, type_name, (s, topic_str), s.node, sub, replay_latched=False)
+                c.bus.subscribe(name, type_name, (c, topic_str), c.node, sub, replay_latched=False)
             sub.params[op_id] = params
             sub.update()
             topic = sub.topic
             if topic is not None and topic.latched and topic.last is not None:
                 sub(topic.last)  # a second component of this client also wants the latched map
-        s.status("info", f"subscribed to '{name}'", op_id)
+        c.status("info", f"subscribed to '{name}'", op_id)
 
-    def unsubscribe(self, msg: dict) -> None:
-        s = self.session
-        op_id = msg.get("id")
-        topic_str = msg["topic"]
+    def unsubscribe(self, op: Unsubscribe) -> None:
+        op_id = op.id
+        topic_str = op.topic
         sub = self.subs.get(topic_str)
         if sub is None:
             raise ProtocolError(
@@ -219,14 +215,14 @@ class SubscribeOps:
                 level="warning",
             )
         self._drop(topic_str)
-        s.status("info", f"unsubscribed from '{topic_str}'", op_id)
+        self.client.status("info", f"unsubscribed from '{topic_str}'", op_id)
 
     def _drop(self, topic_str: str) -> None:
         sub = self.subs.pop(topic_str)
         sub.cancel()
-        self.session.outbox.forget(topic_str)
+        self.client.outbox.forget(topic_str)
         if sub.topic is not None:
-            self.session.bus.unsubscribe(sub.topic.name, (self.session, topic_str))
+            self.client.bus.unsubscribe(sub.topic.name, (self.client, topic_str))
 
     def close(self) -> None:
         for topic_str in list(self.subs):

@@ -1,9 +1,20 @@
 """Parsing and validation of client→server ops against their declarative specs."""
 
+import dataclasses
+
 import pytest
 
 from hitrobot_server.protocol.errors import ProtocolError
-from hitrobot_server.protocol.ops import OPS, json_type, parse_message, validate_op
+from hitrobot_server.protocol.ops import (
+    ABSENT,
+    OPS,
+    Publish,
+    Subscribe,
+    _check_field,
+    json_type,
+    parse_message,
+    validate_op,
+)
 
 # Realistic messages, as roslibjs / roslibpy / rosbridge clients send them.
 VALID = [
@@ -75,6 +86,15 @@ def error_of(msg) -> ProtocolError:
     return info.value
 
 
+def carries(value, msg: dict) -> bool:
+    """Whether a validated op value is of the op's class and holds every field the message
+    gave, as given (the same objects, not copies)."""
+    spec = OPS[msg["op"]]
+    return type(value) is spec.cls and all(
+        getattr(value, name) is msg[name] for name in spec.names if name in msg
+    )
+
+
 def test_every_op_has_a_valid_example():
     assert {m["op"] for m in VALID} == set(OPS)
 
@@ -82,13 +102,54 @@ def test_every_op_has_a_valid_example():
 @pytest.mark.parametrize("msg", VALID, ids=lambda m: m["op"])
 def test_valid_messages_pass_unchanged(msg):
     before = dict(msg)
-    assert validate_op(parse_message(msg)) is msg
+    assert carries(validate_op(parse_message(msg)), msg)
     assert msg == before
 
 
 def test_unknown_fields_are_ignored():
     msg = {"op": "subscribe", "topic": "/a", "extra": [1], "fragment_size": 5, "png": "x"}
-    assert validate_op(msg) is msg
+    assert validate_op(msg) == Subscribe(topic="/a", fragment_size=5)
+    assert not hasattr(validate_op(msg), "extra")
+
+
+def test_op_values_are_frozen():
+    op = validate_op({"op": "subscribe", "topic": "/a"})
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        op.topic = "/b"
+
+
+def test_left_out_fields_get_their_defaults():
+    op = validate_op({"op": "subscribe", "topic": "/a"})
+    assert (op.id, op.type, op.throttle_rate, op.queue_length) == (None, None, 0, 0)
+    assert (op.fragment_size, op.compression) == (None, "none")
+
+
+def test_publish_tells_a_left_out_msg_from_null_and_keeps_the_op():
+    msg = {"op": "publish", "topic": "/a"}
+    left_out = validate_op(msg)
+    assert isinstance(left_out, Publish) and left_out.msg is ABSENT and left_out.raw is msg
+    assert validate_op({"op": "publish", "topic": "/a", "msg": None}).msg is None
+
+
+def test_spec_fields_are_the_value_fields_in_order():
+    """The table is read from the classes: every field but ``raw`` is checked, in order."""
+    for spec in OPS.values():
+        names = tuple(f.name for f in dataclasses.fields(spec.cls) if f.name != "raw")
+        assert names == spec.names
+        assert spec.op == spec.cls.OP
+
+
+SAMPLES = [None, True, False, 0, -1, 7, 1.5, float("nan"), "", "none", "png", {}, {"a": 1}, [],
+           [1], b"x"]
+
+
+def test_the_quick_type_check_never_passes_what_the_full_check_rejects():
+    for spec in OPS.values():
+        for field in spec.fields:
+            for value in SAMPLES:
+                quick = field.valid_types is None or type(value) in field.valid_types
+                if quick:
+                    assert _check_field(spec.op, field, value) is None, (spec.op, field, value)
 
 
 @pytest.mark.parametrize(
@@ -249,6 +310,8 @@ def test_id_null_means_no_id():
         ("", "string"),
         ({}, "object"),
         ([], "array"),
+        (b"\x00", "bytes"),
+        (bytearray(b"\x00"), "bytes"),
     ],
 )
 def test_json_type(value, name):

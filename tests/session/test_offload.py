@@ -293,6 +293,23 @@ async def test_a_canonical_publish_is_relayed_as_the_clients_own_text(bus):
     assert frames[0][0].startswith(b'{"op":"publish","topic":"/a","msg":{"layout":')
 
 
+async def test_only_the_text_passed_with_the_op_is_relayed_as_it_is(bus):
+    """The client's text reaches publish as handle()'s ``frame`` argument: a decoded op
+    handed over without it is encoded again, the same op with it goes out as written."""
+    pub, sub = session(bus), session(bus)
+    await feed(pub, {"op": "advertise", "topic": "/a", "type": "std_msgs/Float64MultiArray"})
+    await feed(sub, {"op": "subscribe", "topic": "/a"})
+    values = ",".join(f"{i}.5" for i in range(400))
+    body = '{"data":[' + values + '],"layout":{"dim":[],"data_offset":0}}'  # not field order
+    text = f'{{"op":"publish","topic":"/a","msg":{body}}}'  # long enough to be worth reusing
+    assert pub.handle(orjson.loads(text)) is None
+    frames = await sub.outbox.get()
+    sub.outbox.sent()
+    assert frames[0][0].startswith(b'{"op":"publish","topic":"/a","msg":{"layout":')
+    assert pub.handle(orjson.loads(text), text) is None
+    frames = await sub.outbox.get()
+    assert frames == [(text.encode(), False)]
+
 
 async def test_a_publish_in_the_seeds_spelling_is_relayed_in_the_sdks(bus):
     """A field renamed by the alias table (seed ``line`` → SDK ``lines``) is not the client's
