@@ -51,12 +51,8 @@ EXCEPTIONS: dict[tuple[str, str], str] = {}
 # stay at nodes/ top: the floors above name them (server, robots, config).
 NODES_GROUND = {"ground", "base", "options"}
 NODES_ASSEMBLY = "assembly"
-# Known node → node imports, each with its reason.
-NODE_EXCEPTIONS: dict[tuple[str, str], str] = {
-    ("shell", "move_base"): "the shell's `cancel` command cancels the move_base goals through "
-                            "the node the assembly hands it (issue 20 item 2 moves it onto "
-                            "the bus)",
-}
+# Known node → node imports, each with its reason. Empty: keep it so.
+NODE_EXCEPTIONS: dict[tuple[str, str], str] = {}
 
 
 def floor_of(module: list[str]) -> str:

@@ -38,7 +38,6 @@ from ..robot.capabilities import Robot
 from ..types.convert import default_message
 from .base import RobotNode
 from .ground.requests import answer, require_robot, robot_error
-from .move_base import MoveBaseNode
 
 log = logging.getLogger(__name__)
 
@@ -64,11 +63,11 @@ class ShellNode(RobotNode):
     """Executes ``/cmd_string`` commands against the robot and publishes the mode."""
 
     def __init__(self, bus: Bus, robot: Robot, authenticate: bool = False,
-                 move_base: MoveBaseNode | None = None):
+                 cancel_goals: Callable[[str], int] | None = None):
         super().__init__(bus, NODE_NAME, robot.link)
         self.robot = robot
         self.authenticate = authenticate
-        self.move_base = move_base
+        self.cancel_goals = cancel_goals  # move_base's: cancels its goals, says how many
         self.mode: str | None = None
         self._switching = asyncio.Lock()
         self._generation = 0
@@ -163,8 +162,8 @@ class ShellNode(RobotNode):
 
     def _cancel(self, message: Message) -> None:
         goals = 0
-        if self.move_base is not None:
-            goals = self.move_base.cancel_all("cancelled by /cmd_string cancel")
+        if self.cancel_goals is not None:
+            goals = self.cancel_goals("cancelled by /cmd_string cancel")
         if goals and not self.link.connected:
             return
         require_robot(self.link, "cancel")
