@@ -9,10 +9,8 @@ where that op's answers end.
 
 from __future__ import annotations
 
-import asyncio
 import json
 import math
-import threading
 
 import cbor2
 import numpy as np
@@ -21,14 +19,12 @@ from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
 from hitrobot_server.bus import params as params_mod
-from hitrobot_server.config import Settings
 from hitrobot_server.protocol import cbor as cbor_mod
 from hitrobot_server.protocol.fragment import MIN_FRAGMENT_SIZE
 from hitrobot_server.protocol.ops import OPS
-from hitrobot_server.server import HitrobotServer
 
+from ..fuzz_arena import arena as fuzz_arena
 from ..helpers import WsClient
-from ..witness import Witness
 
 OPS_PER_EXAMPLE = 50
 EXAMPLES = 60  # 3000 ops
@@ -109,44 +105,9 @@ def frame(draw) -> str | bytes:
     return text
 
 
-class LoopThread:
-    """An event loop in a thread, so Hypothesis' synchronous examples can drive async clients
-    of one server that lives for the whole test."""
-
-    def __init__(self) -> None:
-        self.loop = asyncio.new_event_loop()
-        self.thread = threading.Thread(target=self.loop.run_forever, daemon=True)
-        self.thread.start()
-
-    def run(self, coro, timeout: float = 60.0):
-        return asyncio.run_coroutine_threadsafe(coro, self.loop).result(timeout)
-
-    def stop(self) -> None:
-        self.loop.call_soon_threadsafe(self.loop.stop)
-        self.thread.join(10)
-        self.loop.close()
-
-
 @pytest.fixture(scope="module")
 def arena():
-    runner = LoopThread()
-
-    async def setup():
-        server = HitrobotServer(Settings(port=0, tcp_port=0, address="127.0.0.1",
-                                         robot="none", unregister_timeout=0.2))
-        await server.start()
-        return server, await Witness.open(server.port), await WsClient.open(server.port)
-
-    server, witness, fuzzer = runner.run(setup())
-    yield runner, server, witness, fuzzer
-
-    async def teardown():
-        await witness.close()
-        await fuzzer.close()
-        await server.stop()
-
-    runner.run(teardown())
-    runner.stop()
+    yield from fuzz_arena(WsClient.open)
 
 
 counter = iter(range(10**9))

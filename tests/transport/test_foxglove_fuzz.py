@@ -20,12 +20,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from websockets.asyncio.client import connect
 
-from hitrobot_server.config import Settings
 from hitrobot_server.protocol import foxglove as fg
-from hitrobot_server.server import HitrobotServer
 
-from ..session.test_fuzz import LoopThread
-from ..witness import Witness
+from ..fuzz_arena import arena as fuzz_arena
 
 FRAMES_PER_EXAMPLE = 25
 EXAMPLES = 40  # 1000 frames
@@ -92,31 +89,18 @@ def binary_frame(draw) -> bytes:
     return struct.pack("<BIII", 2, 1, 1, draw(st.integers(64 + 1, 2**32 - 1))) + b"cdr"
 
 
+async def open_fuzzer(port: int):
+    """A Foxglove client that advertises the channel the fuzzer publishes on."""
+    fuzzer = await connect(f"ws://127.0.0.1:{port}", subprotocols=[fg.SUBPROTOCOL_V1])
+    await fuzzer.send(json.dumps({"op": "advertise", "channels": [
+        {"id": CLIENT_CHANNEL, "topic": "/fuzz/cmd", "encoding": "cdr",
+         "schemaName": "geometry_msgs/msg/Twist"}]}))
+    return fuzzer
+
+
 @pytest.fixture(scope="module")
 def arena():
-    runner = LoopThread()
-
-    async def setup():
-        server = HitrobotServer(Settings(port=0, tcp_port=0, address="127.0.0.1",
-                                         robot="none", unregister_timeout=0.2))
-        await server.start()
-        fuzzer = await connect(f"ws://127.0.0.1:{server.port}",
-                               subprotocols=[fg.SUBPROTOCOL_V1])
-        await fuzzer.send(json.dumps({"op": "advertise", "channels": [
-            {"id": CLIENT_CHANNEL, "topic": "/fuzz/cmd", "encoding": "cdr",
-             "schemaName": "geometry_msgs/msg/Twist"}]}))
-        return server, await Witness.open(server.port), fuzzer
-
-    server, witness, fuzzer = runner.run(setup())
-    yield runner, server, witness, fuzzer
-
-    async def teardown():
-        await witness.close()
-        await fuzzer.close()
-        await server.stop()
-
-    runner.run(teardown())
-    runner.stop()
+    yield from fuzz_arena(open_fuzzer)
 
 
 counter = itertools.count()
