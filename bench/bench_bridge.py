@@ -249,6 +249,20 @@ class RawWs(asyncio.Protocol):
         self.transport.close()
 
 
+async def warm_up(pub, src, subs, got) -> None:
+    """Publish scans until every subscriber has some (``got(s)`` > 0; no reply ops needed, so
+    it works for any server), let the stragglers in, then zero the counters: the measured run
+    starts with every subscription flowing. Bounded: 10 s."""
+    deadline, k = perf() + 10, 0
+    while perf() < deadline and min(got(s) for s in subs) == 0:
+        pub.write_frame(ws_frame(src.frame(k)))
+        k += 1
+        await asyncio.sleep(0.05)
+    await asyncio.sleep(0.3)
+    for s in subs:
+        s.reset()
+
+
 async def close_all(clients) -> None:
     await asyncio.gather(*(c.close() for c in clients), return_exceptions=True)
 
@@ -710,16 +724,7 @@ async def fanout_run(
     pub.send({"op": "advertise", "topic": topic, "type": "sensor_msgs/LaserScan"})
     for s in subs:
         s.send({"op": "subscribe", "topic": topic, "type": "sensor_msgs/LaserScan"})
-    # warm up until every subscriber has frames (works for both servers, no reply ops needed)
-    deadline = perf() + 10
-    k = 0
-    while perf() < deadline and min(s.count for s in subs) == 0:
-        pub.write_frame(ws_frame(src.frame(k)))
-        k += 1
-        await asyncio.sleep(0.05)
-    await asyncio.sleep(0.3)
-    for s in subs:
-        s.reset()
+    await warm_up(pub, src, subs, lambda s: s.count)
 
     with CpuMeter(server) as cpu:
         t0 = perf()

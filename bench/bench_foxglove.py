@@ -37,6 +37,7 @@ from bench_bridge import (  # noqa: E402
     start_ours,
     table,
     verify_scan_samples,
+    warm_up,
     ws_frame,
 )
 
@@ -121,14 +122,7 @@ async def run(kind: str, n_clients: int, count: int, seconds: float) -> dict:
         def got(s: RawWs) -> int:
             return s.data if kind == "foxglove" else s.count
 
-        deadline, k = perf() + 10, 0  # warm up until every subscriber gets scans
-        while perf() < deadline and min(got(s) for s in subs) == 0:
-            pub.write_frame(ws_frame(src.frame(k)))
-            k += 1
-            await asyncio.sleep(0.05)
-        await asyncio.sleep(0.3)
-        for s in subs:
-            s.reset()
+        await warm_up(pub, src, subs, got)
         with CpuMeter(server) as cpu:
             t0 = perf()
             sent = 0
