@@ -89,6 +89,8 @@ class RawWs(asyncio.Protocol):
     ``on_first_byte(t)``: called once, when the first byte of a data frame arrives.
     """
 
+    extra_headers = ""  # more handshake header lines ("Name: value\r\n"), e.g. a subprotocol
+
     def __init__(self, *, sample_every: int = 0, on_message: Callable | None = None):
         loop = asyncio.get_running_loop()
         self.ready: asyncio.Future = loop.create_future()
@@ -122,7 +124,7 @@ class RawWs(asyncio.Protocol):
         transport.write(
             (
                 f"GET / HTTP/1.1\r\nHost: {HOST}\r\nUpgrade: websocket\r\n"
-                f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
+                f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n{self.extra_headers}"
                 "Sec-WebSocket-Version: 13\r\n\r\n"
             ).encode()
         )

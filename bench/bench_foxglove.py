@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import base64
-import random
 import sys
 from pathlib import Path
 
@@ -27,7 +25,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench_bridge import (  # noqa: E402
-    HOST,
     CpuMeter,
     RawWs,
     ScanSource,
@@ -53,24 +50,14 @@ class FoxWs(RawWs):
     keeps a sample of their CDR. ``last_data`` is the arrival of the last message data: the
     ``time`` frames that keep coming afterwards must not stretch the measured interval."""
 
+    extra_headers = "Sec-WebSocket-Protocol: foxglove.websocket.v1\r\n"
+
     def __init__(self, **kw):
         super().__init__(on_message=self._on_message, **kw)
         self.data = 0
         self.last_data = 0.0
         self.cdr_samples: list[bytes] = []
         self.subscribed: asyncio.Future = asyncio.get_running_loop().create_future()
-
-    def connection_made(self, transport) -> None:
-        self.transport = transport
-        key = base64.b64encode(random.randbytes(16)).decode()
-        transport.write(
-            (
-                f"GET / HTTP/1.1\r\nHost: {HOST}\r\nUpgrade: websocket\r\n"
-                f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
-                "Sec-WebSocket-Protocol: foxglove.websocket.v1\r\n"
-                "Sec-WebSocket-Version: 13\r\n\r\n"
-            ).encode()
-        )
 
     def _message(self, buf: bytearray, start: int, end: int, fin: int, now: float) -> None:
         if fin and not self._parts and end > start and buf[start] == 1:
