@@ -3,6 +3,7 @@
 // diagnostics and sensors, system commands, driving and the topic inspector together.
 /* global ROSLIB, ROS2D, createjs */
 import { connect, showBroken } from './connection.js';
+import { CurrentRobot } from './currentrobot.js';
 import { Diagnostics } from './diagnostics.js';
 import { dialogOpen } from './dialogs.js';
 import { DockLayer } from './docklayer.js';
@@ -12,6 +13,7 @@ import { Inspector } from './inspector.js';
 import { log } from './log.js';
 import { SavedMaps } from './maps.js';
 import { MapView } from './mapview.js';
+import { TOPICS } from './names.js';
 import { Navigator } from './navigator.js';
 import {
   COLORS, CostmapLayer, GraphLayer, GridLayer, LinesLayer, PathLayer, PoiLayer, RobotMarker,
@@ -29,8 +31,6 @@ import { Teleop } from './teleop.js';
 import { MapTools } from './tools.js';
 import { formatPose, yawOf } from './util.js';
 
-const NODE = '/slamware_ros_sdk_server_node';
-
 function librariesMissing() {
   const missing = [['ROSLIB', 'roslib'], ['ROS2D', 'ros2d'], ['createjs', 'easeljs'],
     ['EventEmitter2', 'eventemitter2']].filter(([global]) => !(global in window));
@@ -44,15 +44,14 @@ function librariesMissing() {
   return true;
 }
 
-function main() {
-  if (librariesMissing()) return;
-  const ros = connect();
-  const view = new MapView(document.getElementById('map'), ros);
-  const topic = (name, messageType, options = {}) =>
-    new ROSLIB.Topic({ ros, name, messageType, ...options });
+/** A maker of roslib topics on `ros`: topic(name, messageType, options). */
+function topicMaker(ros) {
+  return (name, messageType, options = {}) => new ROSLIB.Topic({ ros, name, messageType, ...options });
+}
 
-  // ---- layers, bottom to top ---------------------------------------------------------------
-  const layers = {
+/** The map's layers, bottom to top. */
+function buildLayers(view) {
+  return {
     grid: new GridLayer(view),
     costmap: new CostmapLayer(view),
     graph: new GraphLayer(view),
@@ -65,26 +64,31 @@ function main() {
     dock: new DockLayer(view),
     sensors: new SensorLayer(view),
   };
-  const navigator = new Navigator({ ros, view });
-  const robot = new RobotMarker(view);
-  const editor = new MapEditor({ ros, view, walls: layers.walls, tracks: layers.tracks });
+}
 
-  topic(`${NODE}/virtual_walls`, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 500 })
+/** The layers drawn from the robot's topics: walls and tracks, the graph, the dock, the
+ * costmap and the planned path (which the navigator measures too). */
+function subscribeLayers({ ros, layers, editor, navigator }) {
+  const topic = topicMaker(ros);
+  topic(TOPICS.virtualWalls, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 500 })
     .subscribe((m) => { layers.walls.set(m); editor.showCounts(); });
-  topic(`${NODE}/virtual_tracks`, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 500 })
+  topic(TOPICS.virtualTracks, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 500 })
     .subscribe((m) => { layers.tracks.set(m); editor.showCounts(); });
-  topic('/graph/current', 'hitrobot_msgs/Graph').subscribe((g) => layers.graph.set(g));
-  topic('/map_manager/home', 'geometry_msgs/PoseStamped').subscribe((h) => layers.dock.set(h));
+  topic(TOPICS.graph, 'hitrobot_msgs/Graph').subscribe((g) => layers.graph.set(g));
+  topic(TOPICS.home, 'geometry_msgs/PoseStamped').subscribe((h) => layers.dock.set(h));
   // the costmap overlay is computed from the very /map messages ros2d receives (no second
   // subscription): roslib emits each topic's messages on the Ros object under the topic name
-  ros.on('/map', (grid) => layers.costmap.set(grid));
-  topic(`${NODE}/global_plan_path`, 'nav_msgs/Path', { throttle_rate: 200, queue_length: 1 })
+  ros.on(TOPICS.map, (grid) => layers.costmap.set(grid));
+  topic(TOPICS.globalPlan, 'nav_msgs/Path', { throttle_rate: 200, queue_length: 1 })
     .subscribe((m) => { layers.path.set(m); navigator.plan = m; });
+}
 
-  // ---- the robot ---------------------------------------------------------------------------
-  const state = { pose: null, follow: false };
+/** The robot's pose (into `state.pose`): its marker, the distance to go, where its sensors
+ * are drawn, the pose readout, and the view when it follows the robot. */
+function followPose({ ros, view, layers, navigator, robot, state }) {
+  const topic = topicMaker(ros);
   const poseText = document.getElementById('robot-pose');
-  topic('/robot_pose', 'geometry_msgs/Pose', { throttle_rate: 100, queue_length: 1 })
+  topic(TOPICS.robotPose, 'geometry_msgs/Pose', { throttle_rate: 100, queue_length: 1 })
     .subscribe((pose) => {
       const yaw = yawOf(pose.orientation);
       state.pose = { x: pose.position.x, y: pose.position.y, yaw };
@@ -94,9 +98,12 @@ function main() {
       poseText.textContent = `robot at ${formatPose(state.pose.x, state.pose.y, yaw)}`;
       if (state.follow) view.keepInView(state.pose.x, state.pose.y);
     });
+}
 
-  // Laser points, placed with the map→laser transform published with each scan (same stamp);
-  // the robot's pose stands in if no such transform comes.
+/** Laser points, placed with the map→laser transform published with each scan (same stamp);
+ * the robot's pose stands in if no such transform comes. */
+function followScan({ ros, layers, state }) {
+  const topic = topicMaker(ros);
   const laserPoses = [];
   let pendingScan = null;
   const sameStamp = (a, b) => a && b && a.secs === b.secs && a.nsecs === b.nsecs;
@@ -109,7 +116,7 @@ function main() {
     }
     return false;
   };
-  topic('/tf', 'tf2_msgs/TFMessage').subscribe((msg) => {
+  topic(TOPICS.tf, 'tf2_msgs/TFMessage').subscribe((msg) => {
     for (const t of msg.transforms || []) {
       if (!/laser/.test(t.child_frame_id || '')) continue;
       const tr = t.transform;
@@ -119,7 +126,7 @@ function main() {
       if (pendingScan) drawScan(pendingScan.scan);
     }
   });
-  topic(`${NODE}/scan`, 'sensor_msgs/LaserScan', { throttle_rate: 200, queue_length: 1 })
+  topic(TOPICS.scan, 'sensor_msgs/LaserScan', { throttle_rate: 200, queue_length: 1 })
     .subscribe((scan) => {
       if (drawScan(scan)) return;
       pendingScan = { scan, at: Date.now() };
@@ -130,11 +137,13 @@ function main() {
         }
       }, 500);
     });
+}
 
-  // ---- panels ------------------------------------------------------------------------------
+/** The side panels. The drive pad, the navigator and the fleet view share the current robot. */
+function buildPanels({ ros, view, layers, navigator, currentRobot }) {
   const pois = new Pois({ ros, layer: layers.pois });
   const shell = new Shell({ ros });
-  const teleop = new Teleop({ ros });
+  const teleop = new Teleop({ ros, robot: currentRobot });
   const robotState = new RobotState({ ros });
   const robotActions = new RobotActions({ ros, navigator });
   const patrol = new Patrol({ ros, layer: layers.waypoints });
@@ -142,24 +151,30 @@ function main() {
   const diagnostics = new Diagnostics({ ros, sensorLayer: layers.sensors });
   showStateOnce(ros);
   const inspector = new Inspector({ ros });
-  const fleet = new Fleet({ ros, view, teleop, navigator }); // shown with named robots only
+  const fleet = new Fleet({ ros, view, robot: currentRobot }); // shown with named robots only
   patrol.onState = (s) => navigator.patrolState(s, () => patrol.call('stop', {}));
   pois.onGo = (poi) => {
     navigator.goToPoi(poi);
     return false; // the navigator publishes it and follows it
   };
+  return { pois, shell, teleop, robotState, robotActions, patrol, maps, diagnostics, inspector, fleet };
+}
 
-  const tools = new MapTools(view, (tool, pick) => {
+/** The map tools: what a pick on the map does with each. */
+function buildTools({ view, state, navigator, panels, editor }) {
+  return new MapTools(view, (tool, pick) => {
     const facing = () => (state.pose
       ? Math.atan2(pick.y - state.pose.y, pick.x - state.pose.x) : 0);
     if (tool === 'goal') navigator.sendGoal(pick.x, pick.y, pick.yaw ?? facing());
     else if (tool === 'pose') navigator.setInitialPose(pick.x, pick.y, pick.yaw ?? (state.pose ? state.pose.yaw : 0));
-    else if (tool === 'poi') pois.addAt(pick.x, pick.y, pick.yaw ?? 0);
-    else if (tool === 'waypoint') patrol.add(pick.x, pick.y);
+    else if (tool === 'poi') panels.pois.addAt(pick.x, pick.y, pick.yaw ?? 0);
+    else if (tool === 'waypoint') panels.patrol.add(pick.x, pick.y);
     else editor.pick(tool, pick);
   });
+}
 
-  // ---- on and off line: nothing that sends works while the bridge is down -----------------
+/** On and off line: nothing that sends works while the bridge is down. */
+function followBridge({ ros, tools, navigator }) {
   const sending = () => [...document.querySelectorAll('.side button:not([data-tab]):not([data-tool]), .side input, .side select')];
   const setOnline = (on) => {
     tools.setEnabled(on);
@@ -175,14 +190,16 @@ function main() {
   };
   window.addEventListener('bridge', (e) => setOnline(e.detail.online));
   if (!ros.isConnected) setOnline(false);
+}
 
-  // ---- no robot behind the bridge (--robot none, or its server gone): say so, and disable
-  // everything that would drive or change it (the view, layers, inspector and whatever is
-  // marked data-robotless, such as the recordings panel, keep working)
+/** No robot behind the bridge (--robot none, or its server gone): say so, and disable
+ * everything that would drive or change it (the view, layers, inspector and whatever is
+ * marked data-robotless, such as the recordings panel, keep working). */
+function followPresence({ ros, tools, navigator, robotState }) {
   const robotControls = () => [...document.querySelectorAll(
     '.side button:not([data-tab]):not([data-tool]), .side input:not([data-layer]), .side select')]
     .filter((c) => !c.closest('[data-tab-panel=inspect], [data-robotless]') && c.id !== 'maps-refresh');
-  const presence = new RobotPresence({
+  return new RobotPresence({
     ros,
     onChange: (present, seen) => {
       if (present) return;
@@ -196,8 +213,10 @@ function main() {
       log(seen ? 'error' : 'info', seen ? 'the robot went offline' : 'no robot behind this bridge');
     },
   });
+}
 
-  // ---- side panel tabs ---------------------------------------------------------------------
+/** The side panel's tabs; the saved maps and the topics are listed when first shown. */
+function wireTabs({ maps, inspector }) {
   const tabs = [...document.querySelectorAll('.tabs [data-tab]')];
   const showTab = (name) => {
     for (const t of tabs) t.classList.toggle('active', t.dataset.tab === name);
@@ -206,8 +225,11 @@ function main() {
     if (name === 'inspect' && !inspector.topics.length) inspector.refresh();
   };
   for (const t of tabs) t.addEventListener('click', () => showTab(t.dataset.tab));
+  return showTab;
+}
 
-  // ---- scale bar ---------------------------------------------------------------------------
+/** The scale bar, kept to a round length as the view zooms. */
+function wireScaleBar(view) {
   const scalebar = document.getElementById('scalebar');
   const showScale = () => {
     const mpp = view.metresPerPixel;
@@ -218,8 +240,10 @@ function main() {
   };
   view.addEventListener('view', showScale);
   view.addEventListener('map', showScale);
+}
 
-  // ---- toolbar -----------------------------------------------------------------------------
+/** The toolbar over the map: follow the robot, zoom, fit, and the layers shown. */
+function wireToolbar({ view, layers, tools, state }) {
   const followButton = document.getElementById('follow');
   const setFollow = (on) => {
     state.follow = on;
@@ -232,12 +256,12 @@ function main() {
   document.getElementById('zoom-out').addEventListener('click', () => view.zoomCentre(0.8));
   document.getElementById('fit').addEventListener('click', () => view.fit());
   for (const box of document.querySelectorAll('[data-layer]')) {
-    box.addEventListener('change', () => {
+    const show = () => {
       const names = box.dataset.layer === 'lines' ? ['walls', 'tracks'] : [box.dataset.layer];
       for (const name of names) layers[name].visible = box.checked;
-    });
-    const names = box.dataset.layer === 'lines' ? ['walls', 'tracks'] : [box.dataset.layer];
-    for (const name of names) layers[name].visible = box.checked;
+    };
+    box.addEventListener('change', show);
+    show();
   }
   view.addEventListener('map', (e) => {
     if (e.detail.first) {
@@ -249,7 +273,10 @@ function main() {
   view.canvas.addEventListener('pointerdown', (e) => {
     if (state.follow && (tools.tool === 'move' || e.button !== 0)) setFollow(false);
   });
+}
 
+/** The keyboard shortcuts of the map tools and the view. */
+function wireShortcuts({ view, tools }) {
   window.addEventListener('keydown', (e) => {
     const t = e.target;
     if (e.ctrlKey || e.metaKey || e.altKey || dialogOpen() ||
@@ -262,10 +289,34 @@ function main() {
     else if (e.key === '-') view.zoomCentre(0.8);
     else if (e.key === 'Escape') tools.escape();
   });
+}
+
+function main() {
+  if (librariesMissing()) return;
+  const ros = connect();
+  const view = new MapView(document.getElementById('map'), ros);
+  const layers = buildLayers(view);
+  const currentRobot = new CurrentRobot(); // on a fleet server, the one the tools act on
+  const navigator = new Navigator({ ros, view, robot: currentRobot });
+  const robot = new RobotMarker(view);
+  const editor = new MapEditor({ ros, view, walls: layers.walls, tracks: layers.tracks });
+  subscribeLayers({ ros, layers, editor, navigator });
+  const state = { pose: null, follow: false };
+  followPose({ ros, view, layers, navigator, robot, state });
+  followScan({ ros, layers, state });
+
+  const panels = buildPanels({ ros, view, layers, navigator, currentRobot });
+  const tools = buildTools({ view, state, navigator, panels, editor });
+  followBridge({ ros, tools, navigator });
+  const presence = followPresence({ ros, tools, navigator, robotState: panels.robotState });
+  const showTab = wireTabs(panels);
+  wireScaleBar(view);
+  wireToolbar({ view, layers, tools, state });
+  wireShortcuts({ view, tools });
 
   // For debugging from the browser console, and for the tests: the page's own objects.
-  window.hitrobot = { ros, view, navigator, pois, shell, teleop, robotState, robotActions, tools,
-    fleet, layers, editor, patrol, maps, diagnostics, inspector, presence, showTab, robot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
+  window.hitrobot = { ros, view, navigator, ...panels, tools, layers, editor, presence, showTab,
+    robot, currentRobot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
       easeljs: createjs.EaselJS && createjs.EaselJS.version } };
   // record and replay (recordings.js): a panel in the Status tab, a timeline over the map
   window.hitrobot.recordings = new Recordings({ ros, parent: document.querySelector('[data-tab-panel=status]') });

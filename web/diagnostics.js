@@ -2,9 +2,9 @@
 // the header), and the robot's bumpers, cliff sensors and sonars (basic_sensors_info/values)
 // listed and drawn on the map.
 /* global ROSLIB */
+import { TOPICS } from './names.js';
 import { el } from './util.js';
 
-const NODE = '/slamware_ros_sdk_server_node';
 const LEVELS = ['OK', 'WARN', 'ERROR', 'STALE'];
 const SENSOR_TYPES = { 0: 'bumper', 1: 'cliff', 2: 'sonar', 3: 'depth camera', 4: 'wall sensor', 5: 'magnetic tape' };
 
@@ -15,14 +15,14 @@ export class Diagnostics {
     this.sensorList = document.getElementById('sensors');
     this.sensorLayer = sensorLayer;
     this.info = [];
-    new ROSLIB.Topic({ ros, name: '/diagnostics_agg', messageType: 'diagnostic_msgs/DiagnosticArray', throttle_rate: 500 })
+    new ROSLIB.Topic({ ros, name: TOPICS.diagnostics, messageType: 'diagnostic_msgs/DiagnosticArray', throttle_rate: 500 })
       .subscribe((array) => this.show(array.status || []));
-    new ROSLIB.Topic({ ros, name: `${NODE}/basic_sensors_info`, messageType: 'slamware_ros_sdk/BasicSensorInfoArray' })
+    new ROSLIB.Topic({ ros, name: TOPICS.sensorsInfo, messageType: 'slamware_ros_sdk/BasicSensorInfoArray' })
       .subscribe((msg) => {
         this.info = msg.sensors_info || [];
         sensorLayer.setInfo(this.info);
       });
-    new ROSLIB.Topic({ ros, name: `${NODE}/basic_sensors_values`, messageType: 'slamware_ros_sdk/BasicSensorValueDataArray',
+    new ROSLIB.Topic({ ros, name: TOPICS.sensorsValues, messageType: 'slamware_ros_sdk/BasicSensorValueDataArray',
       throttle_rate: 200, queue_length: 1 }).subscribe((msg) => this.sensors(msg.values_data || []));
   }
 

@@ -5,8 +5,8 @@
 /* global ROSLIB */
 import { confirmAction } from './dialogs.js';
 import { log } from './log.js';
+import { TOPICS } from './names.js';
 
-const NODE = '/slamware_ros_sdk_server_node';
 const USAGE = { wall: 0, track: 1 }; // slamware_ros_sdk/ArtifactUsage
 const MASK = { area: 100, erase: -1 }; // map_messages/ModifyMap: BLOCKED, NOT_MASKED
 const MASKING_LAYER = 1;
@@ -18,11 +18,11 @@ export class MapEditor {
     this.walls = walls;
     this.tracks = tracks;
     const topic = (name, messageType) => new ROSLIB.Topic({ ros, name, messageType });
-    this.addLine = topic(`${NODE}/add_line`, 'slamware_ros_sdk/AddLineRequest');
-    this.removeLine = topic(`${NODE}/remove_line`, 'slamware_ros_sdk/RemoveLineRequest');
-    this.clearLines = topic(`${NODE}/clear_lines`, 'slamware_ros_sdk/ClearLinesRequest');
-    this.modifyMap = topic('/map_manager/modify_map', 'map_messages/ModifyMap');
-    this.mapLayers = topic('/map_manager/map_layers', 'map_messages/MapLayers');
+    this.addLine = topic(TOPICS.addLine, 'slamware_ros_sdk/AddLineRequest');
+    this.removeLine = topic(TOPICS.removeLine, 'slamware_ros_sdk/RemoveLineRequest');
+    this.clearLines = topic(TOPICS.clearLines, 'slamware_ros_sdk/ClearLinesRequest');
+    this.modifyMap = topic(TOPICS.modifyMap, 'map_messages/ModifyMap');
+    this.mapLayers = topic(TOPICS.mapLayers, 'map_messages/MapLayers');
     this.counts = document.getElementById('line-counts');
     document.getElementById('clear-walls').addEventListener('click', () => this.clear('wall'));
     document.getElementById('clear-tracks').addEventListener('click', () => this.clear('track'));

@@ -1,10 +1,13 @@
 // The fleet view (a server with named robots, `--robot NAME=SPEC`): every robot of
 // /fleet/robots on the map in its own colour with its state, a choice of the robot that the
-// drive pad, the goal and set-pose tools and "Go" act on (their names move under /NAME/), the
-// POIs with a Dispatch button each (/fleet/dispatch picks the nearest idle robot), and the task
-// list of /fleet/tasks with Cancel. It stays hidden on a single-robot server (no /fleet/robots).
+// drive pad, the goal and set-pose tools and "Go" act on (the current robot, currentrobot.js:
+// those panels follow it and move their names under /NAME/), the POIs with a Dispatch button
+// each (/fleet/dispatch picks the nearest idle robot), and the task list of /fleet/tasks with
+// Cancel. It stays hidden on a single-robot server (no /fleet/robots).
 /* global ROSLIB, createjs */
+import { CurrentRobot } from './currentrobot.js';
 import { log } from './log.js';
+import { SERVICES, TOPICS } from './names.js';
 import { yawOf } from './util.js';
 
 export const FLEET_COLORS = ['#e53935', '#43a047', '#fb8c00', '#8e24aa', '#00897b', '#3949ab',
@@ -54,25 +57,29 @@ class FleetLayer {
 }
 
 export class Fleet {
-  constructor({ ros, view, teleop, navigator }) {
-    this.ros = ros;
-    this.teleop = teleop;
-    this.navigator = navigator;
+  /** `robot`: the current robot (a CurrentRobot), which this panel chooses and shows. */
+  constructor({ ros, view, robot = new CurrentRobot() }) {
+    this.robot = robot;
     this.robots = [];
     this.tasks = [];
     this.pois = [];
     this.colors = new Map();
-    this.selected = null;
     this.layer = new FleetLayer(view);
     this.panel = this.buildPanel();
-    this.dispatchService = new ROSLIB.Service({ ros, name: '/fleet/dispatch', serviceType: 'hitrobot_msgs/Dispatch' });
-    this.cancelService = new ROSLIB.Service({ ros, name: '/fleet/cancel', serviceType: 'hitrobot_msgs/CancelTask' });
-    new ROSLIB.Topic({ ros, name: '/fleet/robots', messageType: 'hitrobot_msgs/FleetRobots', throttle_rate: 250 })
+    robot.follow((name) => this.showSelected(name));
+    this.dispatchService = new ROSLIB.Service({ ros, name: SERVICES.fleetDispatch, serviceType: 'hitrobot_msgs/Dispatch' });
+    this.cancelService = new ROSLIB.Service({ ros, name: SERVICES.fleetCancel, serviceType: 'hitrobot_msgs/CancelTask' });
+    new ROSLIB.Topic({ ros, name: TOPICS.fleetRobots, messageType: 'hitrobot_msgs/FleetRobots', throttle_rate: 250 })
       .subscribe((m) => this.onRobots(m.robots));
-    new ROSLIB.Topic({ ros, name: '/fleet/tasks', messageType: 'hitrobot_msgs/FleetTasks' })
+    new ROSLIB.Topic({ ros, name: TOPICS.fleetTasks, messageType: 'hitrobot_msgs/FleetTasks' })
       .subscribe((m) => { this.tasks = m.tasks; this.showTasks(); });
-    new ROSLIB.Topic({ ros, name: '/map_manager/pois', messageType: 'map_messages/PointsOfInterest' })
+    new ROSLIB.Topic({ ros, name: TOPICS.pois, messageType: 'map_messages/PointsOfInterest' })
       .subscribe((m) => { this.pois = m.pois; this.showPois(); });
+  }
+
+  /** The robot the tools act on (null until one is chosen). */
+  get selected() {
+    return this.robot.name;
   }
 
   buildPanel() {
@@ -127,24 +134,14 @@ export class Fleet {
     }));
   }
 
-  /** The drive pad, the goal/set-pose tools and "Go" now act on robot `name` (under /name/). */
+  /** The drive pad, the goal/set-pose tools and "Go" now act on robot `name` (under /name/):
+   * the panels that act on one robot follow the current robot. */
   select(name) {
-    if (this.selected === name) return;
-    this.selected = name;
-    const ros = this.ros;
-    const ns = `/${name}`;
-    if (this.teleop) {
-      this.teleop.release?.();
-      this.teleop.topic = new ROSLIB.Topic({ ros, name: `${ns}/cmd_vel`, messageType: 'geometry_msgs/Twist' });
-    }
-    const nav = this.navigator;
-    if (nav) {
-      nav.client?.dispose?.();
-      nav.client = new ROSLIB.ActionClient({ ros, serverName: `${ns}/move_base`, actionName: 'move_base_msgs/MoveBaseAction' });
-      nav.poiTopic = new ROSLIB.Topic({ ros, name: `${ns}/navigation/navigate_to_poi`, messageType: 'map_messages/NavigateToPOI' });
-      nav.cancelTopic = new ROSLIB.Topic({ ros, name: `${ns}/slamware_ros_sdk_server_node/cancel_action`, messageType: 'slamware_ros_sdk/CancelActionRequest' });
-      nav.initialPoseTopic = new ROSLIB.Topic({ ros, name: `${ns}/initialpose`, messageType: 'geometry_msgs/PoseWithCovarianceStamped' });
-    }
+    this.robot.set(name);
+  }
+
+  /** Robot `name` was chosen: marked in the list and on the map. */
+  showSelected(name) {
     this.panel.dataset.selected = name;
     this.layer.set(this.robots, (n) => this.colorOf(n), name);
     for (const input of this.panel.querySelectorAll('input[name="fleet-robot"]')) input.checked = input.value === name;

@@ -171,16 +171,7 @@ export class Inspector {
 
   drawPlot() {
     const sel = this.selected;
-    const c = this.plotCanvas;
-    const dpr = window.devicePixelRatio || 1;
-    const w = c.clientWidth || 320;
-    const h = c.clientHeight || 120;
-    if (c.width !== Math.round(w * dpr)) { c.width = Math.round(w * dpr); c.height = Math.round(h * dpr); }
-    const ctx = c.getContext('2d');
-    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-    ctx.clearRect(0, 0, w, h);
-    ctx.fillStyle = '#12151a';
-    ctx.fillRect(0, 0, w, h);
+    const { ctx, w, h } = this.clearPlot();
     const s = sel ? sel.series : [];
     if (!s.length) return;
     let lo = Math.min(...s);
@@ -191,11 +182,45 @@ export class Inspector {
     const bottom = 16;
     const pw = w - left - 4;
     const ph = h - bottom - 6;
-    const X = (t) => left + pw + (t / span) * pw; // t ≤ 0: seconds before the last sample
-    const Y = (v) => 6 + ph - ((v - lo) / (hi - lo)) * ph;
     const times = sel.times;
     const last = times[times.length - 1];
     const span = Math.max(1, (last - times[0]) / 1000);
+    const X = (t) => left + pw + (t / span) * pw; // t ≤ 0: seconds before the last sample
+    const Y = (v) => 6 + ph - ((v - lo) / (hi - lo)) * ph;
+    this.drawAxes({ ctx, left, pw, ph, lo, hi, span, X, Y });
+
+    ctx.strokeStyle = '#2196f3';
+    ctx.lineWidth = 1.5;
+    ctx.beginPath();
+    s.forEach((v, i) => {
+      const x = X((times[i] - last) / 1000);
+      if (i) ctx.lineTo(x, Y(v)); else ctx.moveTo(x, Y(v));
+    });
+    ctx.stroke();
+    this.plotRange.textContent = `last ${s[s.length - 1].toPrecision(4)} · min ${Math.min(...s).toPrecision(4)} · max ${Math.max(...s).toPrecision(4)} · ${s.length} samples`;
+    this.plotRange.dataset.samples = String(s.length);
+  }
+
+  /** The plot's canvas sized to its box (in device pixels) and cleared: its 2D context, drawing
+   * in CSS pixels, and its size. */
+  clearPlot() {
+    const c = this.plotCanvas;
+    const dpr = window.devicePixelRatio || 1;
+    const w = c.clientWidth || 320;
+    const h = c.clientHeight || 120;
+    if (c.width !== Math.round(w * dpr)) { c.width = Math.round(w * dpr); c.height = Math.round(h * dpr); }
+    const ctx = c.getContext('2d');
+    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    ctx.clearRect(0, 0, w, h);
+    ctx.fillStyle = '#12151a';
+    ctx.fillRect(0, 0, w, h);
+    return { ctx, w, h };
+  }
+
+  /** The plot's grid lines, value and time ticks and axes; the ticks also go into the canvas's
+   * data-y-ticks and data-t-ticks. */
+  drawAxes({ ctx, left, pw, ph, lo, hi, span, X, Y }) {
+    const c = this.plotCanvas;
     ctx.font = '10px system-ui, sans-serif';
     ctx.fillStyle = '#8a96a3';
     ctx.strokeStyle = '#2a3039';
@@ -221,17 +246,6 @@ export class Inspector {
     ctx.beginPath(); ctx.moveTo(left, 6); ctx.lineTo(left, 6 + ph); ctx.lineTo(left + pw, 6 + ph); ctx.stroke();
     c.dataset.yTicks = yTicks.map((v) => Number(v.toPrecision(6))).join(',');
     c.dataset.tTicks = tTicks.map((t) => Number(t.toPrecision(6))).join(',');
-
-    ctx.strokeStyle = '#2196f3';
-    ctx.lineWidth = 1.5;
-    ctx.beginPath();
-    s.forEach((v, i) => {
-      const x = X((times[i] - last) / 1000);
-      if (i) ctx.lineTo(x, Y(v)); else ctx.moveTo(x, Y(v));
-    });
-    ctx.stroke();
-    this.plotRange.textContent = `last ${s[s.length - 1].toPrecision(4)} · min ${Math.min(...s).toPrecision(4)} · max ${Math.max(...s).toPrecision(4)} · ${s.length} samples`;
-    this.plotRange.dataset.samples = String(s.length);
   }
 
   // ---- publishing ----------------------------------------------------------------------------

@@ -4,6 +4,7 @@
 /* global ROSLIB */
 import { confirmAction, nameForm } from './dialogs.js';
 import { log } from './log.js';
+import { SERVICES, TOPICS } from './names.js';
 import { el } from './util.js';
 
 const NAME = /^[A-Za-z0-9_][A-Za-z0-9_.-]{0,63}$/;
@@ -14,9 +15,9 @@ export class SavedMaps {
     this.names = [];
     this.current = '';
     this.list = document.getElementById('map-list');
-    this.listService = new ROSLIB.Service({ ros, name: '/list_map_files', serviceType: 'hitrobot_msgs/ListMapFiles' });
-    this.loadService = new ROSLIB.Service({ ros, name: '/load_laser_map', serviceType: 'hitrobot_msgs/LoadLaserMap' });
-    this.saveTopic = new ROSLIB.Topic({ ros, name: '/map_manager/save_map', messageType: 'map_messages/SaveMap' });
+    this.listService = new ROSLIB.Service({ ros, name: SERVICES.listMapFiles, serviceType: 'hitrobot_msgs/ListMapFiles' });
+    this.loadService = new ROSLIB.Service({ ros, name: SERVICES.loadLaserMap, serviceType: 'hitrobot_msgs/LoadLaserMap' });
+    this.saveTopic = new ROSLIB.Topic({ ros, name: TOPICS.saveMap, messageType: 'map_messages/SaveMap' });
     document.getElementById('maps-refresh').addEventListener('click', () => this.refresh());
     document.getElementById('map-save-as').addEventListener('click', () => this.saveAs());
   }

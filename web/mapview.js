@@ -6,6 +6,7 @@
 //   canvas = (stage.x + x * scale, stage.y - y * scale)
 // and the canvas is devicePixelRatio times the CSS size, for crisp lines on HiDPI screens.
 /* global createjs, ROS2D */
+import { TOPICS } from './names.js';
 
 const MIN_SCALE = 2; // canvas px per metre
 const MAX_SCALE = 800;
@@ -41,7 +42,7 @@ export class MapView extends EventTarget {
     this.grid = new ROS2D.OccupancyGridClient({
       ros,
       rootObject: this.mapLayer,
-      topic: '/map',
+      topic: TOPICS.map,
       continuous: true,
     });
     // ros2d adds a 1 m debugging grid at the origin as an easeljs work-around: keep it hidden.

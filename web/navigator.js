@@ -3,11 +3,15 @@
 // the goal is drawn on the map and its status shown; /initialpose sets the robot's pose. A
 // "Go" to a POI and Go home are followed the same way (distance to go, Cancel), from the
 // server's replies, and so is a running patrol: the panel always shows what the robot does.
-// While the bridge is down nothing is sent and the panel says the state is unknown.
+// While the bridge is down nothing is sent and the panel says the state is unknown. On a fleet
+// server goals, POIs, Cancel and the initial pose go to the robot chosen in the fleet panel
+// (currentrobot.js), under its /NAME/.
 /* global ROSLIB */
 import { operatorText, publishTracked } from './connection.js';
+import { CurrentRobot } from './currentrobot.js';
 import { ArrowMarker, COLORS } from './overlays.js';
 import { log } from './log.js';
+import { ACTIONS, TOPICS } from './names.js';
 import { fromOne } from './patrol.js';
 import { formatPose, quatOfYaw, yawOf } from './util.js';
 
@@ -19,25 +23,25 @@ const PLAN_MIN = 0.2; // m: a planned path this long means the robot is on its w
 const STALE_PLAN_MS = 1500; // a plan seen this soon after an end may be one already on its way
 
 export class Navigator {
-  constructor({ ros, view, serverName = '/move_base', actionName = 'move_base_msgs/MoveBaseAction',
-    frameId = 'map' }) {
+  constructor({ ros, view, robot = new CurrentRobot(), serverName = ACTIONS.moveBase,
+    actionName = 'move_base_msgs/MoveBaseAction', frameId = 'map' }) {
     this.view = view;
     this.frameId = frameId;
     this.ros = ros;
     this.online = true;
-    this.client = new ROSLIB.ActionClient({ ros, serverName, actionName });
-    this.poiTopic = new ROSLIB.Topic({ ros, name: '/navigation/navigate_to_poi', messageType: 'map_messages/NavigateToPOI' });
-    this.cancelTopic = new ROSLIB.Topic({ ros, name: '/slamware_ros_sdk_server_node/cancel_action',
-      messageType: 'slamware_ros_sdk/CancelActionRequest' });
+    this.serverName = serverName;
+    this.actionName = actionName;
+    this.useRobot(robot);
+    robot.follow(() => {
+      this.client.dispose?.();
+      this.useRobot(robot);
+    });
     // what the robot does that is not a /move_base goal, followed in the panel: a POI
     // navigation, going home, a patrol — {label, target?, cancel(), done()?, patrol?}
     this.activity = null;
     this.planLength = null;
     this.patrolRunning = false;
     this.endedAt = -Infinity; // when the panel last showed something ending
-    this.initialPoseTopic = new ROSLIB.Topic({
-      ros, name: '/initialpose', messageType: 'geometry_msgs/PoseWithCovarianceStamped',
-    });
     this.goal = null;
     this.target = null;
     this.marker = new ArrowMarker(view, COLORS.goal);
@@ -45,6 +49,18 @@ export class Navigator {
     this.cancelButton = document.getElementById('cancel-goal');
     this.cancelButton.addEventListener('click', () => this.cancel());
     this.robotPose = null;
+  }
+
+  /** The action client and topics of the chosen robot (`robot`, a CurrentRobot). */
+  useRobot(robot) {
+    const ros = this.ros;
+    this.client = new ROSLIB.ActionClient({ ros, serverName: robot.nameOf(this.serverName), actionName: this.actionName });
+    this.poiTopic = new ROSLIB.Topic({ ros, name: robot.nameOf(TOPICS.navigateToPoi), messageType: 'map_messages/NavigateToPOI' });
+    this.cancelTopic = new ROSLIB.Topic({ ros, name: robot.nameOf(TOPICS.cancelAction),
+      messageType: 'slamware_ros_sdk/CancelActionRequest' });
+    this.initialPoseTopic = new ROSLIB.Topic({
+      ros, name: robot.nameOf(TOPICS.initialPose), messageType: 'geometry_msgs/PoseWithCovarianceStamped',
+    });
   }
 
   pose(x, y, yaw) {

@@ -4,6 +4,7 @@
 // latched planning/patrol_state says what the patrol does: its target, laps and last event.
 /* global ROSLIB */
 import { log } from './log.js';
+import { SERVICES, TOPICS } from './names.js';
 import { el } from './util.js';
 
 /** The server counts waypoints from 0 (the SDK's texts); the panel and the map from 1. */
@@ -15,13 +16,13 @@ export class Patrol {
     this.onState = null; // (state) => …: the Navigation panel follows a running patrol
     this.waypoints = [];
     this.frame = 'map';
-    const service = (name, serviceType) => new ROSLIB.Service({ ros, name: `/planning/${name}`, serviceType });
+    const service = (name, serviceType) => new ROSLIB.Service({ ros, name, serviceType });
     this.services = {
-      set: service('set_waypoints', 'hitrobot_msgs/SetWaypoints'),
-      clear: service('clear_waypoints', 'std_srvs/Trigger'),
-      start: service('start_patrol', 'std_srvs/Trigger'),
-      stop: service('stop_patrol', 'std_srvs/Trigger'),
-      resume: service('resume_patrol', 'hitrobot_msgs/ResumePatrol'),
+      set: service(SERVICES.setWaypoints, 'hitrobot_msgs/SetWaypoints'),
+      clear: service(SERVICES.clearWaypoints, 'std_srvs/Trigger'),
+      start: service(SERVICES.startPatrol, 'std_srvs/Trigger'),
+      stop: service(SERVICES.stopPatrol, 'std_srvs/Trigger'),
+      resume: service(SERVICES.resumePatrol, 'hitrobot_msgs/ResumePatrol'),
     };
     this.stateBox = document.getElementById('patrol-state');
     this.list = document.getElementById('waypoint-list');
@@ -30,7 +31,7 @@ export class Patrol {
     document.getElementById('patrol-start').addEventListener('click', () => this.call('start', {}));
     document.getElementById('patrol-stop').addEventListener('click', () => this.call('stop', {}));
     document.getElementById('patrol-resume').addEventListener('click', () => this.call('resume', {}));
-    new ROSLIB.Topic({ ros, name: '/planning/patrol_state', messageType: 'hitrobot_msgs/PatrolState' })
+    new ROSLIB.Topic({ ros, name: TOPICS.patrolState, messageType: 'hitrobot_msgs/PatrolState' })
       .subscribe((state) => this.show(state));
   }
 

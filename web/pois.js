@@ -4,6 +4,7 @@
 import { operatorText, publishTracked } from './connection.js';
 import { confirmAction, poiForm } from './dialogs.js';
 import { log } from './log.js';
+import { TOPICS } from './names.js';
 import { el, formatPose, quatOfYaw, yawOf } from './util.js';
 
 export const POI_DEFAULT = 100; // map_messages/PointOfInterest.DEFAULT
@@ -13,13 +14,13 @@ export class Pois {
     this.layer = layer;
     this.pois = [];
     const topic = (name, messageType) => new ROSLIB.Topic({ ros, name, messageType });
-    this.addTopic = topic('/map_manager/add_poi', 'map_messages/PointOfInterest');
-    this.modifyTopic = topic('/map_manager/modify_poi', 'map_messages/ModifyPOI');
-    this.deleteTopic = topic('/map_manager/delete_poi', 'map_messages/DeletePointOfInterest');
-    this.goTopic = topic('/navigation/navigate_to_poi', 'map_messages/NavigateToPOI');
+    this.addTopic = topic(TOPICS.addPoi, 'map_messages/PointOfInterest');
+    this.modifyTopic = topic(TOPICS.modifyPoi, 'map_messages/ModifyPOI');
+    this.deleteTopic = topic(TOPICS.deletePoi, 'map_messages/DeletePointOfInterest');
+    this.goTopic = topic(TOPICS.navigateToPoi, 'map_messages/NavigateToPOI');
     this.list = document.getElementById('poi-list');
     this.count = document.getElementById('poi-count');
-    topic('/map_manager/pois', 'map_messages/PointsOfInterest')
+    topic(TOPICS.pois, 'map_messages/PointsOfInterest')
       .subscribe((msg) => this.set((msg && msg.pois) || []));
   }
 

@@ -6,6 +6,7 @@
 // replay`): play/pause, a seek bar, position/duration and the speed, from /replay/state.
 /* global ROSLIB */
 import { log } from './log.js';
+import { SERVICES, TOPICS } from './names.js';
 import { el } from './util.js';
 
 const SPEEDS = [0.25, 0.5, 1, 2, 4, 8];
@@ -37,9 +38,9 @@ function caller(ros, name, serviceType) {
 
 export class Recordings {
   constructor({ ros, parent }) {
-    this.start = caller(ros, '/record/start', 'hitrobot_msgs/RecordStart');
-    this.stop = caller(ros, '/record/stop', 'std_srvs/Trigger');
-    this.listService = caller(ros, '/record/list', 'hitrobot_msgs/ListRecordings');
+    this.start = caller(ros, SERVICES.recordStart, 'hitrobot_msgs/RecordStart');
+    this.stop = caller(ros, SERVICES.recordStop, 'std_srvs/Trigger');
+    this.listService = caller(ros, SERVICES.recordList, 'hitrobot_msgs/ListRecordings');
     this.state = el('div', { class: 'record-state', id: 'record-state', dataset: { recording: 'unknown' } }, 'recorder –');
     this.startButton = el('button', { type: 'button', id: 'record-start', title: 'Record every topic into a new file in the recordings folder (/record/start)', onclick: () => this.onStart() }, 'Start recording');
     this.stopButton = el('button', { type: 'button', id: 'record-stop', class: 'danger', disabled: true, onclick: () => this.onStop() }, 'Stop');
@@ -50,7 +51,7 @@ export class Recordings {
       el('h2', {}, 'Recordings ', el('button', { type: 'button', class: 'small', id: 'recordings-refresh', title: 'List again', onclick: () => this.refresh() }, '↻')),
       this.state, el('div', { class: 'buttons' }, this.startButton, this.stopButton), this.list);
     parent.append(this.panel);
-    new ROSLIB.Topic({ ros, name: '/record/state', messageType: 'hitrobot_msgs/RecordState' })
+    new ROSLIB.Topic({ ros, name: TOPICS.recordState, messageType: 'hitrobot_msgs/RecordState' })
       .subscribe((s) => this.show(s));
   }
 
@@ -90,10 +91,10 @@ export class Recordings {
 
 export class ReplayTimeline {
   constructor({ ros, parent }) {
-    this.pause = caller(ros, '/replay/pause', 'std_srvs/Trigger');
-    this.resume = caller(ros, '/replay/resume', 'std_srvs/Trigger');
-    this.seek = caller(ros, '/replay/seek', 'hitrobot_msgs/ReplaySeek');
-    this.setSpeed = caller(ros, '/replay/set_speed', 'hitrobot_msgs/ReplaySetSpeed');
+    this.pause = caller(ros, SERVICES.replayPause, 'std_srvs/Trigger');
+    this.resume = caller(ros, SERVICES.replayResume, 'std_srvs/Trigger');
+    this.seek = caller(ros, SERVICES.replaySeek, 'hitrobot_msgs/ReplaySeek');
+    this.setSpeed = caller(ros, SERVICES.replaySetSpeed, 'hitrobot_msgs/ReplaySetSpeed');
     this.dragging = false;
     this.play = el('button', { type: 'button', class: 'play', title: 'Play / pause the replay', onclick: () => this.toggle() }, '❚❚');
     this.slider = el('input', { type: 'range', class: 'seek', min: '0', max: '0', step: '0.1', value: '0', 'aria-label': 'Replay position' });
@@ -111,7 +112,7 @@ export class ReplayTimeline {
     this.bar = el('div', { class: 'replay-bar', id: 'replay-bar', hidden: true, dataset: { paused: 'unknown' } },
       this.play, this.slider, this.time, this.speed, this.file);
     parent.append(this.bar);
-    new ROSLIB.Topic({ ros, name: '/replay/state', messageType: 'hitrobot_msgs/ReplayState' })
+    new ROSLIB.Topic({ ros, name: TOPICS.replayState, messageType: 'hitrobot_msgs/ReplayState' })
       .subscribe((s) => this.show(s));
   }
 

@@ -3,15 +3,14 @@
 // and from odom the speed and the distance driven since the page opened.
 /* global ROSLIB */
 import { log } from './log.js';
-
-const NODE = '/slamware_ros_sdk_server_node';
+import { TOPICS } from './names.js';
 
 export class RobotActions {
   constructor({ ros, navigator }) {
     const topic = (name, messageType, options = {}) => new ROSLIB.Topic({ ros, name, messageType, ...options });
-    this.recover = topic(`${NODE}/recover_localization`, 'slamware_ros_sdk/RecoverLocalizationRequest');
-    this.home = topic(`${NODE}/go_home`, 'slamware_ros_sdk/GoHomeRequest');
-    this.cancel = topic(`${NODE}/cancel_action`, 'slamware_ros_sdk/CancelActionRequest');
+    this.recover = topic(TOPICS.recoverLocalization, 'slamware_ros_sdk/RecoverLocalizationRequest');
+    this.home = topic(TOPICS.goHome, 'slamware_ros_sdk/GoHomeRequest');
+    this.cancel = topic(TOPICS.cancelAction, 'slamware_ros_sdk/CancelActionRequest');
     this.buttons = ['relocalize', 'go-home', 'stop-motion'].map((id) => document.getElementById(id));
     document.getElementById('relocalize').addEventListener('click', () => {
       // a complete message: no time limit, the robot's own choice of movement (not given)
@@ -32,7 +31,7 @@ export class RobotActions {
     this.readout = document.getElementById('odometry');
     this.last = null;
     this.distance = 0;
-    topic(`${NODE}/odom`, 'nav_msgs/Odometry', { throttle_rate: 200, queue_length: 1 })
+    topic(TOPICS.odom, 'nav_msgs/Odometry', { throttle_rate: 200, queue_length: 1 })
       .subscribe((odom) => this.odometry(odom));
   }
 

@@ -4,7 +4,8 @@
 // disable what would drive or change the robot; when it comes (back) the page reloads, so the
 // map, POIs and state are fresh.
 /* global ROSLIB */
-const NODE = '/slamware_ros_sdk_server_node';
+import { SERVICES, SLAMWARE_NODE } from './names.js';
+
 const PERIOD_MS = 2000;
 
 export class RobotPresence {
@@ -14,7 +15,7 @@ export class RobotPresence {
     this.onChange = onChange;
     this.present = null; // unknown until rosapi answers
     this.seen = false;
-    this.nodes = new ROSLIB.Service({ ros, name: '/rosapi/nodes', serviceType: 'rosapi/Nodes' });
+    this.nodes = new ROSLIB.Service({ ros, name: SERVICES.rosapiNodes, serviceType: 'rosapi/Nodes' });
     const poll = () => {
       if (ros.isConnected) this.poll();
     };
@@ -26,7 +27,7 @@ export class RobotPresence {
   poll() {
     this.nodes.callService(new ROSLIB.ServiceRequest({}),
       // the single robot's node, or a fleet robot's under its /NAME/ namespace
-      (reply) => this.update((reply.nodes || []).some((n) => n === NODE || n.endsWith(NODE))),
+      (reply) => this.update((reply.nodes || []).some((n) => n === SLAMWARE_NODE || n.endsWith(SLAMWARE_NODE))),
       () => {});
   }
 

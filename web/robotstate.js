@@ -3,8 +3,8 @@
 // whose name mentions "connection").
 /* global ROSLIB */
 import { log } from './log.js';
+import { TOPICS } from './names.js';
 
-const NODE = '/slamware_ros_sdk_server_node';
 const LEVELS = ['ok', 'warn', 'error', 'stale'];
 const STALE_MS = 5000;
 export const QUALITY_LOW = 50; // where /diagnostics_agg's Localization turns WARN
@@ -21,9 +21,9 @@ export class RobotState {
   constructor({ ros }) {
     this.robotPill = document.getElementById('robot-state');
     this.lastDiagnostics = 0;
-    new ROSLIB.Topic({ ros, name: `${NODE}/robot_basic_state`, messageType: 'slamware_ros_sdk/RobotBasicState',
+    new ROSLIB.Topic({ ros, name: TOPICS.robotBasicState, messageType: 'slamware_ros_sdk/RobotBasicState',
       throttle_rate: 500 }).subscribe((s) => this.basic(s));
-    new ROSLIB.Topic({ ros, name: '/diagnostics_agg', messageType: 'diagnostic_msgs/DiagnosticArray',
+    new ROSLIB.Topic({ ros, name: TOPICS.diagnostics, messageType: 'diagnostic_msgs/DiagnosticArray',
       throttle_rate: 500 }).subscribe((d) => this.diagnostics(d));
     setInterval(() => {
       if (document.body.classList.contains('no-robot')) return; // robotpresence.js says so

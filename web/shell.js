@@ -4,20 +4,21 @@
 /* global ROSLIB */
 import { confirmAction } from './dialogs.js';
 import { log } from './log.js';
+import { TOPICS } from './names.js';
 
 const MODE_LABELS = { gmapping: 'mapping', navigation: 'navigation', busy: 'switching…' };
 
 export class Shell {
   constructor({ ros }) {
-    this.cmd = new ROSLIB.Topic({ ros, name: '/system_shell/cmd_string', messageType: 'std_msgs/String' });
+    this.cmd = new ROSLIB.Topic({ ros, name: TOPICS.shellCommand, messageType: 'std_msgs/String' });
     this.pill = document.getElementById('mode');
     this.buttons = [...document.querySelectorAll('#shell [data-cmd]')];
     for (const b of this.buttons) b.addEventListener('click', () => this.run(b));
-    new ROSLIB.Topic({ ros, name: '/system_shell/system_mode', messageType: 'std_msgs/String' })
+    new ROSLIB.Topic({ ros, name: TOPICS.systemMode, messageType: 'std_msgs/String' })
       .subscribe((msg) => this.showMode(msg.data));
     this.version = document.getElementById('version');
     this.versionAsked = false;
-    new ROSLIB.Topic({ ros, name: '/system_shell/version', messageType: 'std_msgs/String' })
+    new ROSLIB.Topic({ ros, name: TOPICS.version, messageType: 'std_msgs/String' })
       .subscribe((msg) => this.showVersion(msg.data));
   }
 

@@ -3,13 +3,14 @@
 // in …". The server reports it in the /Bridge/State entry of /diagnostics_agg.
 /* global ROSLIB */
 import { log } from './log.js';
+import { DIAGNOSTICS, TOPICS } from './names.js';
 
 export function showStateOnce(ros) {
   const topic = new ROSLIB.Topic({
-    ros, name: '/diagnostics_agg', messageType: 'diagnostic_msgs/DiagnosticArray',
+    ros, name: TOPICS.diagnostics, messageType: 'diagnostic_msgs/DiagnosticArray',
   });
   const onMessage = (msg) => {
-    const item = msg.status.find((s) => s.name === '/Bridge/State');
+    const item = msg.status.find((s) => s.name === DIAGNOSTICS.bridgeState);
     if (!item) return;
     topic.unsubscribe(onMessage);
     const restored = item.values.find((v) => v.key === 'restored');

@@ -1,9 +1,12 @@
 // Driving by hand: arrow keys (or W/A/S/D) and the on-screen pad publish geometry_msgs/Twist on
 // /cmd_vel ten times a second while held. Dead-man: releasing the keys, lifting or losing the
 // pointer, leaving the window or hiding the page sends a stop at once (and the server stops
-// the robot by itself half a second after the last command).
+// the robot by itself half a second after the last command). On a fleet server it drives the
+// robot chosen in the fleet panel (currentrobot.js): /NAME/cmd_vel.
 /* global ROSLIB */
+import { CurrentRobot } from './currentrobot.js';
 import { dialogOpen } from './dialogs.js';
+import { TOPICS } from './names.js';
 
 const PERIOD_MS = 100;
 const KEYS = {
@@ -12,8 +15,10 @@ const KEYS = {
 };
 
 export class Teleop {
-  constructor({ ros }) {
-    this.topic = new ROSLIB.Topic({ ros, name: '/cmd_vel', messageType: 'geometry_msgs/Twist' });
+  constructor({ ros, robot = new CurrentRobot() }) {
+    this.ros = ros;
+    this.robot = robot;
+    this.topic = this.cmdVel();
     this.keys = new Set();
     this.pad = null;
     this.timer = null;
@@ -34,7 +39,16 @@ export class Teleop {
     window.addEventListener('blur', () => this.release());
     document.addEventListener('visibilitychange', () => { if (document.hidden) this.release(); });
     window.addEventListener('pagehide', () => this.release());
+    this.bindPad();
+    // another robot chosen: stop this one, then drive that one
+    robot.follow(() => {
+      this.release();
+      this.topic = this.cmdVel();
+    });
+  }
 
+  /** The on-screen pad: a direction held while pressed; ■ stops at once. */
+  bindPad() {
     for (const b of document.querySelectorAll('#pad [data-drive]')) {
       const dir = b.dataset.drive;
       b.addEventListener('pointerdown', (e) => {
@@ -57,6 +71,11 @@ export class Teleop {
       };
       for (const ev of ['pointerup', 'pointercancel', 'lostpointercapture']) b.addEventListener(ev, up);
     }
+  }
+
+  /** /cmd_vel of the chosen robot. */
+  cmdVel() {
+    return new ROSLIB.Topic({ ros: this.ros, name: this.robot.nameOf(TOPICS.cmdVel), messageType: 'geometry_msgs/Twist' });
   }
 
   key(e, down) {

@@ -1,0 +1,92 @@
+// Every ROS name the console uses, in one place: the topics it subscribes to and publishes on,
+// the services it calls and the action it sends goals to. The other modules import these and
+// spell no name themselves, so a name the server changes is changed here only.
+// A fleet server (`--robot NAME=SPEC`) has each robot's own names under /NAME/ (robotName);
+// the fleet's names, and what the bridge itself serves, stay where they are.
+
+/** The Slamware SDK node: most of the robot's own topics are under its name. */
+export const SLAMWARE_NODE = '/slamware_ros_sdk_server_node';
+const slamware = (name) => `${SLAMWARE_NODE}/${name}`;
+
+export const TOPICS = Object.freeze({
+  // the map and what is drawn on it
+  map: '/map',
+  tf: '/tf',
+  robotPose: '/robot_pose',
+  scan: slamware('scan'),
+  globalPlan: slamware('global_plan_path'),
+  graph: '/graph/current',
+  home: '/map_manager/home',
+  virtualWalls: slamware('virtual_walls'),
+  virtualTracks: slamware('virtual_tracks'),
+  // driving, navigation and the robot's actions
+  cmdVel: '/cmd_vel',
+  initialPose: '/initialpose',
+  navigateToPoi: '/navigation/navigate_to_poi',
+  cancelAction: slamware('cancel_action'),
+  goHome: slamware('go_home'),
+  recoverLocalization: slamware('recover_localization'),
+  odom: slamware('odom'),
+  // editing the map
+  addLine: slamware('add_line'),
+  removeLine: slamware('remove_line'),
+  clearLines: slamware('clear_lines'),
+  modifyMap: '/map_manager/modify_map',
+  mapLayers: '/map_manager/map_layers',
+  // points of interest and saved maps
+  pois: '/map_manager/pois',
+  addPoi: '/map_manager/add_poi',
+  modifyPoi: '/map_manager/modify_poi',
+  deletePoi: '/map_manager/delete_poi',
+  saveMap: '/map_manager/save_map',
+  // the robot's state, diagnostics and sensors
+  robotBasicState: slamware('robot_basic_state'),
+  diagnostics: '/diagnostics_agg',
+  sensorsInfo: slamware('basic_sensors_info'),
+  sensorsValues: slamware('basic_sensors_values'),
+  // the system shell
+  shellCommand: '/system_shell/cmd_string',
+  systemMode: '/system_shell/system_mode',
+  version: '/system_shell/version',
+  // patrols, the fleet, record and replay
+  patrolState: '/planning/patrol_state',
+  fleetRobots: '/fleet/robots',
+  fleetTasks: '/fleet/tasks',
+  recordState: '/record/state',
+  replayState: '/replay/state',
+});
+
+export const SERVICES = Object.freeze({
+  rosapiNodes: '/rosapi/nodes',
+  listMapFiles: '/list_map_files',
+  loadLaserMap: '/load_laser_map',
+  setWaypoints: '/planning/set_waypoints',
+  clearWaypoints: '/planning/clear_waypoints',
+  startPatrol: '/planning/start_patrol',
+  stopPatrol: '/planning/stop_patrol',
+  resumePatrol: '/planning/resume_patrol',
+  fleetDispatch: '/fleet/dispatch',
+  fleetCancel: '/fleet/cancel',
+  recordStart: '/record/start',
+  recordStop: '/record/stop',
+  recordList: '/record/list',
+  replayPause: '/replay/pause',
+  replayResume: '/replay/resume',
+  replaySeek: '/replay/seek',
+  replaySetSpeed: '/replay/set_speed',
+});
+
+export const ACTIONS = Object.freeze({
+  moveBase: '/move_base',
+});
+
+/** The entries of /diagnostics_agg the console looks for by name. */
+export const DIAGNOSTICS = Object.freeze({
+  bridgeState: '/Bridge/State', // where the robot's state came from (restored or fresh)
+});
+
+/** `name` as robot `robot` of a fleet server has it (/robot/name); `name` itself when no robot
+ * is chosen (a single-robot server). */
+export function robotName(robot, name) {
+  return robot ? `/${robot}${name}` : name;
+}
