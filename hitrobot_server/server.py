@@ -11,7 +11,7 @@ from pathlib import Path
 from . import __version__
 from .bus.core import Bus
 from .bus.rosout import RosoutHandler
-from .bus.zenoh_keys import endpoints
+from .bus.zenoh.keys import endpoints
 from .config import Settings
 from .nodes.assembly import start_bridge_nodes
 from .nodes.base import Node
@@ -108,7 +108,7 @@ class HitrobotServer:
         logging.getLogger(PACKAGE_LOGGER).addHandler(self._rosout)
         if s.bus == "zenoh":
             try:  # imported only when asked for: the default bus never loads Zenoh
-                from .bus.zenoh_link import ZenohLink
+                from .bus.zenoh.link import ZenohLink
             except ImportError as exc:
                 raise ValueError(
                     f"--bus zenoh needs the eclipse-zenoh package ({exc}); "

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import __version__
-from .bus.zenoh_keys import endpoints
+from .bus.zenoh.keys import endpoints
 from .config import Settings
 from .signals import until_terminated
 

@@ -58,7 +58,7 @@ def test_bus_settings_from_toml_and_flags(tmp_path):
     s = load(build_parser().parse_args(["--config", str(cfg),
                                         "--zenoh-listen", "tcp/127.0.0.1:7500"]))
     assert (s.bus, s.zenoh_domain, s.zenoh_listen) == ("zenoh", 3, "tcp/127.0.0.1:7500")
-    from hitrobot_server.bus.zenoh_keys import endpoints
+    from hitrobot_server.bus.zenoh.keys import endpoints
 
     assert endpoints(s.zenoh_connect) == ["tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"]
     assert endpoints("tcp/127.0.0.1:1, tcp/127.0.0.1:2") == ["tcp/127.0.0.1:1", "tcp/127.0.0.1:2"]

@@ -1,4 +1,4 @@
-"""What the bus expects of a link to other processes (the Zenoh link implements it).
+"""What the bus expects of a link to other processes (:class:`.zenoh.link.ZenohLink` implements it).
 
 The bus calls the link on local changes and publishes and asks it on a miss; the link
 delivers remote messages with :meth:`Topic.fan_out`, never through :meth:`Bus.publish`, so a

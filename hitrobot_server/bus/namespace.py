@@ -8,13 +8,18 @@ except the site-wide names in :data:`SITE_WIDE`, which all robots share.
 
 from __future__ import annotations
 
+import asyncio
 import re
-from collections.abc import Hashable
+from collections.abc import Callable, Hashable, Iterable
 from typing import Any
 
+from ..types.registry import TypeRegistry
 from .core import Bus
+from .link import RemoteGraph
 from .names import canonical
 from .params import ParamStore
+from .services import Action, GoalHandle, Service
+from .topics import Message, Topic
 
 SITE_WIDE = ("/tf", "/tf_static", "/rosout", "/rosapi", "/map_manager", "/fleet")
 """Names (and their subtrees) every robot shares: one TF tree (frames prefixed ``NAME/``),
@@ -100,35 +105,81 @@ class NamespacedParams:
 
 class NamespacedBus:
     """The bus as a named robot's nodes see it: every name resolved into the namespace.
-    Everything else (types, clock, topic tables, the link) is the real bus's."""
+
+    Written out member by member, no forwarding of the rest: a Bus method that takes a name and
+    is not here cannot be reached from a robot's nodes, so it cannot escape the namespace
+    (``tests/bus/test_namespaced_bus_surface.py`` holds each new one until it is decided).
+    The name-free members (types, clock, the tables, the remote graph) are the real bus's.
+    """
 
     def __init__(self, bus: Bus, namespace: Namespace):
         self._bus = bus
         self.namespace = namespace
         self.params = NamespacedParams(bus.params, namespace)
 
-    def __getattr__(self, attr: str) -> Any:
-        return getattr(self._bus, attr)
+    # ---------------------------------------------------------------- the real bus's
+    @property
+    def types(self) -> TypeRegistry:
+        return self._bus.types
 
+    @property
+    def clock(self) -> Callable[[], float]:
+        return self._bus.clock
+
+    @property
+    def topics(self) -> dict[str, Topic]:
+        """Every topic, by absolute name (the other robots' too)."""
+        return self._bus.topics
+
+    @property
+    def services(self) -> dict[str, Service]:
+        return self._bus.services
+
+    @property
+    def actions(self) -> dict[str, Action]:
+        return self._bus.actions
+
+    @property
+    def nodes(self) -> dict[str, int]:
+        return self._bus.nodes
+
+    @property
+    def log_names(self) -> dict[str, str]:
+        """Logger name -> node name (registered already resolved, by :class:`Node`)."""
+        return self._bus.log_names
+
+    def remote_graph(self) -> RemoteGraph:
+        return self._bus.remote_graph()
+
+    def remove_owner(self, owner: Hashable, keys: Iterable[Hashable] = ()) -> None:
+        self._bus.remove_owner(owner, keys)
+
+    # ---------------------------------------------------------------- names resolved
     def node_name(self, name: str) -> str:
         return self.namespace.resolve(name)
 
-    def topic(self, name: str):
+    def register_node(self, node: str) -> None:
+        self._bus.register_node(self.namespace.resolve(node))
+
+    def unregister_node(self, node: str) -> None:
+        self._bus.unregister_node(self.namespace.resolve(node))
+
+    def topic(self, name: str) -> Topic | None:
         return self._bus.topic(self.namespace.resolve(name))
 
     def advertise(self, name: str, type_name: str | None, owner: Hashable, node: str,
-                  latch: bool = False):
+                  latch: bool = False) -> Topic:
         return self._bus.advertise(self.namespace.resolve(name), type_name, owner,
                                    self.namespace.resolve(node), latch=latch)
 
     def unadvertise(self, name: str, owner: Hashable) -> None:
         self._bus.unadvertise(self.namespace.resolve(name), owner)
 
-    def publish(self, name: str, msg: dict, *args: Any, **kwargs: Any):
+    def publish(self, name: str, msg: dict, *args: Any, **kwargs: Any) -> Message:
         return self._bus.publish(self.namespace.resolve(name), msg, *args, **kwargs)
 
     def subscribe(self, name: str, type_name: str | None, key: Hashable, node: str,
-                  *args: Any, **kwargs: Any):
+                  *args: Any, **kwargs: Any) -> Topic:
         return self._bus.subscribe(self.namespace.resolve(name), type_name, key,
                                    self.namespace.resolve(node), *args, **kwargs)
 
@@ -136,35 +187,29 @@ class NamespacedBus:
         self._bus.unsubscribe(self.namespace.resolve(name), key)
 
     def advertise_service(self, name: str, type_name: str, owner: Hashable, node: str,
-                          *args: Any, **kwargs: Any):
+                          *args: Any, **kwargs: Any) -> Service:
         return self._bus.advertise_service(self.namespace.resolve(name), type_name, owner,
                                            self.namespace.resolve(node), *args, **kwargs)
 
     def unadvertise_service(self, name: str, owner: Hashable) -> bool:
         return self._bus.unadvertise_service(self.namespace.resolve(name), owner)
 
-    def service(self, name: str):
+    def service(self, name: str) -> Service | None:
         return self._bus.service(self.namespace.resolve(name))
 
     async def call_service(self, name: str, request: dict, timeout: float | None = None) -> dict:
         return await self._bus.call_service(self.namespace.resolve(name), request, timeout)
 
     def advertise_action(self, name: str, type_name: str, owner: Hashable, node: str,
-                         *args: Any, **kwargs: Any):
+                         *args: Any, **kwargs: Any) -> Action:
         return self._bus.advertise_action(self.namespace.resolve(name), type_name, owner,
                                           self.namespace.resolve(node), *args, **kwargs)
 
     def unadvertise_action(self, name: str, owner: Hashable) -> bool:
         return self._bus.unadvertise_action(self.namespace.resolve(name), owner)
 
-    def action(self, name: str):
+    def action(self, name: str) -> Action | None:
         return self._bus.action(self.namespace.resolve(name))
 
-    def start_goal(self, name: str, *args: Any, **kwargs: Any):
+    def start_goal(self, name: str, *args: Any, **kwargs: Any) -> tuple[GoalHandle, asyncio.Task]:
         return self._bus.start_goal(self.namespace.resolve(name), *args, **kwargs)
-
-    def register_node(self, node: str) -> None:
-        self._bus.register_node(self.namespace.resolve(node))
-
-    def unregister_node(self, node: str) -> None:
-        self._bus.unregister_node(self.namespace.resolve(node))

@@ -10,7 +10,7 @@ import sys
 import pytest
 
 from hitrobot_server.bus.cdr import dds_type_name, ros_type_name
-from hitrobot_server.bus.zenoh_keys import (
+from hitrobot_server.bus.zenoh.keys import (
     NODE,
     PUBLISHER,
     SERVICE,

@@ -14,7 +14,7 @@ import struct
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from .cdr import dds_type_name, ros_type_name
+from ..cdr import dds_type_name, ros_type_name
 
 ADMIN_SPACE = "@ros2_lv"
 NODE, PUBLISHER, SUBSCRIBER, SERVICE, CLIENT = "NN", "MP", "MS", "SS", "SC"
