@@ -9,11 +9,13 @@ It is split by concern into small protocols, so a node names just what it uses:
 :class:`Link` (reachable? connect, disconnect), :class:`MotionBackend` (actions and velocity),
 :class:`LocalizationBackend` (where the robot believes it is), :class:`MapBackend` (map, lines,
 home, blocked areas, whole-map transfer), :class:`SensorBackend` (odometry, lidar, bumpers,
-identity, health) and :class:`PowerBackend` (battery, shutdown, reboot). A backend
-(:class:`~hitrobot_server.robot.sim.backend.SimBackend`, the Slamware REST client) implements
-them all directly as one class, :class:`RobotBackend`; the nodes get them one by one, bundled in
-a :class:`~hitrobot_server.robot.capabilities.Robot` (with the motion behind the locomotion
-gate). Adding a capability method touches this file and the backends, nothing else.
+identity, health) and :class:`PowerBackend` (battery, shutdown, reboot). A backend implements
+them all, :class:`RobotBackend`: directly as one class
+(:class:`~hitrobot_server.robot.sim.backend.SimBackend`), or as one adapter per capability
+composed by :class:`~hitrobot_server.robot.composed.ComposedBackend` (the Slamware REST client).
+The nodes get them one by one, bundled in a :class:`~hitrobot_server.robot.capabilities.Robot`
+(with the motion behind the locomotion gate). Adding a capability method touches this file,
+the backends and ``ComposedBackend``'s forwarding, nothing else.
 
 Conventions: poses are in the robot's map frame; failures raise :class:`BackendError`;
 ``NotConnectedError`` means the robot is unreachable (the node should drop the request and

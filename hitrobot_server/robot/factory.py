@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 from ..state import StateStore
 from .backend import RobotBackend
 from .capabilities import Robot
+from .composed import ComposedBackend
 from .locomotion import STAND_UP_SECONDS, GatedMotion, Locomotion
 from .model import Pose2D
 from .options import RobotOptions
@@ -75,6 +76,11 @@ def build_backend(options: RobotOptions, world: SharedWorld | None = None,
 def robot_of(backend: RobotBackend, stand_up_seconds: float = STAND_UP_SECONDS) -> Robot:
     """The capabilities the nodes get of ``backend``: its own, except the motion, which goes
     through a fresh locomotion gate (``stand_up_seconds``: the stand-up transition)."""
-    locomotion = Locomotion(backend, backend, stand_up_seconds)
-    return Robot(link=backend, motion=GatedMotion(backend, locomotion), localization=backend,
-                 maps=backend, sensors=backend, power=backend, locomotion=locomotion)
+    if isinstance(backend, ComposedBackend):  # its adapters themselves, not the forwarding
+        link, motion, localization = backend.link, backend.motion, backend.localization
+        maps, sensors, power = backend.maps, backend.sensors, backend.power
+    else:
+        link = motion = localization = maps = sensors = power = backend
+    locomotion = Locomotion(link, motion, stand_up_seconds)
+    return Robot(link=link, motion=GatedMotion(motion, locomotion), localization=localization,
+                 maps=maps, sensors=sensors, power=power, locomotion=locomotion)

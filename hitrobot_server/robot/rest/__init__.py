@@ -1,6 +1,8 @@
 """The Slamware REST API (port 1448): a client backend for real robots and a simulated device.
 
-* :mod:`.client` - :class:`SlamwareRestBackend`, the :class:`RobotBackend` over aiohttp;
+* :mod:`.client` - :class:`SlamwareRestBackend`, the :class:`RobotBackend` over aiohttp, made of
+  one adapter per capability: :mod:`.motion`, :mod:`.localization`, :mod:`.maps`,
+  :mod:`.sensors`, :mod:`.power`, each over :mod:`.link` (the connection and its requests);
 * :mod:`.http` - the session wrapper (timeouts, one request in flight per resource);
 * :mod:`.mapformat` - the binary explore map (36-byte header), sans I/O;
 * :mod:`.shapes` - JSON ⇄ model conversions, pure;

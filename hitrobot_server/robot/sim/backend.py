@@ -1,19 +1,13 @@
 """``SimBackend``: the simulator behind the async :class:`RobotBackend` interface.
 
-A background task steps the :class:`Simulator` at a fixed rate, paced against the event loop's
-clock (``time_scale`` > 1 runs faster than real time). Every request is answered synchronously
-from simulator state, so awaiting a method never waits on the stepping task. Work inside one
-step is bounded (planning and relocalization run in slices), typically a few milliseconds; the
-slowest step seen is kept in :attr:`SimBackend.max_step_seconds` for diagnostics.
+:class:`~.runner.SimRunner` steps the :class:`Simulator` on the event loop. Every request is
+answered synchronously from simulator state, so awaiting a method never waits on the stepping
+task.
 """
 
 from __future__ import annotations
 
 import asyncio
-import contextlib
-import logging
-import math
-import time
 from collections.abc import Callable, Sequence
 from typing import TypeVar
 
@@ -39,121 +33,68 @@ from ..model import (
     PowerStatus,
     Rect,
 )
-from .navigation import path_search
+from ..pathing import check_poses, searched_path
 from .persist import SimMemory
-from .planner import run_in_slices
+from .runner import SimRunner
 from .simulator import Simulator
-
-log = logging.getLogger(__name__)
 
 T = TypeVar("T")
 
-SLOW_STEP = 0.05
-"""A step slower than this (s) is logged: it delays every other task on the loop."""
-MAX_CATCH_UP = 5
-"""Steps run back to back at most when the loop fell behind; older backlog is dropped."""
-SAMPLE_EVERY = 0.25
-"""Wall-clock seconds between samples of the pose, battery and map for the state store."""
-
 
 class SimBackend(RobotBackend):
-    """Runs a :class:`Simulator` on the event loop."""
+    """Answers a :class:`Simulator`'s requests; :attr:`runner` steps it on the event loop."""
 
     def __init__(self, simulator: Simulator, rate_hz: float = 20.0, time_scale: float = 1.0,
                  memory: SimMemory | None = None):
         if rate_hz <= 0.0 or time_scale <= 0.0:
             raise ValueError("rate_hz and time_scale must be positive")
-        self.simulator = simulator
         self.memory = memory
         """Where the robot's map, lines, pose and battery survive a restart (None: nowhere)."""
         self.restored = memory.restore(simulator) if memory is not None else []
-        self._sampled = -math.inf
-        self._period = 1.0 / rate_hz
-        self._time_scale = time_scale
-        self._task: asyncio.Task[None] | None = None
-        self._reboot: asyncio.Task[None] | None = None
-        self.max_step_seconds = 0.0
-        self.reboot_delay = 2.0
+        self.runner = SimRunner(simulator, rate_hz, time_scale, memory)
+
+    @property
+    def simulator(self) -> Simulator:
+        """The simulator now running (a reboot replaces it)."""
+        return self.runner.simulator
+
+    @property
+    def max_step_seconds(self) -> float:
+        """The slowest step so far (s)."""
+        return self.runner.max_step_seconds
+
+    @property
+    def reboot_delay(self) -> float:
         """Wall-clock seconds a simulated reboot keeps the robot offline."""
+        return self.runner.reboot_delay
+
+    @reboot_delay.setter
+    def reboot_delay(self, seconds: float) -> None:
+        self.runner.reboot_delay = seconds
 
     @property
     def connected(self) -> bool:
-        return self._task is not None and not self._task.done()
+        return self.runner.running
 
     async def start(self) -> None:
-        if not self.connected:
-            self._task = asyncio.get_running_loop().create_task(self._run(), name="sim-stepper")
+        await self.runner.start()
 
     async def stop(self) -> None:
-        reboot, self._reboot = self._reboot, None
-        if reboot is not None and reboot is not asyncio.current_task():
-            reboot.cancel()
-        task, self._task = self._task, None
-        if task is not None:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
-            if self.memory is not None:  # the last pose and map (the store flushes on close)
-                self.memory.sync(self.simulator, asyncio.get_running_loop().time(), urgent=True)
+        await self.runner.stop()
 
     async def power_off(self) -> None:
-        """The simulated robot goes offline and stays so (until the server restarts)."""
-        if not self.connected:
-            raise NotConnectedError("simulator is not running")
-        await self.stop()
+        await self.runner.power_off()
 
     async def reboot(self) -> None:
-        """Offline now; back after :attr:`reboot_delay` as a freshly started simulator (same
-        world, seed and configuration, no actions) with what the robot keeps: its map, lines,
-        home and pose from the state folder (as at start-up when there is none)."""
+        await self.runner.reboot()
+
+    def _alive(self) -> None:
         if not self.connected:
             raise NotConnectedError("simulator is not running")
-        await self.stop()
-
-        async def come_back() -> None:
-            await asyncio.sleep(self.reboot_delay)
-            self.simulator = self.simulator.restarted()
-            if self.memory is not None:  # a robot keeps its map, lines and pose on reboot
-                self.memory.restore(self.simulator)
-            self._reboot = None
-            await self.start()
-
-        self._reboot = asyncio.get_running_loop().create_task(come_back(), name="sim-reboot")
-
-    async def _run(self) -> None:
-        loop = asyncio.get_running_loop()
-        due = loop.time()
-        while True:
-            behind = 0
-            while loop.time() >= due and behind < MAX_CATCH_UP:
-                try:
-                    self._step()
-                except Exception:
-                    log.exception("simulator step failed; the simulated robot is now offline")
-                    raise
-                due += self._period
-                behind += 1
-            now = loop.time()
-            if self.memory is not None and now - self._sampled >= SAMPLE_EVERY:
-                self._sampled = now
-                self.memory.sync(self.simulator, now)
-            if now >= due:
-                due = now + self._period
-            await asyncio.sleep(due - now if due > now else 0.0)
-
-    def _step(self) -> None:
-        started = time.perf_counter()
-        self.simulator.step(self._period * self._time_scale)
-        spent = time.perf_counter() - started
-        if spent > self.max_step_seconds:
-            self.max_step_seconds = spent
-        if spent > SLOW_STEP:
-            log.warning("simulator step took %.1f ms", spent * 1000.0)
 
     def _call(self, fn: Callable[..., T], *args: object) -> T:
         """Run a simulator call as a backend request: refuse when stopped, translate errors."""
-        if not self.connected:
-            raise NotConnectedError("simulator is not running")
+        self._alive()
         try:
             return fn(*args)
         except ValueError as exc:
@@ -264,21 +205,10 @@ class SimBackend(RobotBackend):
         """A* on the current planning costmap with ``move_to``'s options, run in slices of
         :data:`~.planner.PLAN_SLICE` expansions so a long search never stalls the loop."""
         options = options or MoveOptions()
-        for value in (goal.x, goal.y) + (() if start is None else (start.x, start.y)):
-            if not math.isfinite(value):
-                raise BackendError("compute_path needs finite poses")
+        check_poses(start, goal)
         sim = self._call(lambda: self.simulator)
         origin = sim.pose if start is None else start
-        search = path_search(sim.costmap(), (origin.x, origin.y), (goal.x, goal.y), options)
-
-        def alive() -> None:
-            if not self.connected:
-                raise NotConnectedError("simulator is not running")
-
-        result = await run_in_slices(search, alive)
-        if not result.ok:
-            raise BackendError(f"no path: {result.reason}")
-        return [Point2D(x, y) for x, y in result.path]
+        return await searched_path(sim.costmap(), origin, goal, options, self._alive)
 
     async def move_by_direction(
         self,

@@ -7,11 +7,13 @@ with a small fan of rays per sonar, reporting the nearest echo.
 
 from __future__ import annotations
 
+import hashlib
 import math
 
 import numpy as np
 
-from ..model import BasicSensorInfo, BasicSensorValue, ImpactType, Pose2D, SensorType
+from ... import __version__
+from ..model import BasicSensorInfo, BasicSensorValue, DeviceInfo, ImpactType, Pose2D, SensorType
 from .lidar import RayCaster
 
 BUMPER_HOLD = 0.5
@@ -94,3 +96,19 @@ class SensorSuite:
         for sid, value in self._sonar.items():
             out[sid] = BasicSensorValue(True, value)
         return dict(sorted(out.items()))
+
+
+def device_info(seed: int) -> DeviceInfo:
+    """The identity of the simulated robot with ``seed``: a device id of its own per seed."""
+    digest = hashlib.md5(f"hitrobot-sim-{seed}".encode(), usedforsecurity=False)
+    return DeviceInfo(
+        device_id=digest.hexdigest().upper(),
+        model_id=0,
+        model_name="hitrobot-sim",
+        manufacturer_id=0,
+        manufacturer_name="hitrobot",
+        hardware_version="sim",
+        software_version=__version__,
+        sdp_version=__version__,
+        sdk_version=__version__,
+    )

@@ -253,7 +253,7 @@ async def test_factory_builds_the_rest_client_from_a_url():
                         slamware=SlamwareParams(reconn_wait_ms=1234))
     backend = build_backend(settings.robot_options())
     assert isinstance(backend, SlamwareRestBackend)
-    assert backend.url == "http://192.0.2.1:1448" and backend._reconn_wait == 1.234
+    assert backend.url == "http://192.0.2.1:1448" and backend.link.reconn_wait == 1.234
     assert not backend.connected
     with pytest.raises(NotConnectedError):
         await backend.get_pose()
@@ -367,7 +367,7 @@ async def test_identical_gets_share_one_request_and_each_resource_has_one_in_fli
     fake.on("GET", paths.EXPLORE_MAP, slow)  # different queries, same resource: one at a time
     fake.on("PUT", paths.POSE, slow)
     fake.seen.clear()
-    await asyncio.gather(*(fake_client._request("GET", paths.EXPLORE_MAP, params={"min_x": i})
+    await asyncio.gather(*(fake_client.link.request("GET", paths.EXPLORE_MAP, params={"min_x": i})
                            for i in range(4)),
                          *(fake_client.set_pose(Pose2D(i, 0, 0)) for i in range(3)),
                          return_exceptions=False)

@@ -8,11 +8,8 @@ from hitrobot_server.robot.model import (
     Rect,
 )
 from hitrobot_server.robot.sim.geometry import wrap_angle
-from hitrobot_server.robot.sim.simulator import (
-    LOCALIZATION_LOW,
-    RELOCALIZATION_FAILED,
-    Simulator,
-)
+from hitrobot_server.robot.sim.health import LOCALIZATION_LOW, RELOCALIZATION_FAILED
+from hitrobot_server.robot.sim.simulator import Simulator
 
 FAR = Pose2D(8.0, 8.3, 0.6)
 

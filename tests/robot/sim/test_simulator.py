@@ -16,8 +16,9 @@ from hitrobot_server.robot.model import (
     Pose2D,
 )
 from hitrobot_server.robot.sim.geometry import wrap_angle
+from hitrobot_server.robot.sim.health import POWER_LOW
 from hitrobot_server.robot.sim.power import PowerConfig
-from hitrobot_server.robot.sim.simulator import POWER_LOW, SimConfig, Simulator
+from hitrobot_server.robot.sim.simulator import SimConfig, Simulator
 
 PRECISE_YAW = MoveOptionFlag.PRECISE | MoveOptionFlag.WITH_YAW
 
