@@ -143,7 +143,8 @@ class Settings:
         return "asyncio" if self.transport.ssl and loop == "auto" else loop
 
     def check(self) -> None:
-        """Refuse settings that cannot work together, each layer its own first."""
+        """Refuse settings that cannot work: each layer checks its own, and --ssl refuses
+        uvloop (``ValueError`` naming the setting)."""
         self.process.check()
         if self.transport.ssl and self.process.event_loop == "uvloop":
             raise ValueError("--ssl runs on asyncio's event loop: uvloop's start_tls loses TLS "

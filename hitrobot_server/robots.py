@@ -55,6 +55,7 @@ class StartPlan:
 
     robots: tuple[RobotEntry, ...]  # each with its nodes; () = a bridge only (rosapi)
     fleet: bool  # named robots: site nodes, one shared world, a namespace each
+    demo: bool  # the tutorial servers (/add_two_ints, /fibonacci), beside a single robot
     record: Path | None  # record every bus message into this file from the start
     zenoh: bool  # join other servers over the Zenoh link
     worker_id: int | None  # one of --workers: shared ports, parameters in worker 0
@@ -80,6 +81,7 @@ def start_plan(settings: Settings, *, robot: str | None = None) -> StartPlan:
     return StartPlan(
         robots=entries if primary else (),
         fleet=primary and bool(settings.robots),
+        demo=primary and not settings.robots and settings.nodes.demo_services,
         record=Path(settings.record.record) if settings.record.record else None,
         zenoh=settings.bus.zenoh,
         worker_id=settings.worker_id,
@@ -119,8 +121,8 @@ def robot_node_options(settings: Settings, entry: RobotEntry) -> NodeOptions:
 
 
 async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
-                      world: SharedWorld | None = None,
-                      site_map: MapManager | None = None) -> RobotUnit:
+                      world: SharedWorld | None = None, site_map: MapManager | None = None,
+                      demo: bool = False) -> RobotUnit:
     """Build, start and wire one robot; on failure everything it started is stopped again.
     Its state folder (what an operator builds survives restarts) is opened first for a
     simulated robot, and bound once a REST robot says who it is."""
@@ -141,7 +143,7 @@ async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
             robot = robot_of(backend, STAND_UP_SECONDS / node_options.time_scale)
         if not entry.name:
             unit.bus = bus
-            unit.nodes = await start_nodes(bus, node_options, robot, unit.state)
+            unit.nodes = await start_nodes(bus, node_options, robot, unit.state, demo=demo)
         elif robot is not None:
             view = NamespacedBus(bus, Namespace(entry.name))
             view.params.set(ROBOT_ID_PARAM, entry.name)
@@ -188,7 +190,7 @@ async def start_planned(bus: Bus, settings: Settings,
     if not plan.robots:
         return await start_bridge_nodes(bus, settings.node_options()), []
     if not plan.fleet:
-        return [], [await start_robot(bus, settings, plan.robots[0])]
+        return [], [await start_robot(bus, settings, plan.robots[0], demo=plan.demo)]
     site: list[Node] = []
     units: list[RobotUnit] = []
     sims = any(e.spec == "sim" for e in plan.robots)

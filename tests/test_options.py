@@ -118,10 +118,12 @@ def test_the_plan_says_what_starts(tmp_path):
     plan = start_plan(Settings.of(robot="none", tcp_port=0))
     assert plan.robots == (RobotEntry("", "none"),) and not plan.fleet and not plan.tcp
     assert plan.primary and not plan.worker and not plan.zenoh and plan.record is None
+    assert not plan.demo and start_plan(Settings.of(demo_services=True)).demo
     named = (RobotEntry("a", "sim"), RobotEntry("b", "sim"))
     fleet = start_plan(Settings.of(robots=named, record=str(tmp_path / "r.mcap"), bus="zenoh"))
     assert fleet.fleet and fleet.robots == named and fleet.zenoh
     assert fleet.record == tmp_path / "r.mcap"
+    assert not start_plan(Settings.of(robots=named, demo_services=True)).demo  # single only
     second = start_plan(Settings.of(robots=named, worker_id=1))
     assert second.robots == () and not second.fleet and not second.primary and second.worker
     assert start_plan(Settings.of(worker_id=0)).primary

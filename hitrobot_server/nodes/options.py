@@ -19,6 +19,7 @@ from .ground.slamware_params import SlamwareParams
 class NodeOptions:
     """Options shared by the in-process nodes."""
 
+    # read by the start plan (which nodes start), not by a node
     demo_services: bool = field(default=False, metadata={
         "help": "offer the tutorial servers of the rosbridge test image: the service "
         "/add_two_ints and the action /fibonacci (example_interfaces types), for client test "
