@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..config import ProcessOptions
 from ..robot.factory import build_simulator
 from ..robot.options import RobotOptions
 from ..robot.rest.device import NOT_EMULATED, SimDevice
@@ -35,9 +34,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help=f"random seed of the simulator (default: {robot.sim_seed})")
     parser.add_argument("--sim-mapping", action="store_true", default=robot.sim_mapping,
                         help="start with an empty map and mapping on")
-    log_level = ProcessOptions().log_level
-    parser.add_argument("--log-level", default=log_level,
-                        help=f"logging level: debug, info, warning, error (default: {log_level})")
+    parser.add_argument("--log-level", default="info",
+                        help="logging level: debug, info, warning, error (default: info)")
     return parser
 
 
