@@ -45,7 +45,7 @@ async def dispatch_time(robots: int, rounds: int = 5) -> float:
     entries = tuple(RobotEntry(f"r{i}", "sim", (2.0 + 2.5 * i, CORRIDOR_Y, 0.0))
                     for i in range(robots))
     with tempfile.TemporaryDirectory() as maps:
-        server = HitrobotServer(Settings(port=0, tcp_port=0, robots=entries, map_dir=maps))
+        server = HitrobotServer(Settings.of(port=0, tcp_port=0, robots=entries, map_dir=maps))
         await server.start()
         try:
             fleet = server.nodes[-1]

@@ -109,16 +109,16 @@ def main(argv: list[str] | None = None) -> int:
     except (OSError, ValueError) as exc:
         print(f"hitrobot-server: {exc}", file=sys.stderr)
         return 2
-    if settings.worker_id is None and settings.worker_count > 1:
+    log_level = settings.process.log_level
+    if settings.worker_id is None and settings.process.worker_count > 1:
         from .workers import supervise
 
         return run_command(
-            "hitrobot-server", lambda: supervise(settings, argv), settings.log_level,
-            settings.event_loop,
+            "hitrobot-server", lambda: supervise(settings, argv), log_level, settings.event_loop,
         )
     tag = "" if settings.worker_id is None else f"[worker {settings.worker_id}]"
     return run_command(
-        "hitrobot-server", lambda: serve(settings), settings.log_level, settings.event_loop, tag
+        "hitrobot-server", lambda: serve(settings), log_level, settings.event_loop, tag
     )
 
 

@@ -1,4 +1,5 @@
-"""The robots a server drives: one robot = its backend + its nodes, built by one function.
+"""What a server starts (:class:`StartPlan`, decided once from the settings), and the robots
+it drives: one robot = its backend + its nodes, built by one function.
 
 :func:`start_robot` is the one place a robot is made (persistence of per-robot state and
 worker processes hook in here): its backend from its ``--robot`` entry, then its nodes, handed
@@ -14,6 +15,7 @@ import contextlib
 import dataclasses
 import logging
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .bus.core import Bus
@@ -21,6 +23,7 @@ from .bus.namespace import Namespace, NamespacedBus
 from .config import Settings
 from .nodes.assembly import (
     restored_summary,
+    start_bridge_nodes,
     start_nodes,
     start_robot_nodes,
     start_site_nodes,
@@ -45,6 +48,48 @@ log = logging.getLogger(__name__)
 ROBOT_ID_PARAM = "robot_id"
 
 
+@dataclass(frozen=True)
+class StartPlan:
+    """Which parts one server process starts, decided once from its settings (by
+    :func:`start_plan`); the server, :func:`start_planned` and the transports read it."""
+
+    robots: tuple[RobotEntry, ...]  # each with its nodes; () = a bridge only (rosapi)
+    fleet: bool  # named robots: site nodes, one shared world, a namespace each
+    demo: bool  # the tutorial servers (/add_two_ints, /fibonacci), beside a single robot
+    record: Path | None  # record every bus message into this file from the start
+    zenoh: bool  # join other servers over the Zenoh link
+    worker_id: int | None  # one of --workers: shared ports, parameters in worker 0
+    tcp: bool  # the raw TCP port
+    tls: bool  # wss:// and TLS on the TCP port
+
+    @property
+    def worker(self) -> bool:
+        """One of ``--workers``: its ports are shared (SO_REUSEPORT) with the others."""
+        return self.worker_id is not None
+
+    @property
+    def primary(self) -> bool:
+        """Runs the robots and their nodes: a lone server, or worker 0 of ``--workers``."""
+        return self.worker_id in (None, 0)
+
+
+def start_plan(settings: Settings, *, robot: str | None = None) -> StartPlan:
+    """What ``settings`` start; ``robot`` replaces the unnamed robot's spec (``replay``
+    serves a recording in place of a robot: ``"none"``)."""
+    entries = settings.robots or (RobotEntry("", robot or settings.robot.robot),)
+    primary = settings.worker_id in (None, 0)  # a secondary worker: rosapi only
+    return StartPlan(
+        robots=entries if primary else (),
+        fleet=primary and bool(settings.robots),
+        demo=primary and not settings.robots and settings.nodes.demo_services,
+        record=Path(settings.record.record) if settings.record.record else None,
+        zenoh=settings.bus.zenoh,
+        worker_id=settings.worker_id,
+        tcp=bool(settings.transport.tcp_port),
+        tls=settings.transport.ssl,
+    )
+
+
 @dataclass
 class RobotUnit:
     """One attached robot: ``name`` is ``""`` for the single unnamed robot."""
@@ -63,21 +108,21 @@ class RobotUnit:
 
 
 def robot_node_options(settings: Settings, entry: RobotEntry) -> NodeOptions:
-    """A named robot's node options: its TF frames prefixed ``NAME/``; the map frame stays the
-    site's (one map shared by every robot)."""
+    """One robot's node options; a named robot's TF frames are prefixed ``NAME/`` (the map
+    frame stays the site's: one map shared by every robot)."""
     options = settings.node_options(entry.spec)
-    if entry.name:
-        ns = Namespace(entry.name)
-        s = options.slamware
-        options.slamware = dataclasses.replace(
-            s, robot_frame=ns.frame(s.robot_frame), laser_frame=ns.frame(s.laser_frame),
-            odom_frame=ns.frame(s.odom_frame))
-    return options
+    if not entry.name:
+        return options
+    ns = Namespace(entry.name)
+    s = options.slamware
+    return dataclasses.replace(options, slamware=dataclasses.replace(
+        s, robot_frame=ns.frame(s.robot_frame), laser_frame=ns.frame(s.laser_frame),
+        odom_frame=ns.frame(s.odom_frame)))
 
 
 async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
-                      world: SharedWorld | None = None,
-                      site_map: MapManager | None = None) -> RobotUnit:
+                      world: SharedWorld | None = None, site_map: MapManager | None = None,
+                      demo: bool = False) -> RobotUnit:
     """Build, start and wire one robot; on failure everything it started is stopped again.
     Its state folder (what an operator builds survives restarts) is opened first for a
     simulated robot, and bound once a REST robot says who it is."""
@@ -86,19 +131,19 @@ async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
     try:
         if options.robot == "sim":
             identity = sim_identity(options, entry.name)
-            store = await open_state(settings.state_root, identity, settings.fresh)
+            store = await open_state(settings.store.state_root, identity,
+                                     settings.store.fresh)
             unit.state = StateBinding(store, identity)
         backend = unit.backend = build_backend(options, world, unit.state.store)
         if backend is not None:
             await backend.start()
-        node_options = (robot_node_options(settings, entry) if entry.name
-                        else settings.node_options())
+        node_options = robot_node_options(settings, entry)
         robot: Robot | None = None  # what the nodes get: the motion behind the locomotion gate
         if backend is not None:
             robot = robot_of(backend, STAND_UP_SECONDS / node_options.time_scale)
         if not entry.name:
             unit.bus = bus
-            unit.nodes = await start_nodes(bus, node_options, robot, unit.state)
+            unit.nodes = await start_nodes(bus, node_options, robot, unit.state, demo=demo)
         elif robot is not None:
             view = NamespacedBus(bus, Namespace(entry.name))
             view.params.set(ROBOT_ID_PARAM, entry.name)
@@ -109,8 +154,9 @@ async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
             report_restored(unit.state.store, [*getattr(backend, "restored", []),
                                                *restored_summary(unit.nodes)])
         elif backend is not None:  # a REST robot: its state folder once it says who it is
-            binder = RestStateBinder(backend, unit.state, options.robot, settings.state_root,
-                                     settings.fresh, lambda: unit.nodes)
+            binder = RestStateBinder(backend, unit.state, options.robot,
+                                     settings.store.state_root, settings.store.fresh,
+                                     lambda: unit.nodes)
             unit.binder = asyncio.ensure_future(binder.run())
     except BaseException:
         await stop_robot(unit)
@@ -135,22 +181,24 @@ async def stop_robot(unit: RobotUnit) -> None:
         unit.state = StateBinding()
 
 
-async def start_robots(bus: Bus, settings: Settings) -> tuple[list[Node], list[RobotUnit]]:
-    """The site nodes and every robot. The single unnamed robot brings its own nodes (today's
-    layout); named robots share the site nodes, one simulated world and the site map manager
-    (made with the first robot that has a backend). All or nothing: a robot that fails to start
-    stops everything started before it."""
-    entries = settings.robot_entries()
-    if len(entries) == 1 and not entries[0].name:
-        return [], [await start_robot(bus, settings, entries[0])]
+async def start_planned(bus: Bus, settings: Settings,
+                        plan: StartPlan) -> tuple[list[Node], list[RobotUnit]]:
+    """The site nodes and every robot of the plan. The single unnamed robot brings its own
+    nodes (today's layout); named robots share the site nodes, one simulated world and the site
+    map manager (made with the first robot that has a backend); no robot: the bridge's rosapi.
+    All or nothing: a robot that fails to start stops everything started before it."""
+    if not plan.robots:
+        return await start_bridge_nodes(bus, settings.node_options()), []
+    if not plan.fleet:
+        return [], [await start_robot(bus, settings, plan.robots[0], demo=plan.demo)]
     site: list[Node] = []
     units: list[RobotUnit] = []
-    sims = any(e.spec == "sim" for e in entries)
+    sims = any(e.spec == "sim" for e in plan.robots)
     world = shared_world(settings.robot_options()) if sims else None
     try:
         site = await start_site_nodes(bus, settings.node_options())
         site_map: MapManager | None = None
-        for entry in entries:
+        for entry in plan.robots:
             unit = await start_robot(bus, settings, entry, world=world, site_map=site_map)
             units.append(unit)
             if site_map is None:

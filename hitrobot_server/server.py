@@ -6,23 +6,22 @@ import asyncio
 import contextlib
 import logging
 import ssl
-from pathlib import Path
 
 from . import __version__
 from .bus.core import Bus
 from .bus.rosout import RosoutHandler
 from .bus.zenoh.keys import endpoints
 from .config import Settings
-from .nodes.assembly import start_bridge_nodes
 from .nodes.base import Node
 from .protocol.auth import load_secret
 from .record.control import RecordingControl
-from .robots import RobotUnit, start_robots, stop_robots
+from .robots import RobotUnit, StartPlan, start_plan, start_planned, stop_robots
 from .session.foxglove import FoxgloveSession, FoxgloveShared
 from .session.options import SessionOptions
 from .session.session import Session, Shared
 from .state import StateBinding
 from .transport.http import StaticFiles, WithRecordings, default_web_root, missing_libraries
+from .transport.options import TransportOptions
 from .transport.tcp import start_tcp
 from .transport.tls import HandshakeGate
 from .transport.websocket import start_websocket
@@ -34,20 +33,23 @@ WORKER_HEADER = "X-Hitrobot-Worker"  # which worker of --workers answered (hands
 
 
 class HitrobotServer:
-    """The bridge: ``await start()``, read ``port``/``tcp_port``, ``await stop()``."""
+    """The bridge: ``await start()``, read ``port``/``tcp_port``, ``await stop()``. What it
+    starts is ``plan`` (by default the settings' own, :func:`~.robots.start_plan`)."""
 
-    def __init__(self, settings: Settings | None = None, types: TypeRegistry | None = None):
-        self.settings = settings or Settings()
+    def __init__(self, settings: Settings | None = None, types: TypeRegistry | None = None,
+                 plan: StartPlan | None = None):
+        self.settings = settings or Settings.of()
+        self.plan = plan or start_plan(self.settings)
         self.bus = Bus(
-            types or TypeRegistry.default(), unregister_timeout=self.settings.unregister_timeout
+            types or TypeRegistry.default(), unregister_timeout=self.settings.bus.unregister_timeout
         )
         self.nodes: list[Node] = []  # the site nodes of a server with named robots
         self.robots: list[RobotUnit] = []  # every robot: its backend and its nodes
         self.link = None  # the ZenohLink with --bus zenoh
         self.sessions: set[Session | FoxgloveSession] = set()
         self.foxglove = FoxgloveShared.for_bus(self.bus)
-        self.shared = Shared.for_options(self.settings.session_options())
-        self._session_options: SessionOptions | None = None  # built at start
+        self.shared = Shared.for_options(self.settings.session)
+        self._session_options: SessionOptions | None = None  # with the start's secret and tag
         self._ws = None
         self._tcp: asyncio.Server | None = None
         self._tls: HandshakeGate | None = None
@@ -58,9 +60,7 @@ class HitrobotServer:
         self.recording: RecordingControl | None = None
 
     def _options(self) -> SessionOptions:
-        if self._session_options is None:
-            self._session_options = self.settings.session_options()
-        return self._session_options
+        return self._session_options or self.settings.session.for_sessions()
 
     def _track(self, session: Session | FoxgloveSession) -> None:
         self.sessions.add(session)
@@ -94,90 +94,98 @@ class HitrobotServer:
             raise
 
     async def _start(self) -> None:
-        s = self.settings
-        if s.authenticate:
-            if not s.auth_secret_file:
-                raise ValueError("--authenticate needs --auth-secret-file")
-            s.auth_secret = load_secret(s.auth_secret_file)
-        self.recording = RecordingControl(self.bus, s.recordings, topics=s.record_topics,
-                                          split_size=s.record_split_size * 1024 * 1024)
-        if s.record:  # first: an unwritable path is refused before anything starts
-            self.recording.start_recording(Path(s.record))
-        await self.recording.start()
-        self._rosout = RosoutHandler(self.bus, s.log_level.upper())
+        s, plan = self.settings, self.plan
+        secret = _secret(s.session)  # first: a missing secret is refused before anything starts
+        await self._start_recording()
+        self._rosout = RosoutHandler(self.bus, s.process.log_level.upper())
         logging.getLogger(PACKAGE_LOGGER).addHandler(self._rosout)
-        if s.bus == "zenoh":
-            try:  # imported only when asked for: the default bus never loads Zenoh
-                from .bus.zenoh.link import ZenohLink
-            except ImportError as exc:
-                raise ValueError(
-                    f"--bus zenoh needs the eclipse-zenoh package ({exc}); "
-                    "install it with: pip install 'hitrobot-server[zenoh]'"
-                ) from None
+        tag = await self._start_link() if plan.zenoh else ""
+        self._session_options = s.session.for_sessions(secret, tag)
+        self.nodes, self.robots = await start_planned(self.bus, s, plan)
+        await self._start_listeners()
 
-            self.link = ZenohLink(
-                self.bus,
-                domain=s.zenoh_domain,
-                config_file=s.zenoh_config,
-                connect=endpoints(s.zenoh_connect),
-                listen=endpoints(s.zenoh_listen),
-                shared_params=s.worker_id is not None,
-            )
-            await self.link.start()
-            s.client_tag = f"{self.link.zid[:8]}_"
-        self._session_options = s.session_options()  # with the secret and client tag set
-        if s.primary:  # the robots and their nodes; a secondary --workers worker: rosapi only
-            self.nodes, self.robots = await start_robots(self.bus, s)
-        else:
-            self.nodes = await start_bridge_nodes(self.bus, s.node_options())
+    async def _start_recording(self) -> None:
+        s = self.settings
+        self.recording = RecordingControl(self.bus, s.store.recordings,
+                                          topics=s.record.record_topics,
+                                          split_size=s.record.split_bytes)
+        if self.plan.record:  # first: an unwritable path is refused before anything starts
+            self.recording.start_recording(self.plan.record)
+        await self.recording.start()
+
+    async def _start_link(self) -> str:
+        """Join the Zenoh network; the client tag that keeps this server's client node names
+        apart from those of the other servers on it."""
+        try:  # imported only when asked for: the default bus never loads Zenoh
+            from .bus.zenoh.link import ZenohLink
+        except ImportError as exc:
+            raise ValueError(
+                f"--bus zenoh needs the eclipse-zenoh package ({exc}); "
+                "install it with: pip install 'hitrobot-server[zenoh]'"
+            ) from None
+        b = self.settings.bus
+        self.link = ZenohLink(
+            self.bus,
+            domain=b.zenoh_domain,
+            config_file=b.zenoh_config,
+            connect=endpoints(b.zenoh_connect),
+            listen=endpoints(b.zenoh_listen),
+            shared_params=self.plan.worker,
+        )
+        await self.link.start()
+        return f"{self.link.zid[:8]}_"
+
+    async def _start_listeners(self) -> None:
+        """The WebSocket port (with the web console) and the TCP port, as the plan says."""
+        t, session, plan = self.settings.transport, self.settings.session, self.plan
 
         def factory(peer: str, transport: str) -> Session:
             return self.new_session(peer, transport)
 
         tls = self._tls = HandshakeGate(
-            _tls_context(s), s.tls_handshake_timeout, s.max_tls_handshakes,
-            s.max_tls_handshakes_per_address,
-        ) if s.ssl else None
+            _tls_context(t), t.tls_handshake_timeout, t.max_tls_handshakes,
+            t.max_tls_handshakes_per_address,
+        ) if plan.tls else None
         console = _web_console()
         self._ws_console = console is not None
-        worker = s.worker_id is not None  # one of --workers: the ports are shared
+        recordings = None if session.authenticate else self.settings.store.recordings
         self._ws = await start_websocket(
             factory,
-            s.address,
-            s.port,
-            max_frame_size=s.max_frame_size,
-            delay_between_messages=s.delay_between_messages,
-            compression=s.use_compression,
-            http_handler=WithRecordings(console, None if s.authenticate else s.recordings),
+            t.address,
+            t.port,
+            max_frame_size=session.max_frame_size,
+            delay_between_messages=t.delay_between_messages,
+            compression=t.use_compression,
+            http_handler=WithRecordings(console, recordings),
             tls=tls,
-            ping_interval=s.websocket_ping_interval,
-            ping_timeout=s.websocket_ping_timeout,
+            ping_interval=t.websocket_ping_interval,
+            ping_timeout=t.websocket_ping_timeout,
             new_foxglove=self.new_foxglove_session,
-            reuse_port=worker,
-            headers={WORKER_HEADER: str(s.worker_id)} if worker else None,
+            reuse_port=plan.worker,
+            headers={WORKER_HEADER: str(plan.worker_id)} if plan.worker else None,
         )
-        self.port = self._ws.sockets[0].getsockname()[1] if self._ws.sockets else s.port
-        if s.tcp_port:
+        self.port = self._ws.sockets[0].getsockname()[1] if self._ws.sockets else t.port
+        if plan.tcp:
             self._tcp = await start_tcp(
                 factory,
-                s.address,
-                s.tcp_port if s.tcp_port > 0 else 0,
-                max_frame_size=s.max_frame_size,
-                delay_between_messages=s.delay_between_messages,
+                t.address,
+                t.tcp_port if t.tcp_port > 0 else 0,
+                max_frame_size=session.max_frame_size,
+                delay_between_messages=t.delay_between_messages,
                 tls=tls,
-                reuse_port=worker,
+                reuse_port=plan.worker,
             )
             self.tcp_port = self._tcp.sockets[0].getsockname()[1]
-        log.info("hitrobot-server: ws://%s:%s tcp:%s", s.address, self.port, self.tcp_port)
+        log.info("hitrobot-server: ws://%s:%s tcp:%s", t.address, self.port, self.tcp_port)
         if self._ws_console:
-            log.info("web console: %s", console_url(s.address, self.port, tls=s.ssl))
+            log.info("web console: %s", console_url(t.address, self.port, tls=t.ssl))
 
     def banner(self) -> str:
         """The line printed once the server listens (tests and scripts parse it)."""
-        s = self.settings
-        ws, tcp = ("wss", "tcp+tls") if s.ssl else ("ws", "tcp")
-        return (f"hitrobot-server {__version__}: {ws}://{s.address}:{self.port}"
-                + (f"  {tcp}://{s.address}:{self.tcp_port}" if self.tcp_port else ""))
+        address = self.settings.transport.address
+        ws, tcp = self.settings.transport.schemes()
+        return (f"hitrobot-server {__version__}: {ws}://{address}:{self.port}"
+                + (f"  {tcp}://{address}:{self.tcp_port}" if self.tcp_port else ""))
 
     async def stop(self) -> None:
         if self._tls is not None:
@@ -221,10 +229,19 @@ class HitrobotServer:
             self.link = None
 
 
-def _tls_context(settings: Settings) -> ssl.SSLContext:
+def _secret(options: SessionOptions) -> str | None:
+    """The rosauth secret of ``--authenticate``, read from its file at start."""
+    if not options.authenticate:
+        return None
+    if not options.auth_secret_file:
+        raise ValueError("--authenticate needs --auth-secret-file")
+    return load_secret(options.auth_secret_file)
+
+
+def _tls_context(options: TransportOptions) -> ssl.SSLContext:
     """The server side of TLS for ``--ssl``: the certificate chain and key from the files."""
     context = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
-    context.load_cert_chain(settings.certfile or "", settings.keyfile)
+    context.load_cert_chain(options.certfile or "", options.keyfile)
     return context
 
 

@@ -101,7 +101,7 @@ class Supervisor:
 
     def __init__(self, settings: Settings, argv: list[str]):
         self.settings = settings
-        self.count = settings.worker_count
+        self.count = settings.process.worker_count
         self.argv = without_workers_flag(argv)
         self.workers = [Worker(i) for i in range(self.count)]
         self.stopping = False
@@ -114,7 +114,7 @@ class Supervisor:
         self._gave_up = asyncio.Event()
 
     async def start(self) -> None:
-        s = self.settings
+        s = self.settings.transport
         ws = reserve_port(s.address, s.port)
         self._reserved.append(ws)
         self.port = ws.getsockname()[1]
@@ -127,7 +127,7 @@ class Supervisor:
             await self._spawn(worker)
 
     def _command(self, worker: Worker) -> list[str]:
-        s = self.settings
+        s = self.settings.bus
         worker.generation += 1
         worker.socket_path = str(Path(self._dir) / f"w{worker.index}-{worker.generation}.sock")
         listen = [f"unixsock-stream/{worker.socket_path}"]
@@ -146,7 +146,7 @@ class Supervisor:
         connect = peers + endpoints(s.zenoh_connect)
         if connect:
             args += ["--zenoh-connect", ",".join(connect)]
-        return args  # only worker 0 starts the robots (Settings.primary)
+        return args  # only worker 0 starts the robots (StartPlan.primary)
 
     async def _spawn(self, worker: Worker) -> None:
         proc = await asyncio.create_subprocess_exec(
@@ -248,8 +248,8 @@ async def supervise(settings: Settings, argv: list[str]) -> None:
     supervisor = Supervisor(settings, argv)
     try:
         await supervisor.start()
-        ws, tcp = ("wss", "tcp+tls") if settings.ssl else ("ws", "tcp")
-        address = settings.address
+        ws, tcp = settings.transport.schemes()
+        address = settings.transport.address
         tcp_text = f"  {tcp}://{address}:{supervisor.tcp_port}" if supervisor.tcp_port else ""
         print(f"hitrobot-server {__version__}: {ws}://{address}:{supervisor.port}{tcp_text}"
               f"  ({supervisor.count} workers)", flush=True)

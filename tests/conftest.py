@@ -39,7 +39,7 @@ async def make_server(tmp_path_factory):
         kw = {"port": 0, "tcp_port": -1, "address": "127.0.0.1", "unregister_timeout": 0.2,
               "robot": "none", "state_dir": str(tmp_path_factory.mktemp("state"))}
         kw.update(overrides)
-        server = HitrobotServer(Settings(**kw))
+        server = HitrobotServer(Settings.of(**kw))
         await server.start()
         started.append(server)
         return server

@@ -39,7 +39,7 @@ def arena(open_fuzzer: Callable[[int], Awaitable[Any]]) -> Iterator[tuple]:
     runner = LoopThread()
 
     async def setup():
-        server = HitrobotServer(Settings(port=0, tcp_port=0, address="127.0.0.1",
+        server = HitrobotServer(Settings.of(port=0, tcp_port=0, address="127.0.0.1",
                                          robot="none", unregister_timeout=0.2))
         await server.start()
         return server, await Witness.open(server.port), await open_fuzzer(server.port)

@@ -60,8 +60,9 @@ class Hub:
         self.options = SessionOptions(**options)
         self.shared = Shared.for_options(self.options)
         self.node_options = NodeOptions(  # rosapi lists what the session's globs allow
-            map_store=map_store, topics_glob=self.options.topics_glob,
-            services_glob=self.options.services_glob,
+            map_store=map_store, authenticate=self.options.authenticate,
+            topics_glob=self.options.topics_glob, services_glob=self.options.services_glob,
+            params_glob=None,
         )
         self.nodes: list[Node] = []
         self.clients: list[SessionClient] = []

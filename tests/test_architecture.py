@@ -29,13 +29,14 @@ ALLOWED: dict[str, set[str]] = {
     "record": {"bus", "protocol", "types"},  # a bus tap and a player, like a node without robot
     "conformance": {"protocol", "types"},  # a client tool: it talks to servers over sockets
     # the top: assembles the floors, so it may import any of them
-    "config": {"session", "bus", "nodes", "robot", "protocol", "types", "state"},
+    "config": {"session", "transport", "bus", "nodes", "robot", "record", "protocol", "types",
+               "state"},
     "server": {"config", "robots", "transport", "session", "bus", "nodes", "robot", "record",
                "protocol", "types", "state"},
     # one robot = backend + nodes (+ its state folder, robot_state)
     "robots": {"config", "bus", "nodes", "robot", "types", "state", "robot_state"},
     "robot_state": {"nodes", "robot", "state"},
-    "commands": {"robot", "signals", "config", "types", "server", "record"},
+    "commands": {"robot", "signals", "config", "types", "server", "robots", "record"},
     "workers": {"config", "signals", "bus"},  # the --workers parent (bus: endpoint parsing)
     "cli": {"config", "server", "signals", "conformance", "commands", "workers"},
     "__main__": {"cli"},

@@ -30,17 +30,19 @@ def test_help_documents_every_flag():
 
 def test_defaults_are_rosbridge_like_but_loopback():
     s = load(build_parser().parse_args([]))
-    assert (s.port, s.address, s.tcp_port, s.status_level) == (9090, "127.0.0.1", 9091, "error")
-    assert s.fragment_timeout == 600 and s.unregister_timeout == 10
+    t = s.transport
+    assert (t.port, t.address, t.tcp_port, s.session.status_level) == \
+        (9090, "127.0.0.1", 9091, "error")
+    assert s.session.fragment_timeout == 600 and s.bus.unregister_timeout == 10
 
 
 def test_toml_config_then_flags_override(tmp_path):
     cfg = tmp_path / "server.toml"
     cfg.write_text('[server]\nport = 9999\ntopics-glob = "/robot/*"\nstatus_level = "warning"\n')
     s = load(build_parser().parse_args(["--config", str(cfg), "--port", "7000"]))
-    assert s.port == 7000  # flag beats file
-    assert s.status_level == "warning"
-    topics = s.session_options().topics_filter
+    assert s.transport.port == 7000  # flag beats file
+    assert s.session.status_level == "warning"
+    topics = s.session.topics_filter
     assert topics.allows("/robot/odom") and not topics.allows("/other")
 
 
@@ -57,12 +59,13 @@ def test_bus_settings_from_toml_and_flags(tmp_path):
                    'zenoh-domain = 3\n')
     s = load(build_parser().parse_args(["--config", str(cfg),
                                         "--zenoh-listen", "tcp/127.0.0.1:7500"]))
-    assert (s.bus, s.zenoh_domain, s.zenoh_listen) == ("zenoh", 3, "tcp/127.0.0.1:7500")
+    assert (s.bus.bus, s.bus.zenoh_domain, s.bus.zenoh_listen) == \
+        ("zenoh", 3, "tcp/127.0.0.1:7500")
     from hitrobot_server.bus.zenoh.keys import endpoints
 
-    assert endpoints(s.zenoh_connect) == ["tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"]
+    assert endpoints(s.bus.zenoh_connect) == ["tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"]
     assert endpoints("tcp/127.0.0.1:1, tcp/127.0.0.1:2") == ["tcp/127.0.0.1:1", "tcp/127.0.0.1:2"]
-    assert load(build_parser().parse_args([])).bus == "local"
+    assert load(build_parser().parse_args([])).bus.bus == "local"
 
 
 def test_unknown_bus_is_refused():
@@ -143,7 +146,7 @@ def test_demo_services_are_off_unless_asked(tmp_path):
     assert load(build_parser().parse_args(["--demo-services"])).node_options().demo_services
     cfg = tmp_path / "server.toml"
     cfg.write_text("demo_services = true\n")
-    assert load(build_parser().parse_args(["--config", str(cfg)])).demo_services
+    assert load(build_parser().parse_args(["--config", str(cfg)])).nodes.demo_services
 
 
 def test_ssl_runs_on_asyncio_and_refuses_uvloop(tmp_path):

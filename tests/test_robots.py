@@ -27,7 +27,7 @@ def test_named_robots_are_parsed():
 
 def test_a_single_unnamed_robot_stays_as_it_was():
     s = parse("--robot", "none")
-    assert s.robot == "none" and s.robots == ()
+    assert s.robot.robot == "none" and s.robots == ()
     assert s.robot_entries() == [RobotEntry("", "none")]
     assert parse().robot_entries() == [RobotEntry("", "sim")]
 

@@ -11,6 +11,7 @@ import pytest
 
 from hitrobot_server.cli import build_parser
 from hitrobot_server.config import load
+from hitrobot_server.robots import start_plan
 from hitrobot_server.workers import reserve_port, without_workers_flag
 
 
@@ -21,13 +22,13 @@ def free_port() -> int:
 
 
 def test_workers_flag_and_toml(tmp_path):
-    assert load(build_parser().parse_args([])).worker_count == 1
-    assert load(build_parser().parse_args(["--workers", "3"])).worker_count == 3
+    assert load(build_parser().parse_args([])).process.worker_count == 1
+    assert load(build_parser().parse_args(["--workers", "3"])).process.worker_count == 3
     cfg = tmp_path / "c.toml"
     cfg.write_text("workers = 2\n")
-    assert load(build_parser().parse_args(["--config", str(cfg)])).worker_count == 2
+    assert load(build_parser().parse_args(["--config", str(cfg)])).process.worker_count == 2
     auto = load(build_parser().parse_args(["--workers", "auto"]))
-    assert auto.worker_count >= 1 and auto.primary
+    assert auto.process.worker_count >= 1 and start_plan(auto).primary
 
 
 @pytest.mark.parametrize("value", ["0", "-2", "two", "1.5"])

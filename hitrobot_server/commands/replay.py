@@ -9,6 +9,7 @@ import sys
 
 from ..config import add_arguments, load
 from ..record.player import MAX_SPEED, Player, load_recording
+from ..robots import start_plan
 from ..server import HitrobotServer
 from ..signals import until_terminated
 from . import run_command
@@ -40,8 +41,7 @@ async def serve(args: argparse.Namespace) -> None:
     if args.robot not in (None, "none", ["none"]):  # --robot is repeatable: a list
         raise ValueError("replay serves the recording in place of a robot: --robot cannot be "
                          "used with it")
-    settings.robot = "none"
-    server = HitrobotServer(settings)
+    server = HitrobotServer(settings, plan=start_plan(settings, robot="none"))
     recording = await asyncio.to_thread(load_recording, args.file, server.bus.types)
     player = Player(server.bus, recording, speed=args.speed, loop=args.loop, start=args.start)
     await server.start()

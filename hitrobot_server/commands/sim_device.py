@@ -7,6 +7,7 @@ import argparse
 import sys
 
 from ..robot.factory import build_simulator
+from ..robot.options import RobotOptions
 from ..robot.rest.device import NOT_EMULATED, SimDevice
 from ..signals import until_terminated
 from . import run_command
@@ -23,13 +24,15 @@ def build_parser() -> argparse.ArgumentParser:
                         help="HTTP port (default: 1448, the robot's; 0 = any free one)")
     parser.add_argument("--address", default="127.0.0.1",
                         help="address to bind (default: 127.0.0.1)")
-    parser.add_argument("--world", metavar="FILE", default=None,
+    robot = RobotOptions()  # the server's defaults for a simulated robot
+    parser.add_argument("--world", metavar="FILE", default=robot.world,
                         help="map_server YAML (+ PGM) to drive in (default: the built-in office)")
-    parser.add_argument("--sim-speed", type=float, default=1.0,
-                        help="simulated seconds per wall-clock second (default: 1)")
-    parser.add_argument("--sim-seed", type=int, default=0,
-                        help="random seed of the simulator (default: 0)")
-    parser.add_argument("--sim-mapping", action="store_true",
+    parser.add_argument("--sim-speed", type=float, default=robot.sim_speed,
+                        help="simulated seconds per wall-clock second "
+                        f"(default: {robot.sim_speed:g})")
+    parser.add_argument("--sim-seed", type=int, default=robot.sim_seed,
+                        help=f"random seed of the simulator (default: {robot.sim_seed})")
+    parser.add_argument("--sim-mapping", action="store_true", default=robot.sim_mapping,
                         help="start with an empty map and mapping on")
     parser.add_argument("--log-level", default="info",
                         help="logging level: debug, info, warning, error (default: info)")

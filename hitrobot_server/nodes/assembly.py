@@ -28,11 +28,12 @@ from .tf_republisher import TFRepublisherNode
 
 
 async def start_nodes(bus: Bus, settings: NodeOptions, robot: Robot | None,
-                      state: StateBinding | None = None) -> list[Node]:
-    """Create and start every node; robot-facing nodes only when a robot is attached.
-    ``state``: that robot's state folder (what the operator builds survives restarts)."""
+                      state: StateBinding | None = None, *, demo: bool = False) -> list[Node]:
+    """Create and start every node; robot-facing nodes only when a robot is attached, the
+    tutorial servers when the start plan says ``demo``. ``state``: that robot's state folder
+    (what the operator builds survives restarts)."""
     nodes: list[Node] = [Rosapi(bus, settings), TFRepublisherNode(bus)]
-    if settings.demo_services:
+    if demo:
         nodes.append(DemoServices(bus))
     if robot is not None:
         nodes += robot_nodes(bus, settings, robot, state=state)

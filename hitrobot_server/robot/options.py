@@ -1,19 +1,39 @@
-"""Which robot to attach and how; the command line builds it."""
+"""Which robot to attach and how.
+
+The fields a user sets (their ``help`` in the metadata makes the flag and the TOML key, their
+default is the server's) and their checks live here; ``config.py`` only composes the layers'
+options, and gives each robot its own copy (its spec and start pose, :func:`dataclasses.replace`).
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+
+RECONN_WAIT_MS = 3000  # the REST client's wait between reconnection attempts ([slamware])
 
 
-@dataclass
+@dataclass(frozen=True)
 class RobotOptions:
-    robot: str = "sim"  # 'sim', 'none' or a Slamware REST URL
-    world: str | None = None  # map_server YAML the simulator drives in (None: the office)
-    sim_seed: int = 0
-    sim_speed: float = 1.0
-    sim_mapping: bool = False
-    reconn_wait_ms: int = 3000  # the REST client's wait between reconnection attempts
+    robot: str = field(default="sim", metadata={
+        "help": "the robot behind the bus: 'sim' (built-in simulated Slamware robot), 'none', "
+        "or a Slamware REST URL such as http://192.168.11.1:1448; repeat as NAME=SPEC for "
+        "several robots, each under /NAME/ (sim@X,Y[,YAW] sets a simulated robot's start pose)",
+        "repeatable": True})
+    world: str | None = field(default=None, metadata={
+        "help": "map_server YAML (+ PGM) the simulator drives in (default: the built-in "
+        "office)"})
+    sim_seed: int = field(default=0, metadata={
+        "help": "random seed of the simulator (sensor noise); same seed, same run"})
+    sim_speed: float = field(default=1.0, metadata={
+        "help": "simulated seconds per wall-clock second (2 = twice as fast)"})
+    sim_mapping: bool = field(default=False, metadata={
+        "help": "start the simulator with an empty map and mapping on (not a prebuilt map)"})
+    reconn_wait_ms: int = RECONN_WAIT_MS  # from [slamware]
     start: tuple[float, float, float] | None = None  # a simulated robot's start pose (x, y, yaw)
+
+    def check(self) -> None:
+        if self.sim_speed <= 0:
+            raise ValueError("sim_speed must be positive")
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,12 @@ def default_root() -> Path:
     return Path(base) / "hitrobot-server"
 
 
+def user_data(name: str) -> Path:
+    """``$XDG_DATA_HOME/hitrobot-server/NAME`` (``~/.local/share`` when unset)."""
+    base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
+    return Path(base) / "hitrobot-server" / name
+
+
 def identity_folder(root: Path, identity: str) -> Path:
     """The folder of one robot identity: a plain, readable folder name (no path tricks), so
     two identities never share a folder."""

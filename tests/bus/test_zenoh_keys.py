@@ -86,7 +86,7 @@ def test_local_bus_never_imports_zenoh():
         "from hitrobot_server.config import Settings\n"
         "from hitrobot_server.server import HitrobotServer\n"
         "async def main():\n"
-        "    s = HitrobotServer(Settings(port=0, tcp_port=0, robot='none'))\n"
+        "    s = HitrobotServer(Settings.of(port=0, tcp_port=0, robot='none'))\n"
         "    await s.start(); await s.stop()\n"
         "asyncio.run(main())\n"
         "print('zenoh' in sys.modules)\n"

@@ -94,11 +94,14 @@ def test_rosbridge_parameter_spellings_are_accepted():
         "--websocket-ping-timeout", "4", "--unregister_timeout", "1", "--topics_glob", "/a/*",
         "--use_compression", "--send_buffer_limit", "1000", "--fragment_memory_limit", "9"])
     s = load(args)
-    assert (s.fragment_timeout, s.max_message_size, s.delay_between_messages) == (5, 100, 0.1)
-    assert (s.call_service_timeout, s.websocket_ping_interval, s.websocket_ping_timeout) == \
-        (3, 2, 4)
-    assert (s.unregister_timeout, s.topics_glob, s.use_compression) == (1, "/a/*", True)
-    assert (s.send_buffer_limit, s.fragment_memory_limit) == (1000, 9)
+    session, transport = s.session, s.transport
+    assert (session.fragment_timeout, session.max_message_size,
+            transport.delay_between_messages) == (5, 100, 0.1)
+    assert (session.call_service_timeout, transport.websocket_ping_interval,
+            transport.websocket_ping_timeout) == (3, 2, 4)
+    assert (s.bus.unregister_timeout, session.topics_glob, transport.use_compression) == \
+        (1, "/a/*", True)
+    assert (session.send_buffer_limit, session.fragment_memory_limit) == (1000, 9)
     with pytest.raises(ValueError, match="--certfile"):
         load(build_parser().parse_args(["--ssl"]))
 

@@ -68,7 +68,7 @@ async def test_enter_confirms_a_dialog_and_escape_cancels_it(console: Console, w
     await names.locator("input[name=name]").press("Enter")
     await page.locator('#map-list li[data-name="by_enter"]').wait_for(timeout=15_000)
     assert not await page.locator("#confirm-dialog").is_visible()
-    assert (console.server.settings.map_store / "by_enter" / "map.yaml").is_file()
+    assert (console.server.settings.store.map_store / "by_enter" / "map.yaml").is_file()
     assert console.errors == []
 
 

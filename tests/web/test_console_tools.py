@@ -108,7 +108,7 @@ async def test_save_as_then_load_a_saved_map_from_the_list(console: Console, wat
     confirm = page.locator("#confirm-dialog")
     item = page.locator('#map-list li[data-name="ground_floor"]')
     await item.wait_for(timeout=15_000)
-    assert (console.server.settings.map_store / "ground_floor" / "map.yaml").is_file()
+    assert (console.server.settings.store.map_store / "ground_floor" / "map.yaml").is_file()
 
     # change the robot's state, then load the saved map back from the list
     await watcher.subscribe(f"{NODE}/virtual_walls", "slamware_ros_sdk/Line2DFlt32Array")

@@ -9,12 +9,14 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
+from ...robot.options import RECONN_WAIT_MS
+
 
 @dataclass
 class SlamwareParams:
     ip_address: str = "192.168.11.1"
     robot_port: int = 1445
-    reconn_wait_ms: int = 3000
+    reconn_wait_ms: int = RECONN_WAIT_MS
     angle_compensate: bool = True
     fixed_odom_map_tf: bool = True
     robot_frame: str = "/base_link"
