@@ -107,21 +107,15 @@ async def start_robot_nodes(bus: Bus, name: str, settings: NodeOptions, robot: R
 
 async def _start(nodes: list[Node]) -> None:
     for node in nodes:
-        start = getattr(node, "start", None)
-        if start is not None:
-            await start()
+        await node.start()
 
 
 def restored_summary(nodes: list[Node]) -> list[str]:
     """What the nodes took back from the state folder, as phrases for the start-up log."""
-    return [phrase for node in nodes for phrase in getattr(node, "restored", list)()]
+    return [phrase for node in nodes for phrase in node.restored()]
 
 
 async def stop_nodes(nodes: list[Node]) -> None:
     """Stop in reverse start order, so nodes built on others go first."""
     for node in reversed(nodes):
-        stop = getattr(node, "stop", None)
-        if stop is not None:
-            await stop()
-        else:
-            node.close()
+        await node.stop()
