@@ -40,12 +40,13 @@ from ...robot.relocalization import GOOD_QUALITY, settled_quality
 from ..base import RobotNode, require_finite
 from ..ground import messages as m
 from ..ground.mapsync import MapHolder, tiles, window
+from ..ground.names import SLAMWARE_NODE
 from ..ground.requests import answer, require_robot
 from ..ground.slamware_params import SlamwareParams
 
 log = logging.getLogger(__name__)
 
-NODE_NAME = m.SLAMWARE_NODE
+NODE_NAME = SLAMWARE_NODE
 PKG = "slamware_ros_sdk"
 KNOWN_FLAGS = 0xFF | 512 | 1024 | 2048  # the ROS msg's bits plus the SDK's newer ones
 
