@@ -60,9 +60,9 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
     link, motion, localization = robot.link, robot.motion, robot.localization
     frame = settings.slamware.map_frame
     # Nodes handed to other nodes (no node imports another; they meet here or on the bus):
-    # the shell cancels move_base's goals, navigation reads the map manager's POIs, the route
-    # and graph nodes keep their default files beside the loaded map (mapfiles as MapDefaults)
-    # and locomotion names its map-frame odometry after the loaded map.
+    # the shell cancels move_base's goals, the route and graph nodes keep their default files
+    # beside the loaded map (mapfiles as MapDefaults) and locomotion names its map-frame
+    # odometry after the loaded map. Navigation reads the POIs over the bus, as the fleet does.
     move_base = MoveBaseNode(bus, link, motion, localization, frame)
     map_manager = site_map or MapManager(bus, link, robot.maps, localization, settings, state)
     mapfiles = MapFilesNode(bus, link, localization, settings)
@@ -72,7 +72,7 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
         move_base,
         ShellNode(bus, robot, settings.authenticate, move_base.cancel_all),
         *([] if site_map else [map_manager]),
-        NavigationNode(bus, link, motion, localization, map_manager.pois.get),
+        NavigationNode(bus, link, motion, localization),
         PointCloudNode(bus, link, robot.sensors, frame),
         Nav2ActionsNode(bus, link, motion, localization, robot.sensors, frame),
         IntelligentNavigationNode(bus, robot, frame),

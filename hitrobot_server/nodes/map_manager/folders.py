@@ -11,6 +11,7 @@ from ...robot.backend import BackendError
 from ...robot.model import ArtifactUsage
 from ..base import RobotNode
 from ..ground.mapstore import MapStore, StoreError
+from ..ground.names import MAP_MANAGER_LOAD_MAP, MAP_MANAGER_SAVE_MAP
 from . import mapio
 from .composition import MapComposition
 from .jobs import job
@@ -19,7 +20,7 @@ from .poi_requests import PoiRequests
 from .pois import PoiRegistry
 from .robot_map import RobotMap
 from .sections import Sections
-from .topics import PKG, request_topic
+from .topics import PKG
 
 Folder = tuple[Grid, dict[int, Mask], PoiRegistry, dict | None]
 """A map folder's map, masks, POIs and robot artifacts (walls, tracks, dock; None: none)."""
@@ -34,8 +35,8 @@ class MapFolders:
         self.layers, self.pois, self.sections = layers, pois, sections
 
     def listen(self) -> None:
-        self.node.subscribe(request_topic("save_map"), f"{PKG}/SaveMap", self._on_save_map)
-        self.node.subscribe(request_topic("load_map"), f"{PKG}/SaveMap", self._on_load_map)
+        self.node.subscribe(MAP_MANAGER_SAVE_MAP, f"{PKG}/SaveMap", self._on_save_map)
+        self.node.subscribe(MAP_MANAGER_LOAD_MAP, f"{PKG}/SaveMap", self._on_load_map)
 
     def clean_leftovers(self) -> list[str]:
         """At start-up, before anything can save: what interrupted saves left behind."""

@@ -10,6 +10,7 @@ from ...robot.backend import BackendError
 from ...robot.capabilities import Robot
 from ...robot.model import ArtifactUsage, Line, MapKind
 from ..ground import messages as m
+from ..ground.names import SLAMWARE_SYNC_MAP
 from .fields import enum_field, line, lines, usage
 from .map_copy import MapCopy
 from .runner import Request, Runner
@@ -24,7 +25,7 @@ class MapRequests:
 
     def requests(self) -> list[Request]:
         return [
-            ("sync_map", f"{PKG}/SyncMapRequest", self._on_sync_map),
+            (SLAMWARE_SYNC_MAP, f"{PKG}/SyncMapRequest", self._on_sync_map),
             ("clear_map", f"{PKG}/ClearMapRequest", self._on_clear_map),
             ("set_map_update", f"{PKG}/SetMapUpdateRequest", self._on_set_map_update),
             ("set_map_localization", f"{PKG}/SetMapLocalizationRequest", self._on_set_loc),
