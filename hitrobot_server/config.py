@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from .bus.namespace import check_robot_name
+from .nodes.assembly import reserved_names
 from .nodes.options import NodeOptions, SlamwareParams
 from .robot.options import RobotEntry, RobotOptions, parse_robot
 from .session.options import SessionOptions
@@ -386,7 +387,7 @@ def robot_entries(given: str | list[str]) -> tuple[str, tuple[RobotEntry, ...]]:
         raise ValueError("name every robot (--robot NAME=SPEC) when there are several")
     seen: set[str] = set()
     for entry in named:
-        check_robot_name(entry.name)
+        check_robot_name(entry.name, reserved_names())
         if entry.name in seen:
             raise ValueError(f"robot name {entry.name!r} is given twice")
         seen.add(entry.name)

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 from ..bus.core import Bus
+from ..bus.namespace import SITE_WIDE, SITE_WIDE_TOPICS
+from ..bus.rosout import SERVER_NODE
 from ..robot.capabilities import Robot
 from ..state import StateBinding
 from .base import Node
@@ -113,6 +115,28 @@ async def _start(nodes: list[Node]) -> None:
 def restored_summary(nodes: list[Node]) -> list[str]:
     """What the nodes took back from the state folder, as phrases for the start-up log."""
     return [phrase for node in nodes for phrase in node.restored()]
+
+
+NODE_CLASSES: tuple[type[Node], ...] = (
+    TFRepublisherNode, DemoServices, DiagnosticsNode, FleetNode, FleetMemberNode, SlamwareNode,
+    ConventionalNode, MoveBaseNode, ShellNode, MapManager, NavigationNode, PointCloudNode,
+    Nav2ActionsNode, IntelligentNavigationNode, MapFilesNode, PatrolNode, GraphNodeService,
+    LocomotionNode,
+)
+"""Every node class the assembly makes (rosapi's names are the bus's site-wide ones)."""
+BESIDE_THE_NODES = ("/record", "/recorder", "/replay")
+"""Global names served beside the nodes, by the recorder and the player (``record/``, which
+the nodes may not import; a test checks these are still theirs)."""
+
+
+def reserved_names() -> frozenset[str]:
+    """First name segments a robot may not be named, collected from what serves them: the
+    bus's site-wide names and its own node, the recorder's and the player's, and the global
+    names every node class declares (``Node.GLOBAL_NAMES``). The robot-name check of the
+    configuration is handed this set."""
+    names = [*SITE_WIDE, *SITE_WIDE_TOPICS, SERVER_NODE, *BESIDE_THE_NODES,
+             *(name for cls in NODE_CLASSES for name in cls.GLOBAL_NAMES)]
+    return frozenset(name.strip("/").split("/")[0] for name in names)
 
 
 async def stop_nodes(nodes: list[Node]) -> None:

@@ -7,7 +7,7 @@ import contextlib
 import logging
 import math
 from collections.abc import Awaitable, Callable, Coroutine
-from typing import Any
+from typing import Any, ClassVar
 
 from ..bus.core import Bus
 from ..bus.services import ActionHandler, ServiceHandler
@@ -34,6 +34,11 @@ def _log_scope(module: str) -> str:
 
 class Node:
     """A named participant; its registrations are undone by ``close``."""
+
+    GLOBAL_NAMES: ClassVar[tuple[str, ...]] = ()
+    """The global names the node serves or takes requests on (its node name, topics,
+    services, actions, parameters): no robot may be named like their first segment, or its
+    ``/NAME/...`` would shadow them. The assembly collects them (``reserved_names``)."""
 
     def __init__(self, bus: Bus, name: str):
         self.bus = bus

@@ -37,6 +37,8 @@ class DemoServices(Node):
     """``/add_two_ints`` (example_interfaces/srv/AddTwoInts) and ``/fibonacci``
     (example_interfaces/action/Fibonacci)."""
 
+    GLOBAL_NAMES = ("/demo_services", ADD_TWO_INTS, FIBONACCI)
+
     def __init__(self, bus: Bus):
         super().__init__(bus, "/demo_services")
         self.service(ADD_TWO_INTS, "example_interfaces/srv/AddTwoInts", self._add_two_ints)

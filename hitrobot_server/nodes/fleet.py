@@ -119,6 +119,8 @@ class Refused(Exception):
 class FleetNode(RobotNode):
     """``/fleet/robots``, ``/fleet/dispatch``, ``/fleet/tasks``, ``/fleet/cancel``."""
 
+    GLOBAL_NAMES = ("/fleet",)
+
     def __init__(self, bus: Bus, map_frame: str = "/map"):
         super().__init__(bus, "/fleet", None)
         self.map_frame = map_frame

@@ -44,6 +44,8 @@ class MapFilesNode(RobotNode):
     """``list_map_files``, ``load_laser_map`` and ``set_map`` over the map manager's store;
     the route and graph nodes see it as their :class:`~.ground.loadedmap.MapDefaults`."""
 
+    GLOBAL_NAMES = ("/map_files", "/list_map_files", "/load_laser_map", "/set_map")
+
     def __init__(self, bus: Bus, link: Link, localization: LocalizationBackend,
                  settings: NodeOptions):
         super().__init__(bus, "/map_files", link)

@@ -186,6 +186,8 @@ class PathProgress:
 class Nav2ActionsNode(RobotNode):
     """Serves ``/compute_path_to_pose`` and ``/follow_path``."""
 
+    GLOBAL_NAMES = ("/nav2_actions", COMPUTE_PATH, FOLLOW_PATH)
+
     def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
                  localization: LocalizationBackend, sensors: SensorBackend,
                  map_frame: str = "/map"):

@@ -68,6 +68,8 @@ def planning_area(start: tuple[float, float], goal: tuple[float, float],
 class NavigationNode(RobotNode):
     """StartNavigation / NavigateToPOI on top of the robot's ``move_to``."""
 
+    GLOBAL_NAMES = (NODE_NAME,)
+
     def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
                  localization: LocalizationBackend):
         super().__init__(bus, NODE_NAME, link)

@@ -63,6 +63,8 @@ ADMIN = "admin"
 class ShellNode(RobotNode):
     """Executes ``/cmd_string`` commands against the robot and publishes the mode."""
 
+    GLOBAL_NAMES = (NODE_NAME, *COMMAND_TOPICS, *MODE_TOPICS, "/shell")
+
     def __init__(self, bus: Bus, robot: Robot, authenticate: bool = False,
                  cancel_goals: Callable[[str], int] | None = None):
         super().__init__(bus, NODE_NAME, robot.link)

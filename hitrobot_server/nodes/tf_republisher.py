@@ -102,6 +102,8 @@ class _Ros1Goal:
 class TFRepublisherNode(RobotNode):
     """Serves TF subscriptions from the bus's ``/tf`` tree; runs with or without a robot."""
 
+    GLOBAL_NAMES = (NODE_NAME, SERVICE, TF, TF_STATIC)
+
     def __init__(self, bus: Bus):
         super().__init__(bus, NODE_NAME, None)
         self.buffer = TFBuffer()

@@ -28,13 +28,15 @@ from .poi_requests import PoiRequests
 from .pois import PoiRegistry
 from .robot_map import RobotMap
 from .sections import Sections
-from .topics import NODE_NAME
+from .topics import MAP_TOPIC, NODE_NAME
 
 log = logging.getLogger(__name__)
 
 
 class MapManager(RobotNode):
     """The map manager node; needs a robot (the SLAM layer is the robot's map)."""
+
+    GLOBAL_NAMES = (NODE_NAME, MAP_TOPIC)
 
     def __init__(self, bus: Bus, link: Link, maps: MapBackend,
                  localization: LocalizationBackend, settings: NodeOptions,

@@ -25,11 +25,13 @@ from .map_requests import MapRequests
 from .motion_requests import MotionRequests
 from .publishers import Publishers
 from .runner import Runner
-from .topics import NODE_NAME, PKG, SlamwareTopics
+from .topics import NODE_NAME, PKG, SlamwareTopics, global_names
 
 
 class SlamwareNode(RobotNode):
     """Publishes the robot's state and executes requests exactly where the real node does."""
+
+    GLOBAL_NAMES = global_names(SlamwareParams())
 
     def __init__(self, bus: Bus, robot: Robot, params: SlamwareParams | None = None):
         super().__init__(bus, NODE_NAME, robot.link)

@@ -19,6 +19,12 @@ def with_alias(topic: str, alias: str) -> tuple[str, ...]:
     return (topic, alias) if alias and alias != topic else (topic,)
 
 
+def global_names(p: SlamwareParams) -> tuple[str, ...]:
+    """The node's name and every topic its parameters name (relative ones under the node)."""
+    topics = [v for k, v in p.as_dict().items() if k.endswith("_topic") and v]
+    return (NODE_NAME, *(m.slamware_topic(t) for t in topics))
+
+
 @dataclass(frozen=True)
 class SlamwareTopics:
     """Where the node publishes: one name per topic (two for scan and odometry when their
