@@ -21,6 +21,7 @@ from typing import Any
 
 from .bus.namespace import check_robot_name
 from .bus.options import BusOptions
+from .nodes.assembly import reserved_names
 from .nodes.options import NodeOptions, SlamwareParams
 from .record.options import RecordOptions
 from .robot.options import RobotEntry, RobotOptions, parse_robot
@@ -279,7 +280,7 @@ def robot_entries(given: str | list[str]) -> tuple[str, tuple[RobotEntry, ...]]:
         raise ValueError("name every robot (--robot NAME=SPEC) when there are several")
     seen: set[str] = set()
     for entry in named:
-        check_robot_name(entry.name)
+        check_robot_name(entry.name, reserved_names())
         if entry.name in seen:
             raise ValueError(f"robot name {entry.name!r} is given twice")
         seen.add(entry.name)

@@ -98,8 +98,7 @@ class RestStateBinder:
             why = "nothing was changed before the robot was reached"
             restore = True
         for node in nodes:
-            if hasattr(node, "adopt"):
-                node.adopt(restore)
+            node.adopt(restore)
         if restore:
             report_restored(store, restored_summary(nodes))
             log.info("state: the state folder won: %s", why)

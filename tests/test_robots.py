@@ -142,7 +142,9 @@ async def test_two_robots_each_under_its_own_name(make_server, tmp_path):
 
 async def test_every_global_name_of_a_single_robot_is_reserved(make_server, tmp_path):
     """A robot named like any first segment of the single robot's names would shadow it."""
-    from hitrobot_server.bus.namespace import RESERVED
+    from hitrobot_server.nodes.assembly import reserved_names
+
+    RESERVED = reserved_names()
 
     server = await make_server(robot="sim", map_dir=str(tmp_path))
     bus = server.bus

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import re
-from collections.abc import Callable, Hashable, Iterable
+from collections.abc import Callable, Collection, Hashable, Iterable
 from typing import Any
 
 from ..types.registry import TypeRegistry
@@ -27,36 +27,19 @@ one log, the site map manager (POIs, masks, saved maps), the fleet."""
 SITE_WIDE_TOPICS = frozenset({"/map"})
 """Single names every robot shares: the composed site map (``/map/...`` stays per robot)."""
 
-RESERVED = frozenset({
-    # the site-wide names and the server's own nodes
-    "tf", "tf_static", "rosout", "rosapi", "map", "map_manager", "fleet", "diagnostics_agg",
-    "diagnostic_aggregator", "tf2_web_republisher", "republish_tfs", "hitrobot_server",
-    # a single robot's global names: a robot named so would shadow them
-    "slamware_ros_sdk_server_node", "scan", "odom", "cmd_vel", "move_base", "move_base_simple",
-    "robot_pose", "robot_pose_publisher", "initialpose", "navigation", "planning", "graph",
-    "cmd_string", "system_shell", "ros_mode", "robot_state", "robot_id", "Odometry",
-    "map_files", "locomotion", "stand_up", "sit_down", "set_listen", "set_map",
-    "list_map_files", "load_laser_map", "save_graph_file", "load_graph_file",
-    "set_initialpose", "cloud_registered", "merged_points", "downsampled_points",
-    "pointcloud_accumulator_node", "compute_path_to_pose", "follow_path",
-    "intelligent_navigate_to_pose", "intelligent_navigat_to_pose", "intelligent_navigation",
-    "nav", "nav2_actions", "conventional", "shell", "patrol",
-    # the recorder's and the player's services and nodes, the demo services
-    "record", "recorder", "replay", "add_two_ints", "fibonacci",
-})
-"""First name segments a robot may not be named: they would shadow a global name."""
-
 _NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,31}")
 
 
-def check_robot_name(name: str) -> None:
+def check_robot_name(name: str, reserved: Collection[str] = ()) -> None:
     """Raise ``ValueError`` unless ``name`` can be a robot namespace: a ROS name segment
-    (a letter, then letters, digits or ``_``; ≤ 32 characters) that shadows no global name."""
+    (a letter, then letters, digits or ``_``; ≤ 32 characters) that shadows no global name.
+    ``reserved``: the first segments of the global names, which the bus does not know (the
+    nodes declare theirs; the assembly's ``reserved_names`` collects them for the config)."""
     if not _NAME.fullmatch(name):
         raise ValueError(
             f"robot name {name!r} is invalid: use a letter, then letters, digits or '_' "
             "(at most 32 characters)")
-    if name in RESERVED or name.startswith("hitrobot_client_"):
+    if name in reserved or name.startswith("hitrobot_client_"):
         raise ValueError(f"robot name {name!r} would shadow the global name '/{name}'")
 
 

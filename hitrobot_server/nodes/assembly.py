@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 from ..bus.core import Bus
+from ..bus.namespace import SITE_WIDE, SITE_WIDE_TOPICS
+from ..bus.rosout import SERVER_NODE
 from ..robot.capabilities import Robot
 from ..state import StateBinding
 from .base import Node
@@ -61,9 +63,9 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
     link, motion, localization = robot.link, robot.motion, robot.localization
     frame = settings.slamware.map_frame
     # Nodes handed to other nodes (no node imports another; they meet here or on the bus):
-    # the shell cancels move_base's goals, navigation reads the map manager's POIs, the route
-    # and graph nodes keep their default files beside the loaded map (mapfiles as MapDefaults)
-    # and locomotion names its map-frame odometry after the loaded map.
+    # the shell cancels move_base's goals, the route and graph nodes keep their default files
+    # beside the loaded map (mapfiles as MapDefaults) and locomotion names its map-frame
+    # odometry after the loaded map. Navigation reads the POIs over the bus, as the fleet does.
     move_base = MoveBaseNode(bus, link, motion, localization, frame)
     map_manager = site_map or MapManager(bus, link, robot.maps, localization, settings, state)
     mapfiles = MapFilesNode(bus, link, localization, settings)
@@ -73,7 +75,7 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
         move_base,
         ShellNode(bus, robot, settings.authenticate, move_base.cancel_all),
         *([] if site_map else [map_manager]),
-        NavigationNode(bus, link, motion, localization, map_manager.pois.get),
+        NavigationNode(bus, link, motion, localization),
         PointCloudNode(bus, link, robot.sensors, frame),
         Nav2ActionsNode(bus, link, motion, localization, robot.sensors, frame),
         IntelligentNavigationNode(bus, robot, frame),
@@ -108,21 +110,37 @@ async def start_robot_nodes(bus: Bus, name: str, settings: NodeOptions, robot: R
 
 async def _start(nodes: list[Node]) -> None:
     for node in nodes:
-        start = getattr(node, "start", None)
-        if start is not None:
-            await start()
+        await node.start()
 
 
 def restored_summary(nodes: list[Node]) -> list[str]:
     """What the nodes took back from the state folder, as phrases for the start-up log."""
-    return [phrase for node in nodes for phrase in getattr(node, "restored", list)()]
+    return [phrase for node in nodes for phrase in node.restored()]
+
+
+NODE_CLASSES: tuple[type[Node], ...] = (
+    TFRepublisherNode, DemoServices, DiagnosticsNode, FleetNode, FleetMemberNode, SlamwareNode,
+    ConventionalNode, MoveBaseNode, ShellNode, MapManager, NavigationNode, PointCloudNode,
+    Nav2ActionsNode, IntelligentNavigationNode, MapFilesNode, PatrolNode, GraphNodeService,
+    LocomotionNode,
+)
+"""Every node class the assembly makes (rosapi's names are the bus's site-wide ones)."""
+BESIDE_THE_NODES = ("/record", "/recorder", "/replay")
+"""Global names served beside the nodes, by the recorder and the player (``record/``, which
+the nodes may not import; a test checks these are still theirs)."""
+
+
+def reserved_names() -> frozenset[str]:
+    """First name segments a robot may not be named, collected from what serves them: the
+    bus's site-wide names and its own node, the recorder's and the player's, and the global
+    names every node class declares (``Node.GLOBAL_NAMES``). The robot-name check of the
+    configuration is handed this set."""
+    names = [*SITE_WIDE, *SITE_WIDE_TOPICS, SERVER_NODE, *BESIDE_THE_NODES,
+             *(name for cls in NODE_CLASSES for name in cls.GLOBAL_NAMES)]
+    return frozenset(name.strip("/").split("/")[0] for name in names)
 
 
 async def stop_nodes(nodes: list[Node]) -> None:
     """Stop in reverse start order, so nodes built on others go first."""
     for node in reversed(nodes):
-        stop = getattr(node, "stop", None)
-        if stop is not None:
-            await stop()
-        else:
-            node.close()
+        await node.stop()

@@ -7,7 +7,7 @@ import contextlib
 import logging
 import math
 from collections.abc import Awaitable, Callable, Coroutine
-from typing import Any
+from typing import Any, ClassVar
 
 from ..bus.core import Bus
 from ..bus.services import ActionHandler, ServiceHandler
@@ -23,8 +23,22 @@ def require_finite(path: str, *values: float) -> None:
         raise RequestRejected(f"field '{path}' must be a finite number")
 
 
+def _log_scope(module: str) -> str:
+    """The modules whose log records a node's name goes with: its module, or for a node in a
+    package of its own (``nodes/map_manager/``) every module of that package."""
+    package = __name__.rpartition(".")[0] + "."
+    if module.startswith(package):
+        return package + module.removeprefix(package).split(".")[0]
+    return module
+
+
 class Node:
     """A named participant; its registrations are undone by ``close``."""
+
+    GLOBAL_NAMES: ClassVar[tuple[str, ...]] = ()
+    """The global names the node serves or takes requests on (its node name, topics,
+    services, actions, parameters): no robot may be named like their first segment, or its
+    ``/NAME/...`` would shadow them. The assembly collects them (``reserved_names``)."""
 
     def __init__(self, bus: Bus, name: str):
         self.bus = bus
@@ -32,7 +46,7 @@ class Node:
         self._subs: list[tuple[str, object]] = []
         bus.register_node(name)
         if type(self).__module__ != __name__:  # its module's records name it on /rosout
-            bus.log_names[type(self).__module__] = name
+            bus.log_names[_log_scope(type(self).__module__)] = name
 
     def advertise(self, topic: str, type_name: str, latch: bool = False) -> None:
         self.bus.advertise(topic, type_name, self, self.name, latch=latch)
@@ -56,6 +70,22 @@ class Node:
     def close(self) -> None:
         self.bus.remove_owner(self, [key for _topic, key in self._subs])
         self.bus.unregister_node(self.name)
+
+    # The hooks the assembly and the state binder call on every node (defaults: nothing).
+    async def start(self) -> None:
+        """Start the node's workers, once every node of its server is made."""
+
+    async def stop(self) -> None:
+        """Undo the node's registrations (a node with workers stops them first)."""
+        self.close()
+
+    def adopt(self, restore: bool) -> None:
+        """A state folder was bound after the start (a REST robot said who it is): take its
+        sections (``restore``) or write the node's own into it (they are newer)."""
+
+    def restored(self) -> list[str]:
+        """What the node took back from the state folder, as phrases for the start-up log."""
+        return []
 
 
 class RobotNode(Node):
@@ -102,9 +132,6 @@ class RobotNode(Node):
                 await asyncio.sleep(delay)
 
         return self.spawn(loop())
-
-    async def start(self) -> None:
-        """Start the node's workers (none by default)."""
 
     async def stop(self) -> None:
         for task in list(self._tasks):

@@ -27,6 +27,8 @@ ROBOT_POSE_PERIOD = 0.05
 class ConventionalNode(RobotNode):
     """``/robot_pose`` out, ``/initialpose`` in."""
 
+    GLOBAL_NAMES = ("/robot_pose_publisher", "/robot_pose", "/initialpose", "/conventional")
+
     def __init__(self, bus: Bus, link: Link, localization: LocalizationBackend,
                  map_frame: str = "/map"):
         super().__init__(bus, "/robot_pose_publisher", link)

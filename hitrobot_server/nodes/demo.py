@@ -37,6 +37,9 @@ class DemoServices(Node):
     """``/add_two_ints`` (example_interfaces/srv/AddTwoInts) and ``/fibonacci``
     (example_interfaces/action/Fibonacci)."""
 
+    # its node name is left out: the demo runs beside a single robot only, never a named one
+    GLOBAL_NAMES = (ADD_TWO_INTS, FIBONACCI)
+
     def __init__(self, bus: Bus):
         super().__init__(bus, "/demo_services")
         self.service(ADD_TWO_INTS, "example_interfaces/srv/AddTwoInts", self._add_two_ints)

@@ -83,6 +83,8 @@ def memory_item() -> dict:
 
 
 class DiagnosticsNode(RobotNode):
+    GLOBAL_NAMES = ("/diagnostic_aggregator", TOPIC)
+
     def __init__(self, bus: Bus, robot: Robot | None = None,
                  state: StateBinding | None = None, bridge: bool = True):
         super().__init__(bus, "/diagnostic_aggregator", robot.link if robot else None)

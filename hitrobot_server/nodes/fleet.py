@@ -28,6 +28,7 @@ import time
 from dataclasses import dataclass, field
 
 from ..bus.core import Bus
+from ..bus.namespace import Namespace
 from ..bus.services import STATUS_CANCELED, STATUS_SUCCEEDED, GoalHandle
 from ..bus.topics import RequestRejected
 from ..robot.backend import BackendError
@@ -35,12 +36,14 @@ from ..robot.capabilities import Robot
 from ..robot.model import HealthLevel, Pose2D
 from .base import RobotNode
 from .ground import messages as m
+from .ground.names import COMPUTE_PATH, FLEET_MEMBERS, FOLLOW_PATH
+from .ground.pois import find_poi
 from .ground.requests import NOT_CONNECTED
 
 log = logging.getLogger(__name__)
 
 PKG = "hitrobot_msgs"
-MEMBERS = "/fleet/members"
+MEMBERS = FLEET_MEMBERS
 ROBOTS = "/fleet/robots"
 TASKS = "/fleet/tasks"
 DISPATCH = "/fleet/dispatch"
@@ -115,6 +118,8 @@ class Refused(Exception):
 
 class FleetNode(RobotNode):
     """``/fleet/robots``, ``/fleet/dispatch``, ``/fleet/tasks``, ``/fleet/cancel``."""
+
+    GLOBAL_NAMES = ("/fleet",)
 
     def __init__(self, bus: Bus, map_frame: str = "/map"):
         super().__init__(bus, "/fleet", None)
@@ -204,13 +209,12 @@ class FleetNode(RobotNode):
 
     async def _poi_pose(self, name: str) -> Pose2D:
         try:
-            reply = await self.bus.call_service("/map_manager/get_pois", {}, timeout=5.0)
+            poi = await find_poi(self.bus, name)
         except Exception as exc:
             raise Refused(f"the POIs cannot be read: {exc}") from None
-        for poi in reply["poi_list"]["pois"]:
-            if poi["name"] == name:
-                return m.pose2d(poi["pose"])
-        raise Refused(f"unknown POI '{name}'")
+        if poi is None:
+            raise Refused(f"unknown POI '{name}'")
+        return m.pose2d(poi["pose"])
 
     async def _cancel(self, request: dict) -> dict:
         task = self.tasks.get(request["task"])
@@ -259,7 +263,7 @@ class FleetNode(RobotNode):
         goal = {"goal": m.pose_stamped(target, self.map_frame), "start": m.pose_stamped(
             Pose2D(0, 0, 0), self.map_frame), "use_start": False, "planner_id": ""}
         try:
-            _handle, outcome = self.bus.start_goal(f"/{robot}/compute_path_to_pose", goal)
+            _handle, outcome = self.bus.start_goal(Namespace(robot).resolve(COMPUTE_PATH), goal)
             result = await outcome
         except Exception as exc:
             log.info("fleet: %s cannot plan: %s", robot, exc)
@@ -274,7 +278,8 @@ class FleetNode(RobotNode):
     async def _run(self, task: Task, robot: str, path: dict) -> None:
         try:
             handle, outcome_task = self.bus.start_goal(
-                f"/{robot}/follow_path", {"path": path, "controller_id": "", "goal_checker_id": ""})
+                Namespace(robot).resolve(FOLLOW_PATH),
+                {"path": path, "controller_id": "", "goal_checker_id": ""})
             task.goal = handle
             outcome = await outcome_task
         except Exception as exc:

@@ -169,6 +169,8 @@ def shortest_path(graph: Graph, start: int, goal: int) -> list[int]:
 class GraphNodeService(RobotNode):
     """The route graph node."""
 
+    GLOBAL_NAMES = ("/graph", "/save_graph_file", "/load_graph_file")
+
     def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
                  localization: LocalizationBackend, settings: NodeOptions,
                  mapfiles: MapDefaults, state: StateBinding | None = None):

@@ -143,6 +143,8 @@ def _state(action: ActionInfo) -> int:
 class IntelligentNavigationNode(RobotNode):
     """Serves the intelligent navigation action and the relocalization service."""
 
+    GLOBAL_NAMES = ("/intelligent_navigation", ACTION, *ACTION_ALIASES, SERVICE)
+
     def __init__(self, bus: Bus, robot: Robot, map_frame: str = "/map"):
         super().__init__(bus, "/intelligent_navigation", robot.link)
         self.robot = robot

@@ -100,6 +100,9 @@ def topic_part(name: str) -> str:
 class LocomotionNode(RobotNode):
     """stand_up, sit_down, set_listen, robot_state, /Odometry and the map-frame odometry."""
 
+    GLOBAL_NAMES = ("/locomotion", STATE_TOPIC, ODOM_TOPIC, ROBOT_ID_PARAM, "/stand_up",
+                    "/sit_down", "/set_listen")
+
     def __init__(self, bus: Bus, link: Link, locomotion: Locomotion, sensors: SensorBackend,
                  power: PowerBackend, settings: NodeOptions, loaded_map: LoadedMap):
         super().__init__(bus, "/locomotion", link)

@@ -28,14 +28,14 @@ from .ground.loadedmap import LoadedMap
 from .ground.mapstore import MapStore, StoreError, write_file
 from .ground.messages import pose2d_of
 from .ground.namedfiles import FileError, list_reply
-from .ground.names import MAP_MANAGER
+from .ground.names import MAP_MANAGER_LOAD_MAP
 from .ground.requests import NOT_CONNECTED, robot_error
 from .options import NodeOptions
 
 log = logging.getLogger(__name__)
 
 PKG = "hitrobot_msgs"
-LOAD_MAP_TOPIC = f"{MAP_MANAGER}/load_map"
+LOAD_MAP_TOPIC = MAP_MANAGER_LOAD_MAP
 LOADED_PREFIX = "load_map: loaded map"
 LOAD_TIMEOUT = 60.0
 
@@ -43,6 +43,8 @@ LOAD_TIMEOUT = 60.0
 class MapFilesNode(RobotNode):
     """``list_map_files``, ``load_laser_map`` and ``set_map`` over the map manager's store;
     the route and graph nodes see it as their :class:`~.ground.loadedmap.MapDefaults`."""
+
+    GLOBAL_NAMES = ("/map_files", "/list_map_files", "/load_laser_map", "/set_map")
 
     def __init__(self, bus: Bus, link: Link, localization: LocalizationBackend,
                  settings: NodeOptions):

@@ -89,6 +89,8 @@ class Goal:
 class MoveBaseNode(RobotNode):
     """The actionlib server for ``/move_base`` (the server name is configurable)."""
 
+    GLOBAL_NAMES = ("/move_base",)
+
     def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
                  localization: LocalizationBackend, map_frame: str = "/map",
                  server: str = "/move_base"):

@@ -69,12 +69,11 @@ from ..robot.motion import drive
 from .base import RobotNode
 from .ground import messages as m
 from .ground.messages import GoalRejected, goal_pose, map_frames, pose_stamped, rejected
+from .ground.names import COMPUTE_PATH, FOLLOW_PATH
 from .ground.requests import NOT_CONNECTED
 
 log = logging.getLogger(__name__)
 
-COMPUTE_PATH = "/compute_path_to_pose"
-FOLLOW_PATH = "/follow_path"
 PATH_SPACING = 0.05
 """Spacing (m) of the poses of a computed path (the map resolution, as nav2's planners give)."""
 SIMPLIFY_TOLERANCE = 0.05
@@ -186,6 +185,8 @@ class PathProgress:
 # ------------------------------------------------------------------ the node
 class Nav2ActionsNode(RobotNode):
     """Serves ``/compute_path_to_pose`` and ``/follow_path``."""
+
+    GLOBAL_NAMES = ("/nav2_actions", COMPUTE_PATH, FOLLOW_PATH)
 
     def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
                  localization: LocalizationBackend, sensors: SensorBackend,

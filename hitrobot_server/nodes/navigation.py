@@ -19,8 +19,6 @@ silently, as on the robot.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 from ..bus.core import Bus
 from ..bus.topics import Message, RequestRejected
 from ..robot.backend import (
@@ -32,6 +30,7 @@ from ..robot.model import ActionResult, MoveOptionFlag, MoveOptions, Point2D, Re
 from ..robot.motion import follow
 from .base import RobotNode, require_finite
 from .ground import messages as m
+from .ground.pois import find_poi
 from .ground.requests import answer, require_robot
 
 NODE_NAME = "/navigation"
@@ -69,12 +68,13 @@ def planning_area(start: tuple[float, float], goal: tuple[float, float],
 class NavigationNode(RobotNode):
     """StartNavigation / NavigateToPOI on top of the robot's ``move_to``."""
 
+    GLOBAL_NAMES = (NODE_NAME,)
+
     def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
-                 localization: LocalizationBackend, find_poi: Callable[[str], dict | None]):
+                 localization: LocalizationBackend):
         super().__init__(bus, NODE_NAME, link)
         self.motion = motion
         self.localization = localization
-        self.find_poi = find_poi
         self.advertise(UNREACHABLE_TOPIC, f"{PKG}/TargetUnreachable")
         self.subscribe(START_TOPIC, f"{PKG}/StartNavigation", self._on_start)
         self.subscribe(POI_TOPIC, f"{PKG}/NavigateToPOI", self._on_poi)
@@ -85,13 +85,27 @@ class NavigationNode(RobotNode):
                        bool(msg["skip_final_turn"]), bool(msg["fast_planning"]))
 
     def _on_poi(self, message: Message) -> None:
+        """The POI is read from the map manager (over the bus, as every node reads POIs), then
+        the request goes on as a ``start`` to its pose; a refusal reaches the publisher as the
+        bus words one."""
         msg = message.msg
         name = msg["poi_name"]
-        poi = self.find_poi(name)
-        if poi is None:
-            raise RequestRejected(f"navigate_to_poi: there is no POI named {name!r}")
-        self._navigate(message, f"navigate_to_poi {name!r}", poi["pose"],
-                       msg["distance_to_target"], bool(msg["skip_final_turn"]), False)
+
+        async def to_poi() -> None:
+            try:
+                poi = await find_poi(self.bus, name)
+            except Exception as exc:
+                message.reply.fail(f"navigate_to_poi: the POIs cannot be read: {exc}")
+                return
+            try:
+                if poi is None:
+                    raise RequestRejected(f"navigate_to_poi: there is no POI named {name!r}")
+                self._navigate(message, f"navigate_to_poi {name!r}", poi["pose"],
+                               msg["distance_to_target"], bool(msg["skip_final_turn"]), False)
+            except RequestRejected as exc:
+                message.reply.fail(str(exc))
+
+        self.spawn(to_poi())
 
     def _navigate(self, message: Message, what: str, goal: dict, distance: float,
                   skip_final_turn: bool, fast_planning: bool) -> None:

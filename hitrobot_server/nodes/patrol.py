@@ -128,6 +128,8 @@ def nearest(waypoints: Sequence[Waypoint], x: float, y: float) -> int:
 class PatrolNode(RobotNode):
     """``planning/*``: the current route, route files and the patrol loop."""
 
+    GLOBAL_NAMES = (NS, "/patrol")
+
     def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
                  localization: LocalizationBackend, settings: NodeOptions,
                  mapfiles: MapDefaults, state: StateBinding | None = None):

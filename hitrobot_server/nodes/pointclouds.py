@@ -184,6 +184,8 @@ def extrude(points: np.ndarray, heights: tuple[float, ...] = MERGED_HEIGHTS) -> 
 class PointCloudNode(RobotNode):
     """Publishes the three clouds from the robot's lidar frames."""
 
+    GLOBAL_NAMES = (NODE_NAME, CLOUD_TOPIC, MERGED_TOPIC, DOWNSAMPLED_TOPIC)
+
     def __init__(self, bus: Bus, link: Link, sensors: SensorBackend, map_frame: str = "/map"):
         super().__init__(bus, NODE_NAME, link)
         self.sensors = sensors

@@ -37,6 +37,7 @@ from ..robot.backend import BackendError
 from ..robot.capabilities import Robot
 from ..types.convert import default_message
 from .base import RobotNode
+from .ground.names import MAP_MANAGER_LOAD_MAP, MAP_MANAGER_SAVE_MAP
 from .ground.requests import answer, require_robot, robot_error
 
 log = logging.getLogger(__name__)
@@ -47,10 +48,10 @@ MODE_TOPICS = ("/ros_mode", f"{NODE_NAME}/system_mode")
 VERSION_TOPIC = f"{NODE_NAME}/version"
 GMAPPING, NAVIGATION, BUSY = "gmapping", "navigation", "busy"
 MAP_REQUESTS = {
-    "save_map": ("/map_manager/save_map", "localization"),
-    "save_map_edit": ("/map_manager/save_map", "navigation"),
-    "save_as_map": ("/map_manager/load_map", "localization"),
-    "save_as_map_edit": ("/map_manager/load_map", "navigation"),
+    "save_map": (MAP_MANAGER_SAVE_MAP, "localization"),
+    "save_map_edit": (MAP_MANAGER_SAVE_MAP, "navigation"),
+    "save_as_map": (MAP_MANAGER_LOAD_MAP, "localization"),
+    "save_as_map_edit": (MAP_MANAGER_LOAD_MAP, "navigation"),
 }
 MAP_REQUEST_TYPE = "map_messages/SaveMap"
 MODE_POLL = 0.5
@@ -61,6 +62,8 @@ ADMIN = "admin"
 
 class ShellNode(RobotNode):
     """Executes ``/cmd_string`` commands against the robot and publishes the mode."""
+
+    GLOBAL_NAMES = (NODE_NAME, *COMMAND_TOPICS, *MODE_TOPICS, "/shell")
 
     def __init__(self, bus: Bus, robot: Robot, authenticate: bool = False,
                  cancel_goals: Callable[[str], int] | None = None):

@@ -29,6 +29,7 @@ from ..bus.services import STATUS_ABORTED, STATUS_CANCELED, GoalHandle, GoalOutc
 from ..bus.topics import Message, RequestRejected
 from ..tf_buffer import TFBuffer, Transform, frame_name
 from .base import RobotNode
+from .ground.names import TF, TF_STATIC
 
 NODE_NAME = "/tf2_web_republisher"
 SERVICE = "/republish_tfs"
@@ -101,6 +102,8 @@ class _Ros1Goal:
 class TFRepublisherNode(RobotNode):
     """Serves TF subscriptions from the bus's ``/tf`` tree; runs with or without a robot."""
 
+    GLOBAL_NAMES = (NODE_NAME, SERVICE, TF, TF_STATIC)
+
     def __init__(self, bus: Bus):
         super().__init__(bus, NODE_NAME, None)
         self.buffer = TFBuffer()
@@ -108,7 +111,7 @@ class TFRepublisherNode(RobotNode):
         self._active = 0
         self._topic_ids = itertools.count(1)
         self._goal_ids = itertools.count(1)
-        for topic in ("/tf", "/tf_static"):
+        for topic in (TF, TF_STATIC):
             self.subscribe(topic, "tf2_msgs/TFMessage", self._on_tf)
         action = "tf2_web_republisher/TFSubscriptionAction"
         self.advertise(f"{NODE_NAME}/feedback", f"{action}Feedback")

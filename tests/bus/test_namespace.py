@@ -6,6 +6,7 @@ import pytest
 
 from hitrobot_server.bus.core import Bus
 from hitrobot_server.bus.namespace import Namespace, NamespacedBus, check_robot_name
+from hitrobot_server.nodes.assembly import reserved_names
 from hitrobot_server.types.registry import TypeRegistry
 
 
@@ -28,7 +29,7 @@ def test_names_resolve_into_the_namespace():
                                   "hitrobot_client_3"])
 def test_bad_names(name):
     with pytest.raises(ValueError, match="robot name"):
-        check_robot_name(name)
+        check_robot_name(name, reserved_names())
 
 
 async def test_a_namespaced_bus_routes_to_the_real_one():

@@ -26,6 +26,7 @@ from ...robot.model import (
     SensorType,
 )
 from ..base import require_finite
+from .names import SLAMWARE_NODE
 
 TWO_PI = 2.0 * math.pi
 COMPENSATED_BINS = 360
@@ -159,10 +160,6 @@ def device_info(info: DeviceInfo) -> dict:
 
 
 # ------------------------------------------------------------------ names
-SLAMWARE_NODE = "/slamware_ros_sdk_server_node"
-"""The Slamware node's name: its relative topic names live under it."""
-
-
 def slamware_topic(name: str) -> str:
     """A Slamware parameter's topic name: relative names live under the node (``~``),
     absolute ones stay as given."""

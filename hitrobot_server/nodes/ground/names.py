@@ -1,3 +1,27 @@
-"""Names of nodes that other nodes address on the bus (a name, never the node's module)."""
+"""Names of nodes and interfaces that other nodes address on the bus (a name, never the node's
+module): the one place a node spells a name another node serves."""
 
 MAP_MANAGER = "/map_manager"
+MAP_MANAGER_GET_POIS = f"{MAP_MANAGER}/get_pois"
+"""The map manager's POIs (``map_messages/GetPointsOfInterest``): how other nodes read them."""
+MAP_MANAGER_SAVE_MAP = f"{MAP_MANAGER}/save_map"
+MAP_MANAGER_LOAD_MAP = f"{MAP_MANAGER}/load_map"
+"""The map manager's map-folder requests (``map_messages/SaveMap``): the shell's map commands
+and the map-files node's ``load_laser_map`` ask it on a client's behalf."""
+
+SLAMWARE_NODE = "/slamware_ros_sdk_server_node"
+"""The Slamware node's name: its relative topic names live under it."""
+SLAMWARE_SYNC_MAP = f"{SLAMWARE_NODE}/sync_map"
+"""Asks the Slamware node to read the robot's whole map again (after the map manager replaced
+it)."""
+
+TF = "/tf"
+TF_STATIC = "/tf_static"
+
+COMPUTE_PATH = "/compute_path_to_pose"
+FOLLOW_PATH = "/follow_path"
+"""The Nav2 actions of a robot (under ``/NAME/`` for a named one): the fleet plans a task with
+the first and drives it with the second."""
+
+FLEET_MEMBERS = "/fleet/members"
+"""Each named robot's state (``hitrobot_msgs/FleetRobot``), heard by the site's fleet node."""

@@ -1,0 +1,77 @@
+"""``add_poi``, ``modify_poi``, ``delete_poi`` and the ``get_pois`` service: the points of
+interest (:mod:`.pois`) on the bus, the list on the latched ``pois`` topic. A change is
+acknowledged once it is on disk."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from ...bus.topics import Message, RequestRejected
+from ..base import RobotNode
+from ..ground.names import MAP_MANAGER_GET_POIS
+from .pois import PoiError, PoiRegistry
+from .sections import Sections
+from .topics import PKG, POIS_TOPIC, request_topic
+
+
+class PoiRequests:
+    """The POI requests on a registry, remembered in the state folder."""
+
+    def __init__(self, node: RobotNode, pois: PoiRegistry, sections: Sections):
+        self.node, self.pois, self.sections = node, pois, sections
+        node.advertise(POIS_TOPIC, f"{PKG}/PointsOfInterest", latch=True)
+
+    def listen(self) -> None:
+        for topic, type_name, handler in (
+            ("add_poi", "PointOfInterest", self._on_add_poi),
+            ("modify_poi", "ModifyPOI", self._on_modify_poi),
+            ("delete_poi", "DeletePointOfInterest", self._on_delete_poi),
+        ):
+            self.node.subscribe(request_topic(topic), f"{PKG}/{type_name}", handler)
+
+    def serve(self) -> None:
+        self.node.service(MAP_MANAGER_GET_POIS, f"{PKG}/GetPointsOfInterest", self._get_pois)
+
+    def publish(self) -> None:
+        self.node.publish(POIS_TOPIC, {"pois": self.pois.all()})
+
+    def _request(self, message: Message, what: str, change: Callable[[], str]) -> None:
+        try:
+            text = change()
+        except PoiError as exc:
+            raise RequestRejected(f"{what}: {exc}") from None
+        self.sections.remember("pois")
+        self.publish()
+
+        async def acknowledge() -> None:  # once the change is on disk
+            await self.sections.durable()
+            message.reply.ok(f"{what}: {text}")
+
+        self.node.spawn(acknowledge())
+
+    def _on_add_poi(self, message: Message) -> None:
+        def add() -> str:
+            return f"added {self.pois.add(message.msg)['name']!r}"
+
+        self._request(message, "add_poi", add)
+
+    def _on_modify_poi(self, message: Message) -> None:
+        msg = message.msg
+
+        def modify() -> str:
+            new = self.pois.modify(msg["old_name"], msg["poi"])
+            return f"modified {msg['old_name']!r} (now {new['name']!r})"
+
+        self._request(message, "modify_poi", modify)
+
+    def _on_delete_poi(self, message: Message) -> None:
+        name = message.msg["name"]
+
+        def delete() -> str:
+            self.pois.delete(name)
+            return f"deleted {name!r}"
+
+        self._request(message, "delete_poi", delete)
+
+    async def _get_pois(self, request: dict) -> dict:
+        return {"poi_list": {"pois": self.pois.all()}}
