@@ -22,7 +22,7 @@ from pathlib import Path
 import hitrobot_server
 from hitrobot_server.bus.core import Bus
 from hitrobot_server.session.options import SessionOptions
-from hitrobot_server.session.session import Session, Shared
+from hitrobot_server.session.rosbridge.session import Session, Shared
 from hitrobot_server.types.registry import TypeRegistry
 
 PACKAGE = str(Path(hitrobot_server.__file__).parent)

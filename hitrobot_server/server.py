@@ -16,11 +16,15 @@ from .config import Settings
 from .nodes.assembly import start_bridge_nodes
 from .nodes.base import Node
 from .protocol.auth import load_secret
+from .protocol.foxglove import SUBPROTOCOLS as FOXGLOVE_SUBPROTOCOLS
 from .record.control import RecordingControl
 from .robots import RobotUnit, start_robots, stop_robots
-from .session.foxglove import FoxgloveSession, FoxgloveShared
+from .session.client import ClientSession, WireProtocols
+from .session.foxglove.session import FoxgloveSession
+from .session.foxglove.shared import FoxgloveShared
+from .session.offload import WorkerPool
 from .session.options import SessionOptions
-from .session.session import Session, Shared
+from .session.rosbridge.session import Session, Shared
 from .state import StateBinding
 from .transport.http import StaticFiles, WithRecordings, default_web_root, missing_libraries
 from .transport.tcp import start_tcp
@@ -44,9 +48,13 @@ class HitrobotServer:
         self.nodes: list[Node] = []  # the site nodes of a server with named robots
         self.robots: list[RobotUnit] = []  # every robot: its backend and its nodes
         self.link = None  # the ZenohLink with --bus zenoh
-        self.sessions: set[Session | FoxgloveSession] = set()
+        self.sessions: set[ClientSession] = set()
+        self.pool = WorkerPool()  # big ops off the event loop; shut down by stop()
         self.foxglove = FoxgloveShared.for_bus(self.bus)
-        self.shared = Shared.for_options(self.settings.session_options())
+        self.shared = Shared.for_options(self.settings.session_options(), self.pool)
+        # the wire protocols served: rosbridge by default, others by WebSocket subprotocol
+        self.protocols = WireProtocols(self.new_session)
+        self.protocols.register(FOXGLOVE_SUBPROTOCOLS, self.new_foxglove_session)
         self._session_options: SessionOptions | None = None  # built at start
         self._ws = None
         self._tcp: asyncio.Server | None = None
@@ -62,7 +70,7 @@ class HitrobotServer:
             self._session_options = self.settings.session_options()
         return self._session_options
 
-    def _track(self, session: Session | FoxgloveSession) -> None:
+    def _track(self, session: ClientSession) -> None:
         self.sessions.add(session)
         session.on_close.append(self.sessions.discard)
 
@@ -131,9 +139,6 @@ class HitrobotServer:
         else:
             self.nodes = await start_bridge_nodes(self.bus, s.node_options())
 
-        def factory(peer: str, transport: str) -> Session:
-            return self.new_session(peer, transport)
-
         tls = self._tls = HandshakeGate(
             _tls_context(s), s.tls_handshake_timeout, s.max_tls_handshakes,
             s.max_tls_handshakes_per_address,
@@ -142,7 +147,7 @@ class HitrobotServer:
         self._ws_console = console is not None
         worker = s.worker_id is not None  # one of --workers: the ports are shared
         self._ws = await start_websocket(
-            factory,
+            self.protocols,
             s.address,
             s.port,
             max_frame_size=s.max_frame_size,
@@ -152,14 +157,13 @@ class HitrobotServer:
             tls=tls,
             ping_interval=s.websocket_ping_interval,
             ping_timeout=s.websocket_ping_timeout,
-            new_foxglove=self.new_foxglove_session,
             reuse_port=worker,
             headers={WORKER_HEADER: str(s.worker_id)} if worker else None,
         )
         self.port = self._ws.sockets[0].getsockname()[1] if self._ws.sockets else s.port
         if s.tcp_port:
             self._tcp = await start_tcp(
-                factory,
+                self.protocols.default,
                 s.address,
                 s.tcp_port if s.tcp_port > 0 else 0,
                 max_frame_size=s.max_frame_size,
@@ -193,6 +197,7 @@ class HitrobotServer:
                 await asyncio.wait_for(self._tcp.wait_closed(), 5)
         for session in list(self.sessions):
             session.close()
+        self.pool.shutdown()
         await stop_robots(self.nodes, self.robots)
         self.nodes.clear()
         self.robots.clear()

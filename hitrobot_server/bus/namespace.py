@@ -13,7 +13,7 @@ from collections.abc import Hashable
 from typing import Any
 
 from .core import Bus
-from .names import canonical
+from .names import CLIENT_NODE_PREFIX, canonical
 from .params import ParamStore
 
 SITE_WIDE = ("/tf", "/tf_static", "/rosout", "/rosapi", "/map_manager", "/fleet")
@@ -51,7 +51,7 @@ def check_robot_name(name: str) -> None:
         raise ValueError(
             f"robot name {name!r} is invalid: use a letter, then letters, digits or '_' "
             "(at most 32 characters)")
-    if name in RESERVED or name.startswith("hitrobot_client_"):
+    if name in RESERVED or name.startswith(CLIENT_NODE_PREFIX[1:]):
         raise ValueError(f"robot name {name!r} would shadow the global name '/{name}'")
 
 

@@ -7,18 +7,18 @@ import itertools
 import math
 from typing import TYPE_CHECKING
 
-from ..bus.errors import ServiceError
-from ..bus.names import canonical, valid_name
-from ..protocol.errors import MessageId, ProtocolError
-from ..protocol.ops import (
+from ...bus.errors import ServiceError
+from ...bus.names import canonical, valid_name
+from ...protocol.errors import MessageId, ProtocolError
+from ...protocol.ops import (
     COMPRESSIONS,
     AdvertiseService,
     CallService,
     ServiceResponse,
     UnadvertiseService,
 )
-from ..types.convert import ConversionError, from_json
-from ..types.registry import MsgType
+from ...types.convert import ConversionError, from_json
+from ...types.registry import MsgType
 
 if TYPE_CHECKING:
     from .context import OpContext

@@ -6,16 +6,16 @@ import asyncio
 import itertools
 from typing import TYPE_CHECKING, Any
 
-from ..bus.errors import ActionError
-from ..bus.names import canonical, valid_name
-from ..bus.services import (
+from ...bus.errors import ActionError
+from ...bus.names import canonical, valid_name
+from ...bus.services import (
     STATUS_ABORTED,
     STATUS_UNKNOWN,
     GoalHandle,
     GoalOutcome,
 )
-from ..protocol.errors import ProtocolError
-from ..protocol.ops import (
+from ...protocol.errors import ProtocolError
+from ...protocol.ops import (
     ActionFeedback,
     ActionResult,
     AdvertiseAction,
@@ -23,7 +23,7 @@ from ..protocol.ops import (
     SendActionGoal,
     UnadvertiseAction,
 )
-from ..types.convert import ConversionError, from_json
+from ...types.convert import ConversionError, from_json
 from .services import args_to_request, split_id, too_many_in_flight
 
 if TYPE_CHECKING:
