@@ -82,3 +82,4 @@ class Hub:
         for client in self.clients:
             await client.close()
         await stop_nodes(self.nodes)
+        self.shared.pool.shutdown()  # the worker processes, as the server's stop does

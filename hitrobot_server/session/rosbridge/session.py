@@ -167,25 +167,7 @@ class Session:
     def _offload(self, decode: Callable[[Any], object], data: object, op_id: Any = None) -> Pending:
         """Decode a big frame (or png payload) in the worker pool, then handle it here."""
 
-        async def run() -> None:
-            try:
-                obj = await self.pool.run(decode, data)
-            except bulk.PngError as exc:
-                self.status("error", f"png: field 'data' is not a valid PNG payload: {exc}", op_id)
-                return
-            except bulk.DecodeError as exc:
-                kind = "CBOR" if decode is bulk.decode_cbor else "JSON"
-                self.status("error", f"invalid {kind}: {exc}", exc.id)
-                return
-            except Exception as exc:  # the pool broke (a worker was killed): say so, go on
-                log.exception("client %s: decoding a big op failed", self.node)
-                self.status("error", f"internal error: {exc}", op_id)
-                return
-            more = self.handle(obj)
-            if more is not None:
-                await more
-
-        return self.spawn(run())
+        return self.spawn(_handle_big(self, decode, data, op_id))
 
     def handle(self, obj: object, frame: str | bytes | None = None) -> Pending:
         """Run one decoded op; every failure becomes a status message, never an exception.
@@ -367,3 +349,24 @@ class Session:
             self.pool.shutdown()
         log.info("client %s (%s) disconnected", self.node, self.peer or "?")
 
+
+async def _handle_big(
+    session: Session, decode: Callable[[Any], object], data: object, op_id: Any
+) -> None:
+    """A big frame (or png payload) decoded in the worker pool, then handled by the session."""
+    try:
+        obj = await session.pool.run(decode, data)
+    except bulk.PngError as exc:
+        session.status("error", f"png: field 'data' is not a valid PNG payload: {exc}", op_id)
+        return
+    except bulk.DecodeError as exc:
+        kind = "CBOR" if decode is bulk.decode_cbor else "JSON"
+        session.status("error", f"invalid {kind}: {exc}", exc.id)
+        return
+    except Exception as exc:  # the pool broke (a worker was killed): say so, go on
+        log.exception("client %s: decoding a big op failed", session.node)
+        session.status("error", f"internal error: {exc}", op_id)
+        return
+    more = session.handle(obj)
+    if more is not None:
+        await more
