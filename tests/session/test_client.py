@@ -88,3 +88,15 @@ async def test_client_ids_are_per_server(hub):
     finally:
         first.close()
         second.close()
+
+
+def test_the_wire_protocols_do_not_import_each_other():
+    """rosbridge and Foxglove share only what is at session/ top (client, outbox, offload,
+    options)."""
+    folder = Path(transport.__file__).parent.parent / "session"
+    for package, other in (("rosbridge", "foxglove"), ("foxglove", "rosbridge")):
+        for path in (folder / package).glob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if isinstance(node, ast.ImportFrom):
+                    assert other not in (node.module or "").split("."), f"{package}/{path.name}"
+                    assert other not in (a.name for a in node.names), f"{package}/{path.name}"
