@@ -100,3 +100,11 @@ def test_the_wire_protocols_do_not_import_each_other():
                 if isinstance(node, ast.ImportFrom):
                     assert other not in (node.module or "").split("."), f"{package}/{path.name}"
                     assert other not in (a.name for a in node.names), f"{package}/{path.name}"
+
+
+async def test_the_server_owns_its_worker_pool_and_shuts_it_down(server):
+    """The pool is the server's (no process-wide one): its sessions share it, stop ends it."""
+    assert server.shared.pool is server.pool
+    assert await server.pool.run(abs, -3) == 3  # starts a worker
+    await server.stop()
+    assert server.pool._pool is None
