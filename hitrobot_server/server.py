@@ -7,6 +7,7 @@ import contextlib
 import logging
 import ssl
 from pathlib import Path
+from typing import TypeVar
 
 from . import __version__
 from .bus.core import Bus
@@ -33,6 +34,7 @@ from .transport.websocket import start_websocket
 from .types.registry import TypeRegistry
 
 log = logging.getLogger(__name__)
+T = TypeVar("T", bound=ClientSession)
 PACKAGE_LOGGER = "hitrobot_server"  # every record of ours goes to /rosout too
 WORKER_HEADER = "X-Hitrobot-Worker"  # which worker of --workers answered (handshake, HTTP)
 
@@ -70,24 +72,22 @@ class HitrobotServer:
             self._session_options = self.settings.session_options()
         return self._session_options
 
-    def _track(self, session: ClientSession) -> None:
+    def _track(self, session: T) -> T:
+        """Keep a new session until it closes (stop closes those left)."""
         self.sessions.add(session)
         session.on_close.append(self.sessions.discard)
+        return session
 
     def new_session(self, peer: str, transport: str) -> Session:
-        session = Session(
+        return self._track(Session(
             self.bus, self._options(), peer=peer, transport=transport, shared=self.shared
-        )
-        self._track(session)
-        return session
+        ))
 
     def new_foxglove_session(self, peer: str, subprotocol: str) -> FoxgloveSession:
         """A client that asked for a Foxglove subprotocol (PROTOCOL.md §18)."""
-        session = FoxgloveSession(
+        return self._track(FoxgloveSession(
             self.bus, self._options(), self.foxglove, peer=peer, subprotocol=subprotocol
-        )
-        self._track(session)
-        return session
+        ))
 
     async def start(self) -> None:
         """Start everything; on a failure, stop what was started (the Zenoh session's threads
