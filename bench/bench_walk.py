@@ -63,7 +63,7 @@ from hitrobot_server.nodes.base import Node
 from hitrobot_server.robot.options import RobotEntry
 from hitrobot_server.server import HitrobotServer
 from hitrobot_server.session.options import SessionOptions
-from hitrobot_server.session.session import Session, Shared
+from hitrobot_server.session.rosbridge.session import Session, Shared
 from hitrobot_server.types.registry import TypeRegistry
 
 PACKAGE = str(Path(hitrobot_server.__file__).parent)

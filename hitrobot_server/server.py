@@ -6,6 +6,7 @@ import asyncio
 import contextlib
 import logging
 import ssl
+from typing import TypeVar
 
 from . import __version__
 from .bus.core import Bus
@@ -14,11 +15,15 @@ from .bus.zenoh.keys import endpoints
 from .config import Settings
 from .nodes.base import Node
 from .protocol.auth import load_secret
+from .protocol.foxglove import SUBPROTOCOLS as FOXGLOVE_SUBPROTOCOLS
 from .record.control import RecordingControl
 from .robots import RobotUnit, StartPlan, start_plan, start_planned, stop_robots
-from .session.foxglove import FoxgloveSession, FoxgloveShared
+from .session.client import ClientSession, WireProtocols
+from .session.foxglove.session import FoxgloveSession
+from .session.foxglove.shared import FoxgloveShared
+from .session.offload import WorkerPool
 from .session.options import SessionOptions
-from .session.session import Session, Shared
+from .session.rosbridge.session import Session, Shared
 from .state import StateBinding
 from .transport.http import StaticFiles, WithRecordings, default_web_root, missing_libraries
 from .transport.options import TransportOptions
@@ -28,6 +33,7 @@ from .transport.websocket import start_websocket
 from .types.registry import TypeRegistry
 
 log = logging.getLogger(__name__)
+T = TypeVar("T", bound=ClientSession)
 PACKAGE_LOGGER = "hitrobot_server"  # every record of ours goes to /rosout too
 WORKER_HEADER = "X-Hitrobot-Worker"  # which worker of --workers answered (handshake, HTTP)
 
@@ -46,9 +52,13 @@ class HitrobotServer:
         self.nodes: list[Node] = []  # the site nodes of a server with named robots
         self.robots: list[RobotUnit] = []  # every robot: its backend and its nodes
         self.link = None  # the ZenohLink with --bus zenoh
-        self.sessions: set[Session | FoxgloveSession] = set()
+        self.sessions: set[ClientSession] = set()
+        self.pool = WorkerPool()  # big ops off the event loop; shut down by stop()
         self.foxglove = FoxgloveShared.for_bus(self.bus)
-        self.shared = Shared.for_options(self.settings.session)
+        self.shared = Shared.for_options(self.settings.session, self.pool)
+        # the wire protocols served: rosbridge by default, others by WebSocket subprotocol
+        self.protocols = WireProtocols(self.new_session)
+        self.protocols.register(FOXGLOVE_SUBPROTOCOLS, self.new_foxglove_session)
         self._session_options: SessionOptions | None = None  # with the start's secret and tag
         self._ws = None
         self._tcp: asyncio.Server | None = None
@@ -62,24 +72,22 @@ class HitrobotServer:
     def _options(self) -> SessionOptions:
         return self._session_options or self.settings.session.for_sessions()
 
-    def _track(self, session: Session | FoxgloveSession) -> None:
+    def _track(self, session: T) -> T:
+        """Keep a new session until it closes (stop closes those left)."""
         self.sessions.add(session)
         session.on_close.append(self.sessions.discard)
+        return session
 
     def new_session(self, peer: str, transport: str) -> Session:
-        session = Session(
+        return self._track(Session(
             self.bus, self._options(), peer=peer, transport=transport, shared=self.shared
-        )
-        self._track(session)
-        return session
+        ))
 
     def new_foxglove_session(self, peer: str, subprotocol: str) -> FoxgloveSession:
         """A client that asked for a Foxglove subprotocol (PROTOCOL.md §18)."""
-        session = FoxgloveSession(
+        return self._track(FoxgloveSession(
             self.bus, self._options(), self.foxglove, peer=peer, subprotocol=subprotocol
-        )
-        self._track(session)
-        return session
+        ))
 
     async def start(self) -> None:
         """Start everything; on a failure, stop what was started (the Zenoh session's threads
@@ -139,9 +147,6 @@ class HitrobotServer:
         """The WebSocket port (with the web console) and the TCP port, as the plan says."""
         t, session, plan = self.settings.transport, self.settings.session, self.plan
 
-        def factory(peer: str, transport: str) -> Session:
-            return self.new_session(peer, transport)
-
         tls = self._tls = HandshakeGate(
             _tls_context(t), t.tls_handshake_timeout, t.max_tls_handshakes,
             t.max_tls_handshakes_per_address,
@@ -150,7 +155,7 @@ class HitrobotServer:
         self._ws_console = console is not None
         recordings = None if session.authenticate else self.settings.store.recordings
         self._ws = await start_websocket(
-            factory,
+            self.protocols,
             t.address,
             t.port,
             max_frame_size=session.max_frame_size,
@@ -160,14 +165,13 @@ class HitrobotServer:
             tls=tls,
             ping_interval=t.websocket_ping_interval,
             ping_timeout=t.websocket_ping_timeout,
-            new_foxglove=self.new_foxglove_session,
             reuse_port=plan.worker,
             headers={WORKER_HEADER: str(plan.worker_id)} if plan.worker else None,
         )
         self.port = self._ws.sockets[0].getsockname()[1] if self._ws.sockets else t.port
         if plan.tcp:
             self._tcp = await start_tcp(
-                factory,
+                self.protocols.default,
                 t.address,
                 t.tcp_port if t.tcp_port > 0 else 0,
                 max_frame_size=session.max_frame_size,
@@ -201,6 +205,7 @@ class HitrobotServer:
                 await asyncio.wait_for(self._tcp.wait_closed(), 5)
         for session in list(self.sessions):
             session.close()
+        self.pool.shutdown()
         await stop_robots(self.nodes, self.robots)
         self.nodes.clear()
         self.robots.clear()

@@ -18,7 +18,7 @@ from hitrobot_server.nodes.assembly import start_nodes, stop_nodes
 from hitrobot_server.nodes.base import Node
 from hitrobot_server.nodes.options import NodeOptions
 from hitrobot_server.session.options import SessionOptions
-from hitrobot_server.session.session import Session, Shared
+from hitrobot_server.session.rosbridge.session import Session, Shared
 from hitrobot_server.types.registry import TypeRegistry
 
 from .helpers import ProtocolClient, decode_frame
@@ -83,3 +83,4 @@ class Hub:
         for client in self.clients:
             await client.close()
         await stop_nodes(self.nodes)
+        self.shared.pool.shutdown()  # the worker processes, as the server's stop does

@@ -16,7 +16,7 @@ from typing import Any
 from ..types.registry import TypeRegistry
 from .core import Bus
 from .link import RemoteGraph
-from .names import canonical
+from .names import CLIENT_NODE_PREFIX, canonical
 from .params import ParamStore
 from .services import Action, GoalHandle, Service
 from .topics import Message, Topic
@@ -39,7 +39,7 @@ def check_robot_name(name: str, reserved: Collection[str] = ()) -> None:
         raise ValueError(
             f"robot name {name!r} is invalid: use a letter, then letters, digits or '_' "
             "(at most 32 characters)")
-    if name in reserved or name.startswith("hitrobot_client_"):
+    if name in reserved or name.startswith(CLIENT_NODE_PREFIX[1:]):
         raise ValueError(f"robot name {name!r} would shadow the global name '/{name}'")
 
 

@@ -28,6 +28,8 @@ import time
 
 from .. import procmem
 from ..bus.core import Bus
+from ..bus.graph import whole_graph
+from ..bus.names import CLIENT_NODE_PREFIX
 from ..robot.backend import ACTION_PREFIX, BackendError, NotConnectedError
 from ..robot.capabilities import Robot
 from ..robot.model import HealthLevel
@@ -43,7 +45,6 @@ BATTERY_LOW = 15
 BATTERY_CRITICAL = 5
 QUALITY_WARN = 50
 QUALITY_ERROR = 30
-CLIENT_PREFIX = "/hitrobot_client_"
 TOPIC = "/diagnostics_agg"
 
 
@@ -112,8 +113,7 @@ class DiagnosticsNode(RobotNode):
     def bridge_items(self) -> list[dict]:
         bus = self.bus
         # every server's clients (other workers of --workers, servers joined over Zenoh)
-        nodes = set(bus.nodes) | bus.remote_graph().nodes
-        clients = sorted(n for n in nodes if n.startswith(CLIENT_PREFIX))
+        clients = sorted(n for n in whole_graph(bus).nodes if n.startswith(CLIENT_NODE_PREFIX))
         return [status(
             "/Bridge/Clients", OK,
             f"{len(clients)} client{'' if len(clients) == 1 else 's'} connected",

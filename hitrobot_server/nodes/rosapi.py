@@ -12,6 +12,7 @@ import orjson
 
 from ..bus.core import Bus
 from ..bus.errors import ServiceError
+from ..bus.graph import whole_graph
 from ..bus.link import PARAM_SERVICES
 from ..bus.names import canonical
 from ..bus.params import ParamError, check_value_size
@@ -69,15 +70,13 @@ class Rosapi(Node):
     def _topics(self) -> list[tuple[str, str]]:
         """(name, type) of every topic here and in processes joined by a link."""
         allow = self.settings.topics_filter.allows
-        found = dict(self.bus.remote_graph().topics)
-        found.update((t.name, t.type_name) for t in self.bus.topics.values())
+        found = whole_graph(self.bus).topics
         return sorted((n, t) for n, t in found.items() if allow(n))
 
     def _services(self) -> list[tuple[str, str]]:
         allow = self.settings.services_filter.allows
-        found = {n: t for n, (t, _node) in self.bus.remote_graph().services.items()}
-        found.update((s.name, s.type_name) for s in self.bus.services.values())
-        return sorted((n, t) for n, t in found.items() if allow(n))
+        found = whole_graph(self.bus).services
+        return sorted((n, t) for n, (t, _node) in found.items() if allow(n))
 
     def _same_type(self, a: str, b: str, kind: str) -> bool:
         lookup = getattr(self.bus.types, kind)
@@ -117,17 +116,11 @@ class Rosapi(Node):
 
     async def publishers(self, req: dict) -> dict:
         name = canonical(req["topic"]) if req["topic"] else ""
-        topic = self.bus.topic(name) if name else None
-        nodes = set(topic.publishers.values()) if topic else set()
-        nodes |= self.bus.remote_graph().publishers.get(name, set())
-        return {"publishers": sorted(nodes)}
+        return {"publishers": sorted(whole_graph(self.bus).publishers.get(name, ()))}
 
     async def subscribers(self, req: dict) -> dict:
         name = canonical(req["topic"]) if req["topic"] else ""
-        topic = self.bus.topic(name) if name else None
-        nodes = {node for node, _cb in topic.subscribers.values()} if topic else set()
-        nodes |= self.bus.remote_graph().subscribers.get(name, set())
-        return {"subscribers": sorted(nodes)}
+        return {"subscribers": sorted(whole_graph(self.bus).subscribers.get(name, ()))}
 
     # ------------------------------------------------------------------ services
     async def services(self, req: dict) -> dict:
@@ -156,7 +149,7 @@ class Rosapi(Node):
 
     # ------------------------------------------------------------------ graph
     async def nodes(self, req: dict) -> dict:
-        return {"nodes": sorted(set(self.bus.nodes) | self.bus.remote_graph().nodes)}
+        return {"nodes": sorted(whole_graph(self.bus).nodes)}
 
     async def node_details(self, req: dict) -> dict:
         node = canonical(req["node"]) if req["node"] else ""
@@ -174,8 +167,7 @@ class Rosapi(Node):
         names = {t.name for t in self.bus.topics.values()}
         spaces = {n.rsplit("/", 1)[0] for n in names if n.endswith("/goal")}
         found = {ns for ns in spaces if all(f"{ns}/{s}" in names for s in ACTIONLIB_SUFFIXES)}
-        found.update(self.bus.actions)
-        found.update(self.bus.remote_graph().actions)
+        found.update(whole_graph(self.bus).actions)
         return {"action_servers": sorted(found)}
 
     # ------------------------------------------------------------------ types

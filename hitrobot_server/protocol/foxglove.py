@@ -2,7 +2,7 @@
 
 Parses what a Foxglove or Lichtblick client sends (JSON ops and binary frames) into checked
 values, and builds what the server sends. Nothing here touches a socket or the bus; the
-Foxglove session (session/foxglove.py) drives it. Every malformed input raises
+Foxglove session (session/foxglove/) drives it. Every malformed input raises
 :class:`FoxgloveError` whose text names the op and the field, never anything else.
 
 ``foxglove.sdk.v1`` differs where this server is concerned only in ``subscribe``: a

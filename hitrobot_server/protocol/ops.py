@@ -242,7 +242,7 @@ class Unsubscribe:
 @dataclass(frozen=True, slots=True, kw_only=True)
 class CallService:
     """``compression`` is any string here: an unknown one is answered by a failed
-    ``service_response`` (session/services.py), not by a status alone."""
+    ``service_response`` (session/rosbridge/services.py), not by a status alone."""
 
     OP: ClassVar[str] = "call_service"
     id: MessageId = _optional_id()

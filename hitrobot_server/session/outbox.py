@@ -93,11 +93,16 @@ class Outbox:
         self.dropped = 0
         self.closed = False
         self.on_thinned: Callable[[Hashable], None] | None = None
-        # Set by the transport: writes frames synchronously when the socket has room and
-        # returns False when it has not. Nothing queued and nothing being sent means order
-        # is kept, and the common case costs no task switch (2x the fan-out rate).
+        # Given by the transport (attach_writer): writes frames synchronously when the socket
+        # has room and returns False when it has not. Nothing queued and nothing being sent
+        # means order is kept, and the common case costs no task switch (2x the fan-out rate).
         self.direct: DirectWrite | None = None
         self.busy = False  # the transport's pump is sending an entry
+
+    def attach_writer(self, direct: DirectWrite | None) -> None:
+        """The transport's synchronous writer, used while nothing is queued (None: the pump
+        sends everything)."""
+        self.direct = direct
 
     @property
     def buffered(self) -> int:
@@ -133,28 +138,39 @@ class Outbox:
         if self.closed:
             return False
         pending = isinstance(frames, PendingFrames)
-        if (
-            not pending
-            and not self._bytes
+        if not pending and self._write_through(frames):
+            return True
+        entry = _Entry(frames, nbytes(frames))
+        if pending:
+            frames.future.add_done_callback(self._ready)
+        if not droppable:
+            self._put_control(entry)
+            return True
+        return self._put_data(entry, key, depth)
+
+    def _write_through(self, frames: list) -> bool:
+        """Frames written now by the transport's direct writer: only when nothing is queued
+        or being sent, so that order is kept."""
+        return (
+            not self._bytes
             and not self._control
             and not self._active
             and not self.busy
             and self.direct is not None
             and self.direct(frames)
-        ):
-            return True
-        size = nbytes(frames)
-        entry = _Entry(frames, size)
-        if pending:
-            frames.future.add_done_callback(self._ready)
-        if not droppable:
-            self._control.append(entry)
-            self._control_bytes += size
-            self._bytes += size
-            if self.budget and self._control_bytes > self.budget:
-                self.room.clear()
-            self._wakeup.set()
-            return True
+        )
+
+    def _put_control(self, entry: _Entry) -> None:
+        self._control.append(entry)
+        self._control_bytes += entry.size
+        self._bytes += entry.size
+        if self.budget and self._control_bytes > self.budget:
+            self.room.clear()
+        self._wakeup.set()
+
+    def _put_data(self, entry: _Entry, key: Hashable, depth: int | None) -> bool:
+        """Topic data into its stream, thinning the streams over their share when full."""
+        size = entry.size
         stream = self._streams.get(key)
         if stream is None:
             stream = self._streams[key] = _Stream(key)

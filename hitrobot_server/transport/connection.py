@@ -16,11 +16,8 @@ from typing import Any
 
 from websockets.exceptions import ConnectionClosed
 
-from ..session.foxglove import FoxgloveSession
-from ..session.session import Session
+from ..session.client import ClientSession
 
-ClientSession = Session | FoxgloveSession
-SessionFactory = Callable[[str, str], Session]  # (peer, transport name)
 SendFrame = Callable[[bytes, bool], Awaitable[None]]  # (data, binary)
 DirectWrite = Callable[[list], bool]  # frames written now, or False: the pump sends them
 
@@ -81,7 +78,7 @@ async def run_session(session: ClientSession, read: Coroutine[Any, Any, None], *
     closed; the caller then closes its connection."""
     limit_unsent(sock)
     if delay <= 0:
-        session.outbox.direct = direct
+        session.outbox.attach_writer(direct)
     writer = asyncio.create_task(pump(session, send_frame, delay))
     reader = asyncio.create_task(read)
     try:

@@ -8,15 +8,15 @@ import logging
 
 from ..protocol.errors import ProtocolError
 from ..protocol.jsonstream import JsonStreamDecoder
-from ..session.session import Session
-from .connection import DIRECT_WRITE_LIMIT, SessionFactory, keep_reading, run_session
+from ..session.client import StreamFactory, StreamSession
+from .connection import DIRECT_WRITE_LIMIT, keep_reading, run_session
 from .tls import HandshakeGate
 
 log = logging.getLogger(__name__)
 
 
 async def start_tcp(
-    new_session: SessionFactory,
+    new_session: StreamFactory,
     host: str,
     port: int,
     *,
@@ -76,7 +76,7 @@ async def _handshake(gate: HandshakeGate, writer: asyncio.StreamWriter, address:
     return True
 
 
-async def _read(reader: asyncio.StreamReader, session: Session, max_frame_size: int) -> None:
+async def _read(reader: asyncio.StreamReader, session: StreamSession, max_frame_size: int) -> None:
     decoder = JsonStreamDecoder(max_message_size=max_frame_size)
     try:
         while True:

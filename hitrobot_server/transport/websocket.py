@@ -1,8 +1,8 @@
-"""WebSocket transport: frames in → Session.receive; Session.outbox → frames out.
+"""WebSocket transport: frames in → ClientSession.receive; its outbox → frames out.
 
-The subprotocol a client asks for picks its session: ``foxglove.websocket.v1`` or
-``foxglove.sdk.v1`` a :class:`FoxgloveSession`, anything else (or nothing) the rosbridge
-:class:`Session`, as before. Both have the same ``receive``/``outbox``/``close``.
+The subprotocol a client asks for picks its session from the server's ``WireProtocols``
+(session/client.py): a registered one (Foxglove's) gets its session, anything else (or nothing)
+the default, rosbridge. The transport knows only the ``ClientSession`` shape.
 
 Plain HTTP GETs on the same port are answered by ``http_handler`` (the web UI), as
 decisions.md asks: one port for the page and the bridge.
@@ -21,37 +21,19 @@ from websockets.http11 import Request, Response
 from websockets.protocol import State
 from websockets.typing import Subprotocol
 
-from ..protocol.foxglove import SUBPROTOCOLS
-from ..session.foxglove import FoxgloveSession
-from .connection import (
-    DIRECT_WRITE_LIMIT,
-    ClientSession,
-    SessionFactory,
-    keep_reading,
-    run_session,
-)
+from ..session.client import ClientSession, WireProtocols
+from .connection import DIRECT_WRITE_LIMIT, keep_reading, run_session
 from .http import QuietHttpLog
 from .tls import HandshakeGate, peer_address
 
 log = logging.getLogger(__name__)
 
-FoxgloveFactory = Callable[[str, str], FoxgloveSession]  # (peer, subprotocol)
 HttpHandler = Callable[[ServerConnection, Request], Response | Awaitable[Response] | None]
 
 # A message bigger than this goes out as WebSocket continuation frames of this size, so that
 # writing a 40 MB map is many short steps of the event loop instead of one of 100+ ms. Clients
 # see one message (RFC 6455 fragmentation, reassembled by every WebSocket implementation).
 CHUNK_BYTES = 1024 * 1024
-
-
-def choose_subprotocol(offered: Sequence[str], foxglove: bool) -> str | None:
-    """The first Foxglove subprotocol the client offers (when Foxglove is served), else none:
-    the rosbridge protocol, exactly as for a client that offers nothing."""
-    if foxglove:
-        for name in offered:
-            if name in SUBPROTOCOLS:
-                return name
-    return None
 
 
 def direct_writer(ws: ServerConnection):
@@ -76,7 +58,7 @@ def direct_writer(ws: ServerConnection):
 
 
 async def start_websocket(
-    new_session: SessionFactory,
+    protocols: WireProtocols,
     host: str,
     port: int,
     *,
@@ -87,54 +69,21 @@ async def start_websocket(
     tls: HandshakeGate | None = None,
     ping_interval: float = 0.0,
     ping_timeout: float = 30.0,
-    new_foxglove: FoxgloveFactory | None = None,
     reuse_port: bool = False,
     headers: dict[str, str] | None = None,
 ) -> Server:
     """Serve WebSocket (``wss://`` with ``tls``, its handshakes bounded by the gate); with
     ``ping_interval`` > 0 each client is pinged that often and dropped when it does not answer
-    within ``ping_timeout``. A client asking for a Foxglove subprotocol gets a ``new_foxglove``
-    session, any other the rosbridge protocol. ``reuse_port``: share the port with other
-    processes (SO_REUSEPORT, ``--workers``); ``headers`` go on every response (handshake and
-    HTTP)."""
+    within ``ping_timeout``. A client gets the session of the first subprotocol it offers that
+    ``protocols`` has, any other the default (rosbridge). ``reuse_port``: share the port with
+    other processes (SO_REUSEPORT, ``--workers``); ``headers`` go on every response (handshake
+    and HTTP)."""
 
     async def handler(ws: ServerConnection) -> None:
-        peer = ws.remote_address[0] if ws.remote_address else ""
-        session: ClientSession
-        if new_foxglove is not None and ws.subprotocol in SUBPROTOCOLS:
-            session = new_foxglove(peer, ws.subprotocol)
-        else:
-            session = new_session(peer, "ws")
-
-        async def send_frame(data: bytes, binary: bool) -> None:
-            if len(data) > CHUNK_BYTES:
-                view = memoryview(data)
-                chunks = (view[i : i + CHUNK_BYTES] for i in range(0, len(data), CHUNK_BYTES))
-                await ws.send(chunks, text=not binary)
-            else:
-                await ws.send(data, text=not binary)
-
-        try:
-            await run_session(session, _read(ws, session),
-                              sock=ws.transport.get_extra_info("socket") if ws.transport else None,
-                              send_frame=send_frame, direct=direct_writer(ws),
-                              delay=delay_between_messages)
-        finally:
-            if session.close_reason:  # 1008: policy violation, with the reason
-                await ws.close(1008, session.close_reason[:120])
-            else:
-                await ws.close()
-
-    async def process_request(ws: ServerConnection, request: Request) -> Response | None:
-        if request.headers.get("Upgrade", "").lower() == "websocket":
-            return None
-        if http_handler is not None:
-            response = http_handler(ws, request)
-            return await response if inspect.isawaitable(response) else response
-        return ws.respond(426, "This is a WebSocket endpoint (hitrobot protocol).\n")
+        await _serve(ws, protocols, delay_between_messages)
 
     def select_subprotocol(ws: ServerConnection, offered: Sequence[Subprotocol]):
-        chosen = choose_subprotocol(offered, new_foxglove is not None)
+        chosen = protocols.choose(offered)
         return None if chosen is None else Subprotocol(chosen)
 
     def process_response(ws: ServerConnection, request: Request, response: Response) -> None:
@@ -146,7 +95,7 @@ async def start_websocket(
         port,
         max_size=max_frame_size,
         compression="deflate" if compression else None,
-        process_request=process_request,
+        process_request=_http_requests(http_handler),
         select_subprotocol=select_subprotocol,
         process_response=process_response if headers else None,
         reuse_port=reuse_port,
@@ -156,6 +105,44 @@ async def start_websocket(
         max_queue=64,
         create_connection=ServerConnection if tls is None else _gated(tls),
     )
+
+
+async def _serve(ws: ServerConnection, protocols: WireProtocols, delay: float) -> None:
+    """One client connection: its session, served until either side ends it."""
+    peer = ws.remote_address[0] if ws.remote_address else ""
+    session = protocols.open(peer, ws.subprotocol)
+
+    async def send_frame(data: bytes, binary: bool) -> None:
+        if len(data) > CHUNK_BYTES:
+            view = memoryview(data)
+            chunks = (view[i : i + CHUNK_BYTES] for i in range(0, len(data), CHUNK_BYTES))
+            await ws.send(chunks, text=not binary)
+        else:
+            await ws.send(data, text=not binary)
+
+    try:
+        await run_session(session, _read(ws, session),
+                          sock=ws.transport.get_extra_info("socket") if ws.transport else None,
+                          send_frame=send_frame, direct=direct_writer(ws), delay=delay)
+    finally:
+        if session.close_reason:  # 1008: policy violation, with the reason
+            await ws.close(1008, session.close_reason[:120])
+        else:
+            await ws.close()
+
+
+def _http_requests(http_handler: HttpHandler | None):
+    """Plain HTTP GETs on the WebSocket port: the handler's answer, else 426."""
+
+    async def process_request(ws: ServerConnection, request: Request) -> Response | None:
+        if request.headers.get("Upgrade", "").lower() == "websocket":
+            return None
+        if http_handler is not None:
+            response = http_handler(ws, request)
+            return await response if inspect.isawaitable(response) else response
+        return ws.respond(426, "This is a WebSocket endpoint (hitrobot protocol).\n")
+
+    return process_request
 
 
 def _gated(gate: HandshakeGate) -> type[ServerConnection]:

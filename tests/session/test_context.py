@@ -5,10 +5,10 @@ import inspect
 from pathlib import Path
 
 from hitrobot_server.bus.core import Bus
-from hitrobot_server.session import context
-from hitrobot_server.session.context import OpContext
 from hitrobot_server.session.options import SessionOptions
-from hitrobot_server.session.session import Session
+from hitrobot_server.session.rosbridge import context
+from hitrobot_server.session.rosbridge.context import OpContext
+from hitrobot_server.session.rosbridge.session import Session
 from hitrobot_server.types.registry import TypeRegistry
 
 OP_GROUPS = ("publish.py", "subscribe.py", "services.py", "actions.py")

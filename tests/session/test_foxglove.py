@@ -18,7 +18,9 @@ from hitrobot_server.bus.cdr import codec_for
 from hitrobot_server.bus.encoded import Encoding
 from hitrobot_server.nodes.base import Node
 from hitrobot_server.protocol import foxglove as fg
-from hitrobot_server.session.foxglove import MAX_CALLS, FoxgloveSession, FoxgloveShared
+from hitrobot_server.session.foxglove.services import MAX_CALLS
+from hitrobot_server.session.foxglove.session import FoxgloveSession
+from hitrobot_server.session.foxglove.shared import FoxgloveShared
 from hitrobot_server.session.options import SessionOptions
 
 
@@ -348,7 +350,7 @@ async def test_calls_waiting_at_once_are_bounded(hub):
 
 
 async def test_forgotten_channels_of_topics_gone_keep_the_table_bounded(hub, monkeypatch):
-    monkeypatch.setattr("hitrobot_server.session.foxglove.MAX_REMEMBERED", 3)
+    monkeypatch.setattr("hitrobot_server.session.foxglove.shared.MAX_REMEMBERED", 3)
     node = Node(hub.bus, "/churn")
     fox = FoxClient(hub)
     for i in range(6):

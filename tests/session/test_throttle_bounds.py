@@ -4,7 +4,7 @@ sans-I/O)."""
 
 from __future__ import annotations
 
-from hitrobot_server.session.subscribe import MAX_QUEUE_LENGTH
+from hitrobot_server.session.rosbridge.subscribe import MAX_QUEUE_LENGTH
 
 from ..witness import Witness
 

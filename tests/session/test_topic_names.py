@@ -4,7 +4,7 @@ import pytest
 
 from hitrobot_server.bus.names import GlobFilter
 from hitrobot_server.protocol.errors import ProtocolError
-from hitrobot_server.session.publish import TopicNames
+from hitrobot_server.session.rosbridge.publish import TopicNames
 
 
 def test_a_spelling_is_checked_once_and_answered_from_memory():

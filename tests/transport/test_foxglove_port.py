@@ -9,10 +9,20 @@ import ssl
 
 from websockets.asyncio.client import connect
 
-from hitrobot_server.transport.websocket import choose_subprotocol
+from hitrobot_server.protocol.foxglove import SUBPROTOCOLS
+from hitrobot_server.session.client import WireProtocols
 
 from ..helpers import WsClient
 from .test_tls import cert  # noqa: F401  (the certificate fixture)
+
+
+def choose_subprotocol(offered: list[str], foxglove: bool) -> str | None:
+    """What the WebSocket transport agrees on with the server's wire protocols (Foxglove's
+    registered when it is served)."""
+    protocols = WireProtocols(default=lambda peer, transport: None)
+    if foxglove:
+        protocols.register(SUBPROTOCOLS, lambda peer, subprotocol: None)
+    return protocols.choose(offered)
 
 
 def test_the_first_offered_foxglove_subprotocol_wins():

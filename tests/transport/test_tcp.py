@@ -67,7 +67,7 @@ async def test_a_flood_of_garbage_is_reported_a_few_times_a_second(server):
     """5000 broken objects used to be 5000 status lines (and log lines); now at most
     STREAM_ERRORS_PER_SECOND per second plus one notice, while errors of ops with an id are
     all reported and the witness sees nothing of it."""
-    from hitrobot_server.session.session import STREAM_ERRORS_PER_SECOND
+    from hitrobot_server.session.rosbridge.session import STREAM_ERRORS_PER_SECOND
 
     from ..witness import Witness
 

@@ -13,41 +13,33 @@ import functools
 import itertools
 import logging
 import time
-from collections.abc import Awaitable, Callable, Coroutine
-from dataclasses import asdict, dataclass
+from collections.abc import Callable, Coroutine
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from ..bus.core import Bus
-from ..bus.errors import BusError
-from ..bus.names import CLIENT_NODE_PREFIX
-from ..bus.topics import Origin
-from ..protocol import auth, bulk, cbor, ops, png
-from ..protocol.errors import ProtocolError, message_id, status_op
-from ..protocol.fragment import MIN_FRAGMENT_SIZE, Defragmenter, FragmentBudget
-from ..protocol.status import should_send
-from ..types import jsoncodec
-from ..types.convert import ConversionError
-from . import offload
+from ...bus.core import Bus
+from ...bus.errors import BusError
+from ...bus.names import CLIENT_NODE_PREFIX
+from ...bus.topics import Origin
+from ...protocol import auth, bulk, cbor, ops, png
+from ...protocol.errors import ProtocolError, message_id, status_op
+from ...protocol.fragment import MIN_FRAGMENT_SIZE, FragmentBudget
+from ...protocol.status import should_send
+from ...types import jsoncodec
+from ...types.convert import ConversionError
+from ..client import Pending, release_client
+from ..offload import WorkerPool
+from ..options import SessionOptions
+from ..outbox import Outbox, nbytes
 from .actions import ActionOps
-from .options import SessionOptions
-from .outbox import Outbox, nbytes
+from .fragments import IncomingFragments
+from .limits import STREAM_ERRORS_PER_SECOND, ReportLimits
 from .publish import PublishOps, TopicNames
 from .replies import json_frames, reply_frames
 from .services import ServiceOps
 from .subscribe import SubscribeOps
 
 log = logging.getLogger(__name__)
-Pending = Awaitable[None] | None  # what receive/handle return: None, or a task to await
-_client_ids = itertools.count(1)
-
-STREAM_ERRORS_PER_SECOND = 10
-"""Most reports per second of unparseable TCP input that belongs to no op (garbage)."""
-
-ERROR_STATUSES_PER_SECOND = 50
-"""Most error statuses per second queued for a client that does not keep up with its replies
-(:data:`BEHIND_BYTES` unread); the rest are counted and reported in one line, so a flood of
-bogus ops cannot make the server hold a flood of errors."""
-BEHIND_BYTES = 64 * 1024
 
 REFUSED_WHEN_FULL = (ops.CallService, ops.SendActionGoal)
 """Ops refused while the client's replies are over ``--reply-buffer-limit``: each would queue
@@ -60,10 +52,13 @@ class Shared:
 
     fragments: FragmentBudget  # bytes of incoming fragments held, all clients together
     auth_replays: auth.ReplayCache  # auth MACs already accepted (each grants access once)
+    pool: WorkerPool = field(default_factory=WorkerPool)  # big ops off the event loop
+    client_ids: itertools.count = field(default_factory=lambda: itertools.count(1))
 
     @classmethod
-    def for_options(cls, options: SessionOptions) -> Shared:
-        return cls(FragmentBudget(options.fragment_memory_limit), auth.ReplayCache())
+    def for_options(cls, options: SessionOptions, pool: WorkerPool | None = None) -> Shared:
+        return cls(FragmentBudget(options.fragment_memory_limit), auth.ReplayCache(),
+                   pool or WorkerPool())
 
 
 class Session:
@@ -79,11 +74,13 @@ class Session:
         shared: Shared | None = None,
     ):
         self.bus = bus
+        self._own_pool = shared is None  # made here (no server): its workers go with it
         self.shared = shared or Shared.for_options(settings)
+        self.pool = self.shared.pool
         self.settings = settings
         self.peer = peer
         self.transport = transport
-        self.client_id = next(_client_ids)
+        self.client_id = next(self.shared.client_ids)
         self.node = f"{CLIENT_NODE_PREFIX}{settings.client_tag}{self.client_id}"
         self.outbox = Outbox(settings.send_buffer_limit, settings.reply_buffer_limit)
         self.outbox.on_thinned = self._thinned
@@ -92,17 +89,8 @@ class Session:
         self.auth_level: str | None = None
         self.closed = False
         self.close_reason = ""  # why the server closed the connection, if it did
-        self._defrag = Defragmenter(
-            fragment_timeout=settings.fragment_timeout,
-            max_bytes=settings.max_frame_size,
-            budget=self.shared.fragments,
-        )
-        self._fragment_timer: asyncio.TimerHandle | None = None
-        self._garbage_since = float("-inf")  # start of the current second of stream errors
-        self._garbage = 0
-        self._errors_since = float("-inf")  # start of the current second of error statuses
-        self._errors = 0
-        self._errors_skipped = 0
+        self.fragments = IncomingFragments(self, settings, self.shared.fragments)
+        self.limits = ReportLimits(self.outbox)
         self.reply_bytes = 0.0  # running mean size of its replies: what a call will cost
         self._tasks: set[asyncio.Task] = set()
         self.on_close: list[Callable[[Session], None]] = []
@@ -111,8 +99,15 @@ class Session:
         self.subscriptions = SubscribeOps(self, topic_names)
         self.service_ops = ServiceOps(self)
         self.action_ops = ActionOps(self)
-        # publish is not here: it also takes the op's text (see handle)
-        self._handlers: dict[type, Callable[[Any], Pending]] = {
+        self._handlers = self._op_table()
+        self.origin = Origin(self.node, peer=peer)
+        bus.register_node(self.node)
+        log.info("client %s connected from %s over %s", self.node, peer or "?", transport)
+
+    def _op_table(self) -> dict[type, Callable[[Any], Pending]]:
+        """Each op type's handler; publish is not here: it also takes the op's text (see
+        handle)."""
+        return {
             ops.Fragment: self._op_fragment,
             ops.Png: self._op_png,
             ops.SetLevel: self._op_set_level,
@@ -132,9 +127,6 @@ class Session:
             ops.ActionFeedback: self.action_ops.action_feedback,
             ops.ActionResult: self.action_ops.action_result,
         }
-        self.origin = Origin(self.node, peer=peer)
-        bus.register_node(self.node)
-        log.info("client %s connected from %s over %s", self.node, peer or "?", transport)
 
     # ------------------------------------------------------------------ input
     def receive(self, data: str | bytes, binary: bool = False) -> Pending:
@@ -164,12 +156,9 @@ class Session:
             self._reject_unauthenticated("invalid JSON", error.id)
             return
         if error.id is None:
-            now = time.monotonic()
-            if now - self._garbage_since >= 1.0:
-                self._garbage_since, self._garbage = now, 0
-            self._garbage += 1
-            if self._garbage > STREAM_ERRORS_PER_SECOND:
-                if self._garbage == STREAM_ERRORS_PER_SECOND + 1:
+            seen = self.limits.garbage(time.monotonic())
+            if seen > STREAM_ERRORS_PER_SECOND:
+                if seen == STREAM_ERRORS_PER_SECOND + 1:
                     self.status("error", "invalid JSON: more invalid input; not reported for "
                                 "the rest of this second")
                 return
@@ -178,25 +167,7 @@ class Session:
     def _offload(self, decode: Callable[[Any], object], data: object, op_id: Any = None) -> Pending:
         """Decode a big frame (or png payload) in the worker pool, then handle it here."""
 
-        async def run() -> None:
-            try:
-                obj = await offload.run(decode, data)
-            except bulk.PngError as exc:
-                self.status("error", f"png: field 'data' is not a valid PNG payload: {exc}", op_id)
-                return
-            except bulk.DecodeError as exc:
-                kind = "CBOR" if decode is bulk.decode_cbor else "JSON"
-                self.status("error", f"invalid {kind}: {exc}", exc.id)
-                return
-            except Exception as exc:  # the pool broke (a worker was killed): say so, go on
-                log.exception("client %s: decoding a big op failed", self.node)
-                self.status("error", f"internal error: {exc}", op_id)
-                return
-            more = self.handle(obj)
-            if more is not None:
-                await more
-
-        return self.spawn(run())
+        return self.spawn(_handle_big(self, decode, data, op_id))
 
     def handle(self, obj: object, frame: str | bytes | None = None) -> Pending:
         """Run one decoded op; every failure becomes a status message, never an exception.
@@ -249,32 +220,8 @@ class Session:
         return True
 
     def _op_fragment(self, op: ops.Fragment) -> Pending:
-        try:
-            text = self._defrag.add(asdict(op), time.monotonic())
-        finally:
-            self._arm_fragment_timer()
+        text = self.fragments.add(op)
         return None if text is None else self.receive(text)
-
-    def _arm_fragment_timer(self) -> None:
-        """Evict timed-out fragments on time, not when the next fragment happens to come."""
-        due = self._defrag.next_expiry()
-        if due is None or self._fragment_timer is not None or self.closed:
-            return
-        delay = max(due - time.monotonic(), 0.0)
-        self._fragment_timer = asyncio.get_running_loop().call_later(
-            delay, self._expire_fragments
-        )
-
-    def _expire_fragments(self) -> None:
-        self._fragment_timer = None
-        for key in self._defrag.expire(time.monotonic()):
-            self.status(
-                "warning",
-                f"fragment: message '{key}' got no fragment for {self._defrag.fragment_timeout:g}"
-                " s (--fragment-timeout) and was dropped",
-                key,
-            )
-        self._arm_fragment_timer()
 
     def _op_png(self, op: ops.Png) -> Pending:
         if len(op.data) >= bulk.OFFLOAD_BYTES:
@@ -322,7 +269,7 @@ class Session:
     ) -> None:
         """Queue a reply op; replies are never dropped by the send buffer."""
         size = fragment_size or self.settings.max_message_size
-        frames = reply_frames(obj, size, compression)
+        frames = reply_frames(obj, size, compression, self.pool)
         charged = nbytes(frames)  # a big reply being built in the worker pool: its estimate
         self.outbox.put(frames)
         self.reply_bytes += (charged - self.reply_bytes) / 8  # the running mean reply size
@@ -363,7 +310,7 @@ class Session:
             log.info("client %s: %s", self.node, msg)
         if not should_send(self.status_level, level):
             return
-        if level == "error" and self._skip_error():
+        if level == "error" and self.limits.skip_error(time.monotonic()):
             return
         try:
             frames = json_frames(status_op(level, msg, op_id))
@@ -372,21 +319,6 @@ class Session:
             frames = json_frames(status_op(level, text))
         self.outbox.put(frames)
         self._check_replies()
-
-    def _skip_error(self) -> bool:
-        """Whether to leave out this error status (see :data:`ERROR_STATUSES_PER_SECOND`)."""
-        now = time.monotonic()
-        if now - self._errors_since >= 1.0:
-            if self._errors_skipped:
-                self.outbox.put(json_frames(status_op(
-                    "error", f"{self._errors_skipped} more error status(es) in the last second "
-                    "not sent: this client does not read its replies fast enough")))
-            self._errors_since, self._errors, self._errors_skipped = now, 0, 0
-        self._errors += 1
-        if self._errors <= ERROR_STATUSES_PER_SECOND or self.outbox.control_bytes < BEHIND_BYTES:
-            return False
-        self._errors_skipped += 1
-        return True
 
     def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:
         """Run a coroutine tied to this client; it is cancelled when the client goes."""
@@ -406,26 +338,35 @@ class Session:
             return
         self.closed = True
         self.outbox.clear()  # freed now, not by the next full collection
-        if self._fragment_timer is not None:
-            self._fragment_timer.cancel()
-        self._defrag.clear()  # its bytes go back to the server-wide budget now
+        self.fragments.close()
         self.subscriptions.close()
         self.service_ops.close()
         self.action_ops.close()
         self.publishing.close()
         release_client(self, self._tasks)
         self._handlers.clear()  # bound methods of the op objects: session ↔ ops cycles
+        if self._own_pool:
+            self.pool.shutdown()
         log.info("client %s (%s) disconnected", self.node, self.peer or "?")
 
 
-def release_client(client, tasks: set[asyncio.Task]) -> None:
-    """What every client session (rosbridge or Foxglove) gives back when its connection goes:
-    its tasks, what it owns on the bus and its node; then its close callbacks run once and are
-    dropped (they hold the server: no cycle outlives the session)."""
-    for task in list(tasks):
-        task.cancel()
-    client.bus.remove_owner(client)
-    client.bus.unregister_node(client.node)
-    for callback in client.on_close:
-        callback(client)
-    client.on_close.clear()
+async def _handle_big(
+    session: Session, decode: Callable[[Any], object], data: object, op_id: Any
+) -> None:
+    """A big frame (or png payload) decoded in the worker pool, then handled by the session."""
+    try:
+        obj = await session.pool.run(decode, data)
+    except bulk.PngError as exc:
+        session.status("error", f"png: field 'data' is not a valid PNG payload: {exc}", op_id)
+        return
+    except bulk.DecodeError as exc:
+        kind = "CBOR" if decode is bulk.decode_cbor else "JSON"
+        session.status("error", f"invalid {kind}: {exc}", exc.id)
+        return
+    except Exception as exc:  # the pool broke (a worker was killed): say so, go on
+        log.exception("client %s: decoding a big op failed", session.node)
+        session.status("error", f"internal error: {exc}", op_id)
+        return
+    more = session.handle(obj)
+    if more is not None:
+        await more

@@ -11,11 +11,12 @@ import asyncio
 from collections.abc import Coroutine
 from typing import Any, Protocol
 
-from ..bus.core import Bus
-from ..bus.topics import Origin
-from ..protocol.ops import CallService, SendActionGoal, Subscribe
-from .options import SessionOptions
-from .outbox import Outbox
+from ...bus.core import Bus
+from ...bus.topics import Origin
+from ...protocol.ops import CallService, SendActionGoal, Subscribe
+from ..offload import WorkerPool
+from ..options import SessionOptions
+from ..outbox import Outbox
 
 
 class OpContext(Protocol):
@@ -26,6 +27,7 @@ class OpContext(Protocol):
     node: str  # the client's node name on the bus
     transport: str  # "ws" or "tcp": binary compressions need WebSocket frames
     outbox: Outbox  # where its subscriptions queue topic data (per-topic streams, drops)
+    pool: WorkerPool  # the server's worker processes: big encodings off the event loop
 
     @property
     def origin(self) -> Origin:

@@ -7,18 +7,18 @@ import itertools
 import math
 from typing import TYPE_CHECKING
 
-from ..bus.errors import ServiceError
-from ..bus.names import canonical, valid_name
-from ..protocol.errors import MessageId, ProtocolError
-from ..protocol.ops import (
+from ...bus.errors import ServiceError
+from ...bus.names import canonical, valid_name
+from ...protocol.errors import MessageId, ProtocolError
+from ...protocol.ops import (
     COMPRESSIONS,
     AdvertiseService,
     CallService,
     ServiceResponse,
     UnadvertiseService,
 )
-from ..types.convert import ConversionError, from_json
-from ..types.registry import MsgType
+from ...types.convert import ConversionError, from_json
+from ...types.registry import MsgType
 
 if TYPE_CHECKING:
     from .context import OpContext
@@ -83,29 +83,14 @@ class ServiceOps:
         if op_id is not None:
             reply["id"] = op_id
         frag = c.fragment_size(op)
-        compression = op.compression or "none"
 
         def fail(text: str) -> None:
             c.send({**reply, "values": text, "result": False}, fragment_size=frag)
             c.status("error", f"call_service: {text}", op_id)
 
-        limit = c.settings.max_requests_in_flight
-        if self.in_flight >= limit:
-            fail(too_many_in_flight(limit, "service calls"))
-            return
-        if compression not in COMPRESSIONS:
-            fail(f"field 'compression' must be one of {', '.join(COMPRESSIONS)}, "
-                 f"got {compression!r}")
-            return
-        if compression not in ("none", "png"):
-            compression = "none"  # binary service replies would break JSON-only clients
-        timeout = op.timeout  # a number (the spec's check), but NaN and < 0 get here too
-        if timeout is not None and not (math.isfinite(timeout) and timeout >= 0):
-            fail(f"field 'timeout' must be a finite number of seconds, 0 or more, got {timeout}")
-            return
-
-        if not c.settings.services_filter.allows(name):
-            fail(f"service '{name}' is not allowed by --services-glob")
+        refused = self._refusal(op, name)
+        if refused is not None:
+            fail(refused)
             return
         service = c.bus.service(name)
         if service is None:
@@ -116,9 +101,9 @@ class ServiceOps:
         except ProtocolError as exc:
             fail(exc.msg.removeprefix("call_service: "))
             return
-        if timeout is None:
-            timeout = c.settings.call_service_timeout
-
+        timeout = c.settings.call_service_timeout if op.timeout is None else op.timeout
+        # binary service replies would break JSON-only clients
+        compression = op.compression if op.compression == "png" else "none"
         c.bus.client_called("call_service", name, c.origin)
 
         async def run() -> None:
@@ -140,6 +125,23 @@ class ServiceOps:
 
         self.in_flight += 1
         c.spawn(run())
+
+    def _refusal(self, op: CallService, name: str) -> str | None:
+        """Why a call is refused before its service is looked up, or None."""
+        settings = self.client.settings
+        limit = settings.max_requests_in_flight
+        if self.in_flight >= limit:
+            return too_many_in_flight(limit, "service calls")
+        compression = op.compression or "none"
+        if compression not in COMPRESSIONS:
+            return (f"field 'compression' must be one of {', '.join(COMPRESSIONS)}, "
+                    f"got {compression!r}")
+        timeout = op.timeout  # a number (the spec's check), but NaN and < 0 get here too
+        if timeout is not None and not (math.isfinite(timeout) and timeout >= 0):
+            return f"field 'timeout' must be a finite number of seconds, 0 or more, got {timeout}"
+        if not settings.services_filter.allows(name):
+            return f"service '{name}' is not allowed by --services-glob"
+        return None
 
     # ------------------------------------------------------------- providing
     def advertise_service(self, op: AdvertiseService) -> None:

@@ -20,11 +20,10 @@ from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ..bus.encoded import is_binary, strongest
-from ..bus.topics import Message, Topic
-from ..protocol.errors import ProtocolError
-from ..protocol.ops import Subscribe, Unsubscribe
-from . import offload
+from ...bus.encoded import is_binary, strongest
+from ...bus.topics import Message, Topic
+from ...protocol.errors import ProtocolError
+from ...protocol.ops import Subscribe, Unsubscribe
 from .publish import TopicNames
 
 if TYPE_CHECKING:
@@ -130,7 +129,7 @@ class ClientSubscription:
 
     def _send(self, message: Message) -> None:
         frames = message.encoded.frames(
-            self.topic_str, self.compression, self.fragment_size, offload.run
+            self.topic_str, self.compression, self.fragment_size, self.client.pool.run
         )
         self.client.outbox.put(frames, True, self.topic_str, self.queue_length or None)
 

@@ -6,16 +6,16 @@ import asyncio
 import itertools
 from typing import TYPE_CHECKING, Any
 
-from ..bus.errors import ActionError
-from ..bus.names import canonical, valid_name
-from ..bus.services import (
+from ...bus.errors import ActionError
+from ...bus.names import canonical, valid_name
+from ...bus.services import (
     STATUS_ABORTED,
     STATUS_UNKNOWN,
     GoalHandle,
     GoalOutcome,
 )
-from ..protocol.errors import ProtocolError
-from ..protocol.ops import (
+from ...protocol.errors import MessageId, ProtocolError
+from ...protocol.ops import (
     ActionFeedback,
     ActionResult,
     AdvertiseAction,
@@ -23,7 +23,7 @@ from ..protocol.ops import (
     SendActionGoal,
     UnadvertiseAction,
 )
-from ..types.convert import ConversionError, from_json
+from ...types.convert import ConversionError, from_json
 from .services import args_to_request, split_id, too_many_in_flight
 
 if TYPE_CHECKING:
@@ -48,41 +48,13 @@ class ActionOps:
             base["id"] = op_id
 
         def fail(text: str) -> None:
-            c.send(
-                {
-                    "op": "action_result",
-                    **base,
-                    "values": text,
-                    "status": STATUS_UNKNOWN,
-                    "result": False,
-                }
-            )
+            c.send({"op": "action_result", **base, "values": text, "status": STATUS_UNKNOWN,
+                    "result": False})
             c.status("error", f"send_action_goal: {text}", op_id)
 
-        limit = c.settings.max_requests_in_flight
-        if len(self.goals) >= limit:
-            fail(too_many_in_flight(limit, "action goals"))
-            return
-        action = c.bus.action(name)
-        if action is None:
-            fail(f"action '{name}' does not exist")
-            return
-        wanted = op.action_type
-        if wanted:
-            try:
-                if c.bus.types.action(wanted).name != action.atype.name:
-                    fail(
-                        f"action '{name}' has type '{c.bus.types.short(action.type_name)}', "
-                        f"not '{wanted}'"
-                    )
-                    return
-            except LookupError as exc:
-                fail(str(exc.args[0] if exc.args else exc))
-                return
-        try:
-            goal = args_to_request("send_action_goal", action.atype.goal, op.args, c, op_id)
-        except ProtocolError as exc:
-            fail(exc.msg.removeprefix("send_action_goal: "))
+        found = self._goal_of(op, name, op_id)
+        if isinstance(found, str):
+            fail(found)
             return
         if op_id is not None and op_id in self.goals:
             raise ProtocolError(
@@ -97,7 +69,7 @@ class ActionOps:
 
         c.bus.client_called("send_action_goal", name, c.origin)
         try:
-            handle, task = c.bus.start_goal(name, goal, on_feedback)
+            handle, task = c.bus.start_goal(name, found, on_feedback)
         except ActionError as exc:
             fail(str(exc))
             return
@@ -121,6 +93,28 @@ class ActionOps:
             )
 
         task.add_done_callback(done)
+
+    def _goal_of(self, op: SendActionGoal, name: str, op_id: MessageId) -> dict | str:
+        """The goal to send, or why it is refused (the text of the failed result)."""
+        c = self.client
+        limit = c.settings.max_requests_in_flight
+        if len(self.goals) >= limit:
+            return too_many_in_flight(limit, "action goals")
+        action = c.bus.action(name)
+        if action is None:
+            return f"action '{name}' does not exist"
+        wanted = op.action_type
+        if wanted:
+            try:
+                if c.bus.types.action(wanted).name != action.atype.name:
+                    return (f"action '{name}' has type '{c.bus.types.short(action.type_name)}', "
+                            f"not '{wanted}'")
+            except LookupError as exc:
+                return str(exc.args[0] if exc.args else exc)
+        try:
+            return args_to_request("send_action_goal", action.atype.goal, op.args, c, op_id)
+        except ProtocolError as exc:
+            return exc.msg.removeprefix("send_action_goal: ")
 
     def cancel_action_goal(self, op: CancelActionGoal) -> None:
         handle = self.goals.get(op.id)

@@ -10,10 +10,10 @@ from __future__ import annotations
 import asyncio
 import logging
 
-from ..bus.encoded import Frames, PendingFrames, fragment_ids
-from ..protocol import bulk
-from ..protocol.bulk import Frame
-from . import offload
+from ...bus.encoded import Frames, PendingFrames, fragment_ids
+from ...protocol import bulk
+from ...protocol.bulk import Frame
+from ..offload import WorkerPool
 
 log = logging.getLogger(__name__)
 
@@ -28,7 +28,9 @@ def json_frames(
     return [(data, False)]
 
 
-def reply_frames(obj: dict, fragment_size: int | None, compression: str) -> Frames:
+def reply_frames(
+    obj: dict, fragment_size: int | None, compression: str, pool: WorkerPool
+) -> Frames:
     """Frames for a reply op; a big one that is fragmented or png-compressed is built in the
     worker pool (pending), so cutting it up never holds the event loop."""
     if not (fragment_size or compression == "png"):
@@ -36,14 +38,16 @@ def reply_frames(obj: dict, fragment_size: int | None, compression: str) -> Fram
     size = bulk.approx_size(obj)
     if size < bulk.OFFLOAD_BYTES:
         return json_frames(obj, fragment_size, compression)
-    task = asyncio.ensure_future(_offloaded_reply(obj, fragment_size, compression))
+    task = asyncio.ensure_future(_offloaded_reply(obj, fragment_size, compression, pool))
     return PendingFrames(task, size)
 
 
-async def _offloaded_reply(obj: dict, fragment_size: int | None, compression: str) -> list[Frame]:
+async def _offloaded_reply(
+    obj: dict, fragment_size: int | None, compression: str, pool: WorkerPool
+) -> list[Frame]:
     frag_id = fragment_ids.next(obj.get("id"))
     try:
-        return await offload.run(bulk.reply_frames, obj, fragment_size, compression, frag_id)
+        return await pool.run(bulk.reply_frames, obj, fragment_size, compression, frag_id)
     except Exception:  # the pool broke: the reply is still owed, built here this once
         log.exception("building a big reply in the worker pool failed; built inline")
         return json_frames(obj, fragment_size, compression)

@@ -1,0 +1,188 @@
+"""One Foxglove (or Lichtblick) client: the Foxglove WebSocket protocol on the bus.
+
+The twin of the rosbridge session for clients that ask for the ``foxglove.websocket.v1`` (or
+``foxglove.sdk.v1``) subprotocol: the same :class:`~..client.ClientSession` shape
+(``receive``, ``outbox``, ``close``), same bus, same per-client send bound. Every bus topic the
+``--topics-glob`` allows is a channel (CDR, ``ros2msg`` schema) kept current as topics come and
+go. Protocol parsing and building are in protocol/foxglove.py; the ops are in this package's
+op groups (channels, subscribe, publish, services, params, graph); this module holds the
+client's identity, its input and its life.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import uuid
+from collections.abc import Callable
+
+from ...bus.core import Bus
+from ...bus.names import CLIENT_NODE_PREFIX
+from ...bus.topics import Origin
+from ...protocol import foxglove as fg
+from ..client import release_client
+from ..options import SessionOptions
+from ..outbox import Outbox
+from .channels import ChannelOps
+from .frames import FoxgloveOutput
+from .graph import GraphOps
+from .params import ParamOps
+from .publish import PublishOps
+from .services import ServiceOps
+from .shared import FoxgloveShared
+from .subscribe import SubscribeOps
+
+log = logging.getLogger(__name__)
+
+TIME_PERIOD = 0.1
+"""Seconds between two ``time`` messages (the bus clock) to each client."""
+MAX_TEXT_BYTES = 16 * 1024 * 1024
+"""Largest JSON op accepted (ops are small; binary frames carry the data)."""
+
+
+class FoxgloveSession:
+    """Per-client Foxglove protocol state; owns no socket (the transport feeds and drains it)."""
+
+    def __init__(
+        self,
+        bus: Bus,
+        settings: SessionOptions,
+        shared: FoxgloveShared,
+        *,
+        peer: str = "",
+        subprotocol: str = fg.SUBPROTOCOL_V1,
+        server_name: str = "hitrobot-server",
+    ):
+        self.bus = bus
+        self.settings = settings
+        self.shared = shared
+        self.codec = shared.codec
+        self.peer = peer
+        self.subprotocol = subprotocol
+        # under the rosbridge clients' prefix, so diagnostics' /Bridge/Clients counts it too
+        self.node = f"{CLIENT_NODE_PREFIX}{settings.client_tag}foxglove_{next(shared.client_ids)}"
+        self.origin = Origin(self.node)
+        self.outbox = Outbox(settings.send_buffer_limit)
+        self.out = FoxgloveOutput(self.outbox, self.node)
+        self.closed = False
+        self.close_reason = ""  # the transport closes with it (1008) when set; never set here
+        self.on_close: list[Callable[[FoxgloveSession], None]] = []
+        self.channel_ops = ChannelOps(self)
+        self.channels = self.channel_ops.channels  # channel id advertised → topic
+        self.subscriptions = SubscribeOps(self, self.channels)
+        self.subs = self.subscriptions.subs  # subscription id → topic
+        self.publishing = PublishOps(self)
+        self.service_ops = ServiceOps(self, self.channel_ops.services)
+        self.param_ops = ParamOps(self)
+        self.graph_ops = GraphOps(self)
+        self._handlers = self._op_table()
+        self._sync_handle: asyncio.Handle | None = None
+        self._time_handle: asyncio.TimerHandle | None = None
+        bus.register_node(self.node)
+        log.info("foxglove client %s connected from %s (%s)", self.node, peer or "?", subprotocol)
+        if settings.authenticate:
+            # The protocol has no auth op: with --authenticate nothing is served to it.
+            self.out.status(fg.ERROR, "this server requires authentication (--authenticate), "
+                            "which the Foxglove protocol cannot carry: use a rosbridge connection "
+                            "with 'auth'; closing")
+            self.outbox.close()
+            return
+        self.out.send(fg.server_info(server_name, uuid.uuid4().hex, {"ROS_DISTRO": "jazzy"}))
+        self._sync()
+        bus.watchers.append(self._changed)
+        bus.params.watchers.append(self._param_changed)
+        self._time_handle = asyncio.get_running_loop().call_soon(self._tick)
+
+    def _op_table(self) -> dict[str, Callable[[dict], None]]:
+        """Each JSON op's handler, by the ``op`` its parser (protocol/foxglove.py) checked."""
+        return {
+            "subscribe": self.subscriptions.subscribe,
+            "unsubscribe": self.subscriptions.unsubscribe,
+            "advertise": self.publishing.advertise,
+            "unadvertise": self.publishing.unadvertise,
+            "getParameters": self.param_ops.get,
+            "setParameters": self.param_ops.set,
+            "subscribeParameterUpdates": self.param_ops.subscribe,
+            "unsubscribeParameterUpdates": self.param_ops.unsubscribe,
+            "subscribeConnectionGraph": self.graph_ops.subscribe,
+            "unsubscribeConnectionGraph": self.graph_ops.unsubscribe,
+            "fetchAsset": _fetch_asset,
+        }
+
+    # ------------------------------------------------------------------ input
+    def receive(self, data: str | bytes, binary: bool = False) -> None:
+        """One WebSocket frame; every failure becomes an error status, never an exception."""
+        if self.closed or self.outbox.closed:
+            return None
+        try:
+            if binary:
+                self._binary(fg.parse_binary(data if isinstance(data, bytes) else data.encode()))
+            else:
+                if len(data) > MAX_TEXT_BYTES:
+                    raise fg.FoxgloveError(
+                        f"text frame of {len(data)} bytes: JSON ops are at most "
+                        f"{MAX_TEXT_BYTES}; message data goes in binary frames"
+                    )
+                op = fg.parse_text(data)
+                self._handlers[op["op"]](op)
+        except fg.FoxgloveError as exc:
+            self.out.status(fg.ERROR, str(exc))
+        except Exception as exc:
+            log.exception("foxglove client %s: frame failed", self.node)
+            self.out.status(fg.ERROR, f"internal error: {exc}")
+        return None
+
+    def _binary(self, frame: fg.ClientMessage | fg.ServiceCallRequest) -> None:
+        if isinstance(frame, fg.ClientMessage):
+            self.publishing.message(frame)
+        else:
+            self.service_ops.call(frame)
+
+    # ------------------------------------------------------------------ the bus changed
+    def _changed(self, kind: str, name: str) -> None:
+        """The bus changed: sync channels, services and the graph once, after this step."""
+        if self._sync_handle is None and not self.closed:
+            self._sync_handle = asyncio.get_running_loop().call_soon(self._sync)
+
+    def _sync(self) -> None:
+        self._sync_handle = None
+        if self.closed:
+            return
+        self.shared.prune(self.bus)
+        self.channel_ops.sync_channels(self.subscriptions)
+        self.channel_ops.sync_services()
+        self.graph_ops.changed()
+
+    def _param_changed(self, name: str) -> None:
+        if not self.closed:
+            self.param_ops.changed(name)
+
+    def _tick(self) -> None:
+        """The bus clock, every :data:`TIME_PERIOD` (the ``time`` capability)."""
+        if self.closed or self.outbox.closed:
+            return
+        self.out.data([(fg.time(fg.nanoseconds(self.bus.clock())), True)], "")
+        self._time_handle = asyncio.get_running_loop().call_later(TIME_PERIOD, self._tick)
+
+    # ------------------------------------------------------------------ lifecycle
+    def close(self) -> None:
+        """The connection is gone: release everything this client held on the bus."""
+        if self.closed:
+            return
+        self.closed = True
+        self.outbox.clear()  # freed now, not by the next full collection
+        for handle in (self._sync_handle, self._time_handle):
+            if handle is not None:
+                handle.cancel()
+        if self._changed in self.bus.watchers:
+            self.bus.watchers.remove(self._changed)
+        if self._param_changed in self.bus.params.watchers:
+            self.bus.params.watchers.remove(self._param_changed)
+        self.subscriptions.close()
+        release_client(self, self.service_ops.tasks)
+        self._handlers.clear()  # bound methods of the op groups: session ↔ ops cycles
+        log.info("foxglove client %s (%s) disconnected", self.node, self.peer or "?")
+
+
+def _fetch_asset(op: dict) -> None:
+    raise fg.FoxgloveError("fetchAsset: this server has no 'assets' capability")

@@ -1,0 +1,73 @@
+"""What all Foxglove clients of one server share: one codec, channel and service ids that mean
+the same to every client (so they share encoded frames), and the clients' numbering."""
+
+from __future__ import annotations
+
+import itertools
+import logging
+from dataclasses import dataclass, field
+
+from ...bus.cdr import Ros2Codec, codec_for
+from ...bus.core import Bus
+from ...bus.topics import Topic
+from ...protocol import foxglove as fg
+from ...types.registry import SrvType
+
+log = logging.getLogger(__name__)
+
+MAX_REMEMBERED = 4096
+"""Channels/services remembered server-wide before those no longer on the bus are forgotten."""
+
+
+@dataclass
+class FoxgloveShared:
+    """One per server: channel and service descriptions by (name, type), and client ids."""
+
+    codec: Ros2Codec
+    _channels: dict[tuple[str, str], dict] = field(default_factory=dict)
+    _services: dict[tuple[str, str], dict] = field(default_factory=dict)
+    _ids: itertools.count = field(default_factory=lambda: itertools.count(1))
+    client_ids: itertools.count = field(default_factory=lambda: itertools.count(1))
+
+    @classmethod
+    def for_bus(cls, bus: Bus) -> FoxgloveShared:
+        return cls(codec_for(bus.types))
+
+    def prune(self, bus: Bus) -> None:
+        """Forget channels and services gone from the bus once there are many (clients can
+        make topics and services of any name): a returning topic then gets a new id."""
+        if len(self._channels) > MAX_REMEMBERED:
+            live = {(t.name, t.type_name) for t in list(bus.topics.values())}
+            self._channels = {k: v for k, v in self._channels.items() if k in live}
+        if len(self._services) > MAX_REMEMBERED:
+            live = {(n, s.stype.name) for n, s in list(bus.services.items())}
+            self._services = {k: v for k, v in self._services.items() if k in live}
+
+    def channel(self, topic: Topic) -> dict | None:
+        """The channel of a topic (its id and schema), or None when it has no ROS 2 schema."""
+        key = (topic.name, topic.type_name)
+        found = self._channels.get(key)
+        if found is None:
+            try:
+                schema = self.codec.definition(topic.type_name)
+            except Exception as exc:
+                log.debug("no ros2msg schema for %s (%s): %s", topic.name, topic.type_name, exc)
+                return None
+            found = self._channels[key] = fg.channel(
+                next(self._ids), topic.name, topic.type_name, schema
+            )
+        return found
+
+    def service(self, name: str, stype: SrvType) -> dict | None:
+        key = (name, stype.name)
+        found = self._services.get(key)
+        if found is None:
+            try:
+                req = (stype.request.name, self.codec.definition(stype.request.name))
+                resp = (stype.response.name, self.codec.definition(stype.response.name))
+            except Exception as exc:
+                log.debug("no ros2msg schema for service %s: %s", name, exc)
+                return None
+            found = self._services[key] = fg.service(next(self._ids), name, stype.name, req,
+                                                     resp)
+        return found
