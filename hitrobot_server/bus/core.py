@@ -8,6 +8,7 @@ participant cannot delay a publish.
 from __future__ import annotations
 
 import asyncio
+import itertools
 import logging
 from collections.abc import Callable, Hashable, Iterable
 from typing import TypeVar
@@ -15,10 +16,9 @@ from typing import TypeVar
 from ..types.registry import TypeRegistry, UnknownType
 from .action_interfaces import ActionInterfaces
 from .clock import wall_clock
-from .encoded import Seed
 from .errors import ActionError, BusError, ServiceError
 from .link import BusLink, RemoteGraph
-from .names import CLIENT_NODE_PREFIX, canonical
+from .names import canonical
 from .params import ParamStore
 from .requests import Status
 from .services import (
@@ -63,6 +63,8 @@ class Bus:
         # changes publishers/subscribers (the Foxglove sessions keep their channels current).
         self.watchers: list[Callable[[str, str], None]] = []
         self.taps: list[BusTap] = []  # observers of every publish (the recorder)
+        self._seqs = itertools.count(1)  # numbers every message published here
+        self._goal_ids = itertools.count(1)  # numbers every goal started here
 
     # ---------------------------------------------------------------- link hooks
     def _changed(self, kind: str, name: str) -> None:
@@ -93,7 +95,7 @@ class Bus:
             return topic
         mtype = _known_type(self.types.msg, type_name)
         if topic is None:
-            topic = self.topics[name] = Topic(name, mtype, self.types, latch)
+            topic = self.topics[name] = Topic(name, mtype, self.types, latch, self._seqs)
         elif topic.mtype is not mtype and topic.mtype.name != mtype.name:
             raise BusError(
                 f"topic '{name}' already has type '{self.types.short(topic.type_name)}', "
@@ -126,43 +128,35 @@ class Bus:
         stamp: float | None = None,
         reply: Status | None = None,
         origin: Origin | None = None,
-        seed: Seed | None = None,
+        seed: object = None,
     ) -> Message:
         """Fan ``msg`` (canonical dict) out to every subscriber of an existing topic.
 
         ``reply`` reaches the publisher when a subscriber refuses the message; ``seed`` is
-        what the publisher already has of its encodings (a client's own text of it).
+        what the publisher already has of its encodings (a client's own text of it: the wire
+        floor's ``Seed``, kept in the message's ``wire`` slot without a look).
         """
         topic = self.topics.get(name) or self.topics.get(canonical(name))
         if topic is None:
             raise BusError(f"topic '{canonical(name)}' does not exist")
-        message = Message(topic, msg, self.clock() if stamp is None else stamp, reply, origin)
-        if seed is not None:
-            message.encoded.seed(seed)
+        message = Message(topic, msg, self.clock() if stamp is None else stamp, reply, origin,
+                          seed)
         topic.fan_out(message)
         if self.link is not None:
             self.link.published(message)
         for tap in self.taps:
             tap.message(message)
-            if origin is not None and any(
-                not node.startswith(CLIENT_NODE_PREFIX) for node, _cb in topic.subscribers.values()
-            ):
-                tap.client_op(self._client_op("publish", topic.name, topic.type_name, origin))
         return message
 
-    def _client_op(self, op: str, name: str, type_name: str, origin: Origin) -> ClientOp:
-        return ClientOp(op, name, type_name, origin.node, origin.peer, origin.auth_level,
-                        self.clock())
-
     def client_called(self, op: str, name: str, origin: Origin) -> None:
-        """Tell the taps about a client's ``call_service`` / ``send_action_goal`` when it
-        reaches the robot: a server node's service (rosapi's read-only ones aside) or any
-        action goal."""
+        """Tell the taps about a client's ``call_service`` / ``send_action_goal`` that reaches
+        a server node: a service no bridge client provides, or any action goal (each tap
+        decides what it keeps of them)."""
         if not self.taps:
             return
         if op == "call_service":
             service = self.service(name)
-            if service is None or service.client or service.name.startswith("/rosapi/"):
+            if service is None or service.client:
                 return
             type_name = service.stype.name
         else:
@@ -170,7 +164,7 @@ class Bus:
             if action is None:
                 return
             type_name = action.atype.name
-        entry = self._client_op(op, canonical(name), type_name, origin)
+        entry = ClientOp.of(op, canonical(name), type_name, origin, self.clock())
         for tap in self.taps:
             tap.client_op(entry)
 
@@ -359,8 +353,8 @@ class Bus:
         action = self.action(name)
         if action is None:
             raise ActionError(f"action '{canonical(name)}' does not exist")
-        handle = GoalHandle(action, action.new_goal_id(), goal, on_feedback,
-                            accepted_at=self.clock())
+        handle = GoalHandle(action, f"goal:{action.name}:{next(self._goal_ids)}", goal,
+                            on_feedback, accepted_at=self.clock())
         if goal_uuid is not None:
             handle.uuid = goal_uuid
         action.goals[handle.goal_id] = handle

@@ -7,7 +7,6 @@ handler, so callers never know which one answers.
 from __future__ import annotations
 
 import asyncio
-import itertools
 import uuid
 from collections.abc import Awaitable, Callable, Hashable
 from dataclasses import dataclass, field
@@ -96,8 +95,6 @@ class ActionWatcher(Protocol):
 
     def goal_finished(self, handle: GoalHandle, outcome: GoalOutcome) -> None: ...
 
-_goal_ids = itertools.count(1)
-
 
 @dataclass(eq=False)
 class Action:
@@ -113,6 +110,3 @@ class Action:
     @property
     def type_name(self) -> str:
         return self.atype.name
-
-    def new_goal_id(self) -> str:
-        return f"goal:{self.name}:{next(_goal_ids)}"

@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Protocol
 
-from .topics import Message
+from .topics import Message, Origin
 
 
 @dataclass(frozen=True, slots=True)
@@ -26,11 +26,17 @@ class ClientOp:
     auth_level: str | None
     stamp: float  # bus clock, seconds
 
+    @classmethod
+    def of(cls, op: str, name: str, type_name: str, origin: Origin, stamp: float) -> ClientOp:
+        return cls(op, name, type_name, origin.node, origin.peer, origin.auth_level, stamp)
+
 
 class BusTap(Protocol):
     def message(self, message: Message) -> None:
         """A message published on the bus, or delivered to it by the Zenoh link (those only
-        for topics someone in this process uses: the link brings nothing else)."""
+        for topics someone in this process uses: the link brings nothing else). A client's
+        publish carries its ``origin``; the tap decides whether it is a client op."""
 
     def client_op(self, op: ClientOp) -> None:
-        """A client op that changes the robot (see :class:`ClientOp`)."""
+        """A client's ``call_service`` of a service no client provides, or its
+        ``send_action_goal`` (see :class:`ClientOp`; the tap decides what it keeps)."""

@@ -326,7 +326,7 @@ class ZenohLink:
         topic = self.bus.topics.get(name)
         try:
             if topic is not None and topic.last is not None and topic.last.origin is not _REMOTE:
-                query.reply(query.key_expr, topic.last.encoded.cdr(self.codec))
+                query.reply(query.key_expr, topic.last.cdr(self.codec))
         finally:
             query.drop()
 
@@ -371,7 +371,7 @@ class ZenohLink:
             log.warning("zenoh: dropped a sample on %s: %s", name, exc)
             return
         message = Message(topic, msg, self.bus.clock(), None, _REMOTE)
-        message.encoded.received_cdr(payload)  # a recorder (bus tap) writes these very bytes
+        message.cdr_bytes = payload  # a recorder (bus tap) writes these very bytes
         topic.fan_out(message)
         for tap in self.bus.taps:
             tap.message(message)
@@ -384,7 +384,7 @@ class ZenohLink:
         _key, publisher, gid = pub
         attachment = pack_attachment(next(self._seq), time.time_ns(), gid)
         try:
-            publisher.put(message.encoded.cdr(self.codec), attachment=attachment)
+            publisher.put(message.cdr(self.codec), attachment=attachment)
         except Exception as exc:
             log.warning("zenoh: cannot send %s: %s", topic.name, exc)
 

@@ -14,6 +14,7 @@ from typing import Any, Protocol
 from ..bus.core import Bus
 from ..bus.topics import Origin
 from ..protocol.ops import CallService, SendActionGoal, Subscribe
+from ..wire.frames import FrameBuilder
 from .options import SessionOptions
 from .outbox import Outbox
 
@@ -26,6 +27,7 @@ class OpContext(Protocol):
     node: str  # the client's node name on the bus
     transport: str  # "ws" or "tcp": binary compressions need WebSocket frames
     outbox: Outbox  # where its subscriptions queue topic data (per-topic streams, drops)
+    frames: FrameBuilder  # builds its frames (the server's: fragment ids never repeat)
 
     @property
     def origin(self) -> Origin:

@@ -22,12 +22,13 @@ from typing import Any
 
 from ..bus.cdr import Ros2Codec, codec_for
 from ..bus.core import Bus
-from ..bus.encoded import Frames
 from ..bus.errors import BusError
 from ..bus.names import canonical, valid_name
 from ..bus.topics import Message, Origin, Topic
 from ..protocol import foxglove as fg
 from ..types.registry import MsgType, SrvType, UnknownType
+from ..wire.encoded import encoded_of
+from ..wire.frames import Frames
 from .options import SessionOptions
 from .outbox import Outbox
 from .session import release_client
@@ -292,7 +293,7 @@ class FoxgloveSession:
     def _deliver(self, sub_id: int, message: Message) -> None:
         """Called by the bus for every message; must never block or raise."""
         try:
-            cdr = message.encoded.cdr(self.codec)
+            cdr = message.cdr(self.codec)
         except Exception as exc:
             name = message.topic.name
             if name not in self._bad_encodings:
@@ -300,7 +301,7 @@ class FoxgloveSession:
                 self._status(fg.WARNING, f"topic '{name}': a message could not be encoded as "
                              f"CDR ({exc}); such messages are skipped")
             return
-        self._send_data([(message.encoded.foxglove(sub_id, cdr), True)], message.topic.name)
+        self._send_data([(encoded_of(message).foxglove(sub_id, cdr), True)], message.topic.name)
 
     def _op_unsubscribe(self, op: dict) -> None:
         for sub_id in op["subscriptionIds"]:

@@ -27,12 +27,12 @@ from ..protocol.fragment import MIN_FRAGMENT_SIZE, Defragmenter, FragmentBudget
 from ..protocol.status import should_send
 from ..types import jsoncodec
 from ..types.convert import ConversionError
+from ..wire.frames import FrameBuilder, json_frames
 from . import offload
 from .actions import ActionOps
 from .options import SessionOptions
 from .outbox import Outbox, nbytes
 from .publish import PublishOps, TopicNames
-from .replies import json_frames, reply_frames
 from .services import ServiceOps
 from .subscribe import SubscribeOps
 
@@ -60,10 +60,12 @@ class Shared:
 
     fragments: FragmentBudget  # bytes of incoming fragments held, all clients together
     auth_replays: auth.ReplayCache  # auth MACs already accepted (each grants access once)
+    frames: FrameBuilder  # builds every client's frames; one fragment id counter for all
 
     @classmethod
     def for_options(cls, options: SessionOptions) -> Shared:
-        return cls(FragmentBudget(options.fragment_memory_limit), auth.ReplayCache())
+        return cls(FragmentBudget(options.fragment_memory_limit), auth.ReplayCache(),
+                   FrameBuilder(offload.run))
 
 
 class Session:
@@ -80,6 +82,7 @@ class Session:
     ):
         self.bus = bus
         self.shared = shared or Shared.for_options(settings)
+        self.frames = self.shared.frames
         self.settings = settings
         self.peer = peer
         self.transport = transport
@@ -322,7 +325,7 @@ class Session:
     ) -> None:
         """Queue a reply op; replies are never dropped by the send buffer."""
         size = fragment_size or self.settings.max_message_size
-        frames = reply_frames(obj, size, compression)
+        frames = self.frames.reply(obj, size, compression)
         charged = nbytes(frames)  # a big reply being built in the worker pool: its estimate
         self.outbox.put(frames)
         self.reply_bytes += (charged - self.reply_bytes) / 8  # the running mean reply size

@@ -1,0 +1,204 @@
+"""Every wire encoding of one bus message, made once and shared by every reader.
+
+A message fanned out to fifty clients is serialised once per (encoding, topic spelling), not
+fifty times — the main cost rosbridge pays per client (rosbridge #332, #559). The encodings
+of a message are its :class:`Encoded`, which the bus keeps for the wire floor in the
+message's opaque ``wire`` slot (:func:`encoded_of` makes it on first use): the JSON body and
+publish op, png, cbor, cbor-raw, Foxglove data frames and the frames one subscriber gets
+(fragmented or not, built by the server's :class:`~.frames.FrameBuilder`). Each is keyed by a
+``Key`` (an :class:`Encoding`, the topic spelling it names, a variant), and each set of frames
+is either ready (a list) or :class:`~.frames.PendingFrames`. A message's CDR is the bus's own
+(``Message.cdr``: its Zenoh link sends it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Hashable, Iterable
+from dataclasses import dataclass
+from enum import IntEnum
+
+from ..bus.topics import Message, Topic
+from ..protocol import cbor, ops, rawmsg
+from ..protocol import foxglove as fg
+from ..protocol.bulk import OFFLOAD_BYTES
+from ..types import jsoncodec
+from .frames import FrameBuilder, Frames, PendingFrames, publish_frames, publish_json, publish_png
+from .sizes import approx_size, has_lists
+
+
+class Encoding(IntEnum):
+    """What a cached encoding is (an int, so keys hash in C on the fan-out path)."""
+
+    BODY = 0  # the message alone as JSON: the ``msg`` of a publish op
+    JSON = 1  # a ``publish`` op as JSON (compression ``none``)
+    PNG = 2  # that op as a ``png`` op
+    CBOR = 3  # a ``publish`` op as CBOR
+    CBOR_RAW = 4  # a ``publish`` op carrying ROS 1 bytes in CBOR
+    FOXGLOVE = 6  # a Foxglove message data frame (variant: the subscription id)
+
+
+_BY_COMPRESSION: dict[str, Encoding] = {
+    "none": Encoding.JSON,
+    "png": Encoding.PNG,
+    "cbor": Encoding.CBOR,
+    "cbor-raw": Encoding.CBOR_RAW,
+}
+"""The encoding each of rosbridge's compressions (``ops.COMPRESSIONS``) asks for."""
+
+_BINARY = frozenset({Encoding.CBOR, Encoding.CBOR_RAW})
+
+
+Key = tuple[Encoding, str, Hashable]
+"""One cached encoding: what it is, for which topic spelling, in which variant (the fragment
+size of a subscriber's frames, a Foxglove subscription id). A plain tuple: it is built for
+every subscriber of every message, where a class's constructor would cost a third more."""
+
+_BODY: Key = (Encoding.BODY, "", None)
+
+
+def strongest(compressions: Iterable[str]) -> str:
+    """rosbridge's rule when one client subscribes twice: none < png < cbor < cbor-raw."""
+    return max(compressions, key=ops.COMPRESSIONS.index, default="none")
+
+
+def is_binary(compression: str) -> bool:
+    """Whether a compression needs binary (WebSocket) frames."""
+    return _BY_COMPRESSION[compression] in _BINARY
+
+
+@dataclass(frozen=True, slots=True)
+class Seed:
+    """What a publisher already has of a message's encodings: the length of the op it came in
+    (its size, near enough) and, when the converter left the message as the client wrote it,
+    the client's own ``publish`` op as the outgoing JSON for ``topic`` (session/publish.py).
+    Handed to ``Bus.publish`` (``seed``), which keeps it in the message's ``wire`` slot."""
+
+    size: int
+    topic: str = ""
+    publish_json: bytes | None = None
+
+
+def encoded_of(message: Message) -> Encoded:
+    """The message's encodings, made on first use (from its publisher's :class:`Seed`, if any)."""
+    found = message.wire
+    if found.__class__ is Encoded:
+        return found  # type: ignore[return-value]
+    encoded = message.wire = Encoded(message.topic, message.msg, message.stamp)
+    if found is not None:
+        encoded.seed(found)  # type: ignore[arg-type]
+    return encoded
+
+
+class Encoded:
+    """The encodings of one bus message (see the module docstring); pure apart from
+    :meth:`frames`, which may start the worker-pool build of a big message's text frames."""
+
+    __slots__ = ("topic", "msg", "stamp", "_bytes", "_frames", "_size")
+
+    def __init__(self, topic: Topic, msg: dict, stamp: float):
+        self.topic = topic
+        self.msg = msg
+        self.stamp = stamp
+        self._bytes: dict[Key, bytes] = {}
+        self._frames: dict[Key, Frames] = {}
+        self._size: int | None = None
+
+    # ------------------------------------------------------------ what a publisher knows
+    def seed(self, seed: Seed) -> None:
+        self._size = seed.size
+        if seed.publish_json is not None:
+            self._bytes[(Encoding.JSON, seed.topic, None)] = seed.publish_json
+
+    def known(self, encoding: Encoding, topic: str = "") -> bytes | None:
+        """An encoding if someone already made it."""
+        return self._bytes.get((encoding, topic, None))
+
+    def size(self) -> int:
+        """Estimated JSON size of the body, computed once (or given by the publisher)."""
+        if self._size is None:
+            self._size = approx_size(self.msg)
+        return self._size
+
+    # ------------------------------------------------------------ single encodings
+    def publish_json(self, topic: str) -> bytes:
+        """``{"op":"publish","topic":T,"msg":…}``, the body serialised once for every spelling."""
+        key: Key = (Encoding.JSON, topic, None)
+        data = self._bytes.get(key)
+        if data is None:
+            body = self._bytes.get(_BODY)
+            if body is None:
+                body = self._bytes[_BODY] = jsoncodec.dumps(self.msg)
+            data = self._bytes[key] = publish_json(topic, body)
+        return data
+
+    def publish_png(self, topic: str) -> bytes:
+        key: Key = (Encoding.PNG, topic, None)
+        data = self._bytes.get(key)
+        if data is None:
+            data = self._bytes[key] = publish_png(topic, self.msg, self.publish_json(topic))
+        return data
+
+    def publish_cbor(self, topic: str) -> bytes:
+        key: Key = (Encoding.CBOR, topic, None)
+        data = self._bytes.get(key)
+        if data is None:
+            t = self.topic
+            data = self._bytes[key] = cbor.encode_publish_cbor(topic, self.msg, t.mtype, t.types)
+        return data
+
+    def publish_cbor_raw(self, topic: str) -> bytes:
+        key: Key = (Encoding.CBOR_RAW, topic, None)
+        data = self._bytes.get(key)
+        if data is None:
+            secs = int(self.stamp)
+            nsecs = int(round((self.stamp - secs) * 1e9))
+            t = self.topic
+            data = self._bytes[key] = rawmsg.encode_publish_cbor_raw(
+                topic, self.msg, t.mtype, t.types, (secs, nsecs)
+            )
+        return data
+
+    def foxglove(self, sub_id: int, cdr: bytes) -> bytes:
+        """The Foxglove message data frame of subscription ``sub_id`` around ``cdr`` (the
+        message's ``Message.cdr``)."""
+        key: Key = (Encoding.FOXGLOVE, "", sub_id)
+        data = self._bytes.get(key)
+        if data is None:
+            data = self._bytes[key] = fg.message_data(sub_id, fg.nanoseconds(self.stamp), cdr)
+        return data
+
+    # ------------------------------------------------------------ a subscriber's frames
+    def frames(
+        self, topic: str, compression: str, fragment_size: int | None, builder: FrameBuilder
+    ) -> Frames:
+        """The frames one subscriber gets; fragments only text ops and only when asked to.
+
+        Made once per (compression, topic spelling, fragment size) and shared by every such
+        subscriber. A big message with variable arrays, for a text compression, is built by
+        the builder's runner (when it has one) and is pending until its frames are back.
+        """
+        encoding = _BY_COMPRESSION[compression]
+        key: Key = (encoding, topic, fragment_size)
+        found = self._frames.get(key)
+        if found is not None:
+            if isinstance(found, PendingFrames) and found.ok():
+                found = self._frames[key] = found.future.result()
+            return found
+        if encoding is Encoding.CBOR:
+            found = [(self.publish_cbor(topic), True)]
+        elif encoding is Encoding.CBOR_RAW:
+            found = [(self.publish_cbor_raw(topic), True)]
+        elif (
+            builder.offload is not None
+            and (Encoding.JSON, topic, None) not in self._bytes
+            and has_lists(self.topic.mtype, self.topic.types)
+            and self.size() >= OFFLOAD_BYTES
+        ):
+            found = builder.offloaded(
+                self.size(), publish_frames, topic, self.msg, compression, fragment_size
+            )
+        else:
+            data = self.publish_png(topic) if encoding is Encoding.PNG else self.publish_json(topic)
+            found = builder.cut(data, fragment_size)
+        self._frames[key] = found
+        return found
