@@ -13,17 +13,30 @@ is either ready (a list) or :class:`~.frames.PendingFrames`. A message's CDR is 
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Hashable, Iterable
 from dataclasses import dataclass
 from enum import IntEnum
+from typing import Any
+
+import orjson
 
 from ..bus.topics import Message, Topic
 from ..protocol import cbor, ops, rawmsg
 from ..protocol import foxglove as fg
 from ..protocol.bulk import OFFLOAD_BYTES
 from ..types import jsoncodec
-from .frames import FrameBuilder, Frames, PendingFrames, publish_frames, publish_json, publish_png
-from .sizes import approx_size, has_lists
+from ..types.registry import MsgType, TypeRegistry
+from .frames import (
+    Frame,
+    FrameBuilder,
+    Frames,
+    PendingFrames,
+    approx_size,
+    as_png,
+    cut,
+    fragments,
+)
 
 
 class Encoding(IntEnum):
@@ -199,6 +212,49 @@ class Encoded:
             )
         else:
             data = self.publish_png(topic) if encoding is Encoding.PNG else self.publish_json(topic)
-            found = builder.cut(data, fragment_size)
+            if fragment_size and len(data) > fragment_size:
+                found = fragments(data, fragment_size, builder.ids.next())
+            else:
+                found = [(data, False)]
         self._frames[key] = found
         return found
+
+
+# ------------------------------------------------------------ pure publish-op encoders
+@functools.lru_cache(maxsize=1024)
+def publish_head(topic: str) -> bytes:
+    return b'{"op":"publish","topic":' + orjson.dumps(topic) + b',"msg":'
+
+
+def publish_json(topic: str, msg_json: bytes) -> bytes:
+    """``{"op":"publish","topic":T,"msg":…}`` around an already serialised body."""
+    return b"".join((publish_head(topic), msg_json, b"}"))
+
+
+def publish_png(topic: str, msg: dict, op_json: bytes) -> bytes:
+    """The ``png`` op of a publish whose JSON text is ``op_json``."""
+    return as_png(op_json, {"op": "publish", "topic": topic, "msg": msg})
+
+
+def publish_frames(
+    topic: str, msg: dict, compression: str, fragment_size: int | None, frag_id: str
+) -> list[Frame]:
+    """Every frame one text subscriber (``none`` or ``png``) gets for one message: what the
+    worker pool builds for a big one, byte for byte what :meth:`Encoded.frames` makes."""
+    data = publish_json(topic, jsoncodec.dumps(msg))
+    if compression == "png":
+        data = publish_png(topic, msg, data)
+    return cut(data, fragment_size, frag_id)
+
+
+def has_lists(mtype: MsgType, reg: TypeRegistry) -> bool:
+    """Whether a message of this type can hold a variable-length array (at any depth); one
+    that cannot (Twist, Odometry, String, ...) is never big enough to leave the event loop."""
+    memo: dict[str, Any] = reg.plan_cache("has_lists")
+    found = memo.get(mtype.name)
+    if found is None:
+        memo[mtype.name] = False  # a recursive type cannot loop forever here
+        found = memo[mtype.name] = any(
+            f.array == 0 or (f.is_msg and has_lists(reg.msg(f.type), reg)) for f in mtype.fields
+        )
+    return found

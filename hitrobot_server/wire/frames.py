@@ -3,26 +3,24 @@ frames a rosbridge client gets — JSON or png, whole or cut into ``fragment`` o
 
 Frames are ready (a list) or :class:`PendingFrames`: a big op's frames are built in the worker
 pool (the :class:`FrameBuilder`'s runner), and the outbox waits for them in place. The pure
-builders here (:func:`publish_frames`, :func:`reply_frames`) are also what the worker runs, so
-an offloaded op is byte for byte what the inline path sends. A bus message's encodings, shared
-by every subscriber, are kept by :mod:`.encoded`.
+builders (:func:`reply_frames` here, ``encoded.publish_frames`` for a message) are also what
+the worker runs, so an offloaded op is byte for byte what the inline path sends. A bus
+message's encodings, shared by every subscriber, are kept by :mod:`.encoded`.
 """
 
 from __future__ import annotations
 
 import asyncio
-import functools
 import logging
 from collections.abc import Awaitable, Callable
 
-import orjson
+import numpy as np
 
 from ..protocol import png
 from ..protocol.bulk import OFFLOAD_BYTES
 from ..protocol.errors import MessageId
 from ..protocol.fragment import FragmentIds, fragment_bytes, fragment_size_for
 from ..types import jsoncodec
-from .sizes import approx_size
 
 log = logging.getLogger(__name__)
 
@@ -90,32 +88,6 @@ def as_png(data: bytes, op: dict) -> bytes:
     return png.png_op(data)
 
 
-@functools.lru_cache(maxsize=1024)
-def publish_head(topic: str) -> bytes:
-    return b'{"op":"publish","topic":' + orjson.dumps(topic) + b',"msg":'
-
-
-def publish_json(topic: str, msg_json: bytes) -> bytes:
-    """``{"op":"publish","topic":T,"msg":…}`` around an already serialised body."""
-    return b"".join((publish_head(topic), msg_json, b"}"))
-
-
-def publish_png(topic: str, msg: dict, op_json: bytes) -> bytes:
-    """The ``png`` op of a publish whose JSON text is ``op_json``."""
-    return as_png(op_json, {"op": "publish", "topic": topic, "msg": msg})
-
-
-def publish_frames(
-    topic: str, msg: dict, compression: str, fragment_size: int | None, frag_id: str
-) -> list[Frame]:
-    """Every frame one text subscriber (``none`` or ``png``) gets for one message: what the
-    worker pool builds for a big one, byte for byte what ``Encoded.frames`` makes."""
-    data = publish_json(topic, jsoncodec.dumps(msg))
-    if compression == "png":
-        data = publish_png(topic, msg, data)
-    return cut(data, fragment_size, frag_id)
-
-
 def reply_data(obj: dict, compression: str = "none") -> bytes:
     """A reply op (service_response, action_result, status, ...) as one JSON or png frame."""
     data = jsoncodec.dumps(obj)
@@ -131,6 +103,49 @@ def reply_frames(obj: dict, fragment_size: int | None, compression: str,
 def json_frames(obj: dict) -> list[Frame]:
     """A reply op as one JSON frame (a status: never cut, never offloaded)."""
     return [(jsoncodec.dumps(obj), False)]
+
+
+# ------------------------------------------------------------ sizes
+def approx_size(value: object) -> int:
+    """Rough JSON size of a canonical message, without encoding it (an over-estimate is fine:
+    it only decides inline or offloaded). Looks into dicts and the first item of a list; one
+    call per nested dict, so a LaserScan costs three calls."""
+    kind = type(value)
+    if kind is dict:
+        total = 16 * len(value)
+        for item in value.values():
+            kind = type(item)
+            if kind is dict:
+                total += approx_size(item)
+            elif kind is list:
+                total += _list_size(item)
+            elif kind is bytes or kind is np.ndarray or kind is str:
+                total += _flat_size(item)
+            else:
+                total += 12
+        return total
+    if kind is list:
+        return _list_size(value)
+    return _flat_size(value)
+
+
+def _list_size(value: list) -> int:
+    if not value:
+        return 2
+    first = type(value[0])
+    each = approx_size(value[0]) if first is dict or first is list else 12
+    return each * len(value)
+
+
+def _flat_size(value: object) -> int:
+    kind = type(value)
+    if kind is bytes:
+        return len(value) * 4 // 3
+    if kind is np.ndarray:
+        return value.size * (4 if value.itemsize == 1 else 24)
+    if kind is str:
+        return len(value) + 2
+    return 12
 
 
 # ------------------------------------------------------------ the builder

@@ -24,9 +24,8 @@ from hitrobot_server.session.options import SessionOptions
 from hitrobot_server.session.session import Session
 from hitrobot_server.types.convert import from_json
 from hitrobot_server.types.registry import TypeRegistry
-from hitrobot_server.wire.encoded import encoded_of
-from hitrobot_server.wire.frames import FrameBuilder, PendingFrames, publish_frames
-from hitrobot_server.wire.sizes import has_lists
+from hitrobot_server.wire.encoded import encoded_of, has_lists, publish_frames
+from hitrobot_server.wire.frames import FrameBuilder, PendingFrames
 from hitrobot_server.wire.verbatim import VERBATIM_MIN
 
 from ..helpers import WsClient
