@@ -14,7 +14,7 @@ from collections.abc import Callable, Hashable, Iterable
 from typing import TypeVar
 
 from ..types.registry import TypeRegistry, UnknownType
-from .action_interfaces import ActionInterfaces
+from .actions import ActionRegistry
 from .clock import wall_clock
 from .errors import ActionError, BusError, ServiceError
 from .link import BusLink, RemoteGraph
@@ -22,15 +22,13 @@ from .names import canonical
 from .params import ParamStore
 from .requests import Status
 from .services import (
-    STATUS_ABORTED,
-    STATUS_CANCELED,
-    STATUS_EXECUTING,
     Action,
     ActionHandler,
     GoalHandle,
     GoalOutcome,
     Service,
     ServiceHandler,
+    ServiceRegistry,
 )
 from .tap import BusTap, ClientOp
 from .topics import Message, Origin, Subscriber, Topic
@@ -51,10 +49,10 @@ class Bus:
         self.clock = clock
         self.unregister_timeout = unregister_timeout
         self.topics: dict[str, Topic] = {}
-        self.services: dict[str, Service] = {}
-        self._replaced: dict[str, list[Service]] = {}  # providers replaced, the latest last
-        self.actions: dict[str, Action] = {}
-        self._action_interfaces: dict[str, ActionInterfaces] = {}
+        self._services = ServiceRegistry()
+        self.services = self._services.current  # name -> provider
+        self._actions = ActionRegistry(self)
+        self.actions = self._actions.current  # name -> provider
         self.params = ParamStore()
         self.nodes: dict[str, int] = {}  # node name -> registration count (for rosapi)
         self.log_names: dict[str, str] = {}  # logger (module) name -> node name (for /rosout)
@@ -64,7 +62,6 @@ class Bus:
         self.watchers: list[Callable[[str, str], None]] = []
         self.taps: list[BusTap] = []  # observers of every publish (the recorder)
         self._seqs = itertools.count(1)  # numbers every message published here
-        self._goal_ids = itertools.count(1)  # numbers every goal started here
 
     # ---------------------------------------------------------------- link hooks
     def _changed(self, kind: str, name: str) -> None:
@@ -101,7 +98,7 @@ class Bus:
                 f"topic '{name}' already has type '{self.types.short(topic.type_name)}', "
                 f"not '{self.types.short(mtype.name)}'"
             )
-        self._cancel_expiry(topic)
+        topic.keep()
         return topic
 
     def advertise(
@@ -196,29 +193,12 @@ class Bus:
 
     def _maybe_expire(self, topic: Topic) -> None:
         """Drop an unused topic after ``unregister_timeout`` (rosbridge #138's grace period)."""
-        if not topic.idle or topic._expiry is not None:
-            return
-        if self.unregister_timeout <= 0:
-            self._expire(topic)
-            return
-        try:
-            loop = asyncio.get_running_loop()
-        except RuntimeError:
-            self._expire(topic)
-            return
-        topic._expiry = loop.call_later(self.unregister_timeout, self._expire, topic)
+        topic.expire_later(self.unregister_timeout, self._expire)
 
     def _expire(self, topic: Topic) -> None:
-        topic._expiry = None
         if topic.idle and self.topics.get(topic.name) is topic:
             del self.topics[topic.name]
             self._changed("topic", topic.name)
-
-    @staticmethod
-    def _cancel_expiry(topic: Topic) -> None:
-        if topic._expiry is not None:
-            topic._expiry.cancel()
-            topic._expiry = None
 
     # ---------------------------------------------------------------- services
     def advertise_service(
@@ -236,13 +216,10 @@ class Bus:
         for a client to take over. The replaced provider is kept and comes back when the one
         that replaced it goes (:meth:`unadvertise_service`)."""
         name = canonical(name)
-        current = self.services.get(name)
-        _refuse_takeover("service", name, current, client)
+        _refuse_takeover("service", name, self.services.get(name), client)
         stype = _known_type(self.types.srv, type_name)
         service = Service(name, stype, owner, node, handler, client)
-        if current is not None and current.owner != owner:
-            self._replaced.setdefault(name, []).append(current)
-        self.services[name] = service
+        self._services.add(service)
         self._changed("service", name)
         return service
 
@@ -250,20 +227,8 @@ class Bus:
         """Withdraw ``owner``'s provider: the current one (the provider it replaced comes
         back) or one waiting under a later replacement."""
         name = canonical(name)
-        service = self.services.get(name)
-        stack = self._replaced.get(name, [])
-        if service is not None and service.owner == owner:
-            if stack:
-                self.services[name] = stack.pop()
-            else:
-                del self.services[name]
-        else:
-            waiting = [s for s in stack if s.owner == owner]
-            if not waiting:
-                return False
-            stack[:] = [s for s in stack if s.owner != owner]
-        if not stack:
-            self._replaced.pop(name, None)
+        if not self._services.remove(name, owner):
+            return False
         self._changed("service", name)
         return True
 
@@ -279,19 +244,7 @@ class Bus:
         service = self.service(name)
         if service is None:
             raise ServiceError(f"service '{canonical(name)}' does not exist")
-        try:
-            if timeout is not None and timeout > 0:
-                return await asyncio.wait_for(service.handler(request), timeout)
-            return await service.handler(request)
-        except TimeoutError:
-            raise ServiceError(
-                f"service '{service.name}' did not answer within {timeout:g} s"
-            ) from None
-        except BusError:
-            raise
-        except Exception as exc:  # a provider bug must not take the caller down
-            log.exception("service %s failed", service.name)
-            raise ServiceError(f"service '{service.name}' failed: {exc}") from None
+        return await service.call(request, timeout)
 
     # ---------------------------------------------------------------- actions
     def advertise_action(
@@ -306,32 +259,17 @@ class Bus:
     ) -> Action:
         """Register a provider; a client may replace a client's action, never a node's."""
         name = canonical(name)
-        old = self.actions.get(name)
-        _refuse_takeover("action", name, old, client)
+        _refuse_takeover("action", name, self.actions.get(name), client)
         atype = _known_type(self.types.action, type_name)
-        if old is not None:
-            self._drop_interfaces(name)
-            for goal in list(old.goals.values()):
-                goal.cancel()
-        action = self.actions[name] = Action(name, atype, owner, node, handler, client=client)
-        self._action_interfaces[name] = ActionInterfaces(self, action)
+        action = Action(name, atype, owner, node, handler, client=client)
+        self._actions.add(action)
         self._changed("action", name)
         return action
 
-    def _drop_interfaces(self, name: str) -> None:
-        interfaces = self._action_interfaces.pop(name, None)
-        if interfaces is not None:
-            interfaces.close()
-
     def unadvertise_action(self, name: str, owner: Hashable) -> bool:
         name = canonical(name)
-        action = self.actions.get(name)
-        if action is None or action.owner != owner:
+        if not self._actions.remove(name, owner):
             return False
-        del self.actions[name]
-        for goal in list(action.goals.values()):
-            goal.cancel()
-        self._drop_interfaces(name)
         self._changed("action", name)
         return True
 
@@ -353,31 +291,7 @@ class Bus:
         action = self.action(name)
         if action is None:
             raise ActionError(f"action '{canonical(name)}' does not exist")
-        handle = GoalHandle(action, f"goal:{action.name}:{next(self._goal_ids)}", goal,
-                            on_feedback, accepted_at=self.clock())
-        if goal_uuid is not None:
-            handle.uuid = goal_uuid
-        action.goals[handle.goal_id] = handle
-        handle.set_status(STATUS_EXECUTING)
-
-        async def run() -> GoalOutcome:
-            outcome = GoalOutcome(STATUS_ABORTED, f"action '{action.name}' gave no outcome", False)
-            try:
-                outcome = await action.handler(handle)
-            except asyncio.CancelledError:
-                outcome = GoalOutcome(STATUS_CANCELED, "goal cancelled", False)
-            except Exception as exc:
-                log.exception("action %s failed", action.name)
-                outcome = GoalOutcome(STATUS_ABORTED, f"action '{action.name}' failed: {exc}",
-                                      False)
-            finally:
-                action.goals.pop(handle.goal_id, None)
-                handle.status = outcome.status
-                for watcher in list(action.watchers):
-                    watcher.goal_finished(handle, outcome)
-            return outcome
-
-        return handle, asyncio.ensure_future(run())
+        return self._actions.start(action, goal, on_feedback, goal_uuid, self.clock())
 
     # ---------------------------------------------------------------- participants
     def node_name(self, name: str) -> str:
@@ -407,7 +321,7 @@ class Bus:
                 if topic.subscribers.pop(key, None) is not None:
                     self._maybe_expire(topic)
                     self._changed("topic", topic.name)
-        for name in list(self.services) + list(self._replaced):
+        for name in self._services.names():
             while self.unadvertise_service(name, owner):
                 pass
         for name, action in list(self.actions.items()):

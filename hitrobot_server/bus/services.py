@@ -7,12 +7,16 @@ handler, so callers never know which one answers.
 from __future__ import annotations
 
 import asyncio
+import logging
 import uuid
 from collections.abc import Awaitable, Callable, Hashable
 from dataclasses import dataclass, field
 from typing import Protocol
 
 from ..types.registry import ActionType, SrvType
+from .errors import BusError, ServiceError
+
+log = logging.getLogger(__name__)
 
 ServiceHandler = Callable[[dict], Awaitable[dict]]
 
@@ -29,6 +33,61 @@ class Service:
     @property
     def type_name(self) -> str:
         return self.stype.name
+
+    async def call(self, request: dict, timeout: float | None = None) -> dict:
+        """The provider's answer; raises ServiceError with a user-facing reason on any failure."""
+        try:
+            if timeout is not None and timeout > 0:
+                return await asyncio.wait_for(self.handler(request), timeout)
+            return await self.handler(request)
+        except TimeoutError:
+            raise ServiceError(
+                f"service '{self.name}' did not answer within {timeout:g} s"
+            ) from None
+        except BusError:
+            raise
+        except Exception as exc:  # a provider bug must not take the caller down
+            log.exception("service %s failed", self.name)
+            raise ServiceError(f"service '{self.name}' failed: {exc}") from None
+
+
+class ServiceRegistry:
+    """The services of one bus: one provider per name, and the providers it replaced (a
+    client may take over a client's service, as rosbridge lets it; the one it replaced comes
+    back when it goes)."""
+
+    def __init__(self) -> None:
+        self.current: dict[str, Service] = {}
+        self._replaced: dict[str, list[Service]] = {}  # providers replaced, the latest last
+
+    def add(self, service: Service) -> None:
+        name = service.name
+        current = self.current.get(name)
+        if current is not None and current.owner != service.owner:
+            self._replaced.setdefault(name, []).append(current)
+        self.current[name] = service
+
+    def remove(self, name: str, owner: Hashable) -> bool:
+        """Withdraw ``owner``'s provider of ``name``: the current one or a replaced one."""
+        service = self.current.get(name)
+        stack = self._replaced.get(name, [])
+        if service is not None and service.owner == owner:
+            if stack:
+                self.current[name] = stack.pop()
+            else:
+                del self.current[name]
+        else:
+            waiting = [s for s in stack if s.owner == owner]
+            if not waiting:
+                return False
+            stack[:] = [s for s in stack if s.owner != owner]
+        if not stack:
+            self._replaced.pop(name, None)
+        return True
+
+    def names(self) -> list[str]:
+        """Every name with a provider, current or replaced."""
+        return list(self.current) + list(self._replaced)
 
 
 # action_msgs/GoalStatus codes
@@ -110,3 +169,20 @@ class Action:
     @property
     def type_name(self) -> str:
         return self.atype.name
+
+    async def run(self, handle: GoalHandle) -> GoalOutcome:
+        """Run one goal to its outcome (never raises); its watchers see it finish."""
+        outcome = GoalOutcome(STATUS_ABORTED, f"action '{self.name}' gave no outcome", False)
+        try:
+            outcome = await self.handler(handle)
+        except asyncio.CancelledError:
+            outcome = GoalOutcome(STATUS_CANCELED, "goal cancelled", False)
+        except Exception as exc:
+            log.exception("action %s failed", self.name)
+            outcome = GoalOutcome(STATUS_ABORTED, f"action '{self.name}' failed: {exc}", False)
+        finally:
+            self.goals.pop(handle.goal_id, None)
+            handle.status = outcome.status
+            for watcher in list(self.watchers):
+                watcher.goal_finished(handle, outcome)
+        return outcome

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import itertools
 import logging
 from collections.abc import Callable, Hashable, Iterator
@@ -119,6 +120,31 @@ class Topic:
     @property
     def idle(self) -> bool:
         return not self.publishers and not self.subscribers
+
+    def expire_later(self, timeout: float, expire: Callable[[Topic], None]) -> None:
+        """Once unused, ``expire(self)`` after ``timeout`` seconds (at once with none, or with
+        no event loop running), unless the topic is used again first (:meth:`keep`)."""
+        if not self.idle or self._expiry is not None:
+            return
+        if timeout <= 0:
+            expire(self)
+            return
+        try:
+            loop = asyncio.get_running_loop()
+        except RuntimeError:
+            expire(self)
+            return
+        self._expiry = loop.call_later(timeout, self._expired, expire)
+
+    def _expired(self, expire: Callable[[Topic], None]) -> None:
+        self._expiry = None
+        expire(self)
+
+    def keep(self) -> None:
+        """The topic is used again: no expiry."""
+        if self._expiry is not None:
+            self._expiry.cancel()
+            self._expiry = None
 
     def fan_out(self, message: Message) -> None:
         """Deliver to every subscriber; one failing callback never starves the others."""

@@ -177,4 +177,4 @@ async def test_node_services_cannot_be_taken_over_and_client_providers_stack(bus
     assert (await bus.call_service("/shared", {}))["message"] == "c1"
     assert not bus.unadvertise_service("/shared", "c2")
     assert bus.unadvertise_service("/shared", "c1")
-    assert bus.service("/shared") is None and bus._replaced == {}
+    assert bus.service("/shared") is None and bus._services._replaced == {}
