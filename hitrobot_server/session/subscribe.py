@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 from ..bus.topics import Message, Topic
 from ..protocol.errors import ProtocolError
 from ..protocol.ops import Subscribe, Unsubscribe
-from ..wire.encoded import encoded_of, is_binary, strongest
+from ..wire.encoded import Encoded, encoded_of, is_binary, strongest
 from .publish import TopicNames
 
 if TYPE_CHECKING:
@@ -128,7 +128,10 @@ class ClientSubscription:
             self._arm(time.monotonic())
 
     def _send(self, message: Message) -> None:
-        frames = encoded_of(message).frames(
+        encoded = message.wire
+        if encoded.__class__ is not Encoded:  # (encoded_of's own test, without its call here)
+            encoded = encoded_of(message)
+        frames = encoded.frames(
             self.topic_str, self.compression, self.fragment_size, self.client.frames
         )
         self.client.outbox.put(frames, True, self.topic_str, self.queue_length or None)
