@@ -30,7 +30,7 @@ from .services import (
     ServiceHandler,
     ServiceRegistry,
 )
-from .tap import BusTap, ClientOp
+from .tap import BusTap, client_op
 from .topics import Message, Origin, Subscriber, Topic
 
 log = logging.getLogger(__name__)
@@ -151,19 +151,11 @@ class Bus:
         decides what it keeps of them)."""
         if not self.taps:
             return
-        if op == "call_service":
-            service = self.service(name)
-            if service is None or service.client:
-                return
-            type_name = service.stype.name
-        else:
-            action = self.action(name)
-            if action is None:
-                return
-            type_name = action.atype.name
-        entry = ClientOp.of(op, canonical(name), type_name, origin, self.clock())
-        for tap in self.taps:
-            tap.client_op(entry)
+        target = self.service(name) if op == "call_service" else self.action(name)
+        entry = client_op(op, canonical(name), target, origin, self.clock())
+        if entry is not None:
+            for tap in self.taps:
+                tap.client_op(entry)
 
     def subscribe(
         self,
@@ -244,7 +236,19 @@ class Bus:
         service = self.service(name)
         if service is None:
             raise ServiceError(f"service '{canonical(name)}' does not exist")
-        return await service.call(request, timeout)
+        try:
+            if timeout is not None and timeout > 0:
+                return await asyncio.wait_for(service.handler(request), timeout)
+            return await service.handler(request)
+        except TimeoutError:
+            raise ServiceError(
+                f"service '{service.name}' did not answer within {timeout:g} s"
+            ) from None
+        except BusError:
+            raise
+        except Exception as exc:  # a provider bug must not take the caller down
+            log.exception("service %s failed", service.name)
+            raise ServiceError(f"service '{service.name}' failed: {exc}") from None
 
     # ---------------------------------------------------------------- actions
     def advertise_action(

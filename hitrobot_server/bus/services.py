@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from ..types.registry import ActionType, SrvType
-from .errors import BusError, ServiceError
 
 log = logging.getLogger(__name__)
 
@@ -33,22 +32,6 @@ class Service:
     @property
     def type_name(self) -> str:
         return self.stype.name
-
-    async def call(self, request: dict, timeout: float | None = None) -> dict:
-        """The provider's answer; raises ServiceError with a user-facing reason on any failure."""
-        try:
-            if timeout is not None and timeout > 0:
-                return await asyncio.wait_for(self.handler(request), timeout)
-            return await self.handler(request)
-        except TimeoutError:
-            raise ServiceError(
-                f"service '{self.name}' did not answer within {timeout:g} s"
-            ) from None
-        except BusError:
-            raise
-        except Exception as exc:  # a provider bug must not take the caller down
-            log.exception("service %s failed", self.name)
-            raise ServiceError(f"service '{self.name}' failed: {exc}") from None
 
 
 class ServiceRegistry:

@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Protocol
 
+from .services import Action, Service
 from .topics import Message, Origin
 
 
@@ -29,6 +30,15 @@ class ClientOp:
     @classmethod
     def of(cls, op: str, name: str, type_name: str, origin: Origin, stamp: float) -> ClientOp:
         return cls(op, name, type_name, origin.node, origin.peer, origin.auth_level, stamp)
+
+
+def client_op(op: str, name: str, target: Service | Action | None, origin: Origin,
+              stamp: float) -> ClientOp | None:
+    """The entry for a client's ``call_service`` of ``target`` / ``send_action_goal`` to it,
+    when it reaches a server node: a service no bridge client provides, or any action."""
+    if target is None or (op == "call_service" and target.client):
+        return None
+    return ClientOp.of(op, name, target.type_name, origin, stamp)
 
 
 class BusTap(Protocol):
