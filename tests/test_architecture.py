@@ -22,11 +22,13 @@ ALLOWED: dict[str, set[str]] = {
     "state": set(),  # the robot's state folder: below the robot and the nodes that write it
     "protocol": {"types"},
     "bus": {"types", "protocol"},
+    "wire": {"bus", "protocol", "types"},  # encodings and frames of messages and replies
     "robot": {"types", "tf_buffer", "state"},
-    "session": {"bus", "protocol", "types"},
+    "session": {"wire", "bus", "protocol", "types"},
     "transport": {"session", "protocol", "types"},
     "nodes": {"bus", "robot", "protocol", "types", "tf_buffer", "procmem", "state"},
-    "record": {"bus", "protocol", "types"},  # a bus tap and a player, like a node without robot
+    # a bus tap and a player, like a node without robot
+    "record": {"wire", "bus", "protocol", "types"},
     "conformance": {"protocol", "types"},  # a client tool: it talks to servers over sockets
     # the top: assembles the floors, so it may import any of them
     "config": {"session", "transport", "bus", "nodes", "robot", "record", "protocol", "types",

@@ -12,9 +12,11 @@ from __future__ import annotations
 import asyncio
 import logging
 from collections import OrderedDict
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Hashable
+from typing import Any, Protocol
 
 from ..types.convert import default_message
+from ..types.registry import TypeRegistry
 from .clock import ros_time
 from .errors import BusError
 from .services import (
@@ -23,10 +25,9 @@ from .services import (
     Action,
     GoalHandle,
     GoalOutcome,
+    ServiceHandler,
 )
-
-if TYPE_CHECKING:
-    from .core import Bus
+from .topics import Message, Topic
 
 log = logging.getLogger(__name__)
 
@@ -57,10 +58,34 @@ def hidden_names(action: str, atype: str) -> tuple[dict[str, str], dict[str, str
     return services, topics
 
 
+class ActionBus(Protocol):
+    """What the hidden interfaces use of the bus that makes them (``core.Bus``, not imported:
+    the bus imports this module)."""
+
+    types: TypeRegistry
+
+    def advertise_service(self, name: str, type_name: str, owner: Hashable, node: str,
+                          handler: ServiceHandler) -> Any: ...
+
+    def unadvertise_service(self, name: str, owner: Hashable) -> bool: ...
+
+    def advertise(self, name: str, type_name: str | None, owner: Hashable, node: str,
+                  latch: bool = False) -> Topic: ...
+
+    def unadvertise(self, name: str, owner: Hashable) -> None: ...
+
+    def topic(self, name: str) -> Topic | None: ...
+
+    def publish(self, name: str, msg: dict) -> Message: ...
+
+    def start_goal(self, name: str, goal: dict, on_feedback: Callable[[dict], None] | None = None,
+                   goal_uuid: bytes | None = None) -> tuple[GoalHandle, Any]: ...
+
+
 class ActionInterfaces:
     """``<action>/_action/*`` for one bus action; :meth:`close` removes them again."""
 
-    def __init__(self, bus: Bus, action: Action):
+    def __init__(self, bus: ActionBus, action: Action):
         self.bus = bus
         self.action = action
         self.prefix = f"{action.name}/_action"

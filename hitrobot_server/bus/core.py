@@ -8,31 +8,29 @@ participant cannot delay a publish.
 from __future__ import annotations
 
 import asyncio
+import itertools
 import logging
 from collections.abc import Callable, Hashable, Iterable
 from typing import TypeVar
 
 from ..types.registry import TypeRegistry, UnknownType
-from .action_interfaces import ActionInterfaces
+from .actions import ActionRegistry
 from .clock import wall_clock
-from .encoded import Seed
 from .errors import ActionError, BusError, ServiceError
 from .link import BusLink, RemoteGraph
-from .names import CLIENT_NODE_PREFIX, canonical
+from .names import canonical
 from .params import ParamStore
 from .requests import Status
 from .services import (
-    STATUS_ABORTED,
-    STATUS_CANCELED,
-    STATUS_EXECUTING,
     Action,
     ActionHandler,
     GoalHandle,
     GoalOutcome,
     Service,
     ServiceHandler,
+    ServiceRegistry,
 )
-from .tap import BusTap, ClientOp
+from .tap import BusTap, client_op
 from .topics import Message, Origin, Subscriber, Topic
 
 log = logging.getLogger(__name__)
@@ -51,10 +49,10 @@ class Bus:
         self.clock = clock
         self.unregister_timeout = unregister_timeout
         self.topics: dict[str, Topic] = {}
-        self.services: dict[str, Service] = {}
-        self._replaced: dict[str, list[Service]] = {}  # providers replaced, the latest last
-        self.actions: dict[str, Action] = {}
-        self._action_interfaces: dict[str, ActionInterfaces] = {}
+        self._services = ServiceRegistry()
+        self.services = self._services.current  # name -> provider
+        self._actions = ActionRegistry(self)
+        self.actions = self._actions.current  # name -> provider
         self.params = ParamStore()
         self.nodes: dict[str, int] = {}  # node name -> registration count (for rosapi)
         self.log_names: dict[str, str] = {}  # logger (module) name -> node name (for /rosout)
@@ -63,6 +61,7 @@ class Bus:
         # changes publishers/subscribers (the Foxglove sessions keep their channels current).
         self.watchers: list[Callable[[str, str], None]] = []
         self.taps: list[BusTap] = []  # observers of every publish (the recorder)
+        self._seqs = itertools.count(1)  # numbers every message published here
 
     # ---------------------------------------------------------------- link hooks
     def _changed(self, kind: str, name: str) -> None:
@@ -93,13 +92,13 @@ class Bus:
             return topic
         mtype = _known_type(self.types.msg, type_name)
         if topic is None:
-            topic = self.topics[name] = Topic(name, mtype, self.types, latch)
+            topic = self.topics[name] = Topic(name, mtype, self.types, latch, self._seqs)
         elif topic.mtype is not mtype and topic.mtype.name != mtype.name:
             raise BusError(
                 f"topic '{name}' already has type '{self.types.short(topic.type_name)}', "
                 f"not '{self.types.short(mtype.name)}'"
             )
-        self._cancel_expiry(topic)
+        topic.keep()
         return topic
 
     def advertise(
@@ -126,53 +125,37 @@ class Bus:
         stamp: float | None = None,
         reply: Status | None = None,
         origin: Origin | None = None,
-        seed: Seed | None = None,
+        seed: object = None,
     ) -> Message:
         """Fan ``msg`` (canonical dict) out to every subscriber of an existing topic.
 
         ``reply`` reaches the publisher when a subscriber refuses the message; ``seed`` is
-        what the publisher already has of its encodings (a client's own text of it).
+        what the publisher already has of its encodings (a client's own text of it: the wire
+        floor's ``Seed``, kept in the message's ``wire`` slot without a look).
         """
         topic = self.topics.get(name) or self.topics.get(canonical(name))
         if topic is None:
             raise BusError(f"topic '{canonical(name)}' does not exist")
-        message = Message(topic, msg, self.clock() if stamp is None else stamp, reply, origin)
-        if seed is not None:
-            message.encoded.seed(seed)
+        message = Message(topic, msg, self.clock() if stamp is None else stamp, reply, origin,
+                          seed)
         topic.fan_out(message)
         if self.link is not None:
             self.link.published(message)
         for tap in self.taps:
             tap.message(message)
-            if origin is not None and any(
-                not node.startswith(CLIENT_NODE_PREFIX) for node, _cb in topic.subscribers.values()
-            ):
-                tap.client_op(self._client_op("publish", topic.name, topic.type_name, origin))
         return message
 
-    def _client_op(self, op: str, name: str, type_name: str, origin: Origin) -> ClientOp:
-        return ClientOp(op, name, type_name, origin.node, origin.peer, origin.auth_level,
-                        self.clock())
-
     def client_called(self, op: str, name: str, origin: Origin) -> None:
-        """Tell the taps about a client's ``call_service`` / ``send_action_goal`` when it
-        reaches the robot: a server node's service (rosapi's read-only ones aside) or any
-        action goal."""
+        """Tell the taps about a client's ``call_service`` / ``send_action_goal`` that reaches
+        a server node: a service no bridge client provides, or any action goal (each tap
+        decides what it keeps of them)."""
         if not self.taps:
             return
-        if op == "call_service":
-            service = self.service(name)
-            if service is None or service.client or service.name.startswith("/rosapi/"):
-                return
-            type_name = service.stype.name
-        else:
-            action = self.action(name)
-            if action is None:
-                return
-            type_name = action.atype.name
-        entry = self._client_op(op, canonical(name), type_name, origin)
-        for tap in self.taps:
-            tap.client_op(entry)
+        target = self.service(name) if op == "call_service" else self.action(name)
+        entry = client_op(op, canonical(name), target, origin, self.clock())
+        if entry is not None:
+            for tap in self.taps:
+                tap.client_op(entry)
 
     def subscribe(
         self,
@@ -202,29 +185,12 @@ class Bus:
 
     def _maybe_expire(self, topic: Topic) -> None:
         """Drop an unused topic after ``unregister_timeout`` (rosbridge #138's grace period)."""
-        if not topic.idle or topic._expiry is not None:
-            return
-        if self.unregister_timeout <= 0:
-            self._expire(topic)
-            return
-        try:
-            loop = asyncio.get_running_loop()
-        except RuntimeError:
-            self._expire(topic)
-            return
-        topic._expiry = loop.call_later(self.unregister_timeout, self._expire, topic)
+        topic.expire_later(self.unregister_timeout, self._expire)
 
     def _expire(self, topic: Topic) -> None:
-        topic._expiry = None
         if topic.idle and self.topics.get(topic.name) is topic:
             del self.topics[topic.name]
             self._changed("topic", topic.name)
-
-    @staticmethod
-    def _cancel_expiry(topic: Topic) -> None:
-        if topic._expiry is not None:
-            topic._expiry.cancel()
-            topic._expiry = None
 
     # ---------------------------------------------------------------- services
     def advertise_service(
@@ -242,13 +208,10 @@ class Bus:
         for a client to take over. The replaced provider is kept and comes back when the one
         that replaced it goes (:meth:`unadvertise_service`)."""
         name = canonical(name)
-        current = self.services.get(name)
-        _refuse_takeover("service", name, current, client)
+        _refuse_takeover("service", name, self.services.get(name), client)
         stype = _known_type(self.types.srv, type_name)
         service = Service(name, stype, owner, node, handler, client)
-        if current is not None and current.owner != owner:
-            self._replaced.setdefault(name, []).append(current)
-        self.services[name] = service
+        self._services.add(service)
         self._changed("service", name)
         return service
 
@@ -256,20 +219,8 @@ class Bus:
         """Withdraw ``owner``'s provider: the current one (the provider it replaced comes
         back) or one waiting under a later replacement."""
         name = canonical(name)
-        service = self.services.get(name)
-        stack = self._replaced.get(name, [])
-        if service is not None and service.owner == owner:
-            if stack:
-                self.services[name] = stack.pop()
-            else:
-                del self.services[name]
-        else:
-            waiting = [s for s in stack if s.owner == owner]
-            if not waiting:
-                return False
-            stack[:] = [s for s in stack if s.owner != owner]
-        if not stack:
-            self._replaced.pop(name, None)
+        if not self._services.remove(name, owner):
+            return False
         self._changed("service", name)
         return True
 
@@ -312,32 +263,17 @@ class Bus:
     ) -> Action:
         """Register a provider; a client may replace a client's action, never a node's."""
         name = canonical(name)
-        old = self.actions.get(name)
-        _refuse_takeover("action", name, old, client)
+        _refuse_takeover("action", name, self.actions.get(name), client)
         atype = _known_type(self.types.action, type_name)
-        if old is not None:
-            self._drop_interfaces(name)
-            for goal in list(old.goals.values()):
-                goal.cancel()
-        action = self.actions[name] = Action(name, atype, owner, node, handler, client=client)
-        self._action_interfaces[name] = ActionInterfaces(self, action)
+        action = Action(name, atype, owner, node, handler, client=client)
+        self._actions.add(action)
         self._changed("action", name)
         return action
 
-    def _drop_interfaces(self, name: str) -> None:
-        interfaces = self._action_interfaces.pop(name, None)
-        if interfaces is not None:
-            interfaces.close()
-
     def unadvertise_action(self, name: str, owner: Hashable) -> bool:
         name = canonical(name)
-        action = self.actions.get(name)
-        if action is None or action.owner != owner:
+        if not self._actions.remove(name, owner):
             return False
-        del self.actions[name]
-        for goal in list(action.goals.values()):
-            goal.cancel()
-        self._drop_interfaces(name)
         self._changed("action", name)
         return True
 
@@ -359,31 +295,7 @@ class Bus:
         action = self.action(name)
         if action is None:
             raise ActionError(f"action '{canonical(name)}' does not exist")
-        handle = GoalHandle(action, action.new_goal_id(), goal, on_feedback,
-                            accepted_at=self.clock())
-        if goal_uuid is not None:
-            handle.uuid = goal_uuid
-        action.goals[handle.goal_id] = handle
-        handle.set_status(STATUS_EXECUTING)
-
-        async def run() -> GoalOutcome:
-            outcome = GoalOutcome(STATUS_ABORTED, f"action '{action.name}' gave no outcome", False)
-            try:
-                outcome = await action.handler(handle)
-            except asyncio.CancelledError:
-                outcome = GoalOutcome(STATUS_CANCELED, "goal cancelled", False)
-            except Exception as exc:
-                log.exception("action %s failed", action.name)
-                outcome = GoalOutcome(STATUS_ABORTED, f"action '{action.name}' failed: {exc}",
-                                      False)
-            finally:
-                action.goals.pop(handle.goal_id, None)
-                handle.status = outcome.status
-                for watcher in list(action.watchers):
-                    watcher.goal_finished(handle, outcome)
-            return outcome
-
-        return handle, asyncio.ensure_future(run())
+        return self._actions.start(action, goal, on_feedback, goal_uuid, self.clock())
 
     # ---------------------------------------------------------------- participants
     def node_name(self, name: str) -> str:
@@ -413,7 +325,7 @@ class Bus:
                 if topic.subscribers.pop(key, None) is not None:
                     self._maybe_expire(topic)
                     self._changed("topic", topic.name)
-        for name in list(self.services) + list(self._replaced):
+        for name in self._services.names():
             while self.unadvertise_service(name, owner):
                 pass
         for name, action in list(self.actions.items()):

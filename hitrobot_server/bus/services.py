@@ -7,13 +7,15 @@ handler, so callers never know which one answers.
 from __future__ import annotations
 
 import asyncio
-import itertools
+import logging
 import uuid
 from collections.abc import Awaitable, Callable, Hashable
 from dataclasses import dataclass, field
 from typing import Protocol
 
 from ..types.registry import ActionType, SrvType
+
+log = logging.getLogger(__name__)
 
 ServiceHandler = Callable[[dict], Awaitable[dict]]
 
@@ -30,6 +32,45 @@ class Service:
     @property
     def type_name(self) -> str:
         return self.stype.name
+
+
+class ServiceRegistry:
+    """The services of one bus: one provider per name, and the providers it replaced (a
+    client may take over a client's service, as rosbridge lets it; the one it replaced comes
+    back when it goes)."""
+
+    def __init__(self) -> None:
+        self.current: dict[str, Service] = {}
+        self._replaced: dict[str, list[Service]] = {}  # providers replaced, the latest last
+
+    def add(self, service: Service) -> None:
+        name = service.name
+        current = self.current.get(name)
+        if current is not None and current.owner != service.owner:
+            self._replaced.setdefault(name, []).append(current)
+        self.current[name] = service
+
+    def remove(self, name: str, owner: Hashable) -> bool:
+        """Withdraw ``owner``'s provider of ``name``: the current one or a replaced one."""
+        service = self.current.get(name)
+        stack = self._replaced.get(name, [])
+        if service is not None and service.owner == owner:
+            if stack:
+                self.current[name] = stack.pop()
+            else:
+                del self.current[name]
+        else:
+            waiting = [s for s in stack if s.owner == owner]
+            if not waiting:
+                return False
+            stack[:] = [s for s in stack if s.owner != owner]
+        if not stack:
+            self._replaced.pop(name, None)
+        return True
+
+    def names(self) -> list[str]:
+        """Every name with a provider, current or replaced."""
+        return list(self.current) + list(self._replaced)
 
 
 # action_msgs/GoalStatus codes
@@ -96,8 +137,6 @@ class ActionWatcher(Protocol):
 
     def goal_finished(self, handle: GoalHandle, outcome: GoalOutcome) -> None: ...
 
-_goal_ids = itertools.count(1)
-
 
 @dataclass(eq=False)
 class Action:
@@ -114,5 +153,19 @@ class Action:
     def type_name(self) -> str:
         return self.atype.name
 
-    def new_goal_id(self) -> str:
-        return f"goal:{self.name}:{next(_goal_ids)}"
+    async def run(self, handle: GoalHandle) -> GoalOutcome:
+        """Run one goal to its outcome (never raises); its watchers see it finish."""
+        outcome = GoalOutcome(STATUS_ABORTED, f"action '{self.name}' gave no outcome", False)
+        try:
+            outcome = await self.handler(handle)
+        except asyncio.CancelledError:
+            outcome = GoalOutcome(STATUS_CANCELED, "goal cancelled", False)
+        except Exception as exc:
+            log.exception("action %s failed", self.name)
+            outcome = GoalOutcome(STATUS_ABORTED, f"action '{self.name}' failed: {exc}", False)
+        finally:
+            self.goals.pop(handle.goal_id, None)
+            handle.status = outcome.status
+            for watcher in list(self.watchers):
+                watcher.goal_finished(handle, outcome)
+        return outcome

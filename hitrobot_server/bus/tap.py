@@ -10,7 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Protocol
 
-from .topics import Message
+from .services import Action, Service
+from .topics import Message, Origin
 
 
 @dataclass(frozen=True, slots=True)
@@ -26,11 +27,26 @@ class ClientOp:
     auth_level: str | None
     stamp: float  # bus clock, seconds
 
+    @classmethod
+    def of(cls, op: str, name: str, type_name: str, origin: Origin, stamp: float) -> ClientOp:
+        return cls(op, name, type_name, origin.node, origin.peer, origin.auth_level, stamp)
+
+
+def client_op(op: str, name: str, target: Service | Action | None, origin: Origin,
+              stamp: float) -> ClientOp | None:
+    """The entry for a client's ``call_service`` of ``target`` / ``send_action_goal`` to it,
+    when it reaches a server node: a service no bridge client provides, or any action."""
+    if target is None or (op == "call_service" and target.client):
+        return None
+    return ClientOp.of(op, name, target.type_name, origin, stamp)
+
 
 class BusTap(Protocol):
     def message(self, message: Message) -> None:
         """A message published on the bus, or delivered to it by the Zenoh link (those only
-        for topics someone in this process uses: the link brings nothing else)."""
+        for topics someone in this process uses: the link brings nothing else). A client's
+        publish carries its ``origin``; the tap decides whether it is a client op."""
 
     def client_op(self, op: ClientOp) -> None:
-        """A client op that changes the robot (see :class:`ClientOp`)."""
+        """A client's ``call_service`` of a service no client provides, or its
+        ``send_action_goal`` (see :class:`ClientOp`; the tap decides what it keeps)."""

@@ -1,29 +1,37 @@
-"""Typed topics: publishers, subscribers, latching; a message and its shared encodings."""
+"""Typed topics: publishers, subscribers, latching; a message as every subscriber sees it."""
 
 from __future__ import annotations
 
+import asyncio
 import itertools
 import logging
-from collections.abc import Callable, Hashable
+from collections.abc import Callable, Hashable, Iterator
 from dataclasses import dataclass
+from typing import Protocol
 
 from ..types.registry import MsgType, TypeRegistry
-from .encoded import Encoded
 from .requests import Reply, Status
 
 log = logging.getLogger(__name__)
 
-_seq = itertools.count(1)
+
+class Codec(Protocol):
+    """A CDR encoder (``bus.cdr.Ros2Codec``; not imported here: it loads rosbags' store)."""
+
+    def encode(self, msg: dict, mtype: MsgType) -> bytes: ...
 
 
 class Message:
     """One published message as every subscriber sees it.
 
-    Its wire encodings are made by whoever needs them first and kept in ``encoded``
-    (bus/encoded.py), shared by every subscriber.
+    Its ROS 2 CDR, what the Zenoh link sends, is made once by whoever needs it first
+    (:meth:`cdr`) and shared. Its other encodings are the wire floor's: the bus keeps them in
+    ``wire`` without looking (hitrobot_server/wire/encoded.py, ``encoded_of``), starting from
+    what its publisher handed in.
     """
 
-    __slots__ = ("topic", "msg", "stamp", "seq", "encoded", "origin", "_status", "_reply")
+    __slots__ = ("topic", "msg", "stamp", "seq", "origin", "wire", "cdr_bytes", "_status",
+                 "_reply")
 
     def __init__(
         self,
@@ -32,15 +40,25 @@ class Message:
         stamp: float,
         reply: Status | None = None,
         origin: Origin | None = None,
+        wire: object = None,
     ):
         self.topic = topic
         self.msg = msg
         self.stamp = stamp
-        self.seq = next(_seq)
-        self.encoded = Encoded(topic, msg, stamp)
+        self.seq = next(topic.seqs)
         self.origin = origin  # None for in-process publishers
+        self.wire = wire  # opaque to the bus: the wire floor's encodings of this message
+        self.cdr_bytes: bytes | None = None  # its CDR, once encoded or as it arrived (Zenoh)
         self._status = reply
         self._reply: Reply | None = None
+
+    def cdr(self, codec: Codec) -> bytes:
+        """ROS 2 CDR, the same bytes for the Zenoh link, every Foxglove client and the
+        recorder (``bus.cdr.codec_for`` gives one codec per registry)."""
+        data = self.cdr_bytes
+        if data is None:
+            data = self.cdr_bytes = codec.encode(self.msg, self.topic.mtype)
+        return data
 
     @property
     def reply(self) -> Reply:
@@ -78,10 +96,12 @@ class Topic:
         "last",
         "publishers",
         "subscribers",
+        "seqs",
         "_expiry",
     )
 
-    def __init__(self, name: str, mtype: MsgType, types: TypeRegistry, latched: bool = False):
+    def __init__(self, name: str, mtype: MsgType, types: TypeRegistry, latched: bool = False,
+                 seqs: Iterator[int] | None = None):
         self.name = name
         self.mtype = mtype
         self.types = types
@@ -89,6 +109,8 @@ class Topic:
         self.last: Message | None = None
         self.publishers: dict[Hashable, str] = {}  # owner -> node name
         self.subscribers: dict[Hashable, tuple[str, Subscriber]] = {}  # key -> (node, callback)
+        self.seqs = itertools.count(1) if seqs is None else seqs  # numbers its messages (the
+        # bus hands every topic its one counter, so a recording's sequence is the bus's)
         self._expiry = None
 
     @property
@@ -98,6 +120,31 @@ class Topic:
     @property
     def idle(self) -> bool:
         return not self.publishers and not self.subscribers
+
+    def expire_later(self, timeout: float, expire: Callable[[Topic], None]) -> None:
+        """Once unused, ``expire(self)`` after ``timeout`` seconds (at once with none, or with
+        no event loop running), unless the topic is used again first (:meth:`keep`)."""
+        if not self.idle or self._expiry is not None:
+            return
+        if timeout <= 0:
+            expire(self)
+            return
+        try:
+            loop = asyncio.get_running_loop()
+        except RuntimeError:
+            expire(self)
+            return
+        self._expiry = loop.call_later(timeout, self._expired, expire)
+
+    def _expired(self, expire: Callable[[Topic], None]) -> None:
+        self._expiry = None
+        expire(self)
+
+    def keep(self) -> None:
+        """The topic is used again: no expiry."""
+        if self._expiry is not None:
+            self._expiry.cancel()
+            self._expiry = None
 
     def fan_out(self, message: Message) -> None:
         """Deliver to every subscriber; one failing callback never starves the others."""

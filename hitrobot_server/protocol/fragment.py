@@ -185,6 +185,19 @@ class Defragmenter:
                 f"fragment: field 'num' {num} was already received for message '{key}'", key
             )
         cost = len(data) + FRAGMENT_OVERHEAD
+        self._charge(key, cost)
+        partial.parts[num] = data
+        partial.cost += cost
+        partial.last = now
+        self._partials.move_to_end(key)
+        if len(partial.parts) < partial.total:
+            return None
+        self._drop(key)
+        return "".join(partial.parts[i] for i in range(partial.total))
+
+    def _charge(self, key: str | int, cost: int) -> None:
+        """Charge ``cost`` bytes of message ``key`` to this client's bound and the server's
+        budget; over either, the message is dropped with a :class:`ProtocolError`."""
         if self._buffered + cost > self.max_bytes:
             self._drop(key)
             raise ProtocolError(
@@ -200,17 +213,9 @@ class Defragmenter:
                 f"{budget.limit} bytes (all clients together) is full",
                 key,
             )
-        partial.parts[num] = data
-        partial.cost += cost
-        partial.last = now
         self._buffered += cost
         if budget is not None:
             budget.used += cost
-        self._partials.move_to_end(key)
-        if len(partial.parts) < partial.total:
-            return None
-        self._drop(key)
-        return "".join(partial.parts[i] for i in range(partial.total))
 
     def _drop(self, key: str | int) -> None:
         partial = self._partials.pop(key, None)

@@ -22,8 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..bus.core import Bus
-from ..bus.encoded import Encoding
-from ..bus.names import GlobFilter
+from ..bus.names import CLIENT_NODE_PREFIX, GlobFilter
 from ..bus.tap import ClientOp
 from ..bus.topics import Message
 from .profile import AUDIT_TOPIC
@@ -35,6 +34,8 @@ MAX_QUEUED_BYTES = 64 * 1024 * 1024
 ITEM_OVERHEAD = 1024  # each queued message counts at least this (bounds the number of them)
 FLUSH_PERIOD = 0.5  # seconds between closed chunks (a crash loses at most about this)
 WARN_PERIOD = 5.0
+READ_ONLY_SERVICES = "/rosapi/"
+"""Services under this prefix only read the graph: a client calling them is not audited."""
 
 
 def estimate_size(value: Any, depth: int = 0) -> int:
@@ -155,8 +156,22 @@ class Recorder:
             allowed = self._allowed[message.topic.name] = self.filter.allows(message.topic.name)
         if allowed:
             self._enqueue(message)
+        origin = message.origin
+        if origin is not None and origin.node.startswith(CLIENT_NODE_PREFIX) and any(
+            not node.startswith(CLIENT_NODE_PREFIX)
+            for node, _cb in message.topic.subscribers.values()
+        ):  # a client's publish that reaches a server node
+            topic = message.topic
+            self._audit(ClientOp.of("publish", topic.name, topic.type_name, origin,
+                                    self.bus.clock()))
 
     def client_op(self, op: ClientOp) -> None:
+        if op.op == "call_service" and op.name.startswith(READ_ONLY_SERVICES):
+            return
+        self._audit(op)
+
+    def _audit(self, op: ClientOp) -> None:
+        """A client op that changes the robot, onto the audit channel."""
         entry = json.dumps({"op": op.op, "name": op.name, "type": op.type_name,
                             "client": op.node, "address": op.peer,
                             "auth_level": op.auth_level, "time": op.stamp}).encode()
@@ -166,7 +181,7 @@ class Recorder:
     def _enqueue(self, message: Message, log_time: float | None = None) -> None:
         topic = message.topic
         stamp = int(message.stamp * 1e9)
-        cdr = message.encoded.known(Encoding.CDR)
+        cdr = message.cdr_bytes
         size = ITEM_OVERHEAD + (len(cdr) if cdr is not None else estimate_size(message.msg))
         when = stamp if log_time is None else int(log_time * 1e9)
         self._put(Item(topic.name, topic.type_name, topic.latched, when, stamp, message.seq,

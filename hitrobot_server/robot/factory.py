@@ -19,7 +19,7 @@ if TYPE_CHECKING:
 
 
 def _sim_config(mapping: bool):
-    from .sim.simulator import SimConfig
+    from .sim.config import SimConfig
 
     return SimConfig(prebuilt_map=not mapping, map_update=mapping)
 

@@ -17,7 +17,7 @@ the pose behind seconds of images. Here, for each client:
   topic that fits its share loses nothing). A stream may also hold at most ``depth`` entries
   (a subscription's ``queue_length``; 1 = only the latest value). Drops are counted per stream
   (:meth:`drops`) and ``on_thinned(key)`` is called on a stream's first drop.
-* An entry may be ``PendingFrames`` (bus/encoded.py: a big message or reply being encoded in
+* An entry may be ``PendingFrames`` (wire/frames.py: a big message or reply being encoded in
   the worker pool, charged at its estimate): its stream waits for it in place while the other
   streams go on.
 
@@ -36,8 +36,7 @@ from collections import deque
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 
-from ..bus.encoded import Frames, PendingFrames
-from ..protocol.bulk import Frame
+from ..wire.frames import Frame, Frames, PendingFrames
 
 DirectWrite = Callable[[list[Frame]], bool]
 

@@ -11,6 +11,7 @@ from hitrobot_server.bus.errors import ActionError, BusError, ServiceError
 from hitrobot_server.bus.params import ParamStore
 from hitrobot_server.bus.services import STATUS_CANCELED, STATUS_SUCCEEDED, GoalOutcome
 from hitrobot_server.types.registry import TypeRegistry
+from hitrobot_server.wire.encoded import encoded_of
 
 
 @pytest.fixture
@@ -25,7 +26,7 @@ def test_publish_fans_out_one_message_object_to_all(bus):
         bus.subscribe("a", None, key, "/n", got.append)
     bus.publish("/a", {"data": "x"})
     assert len(got) == 3 and got[0] is got[1] is got[2]  # same Message: encoded once
-    assert got[0].encoded.publish_json("/a") is got[1].encoded.publish_json("/a")
+    assert encoded_of(got[0]).publish_json("/a") is encoded_of(got[1]).publish_json("/a")
 
 
 def test_latched_replay_and_type_conflict(bus):
@@ -176,4 +177,4 @@ async def test_node_services_cannot_be_taken_over_and_client_providers_stack(bus
     assert (await bus.call_service("/shared", {}))["message"] == "c1"
     assert not bus.unadvertise_service("/shared", "c2")
     assert bus.unadvertise_service("/shared", "c1")
-    assert bus.service("/shared") is None and bus._replaced == {}
+    assert bus.service("/shared") is None and bus._services._replaced == {}

@@ -3,7 +3,6 @@
 import orjson
 import pytest
 
-from hitrobot_server.protocol import bulk
 from hitrobot_server.protocol.errors import ProtocolError
 from hitrobot_server.protocol.fragment import (
     FRAGMENT_OVERHEAD,
@@ -16,6 +15,7 @@ from hitrobot_server.protocol.fragment import (
     fragment_bytes,
     fragment_size_for,
 )
+from hitrobot_server.wire.frames import fragments
 
 PAYLOAD = '{"op":"publish","topic":"/chatter","msg":{"data":"hello world"}}'
 
@@ -272,7 +272,7 @@ def test_fragment_size_is_floored_and_frames_per_message_are_bounded(length, req
 
 def test_a_text_cut_with_fragment_size_1_keeps_its_frame_count_bounded():
     text = orjson.dumps({"op": "publish", "topic": "/map", "msg": {"data": "x" * 365_000}})
-    frames = bulk.fragments(text, 1, "fragment:1")
+    frames = fragments(text, 1, "fragment:1")
     ops = [orjson.loads(data) for data, _binary in frames]
     assert len(ops) == -(-len(text) // MIN_FRAGMENT_SIZE)
     assert all(len(op["data"]) <= MIN_FRAGMENT_SIZE for op in ops)

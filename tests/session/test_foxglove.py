@@ -15,7 +15,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from hitrobot_server.bus.cdr import codec_for
-from hitrobot_server.bus.encoded import Encoding
 from hitrobot_server.nodes.base import Node
 from hitrobot_server.protocol import foxglove as fg
 from hitrobot_server.session.foxglove.services import MAX_CALLS
@@ -112,7 +111,7 @@ async def test_one_cdr_encoding_shared_by_every_subscriber(hub):
     message = node.publish("/fg/chatter", {"data": "hi"})
     got_a = await a.until(lambda m: isinstance(m, tuple) and m[0] == 1, "message data")
     got_b = await b.until(lambda m: isinstance(m, tuple) and m[0] == 1, "message data")
-    cdr = message.encoded.known(Encoding.CDR)
+    cdr = message.cdr_bytes
     assert got_a[1][13:] is cdr or got_a[1][13:] == cdr
     assert struct.unpack_from("<I", got_a[1], 1)[0] == 1
     assert struct.unpack_from("<I", got_b[1], 1)[0] == 2

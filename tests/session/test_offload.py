@@ -18,12 +18,14 @@ import pytest
 from PIL import Image
 
 from hitrobot_server.bus.core import Bus
-from hitrobot_server.bus.encoded import VERBATIM_MIN, PendingFrames, has_lists, publish_frames
 from hitrobot_server.protocol import bulk, cbor, rawmsg
 from hitrobot_server.session.options import SessionOptions
 from hitrobot_server.session.rosbridge.session import Session
 from hitrobot_server.types.convert import from_json
 from hitrobot_server.types.registry import TypeRegistry
+from hitrobot_server.wire.encoded import encoded_of, has_lists, publish_frames
+from hitrobot_server.wire.frames import PendingFrames
+from hitrobot_server.wire.verbatim import VERBATIM_MIN
 
 from ..helpers import WsClient
 from .test_encodings import decode_png_op
@@ -184,10 +186,11 @@ async def test_offloaded_frames_equal_the_inline_encoding(bus, compression, frag
                      "fragment_size": fragment_size})
     await feed(pub, publish_text("/map", grid(BIG, 7)))
     message = captured[0]
-    offloaded = message.encoded.frames("/map", compression, fragment_size, sub.pool.run)
+    encoded = encoded_of(message)
+    offloaded = encoded.frames("/map", compression, fragment_size, sub.frames)
     frames = await offloaded.future if isinstance(offloaded, PendingFrames) else offloaded
-    json_inline = message.encoded.publish_json("/map")  # the inline builders, never offloaded
-    inline = message.encoded.publish_png("/map") if compression == "png" else json_inline
+    json_inline = encoded.publish_json("/map")  # the inline builders, never offloaded
+    inline = encoded.publish_png("/map") if compression == "png" else json_inline
     if fragment_size:
         assert len(frames) > 1
         ops = [orjson.loads(f) for f, _ in frames]

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import asyncio
 
-from hitrobot_server.bus.encoded import PendingFrames
 from hitrobot_server.session.outbox import QUANTUM, Outbox
+from hitrobot_server.wire.frames import PendingFrames
 
 
 def frames(n: int, size: int = 10) -> list[tuple[bytes, bool]]:

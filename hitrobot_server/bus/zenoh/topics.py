@@ -94,7 +94,7 @@ class TopicBridge:
         topic = self.peer.bus.topics.get(name)
         try:
             if topic is not None and topic.last is not None and topic.last.origin is not REMOTE:
-                query.reply(query.key_expr, topic.last.encoded.cdr(self.peer.codec))
+                query.reply(query.key_expr, topic.last.cdr(self.peer.codec))
         finally:
             query.drop()
 
@@ -142,7 +142,7 @@ class TopicBridge:
             log.warning("zenoh: dropped a sample on %s: %s", name, exc)
             return
         message = Message(topic, msg, bus.clock(), None, REMOTE)
-        message.encoded.received_cdr(payload)  # a recorder (bus tap) writes these very bytes
+        message.cdr_bytes = payload  # a recorder (bus tap) writes these very bytes
         topic.fan_out(message)
         for tap in bus.taps:
             tap.message(message)
@@ -155,6 +155,6 @@ class TopicBridge:
         _key, publisher, gid = pub
         attachment = self.peer.attachment(gid)
         try:
-            publisher.put(message.encoded.cdr(self.peer.codec), attachment=attachment)
+            publisher.put(message.cdr(self.peer.codec), attachment=attachment)
         except Exception as exc:
             log.warning("zenoh: cannot send %s: %s", topic.name, exc)

@@ -31,8 +31,8 @@ from .actions import (
 from .checks import checked_duration, checked_point
 
 if TYPE_CHECKING:
+    from .config import SimConfig
     from .context import ActionContext
-    from .simulator import SimConfig
 
 ACTION_HISTORY = 20
 """Finished actions stay queryable by id for this many actions, as on the REST API."""

@@ -14,9 +14,10 @@ import numpy as np
 
 from ..model import Pose2D
 from .backend import SimBackend
+from .config import SimConfig
 from .grid import distance_field
 from .persist import SimMemory
-from .simulator import SimConfig, Simulator
+from .simulator import Simulator
 from .world import World
 
 SPACING = 1.0

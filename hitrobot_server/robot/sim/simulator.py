@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -38,49 +37,29 @@ from ..model import (
 from .artifacts import LineStore
 from .checks import checked_pose
 from .commands import ActionSlot, MotionCommands
+from .config import SimConfig
 from .context import ActionContext
-from .costmap import Costmap, CostmapConfig, build_costmap
+from .costmap import Costmap, build_costmap
 from .geometry import compose, inverse, wrap_angle
 from .grid import distance_field
 from .health import HealthMonitor
 from .kinematics import DiffDrive, DriveLimits
-from .lidar import Lidar, LidarConfig, RayCaster
+from .lidar import Lidar, RayCaster
 from .localization import (
     LikelihoodField,
-    LocalizationConfig,
     Localizer,
     RelocalizationSearch,
     scan_points,
 )
 from .mapping import ExploreMapper
 from .maps import MapRequests
-from .power import Battery, PowerConfig, on_dock
+from .power import Battery, on_dock
 from .sensors import SensorSuite, device_info
 from .snapshot import SavedState
 from .world import World
 
 TRUE_FIELD_CELLS = 20
 """Reach (cells) of the ground-truth distance field used for collisions and matching."""
-
-
-@dataclass(frozen=True, slots=True)
-class SimConfig:
-    """Rates, budgets and sub-configurations of a :class:`Simulator`."""
-
-    tick: float = 0.025
-    scan_period: float = 0.1
-    map_period: float = 0.2
-    velocity_timeout: float = 0.5
-    plan_budget: int = 2000
-    match_budget: int = 400_000
-    initial_battery: float = 80.0
-    prebuilt_map: bool = True
-    map_update: bool = False
-    drive: DriveLimits = field(default_factory=DriveLimits)
-    lidar: LidarConfig = field(default_factory=LidarConfig)
-    costmap: CostmapConfig = field(default_factory=CostmapConfig)
-    localization: LocalizationConfig = field(default_factory=LocalizationConfig)
-    power: PowerConfig = field(default_factory=PowerConfig)
 
 
 class Simulator(MotionCommands, MapRequests, SavedState):

@@ -15,7 +15,7 @@ from .mapping import ExploreMapper
 from .power import Battery
 
 if TYPE_CHECKING:
-    from .simulator import SimConfig
+    from .config import SimConfig
 
 
 class SavedState:

@@ -6,9 +6,9 @@ from __future__ import annotations
 import logging
 
 from ...bus.cdr import Ros2Codec
-from ...bus.encoded import Frames
 from ...protocol import foxglove as fg
 from ...types.registry import MsgType
+from ...wire.frames import Frames
 from ..outbox import Outbox
 
 log = logging.getLogger(__name__)

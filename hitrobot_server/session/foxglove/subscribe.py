@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 from ...bus.errors import BusError
 from ...bus.topics import Message
 from ...protocol import foxglove as fg
+from ...wire.encoded import encoded_of
 
 if TYPE_CHECKING:
     from .context import FoxgloveContext
@@ -55,7 +56,7 @@ class SubscribeOps:
         """Called by the bus for every message; must never block or raise."""
         c = self.client
         try:
-            cdr = message.encoded.cdr(c.codec)
+            cdr = message.cdr(c.codec)
         except Exception as exc:
             name = message.topic.name
             if name not in self._bad_encodings:
@@ -63,7 +64,7 @@ class SubscribeOps:
                 c.out.status(fg.WARNING, f"topic '{name}': a message could not be encoded as "
                              f"CDR ({exc}); such messages are skipped")
             return
-        c.out.data([(message.encoded.foxglove(sub_id, cdr), True)], message.topic.name)
+        c.out.data([(encoded_of(message).foxglove(sub_id, cdr), True)], message.topic.name)
 
     def unsubscribe(self, op: dict) -> None:
         for sub_id in op["subscriptionIds"]:

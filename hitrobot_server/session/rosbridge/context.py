@@ -14,6 +14,7 @@ from typing import Any, Protocol
 from ...bus.core import Bus
 from ...bus.topics import Origin
 from ...protocol.ops import CallService, SendActionGoal, Subscribe
+from ...wire.frames import FrameBuilder
 from ..offload import WorkerPool
 from ..options import SessionOptions
 from ..outbox import Outbox
@@ -28,6 +29,7 @@ class OpContext(Protocol):
     transport: str  # "ws" or "tcp": binary compressions need WebSocket frames
     outbox: Outbox  # where its subscriptions queue topic data (per-topic streams, drops)
     pool: WorkerPool  # the server's worker processes: big encodings off the event loop
+    frames: FrameBuilder  # builds its frames (the server's: fragment ids never repeat)
 
     @property
     def origin(self) -> Origin:

@@ -4,8 +4,8 @@ a flood of junk or bogus ops cannot flood the client, the log or the server's me
 from __future__ import annotations
 
 from ...protocol.errors import status_op
+from ...wire.frames import json_frames
 from ..outbox import Outbox
-from .replies import json_frames
 
 STREAM_ERRORS_PER_SECOND = 10
 """Most reports per second of unparseable TCP input that belongs to no op (garbage)."""

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ...bus.encoded import VERBATIM_MIN, Seed, verbatim_publish
 from ...bus.names import GlobFilter, canonical, valid_name
 from ...protocol.errors import MessageId, ProtocolError
 from ...protocol.ops import ABSENT, Advertise, Publish, Unadvertise
 from ...types.convert import from_json_verbatim
+from ...wire.encoded import Seed
+from ...wire.verbatim import VERBATIM_MIN, verbatim_publish
 
 if TYPE_CHECKING:
     from .context import OpContext

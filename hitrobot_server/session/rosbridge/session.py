@@ -27,6 +27,7 @@ from ...protocol.fragment import MIN_FRAGMENT_SIZE, FragmentBudget
 from ...protocol.status import should_send
 from ...types import jsoncodec
 from ...types.convert import ConversionError
+from ...wire.frames import FrameBuilder, json_frames
 from ..client import Pending, release_client
 from ..offload import WorkerPool
 from ..options import SessionOptions
@@ -35,7 +36,6 @@ from .actions import ActionOps
 from .fragments import IncomingFragments
 from .limits import STREAM_ERRORS_PER_SECOND, ReportLimits
 from .publish import PublishOps, TopicNames
-from .replies import json_frames, reply_frames
 from .services import ServiceOps
 from .subscribe import SubscribeOps
 
@@ -54,6 +54,11 @@ class Shared:
     auth_replays: auth.ReplayCache  # auth MACs already accepted (each grants access once)
     pool: WorkerPool = field(default_factory=WorkerPool)  # big ops off the event loop
     client_ids: itertools.count = field(default_factory=lambda: itertools.count(1))
+    frames: FrameBuilder = field(init=False)  # builds every client's frames (one fragment
+    # id counter for all), big ones in the pool
+
+    def __post_init__(self) -> None:
+        self.frames = FrameBuilder(self.pool.run)
 
     @classmethod
     def for_options(cls, options: SessionOptions, pool: WorkerPool | None = None) -> Shared:
@@ -77,6 +82,7 @@ class Session:
         self._own_pool = shared is None  # made here (no server): its workers go with it
         self.shared = shared or Shared.for_options(settings)
         self.pool = self.shared.pool
+        self.frames = self.shared.frames
         self.settings = settings
         self.peer = peer
         self.transport = transport
@@ -269,7 +275,7 @@ class Session:
     ) -> None:
         """Queue a reply op; replies are never dropped by the send buffer."""
         size = fragment_size or self.settings.max_message_size
-        frames = reply_frames(obj, size, compression, self.pool)
+        frames = self.frames.reply(obj, size, compression)
         charged = nbytes(frames)  # a big reply being built in the worker pool: its estimate
         self.outbox.put(frames)
         self.reply_bytes += (charged - self.reply_bytes) / 8  # the running mean reply size

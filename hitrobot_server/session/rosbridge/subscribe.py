@@ -20,10 +20,10 @@ from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ...bus.encoded import is_binary, strongest
 from ...bus.topics import Message, Topic
 from ...protocol.errors import ProtocolError
 from ...protocol.ops import Subscribe, Unsubscribe
+from ...wire.encoded import Encoded, encoded_of, is_binary, strongest
 from .publish import TopicNames
 
 if TYPE_CHECKING:
@@ -89,7 +89,7 @@ class ClientSubscription:
     def _queue(self, message: Message) -> None:
         """Queue a message; a full queue, or this client's queues over their byte limit, drop
         their oldest first (and, with nothing left to drop, the newest)."""
-        size = message.encoded.size()  # an estimate: encoding here would put big maps on the loop
+        size = encoded_of(message).size()  # an estimate: encoding here puts big maps on the loop
         ops = self.ops
         limit = self.client.settings.send_buffer_limit
         while self._pending and (
@@ -128,8 +128,11 @@ class ClientSubscription:
             self._arm(time.monotonic())
 
     def _send(self, message: Message) -> None:
-        frames = message.encoded.frames(
-            self.topic_str, self.compression, self.fragment_size, self.client.pool.run
+        encoded = message.wire
+        if encoded.__class__ is not Encoded:  # (encoded_of's own test, without its call here)
+            encoded = encoded_of(message)
+        frames = encoded.frames(
+            self.topic_str, self.compression, self.fragment_size, self.client.frames
         )
         self.client.outbox.put(frames, True, self.topic_str, self.queue_length or None)
 

@@ -2,44 +2,41 @@
 
 A message fanned out to fifty clients is serialised once per (encoding, topic spelling), not
 fifty times — the main cost rosbridge pays per client (rosbridge #332, #559). The encodings
-live here, on the message (``Message.encoded``): the JSON body and publish op, png, cbor,
-cbor-raw, ROS 2 CDR (Foxglove, the Zenoh link, the recorder), Foxglove data frames and the
-frames one subscriber gets (fragmented or not). Each is keyed by a ``Key`` (an
-:class:`Encoding`, the topic spelling it names, a variant), and each set of frames is either
-ready (a list) or :class:`PendingFrames`: a big message's text frames are built in the worker
-pool (the session passes its runner), and the outbox waits for them in place.
+of a message are its :class:`Encoded`, which the bus keeps for the wire floor in the
+message's opaque ``wire`` slot (:func:`encoded_of` makes it on first use): the JSON body and
+publish op, png, cbor, cbor-raw, Foxglove data frames and the frames one subscriber gets
+(fragmented or not, built by the server's :class:`~.frames.FrameBuilder`). Each is keyed by a
+``Key`` (an :class:`Encoding`, the topic spelling it names, a variant), and each set of frames
+is either ready (a list) or :class:`~.frames.PendingFrames`. A message's CDR is the bus's own
+(``Message.cdr``: its Zenoh link sends it).
 """
 
 from __future__ import annotations
 
-import asyncio
 import functools
-import logging
-from collections.abc import Awaitable, Callable, Hashable, Iterable
+from collections.abc import Hashable, Iterable
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any
 
 import orjson
 
-from ..protocol import bulk, cbor, ops, png, rawmsg
+from ..bus.topics import Message, Topic
+from ..protocol import cbor, ops, rawmsg
 from ..protocol import foxglove as fg
-from ..protocol.bulk import Frame
-from ..protocol.fragment import FragmentIds
+from ..protocol.bulk import OFFLOAD_BYTES
 from ..types import jsoncodec
 from ..types.registry import MsgType, TypeRegistry
-
-if TYPE_CHECKING:
-    from .topics import Topic
-
-log = logging.getLogger(__name__)
-
-fragment_ids = FragmentIds()
-"""One counter for every fragmented op this process sends (topic data and replies alike), so
-two groups of fragments on one connection never share an id."""
-
-Run = Callable[..., Awaitable[list[Frame]]]
-"""Runs ``fn(*args)`` away from the event loop (``session.offload.run``: the worker pool)."""
+from .frames import (
+    Frame,
+    FrameBuilder,
+    Frames,
+    PendingFrames,
+    approx_size,
+    as_png,
+    cut,
+    fragments,
+)
 
 
 class Encoding(IntEnum):
@@ -50,7 +47,6 @@ class Encoding(IntEnum):
     PNG = 2  # that op as a ``png`` op
     CBOR = 3  # a ``publish`` op as CBOR
     CBOR_RAW = 4  # a ``publish`` op carrying ROS 1 bytes in CBOR
-    CDR = 5  # the message as ROS 2 CDR (no topic: the same bytes for every reader)
     FOXGLOVE = 6  # a Foxglove message data frame (variant: the subscription id)
 
 
@@ -71,7 +67,6 @@ size of a subscriber's frames, a Foxglove subscription id). A plain tuple: it is
 every subscriber of every message, where a class's constructor would cost a third more."""
 
 _BODY: Key = (Encoding.BODY, "", None)
-_CDR: Key = (Encoding.CDR, "", None)
 
 
 def strongest(compressions: Iterable[str]) -> str:
@@ -84,59 +79,32 @@ def is_binary(compression: str) -> bool:
     return _BY_COMPRESSION[compression] in _BINARY
 
 
-class PendingFrames:
-    """Frames being built away from the event loop, and the bytes they are charged at until
-    then (an estimate). A queue holding one waits for it in place."""
-
-    __slots__ = ("future", "size")
-
-    def __init__(self, future: asyncio.Future[list[Frame]], size: int):
-        self.future = future
-        self.size = size
-
-    def done(self) -> bool:
-        return self.future.done()
-
-    def ok(self) -> bool:
-        """Done, with frames (not failed, not cancelled)."""
-        f = self.future
-        return f.done() and not f.cancelled() and f.exception() is None
-
-    def frames(self) -> list[Frame] | None:
-        """The frames once done; None (logged) when building them failed or was cancelled."""
-        if self.future.cancelled():
-            return None
-        exc = self.future.exception()
-        if exc is not None:
-            log.error("encoding a big message failed; it is skipped for this client: %r", exc)
-            return None
-        return self.future.result()
-
-
-Frames = list[Frame] | PendingFrames
-"""One message's or reply's frames as a queue holds them: ready, or pending."""
-
-
 @dataclass(frozen=True, slots=True)
 class Seed:
     """What a publisher already has of a message's encodings: the length of the op it came in
     (its size, near enough) and, when the converter left the message as the client wrote it,
-    the client's own ``publish`` op as the outgoing JSON for ``topic`` (session/publish.py)."""
+    the client's own ``publish`` op as the outgoing JSON for ``topic`` (session/publish.py).
+    Handed to ``Bus.publish`` (``seed``), which keeps it in the message's ``wire`` slot."""
 
     size: int
     topic: str = ""
     publish_json: bytes | None = None
 
 
-class Codec(Protocol):
-    """A CDR encoder (``bus.cdr.Ros2Codec``; not imported here: it loads rosbags' store)."""
-
-    def encode(self, msg: dict, mtype: MsgType) -> bytes: ...
+def encoded_of(message: Message) -> Encoded:
+    """The message's encodings, made on first use (from its publisher's :class:`Seed`, if any)."""
+    found = message.wire
+    if found.__class__ is Encoded:
+        return found  # type: ignore[return-value]
+    encoded = message.wire = Encoded(message.topic, message.msg, message.stamp)
+    if found is not None:
+        encoded.seed(found)  # type: ignore[arg-type]
+    return encoded
 
 
 class Encoded:
     """The encodings of one bus message (see the module docstring); pure apart from
-    :meth:`frames`, which starts the worker-pool build of a big message's text frames."""
+    :meth:`frames`, which may start the worker-pool build of a big message's text frames."""
 
     __slots__ = ("topic", "msg", "stamp", "_bytes", "_frames", "_size")
 
@@ -155,13 +123,13 @@ class Encoded:
             self._bytes[(Encoding.JSON, seed.topic, None)] = seed.publish_json
 
     def known(self, encoding: Encoding, topic: str = "") -> bytes | None:
-        """An encoding if someone already made it (the recorder writes CDR it finds)."""
+        """An encoding if someone already made it."""
         return self._bytes.get((encoding, topic, None))
 
     def size(self) -> int:
         """Estimated JSON size of the body, computed once (or given by the publisher)."""
         if self._size is None:
-            self._size = bulk.approx_size(self.msg)
+            self._size = approx_size(self.msg)
         return self._size
 
     # ------------------------------------------------------------ single encodings
@@ -203,20 +171,9 @@ class Encoded:
             )
         return data
 
-    def cdr(self, codec: Codec) -> bytes:
-        """ROS 2 CDR, the same bytes for the Zenoh link, every Foxglove client and the
-        recorder (``bus.cdr.codec_for`` gives one codec per registry)."""
-        data = self._bytes.get(_CDR)
-        if data is None:
-            data = self._bytes[_CDR] = codec.encode(self.msg, self.topic.mtype)
-        return data
-
-    def received_cdr(self, payload: bytes) -> None:
-        """The message arrived as these CDR bytes (Zenoh): readers reuse them as they are."""
-        self._bytes[_CDR] = payload
-
     def foxglove(self, sub_id: int, cdr: bytes) -> bytes:
-        """The Foxglove message data frame of subscription ``sub_id`` around ``cdr``."""
+        """The Foxglove message data frame of subscription ``sub_id`` around ``cdr`` (the
+        message's ``Message.cdr``)."""
         key: Key = (Encoding.FOXGLOVE, "", sub_id)
         data = self._bytes.get(key)
         if data is None:
@@ -225,13 +182,13 @@ class Encoded:
 
     # ------------------------------------------------------------ a subscriber's frames
     def frames(
-        self, topic: str, compression: str, fragment_size: int | None, offload: Run | None = None
+        self, topic: str, compression: str, fragment_size: int | None, builder: FrameBuilder
     ) -> Frames:
         """The frames one subscriber gets; fragments only text ops and only when asked to.
 
         Made once per (compression, topic spelling, fragment size) and shared by every such
         subscriber. A big message with variable arrays, for a text compression, is built by
-        ``offload`` (when given) and is :class:`PendingFrames` until its frames are back.
+        the builder's runner (when it has one) and is pending until its frames are back.
         """
         encoding = _BY_COMPRESSION[compression]
         key: Key = (encoding, topic, fragment_size)
@@ -245,83 +202,38 @@ class Encoded:
         elif encoding is Encoding.CBOR_RAW:
             found = [(self.publish_cbor_raw(topic), True)]
         elif (
-            offload is not None
+            builder.offload is not None
             and (Encoding.JSON, topic, None) not in self._bytes
             and has_lists(self.topic.mtype, self.topic.types)
-            and self.size() >= bulk.OFFLOAD_BYTES
+            and self.size() >= OFFLOAD_BYTES
         ):
-            found = self._offloaded(offload, topic, compression, fragment_size)
+            found = builder.offloaded(
+                self.size(), publish_frames, topic, self.msg, compression, fragment_size
+            )
         else:
             data = self.publish_png(topic) if encoding is Encoding.PNG else self.publish_json(topic)
             if fragment_size and len(data) > fragment_size:
-                found = bulk.fragments(data, fragment_size, fragment_ids.next())
+                found = fragments(data, fragment_size, builder.ids.next())
             else:
                 found = [(data, False)]
         self._frames[key] = found
         return found
 
-    def _offloaded(
-        self, offload: Run, topic: str, compression: str, fragment_size: int | None
-    ) -> PendingFrames:
-        frag_id = fragment_ids.next()
-        future = asyncio.ensure_future(
-            offload(publish_frames, topic, self.msg, compression, fragment_size, frag_id)
-        )
-        return PendingFrames(future, self.size())
-
 
 # ------------------------------------------------------------ pure publish-op encoders
 @functools.lru_cache(maxsize=1024)
-def _publish_head(topic: str) -> bytes:
+def publish_head(topic: str) -> bytes:
     return b'{"op":"publish","topic":' + orjson.dumps(topic) + b',"msg":'
 
 
 def publish_json(topic: str, msg_json: bytes) -> bytes:
     """``{"op":"publish","topic":T,"msg":…}`` around an already serialised body."""
-    return b"".join((_publish_head(topic), msg_json, b"}"))
-
-
-VERBATIM_MIN = 2048
-"""Publish ops shorter than this are re-encoded: checking the text costs about 2 us, encoding
-a 2 kB message about as much, a 14 kB LaserScan 12 us."""
-
-
-def verbatim_publish(text: str | bytes, op: dict) -> bytes | None:
-    """The outgoing ``publish`` op cut from the client's own ``publish`` text, or None.
-
-    Only for a message the converter left as it was (``from_json_verbatim``): then the text
-    of its ``msg`` already is its JSON, and re-encoding it would be wasted work (a third of
-    the cost of relaying a LaserScan). The keys around ``msg`` are re-serialised and must
-    match the text exactly, so whatever sits between them is the ``msg`` value as parsed
-    (with duplicate keys, a last-wins parser reads exactly what was validated); NaN/Infinity
-    literals, which only the lenient fallback parser accepts, are never passed on.
-    """
-    data = text.encode() if type(text) is str else text
-    keys = list(op)
-    if keys == ["op", "topic", "msg"]:  # the op already is {"op":"publish","topic":T,"msg":…}
-        head, tail = _publish_head(op["topic"]), b"}"
-    else:  # e.g. roslibjs: {"op","id","topic","msg","latch"}
-        at = keys.index("msg")
-        head = b"{" + b"".join(_member(k, op[k]) + b"," for k in keys[:at]) + b'"msg":'
-        tail = b"".join(b"," + _member(k, op[k]) for k in keys[at + 1 :]) + b"}"
-    if not (data.startswith(head) and data.endswith(tail)) or len(data) < len(head) + len(tail):
-        return None
-    if (b"N" in data and b"NaN" in data) or (b"I" in data and b"Infinity" in data):
-        return None  # (one byte is a memchr; the 3-byte search costs 10 us on a LaserScan)
-    if tail == b"}" and head == _publish_head(op["topic"]):
-        return data
-    return publish_json(op["topic"], data[len(head) : len(data) - len(tail)])
-
-
-def _member(key: str, value: object) -> bytes:
-    return orjson.dumps(key) + b":" + orjson.dumps(value)
+    return b"".join((publish_head(topic), msg_json, b"}"))
 
 
 def publish_png(topic: str, msg: dict, op_json: bytes) -> bytes:
     """The ``png`` op of a publish whose JSON text is ``op_json``."""
-    if not op_json.isascii():  # roslibjs 1.x decodes png pixels as Latin-1
-        op_json = jsoncodec.dumps_ascii({"op": "publish", "topic": topic, "msg": msg})
-    return png.png_op(op_json)
+    return as_png(op_json, {"op": "publish", "topic": topic, "msg": msg})
 
 
 def publish_frames(
@@ -332,9 +244,7 @@ def publish_frames(
     data = publish_json(topic, jsoncodec.dumps(msg))
     if compression == "png":
         data = publish_png(topic, msg, data)
-    if fragment_size and len(data) > fragment_size:
-        return bulk.fragments(data, fragment_size, frag_id)
-    return [(data, False)]
+    return cut(data, fragment_size, frag_id)
 
 
 def has_lists(mtype: MsgType, reg: TypeRegistry) -> bool:
