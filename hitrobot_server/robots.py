@@ -37,6 +37,7 @@ from .robot.capabilities import Robot
 from .robot.factory import build_backend, robot_of, shared_world, sim_identity
 from .robot.locomotion import STAND_UP_SECONDS
 from .robot.options import RobotEntry
+from .robot.sim.backend import SimBackend
 from .robot_state import RestStateBinder, open_state, report_restored
 from .state import StateBinding
 
@@ -151,8 +152,9 @@ async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
             unit.nodes = await start_robot_nodes(view, entry.name, node_options, robot, site_map,
                                                  unit.state)
         if unit.state.store is not None:
-            report_restored(unit.state.store, [*getattr(backend, "restored", []),
-                                               *restored_summary(unit.nodes)])
+            # the simulator restores itself from the store (a REST robot keeps its own state)
+            own = backend.restored if isinstance(backend, SimBackend) else []
+            report_restored(unit.state.store, [*own, *restored_summary(unit.nodes)])
         elif backend is not None:  # a REST robot: its state folder once it says who it is
             binder = RestStateBinder(backend, unit.state, options.robot,
                                      settings.store.state_root, settings.store.fresh,

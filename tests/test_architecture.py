@@ -21,7 +21,7 @@ ALLOWED: dict[str, set[str]] = {
     "procmem": set(),
     "state": set(),  # the robot's state folder: below the robot and the nodes that write it
     "protocol": {"types"},
-    "bus": {"types", "protocol"},
+    "bus": {"types"},  # the bus knows no wire format (wire/ and protocol/ sit above it)
     "wire": {"bus", "protocol", "types"},  # encodings and frames of messages and replies
     "robot": {"types", "tf_buffer", "state"},
     "session": {"wire", "bus", "protocol", "types"},
