@@ -257,7 +257,7 @@ def bare_bus_world() -> tuple[Bus, Session, Session]:
 @contextlib.asynccontextmanager
 async def server_world(folder: Path, **settings: Any) -> AsyncIterator[HitrobotServer]:
     """A real assembled server on loopback, every folder it writes in ``folder``."""
-    server = HitrobotServer(Settings(
+    server = HitrobotServer(Settings.of(
         port=0, tcp_port=-1, address="127.0.0.1", unregister_timeout=0.2,
         state_dir=str(folder / "state"), map_dir=str(folder / "maps"),
         record_dir=str(folder / "recordings"), **settings))

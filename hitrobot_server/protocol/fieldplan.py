@@ -32,7 +32,7 @@ class Leaves:
 
 def compile_plan(mtype: MsgType, reg: TypeRegistry, leaves: Leaves) -> Build:
     """The encoder of ``mtype`` for ``leaves``, compiled on first use and kept in ``reg``."""
-    plans = reg.plan_cache(leaves.kind)
+    plans = reg.plans[leaves.kind]
     plan = plans.get(mtype.name)
     if plan is None:
         entries = tuple((f.name, _field(f, reg, leaves)) for f in mtype.fields)

@@ -137,39 +137,22 @@ class Outbox:
         if self.closed:
             return False
         pending = isinstance(frames, PendingFrames)
-        if not pending and self._write_through(frames):
-            return True
+        if (not pending and not self._bytes and not self._control and not self._active
+                and not self.busy and self.direct is not None and self.direct(frames)):
+            return True  # written now by the transport's direct writer (nothing queued before)
         entry = _Entry(frames, nbytes(frames))
         if pending:
             frames.future.add_done_callback(self._ready)
-        if not droppable:
-            self._put_control(entry)
-            return True
-        return self._put_data(entry, key, depth)
-
-    def _write_through(self, frames: list) -> bool:
-        """Frames written now by the transport's direct writer: only when nothing is queued
-        or being sent, so that order is kept."""
-        return (
-            not self._bytes
-            and not self._control
-            and not self._active
-            and not self.busy
-            and self.direct is not None
-            and self.direct(frames)
-        )
-
-    def _put_control(self, entry: _Entry) -> None:
-        self._control.append(entry)
-        self._control_bytes += entry.size
-        self._bytes += entry.size
-        if self.budget and self._control_bytes > self.budget:
-            self.room.clear()
-        self._wakeup.set()
-
-    def _put_data(self, entry: _Entry, key: Hashable, depth: int | None) -> bool:
-        """Topic data into its stream, thinning the streams over their share when full."""
         size = entry.size
+        if not droppable:  # a reply, status or feedback: never dropped
+            self._control.append(entry)
+            self._control_bytes += size
+            self._bytes += size
+            if self.budget and self._control_bytes > self.budget:
+                self.room.clear()
+            self._wakeup.set()
+            return True
+        stream = self._streams.get(key)  # topic data: into its stream
         stream = self._streams.get(key)
         if stream is None:
             stream = self._streams[key] = _Stream(key)
@@ -177,26 +160,33 @@ class Outbox:
         if depth is not None and depth > 0:
             while len(stream.entries) >= depth and self._drop_oldest(stream):
                 pass
-        if self.limit > 0 and self._bytes - self._control_bytes + size > self.limit:
-            streams = len(self._active) + (not stream.entries)
-            share = self.limit // streams
-            while self._bytes - self._control_bytes + size > self.limit and self._evict(
-                share, stream, size
-            ):
-                pass
-            if (
-                self._bytes - self._control_bytes + size > self.limit
-                and self._bytes > self._control_bytes
-                and stream.bytes + size > share
-            ):  # a stream within its share is never thinned, even when others can't be
-                self._count_drop(stream)
-                return False
+        if (self.limit > 0 and self._bytes - self._control_bytes + size > self.limit
+                and not self._make_room(stream, size)):
+            return False
         if not stream.entries:
             self._active.append(stream)
         stream.entries.append(entry)
         stream.bytes += size
         self._bytes += size
         self._wakeup.set()
+        return True
+
+    def _make_room(self, stream: _Stream, size: int) -> bool:
+        """Thin the streams over their fair share until ``size`` more bytes of ``stream`` fit;
+        False (counted as a drop) when they cannot, because ``stream`` is over its share."""
+        streams = len(self._active) + (not stream.entries)
+        share = self.limit // streams
+        while self._bytes - self._control_bytes + size > self.limit and self._evict(
+            share, stream, size
+        ):
+            pass
+        if (
+            self._bytes - self._control_bytes + size > self.limit
+            and self._bytes > self._control_bytes
+            and stream.bytes + size > share
+        ):  # a stream within its share is never thinned, even when others can't be
+            self._count_drop(stream)
+            return False
         return True
 
     def _ready(self, _future: asyncio.Future) -> None:

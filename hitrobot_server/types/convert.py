@@ -464,7 +464,7 @@ def _field_plan(field: Field, reg: TypeRegistry, owner: str = "") -> tuple[Conv,
 
 
 def _plan(mtype: MsgType, reg: TypeRegistry) -> tuple[Conv, Fill]:
-    plans = reg.plan_cache("json")
+    plans = reg.plans["json"]
     plan = plans.get(mtype.name)
     if plan is None:
         plan = plans[mtype.name] = _build(mtype, reg)

@@ -11,6 +11,7 @@ Names are canonical ROS 2 style inside the process (``pkg/msg/Type``, ``pkg/srv/
 from __future__ import annotations
 
 import re
+from collections import defaultdict
 from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cache
@@ -264,7 +265,9 @@ class TypeRegistry:
         self._srvs: dict[str, SrvType] = {}
         self._actions: dict[str, ActionType] = {}
         self._definitions: dict[str, str] = {}
-        self._plans: dict[str, dict[str, Any]] = {}
+        self.plans: defaultdict[str, dict[str, Any]] = defaultdict(dict)
+        """Per-registry memo for the per-type plans codecs compile once: ``plans[kind][type
+        name]`` (a plain mapping, read on every message without a call)."""
 
     @classmethod
     def default(cls) -> TypeRegistry:
@@ -385,13 +388,6 @@ class TypeRegistry:
             text = self.typestore.generate_msgdef(canonical, ros_version=1)[0]
             self._definitions[canonical] = text
         return text
-
-    def plan_cache(self, kind: str) -> dict[str, Any]:
-        """Per-registry memo for per-type plans that codecs compile once (keyed by type name)."""
-        plans = self._plans.get(kind)
-        if plans is None:
-            plans = self._plans[kind] = {}
-        return plans
 
 
 @cache

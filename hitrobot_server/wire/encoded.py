@@ -21,7 +21,7 @@ from typing import Any
 
 import orjson
 
-from ..bus.topics import Message, Topic
+from ..bus.topics import Message
 from ..protocol import cbor, ops, rawmsg
 from ..protocol import foxglove as fg
 from ..protocol.bulk import OFFLOAD_BYTES
@@ -92,14 +92,14 @@ class Seed:
 
 
 def encoded_of(message: Message) -> Encoded:
-    """The message's encodings, made on first use (from its publisher's :class:`Seed`, if any)."""
+    """The message's encodings, made on first use (from its publisher's :class:`Seed`, if any).
+
+    A hot path may test ``message.wire.__class__ is Encoded`` itself and call
+    ``Encoded(message)`` when it is not: the same, one call shorter."""
     found = message.wire
     if found.__class__ is Encoded:
         return found  # type: ignore[return-value]
-    encoded = message.wire = Encoded(message.topic, message.msg, message.stamp)
-    if found is not None:
-        encoded.seed(found)  # type: ignore[arg-type]
-    return encoded
+    return Encoded(message)
 
 
 class Encoded:
@@ -108,13 +108,19 @@ class Encoded:
 
     __slots__ = ("topic", "msg", "stamp", "_bytes", "_frames", "_size")
 
-    def __init__(self, topic: Topic, msg: dict, stamp: float):
-        self.topic = topic
-        self.msg = msg
-        self.stamp = stamp
+    def __init__(self, message: Message):
+        """The encodings of ``message``, installed in its ``wire`` slot in place of the
+        publisher's :class:`Seed` (what it knew is kept)."""
+        self.topic = message.topic
+        self.msg = message.msg
+        self.stamp = message.stamp
         self._bytes: dict[Key, bytes] = {}
         self._frames: dict[Key, Frames] = {}
         self._size: int | None = None
+        seed = message.wire
+        message.wire = self
+        if seed is not None:
+            self.seed(seed)  # type: ignore[arg-type]
 
     # ------------------------------------------------------------ what a publisher knows
     def seed(self, seed: Seed) -> None:
@@ -250,7 +256,7 @@ def publish_frames(
 def has_lists(mtype: MsgType, reg: TypeRegistry) -> bool:
     """Whether a message of this type can hold a variable-length array (at any depth); one
     that cannot (Twist, Odometry, String, ...) is never big enough to leave the event loop."""
-    memo: dict[str, Any] = reg.plan_cache("has_lists")
+    memo: dict[str, Any] = reg.plans["has_lists"]
     found = memo.get(mtype.name)
     if found is None:
         memo[mtype.name] = False  # a recursive type cannot loop forever here

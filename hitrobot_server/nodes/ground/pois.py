@@ -15,4 +15,7 @@ async def find_poi(bus: Bus, name: str) -> dict | None:
     """The POI named ``name`` (a ``map_messages/PointOfInterest`` dict), None when there is
     none; the bus's ServiceError (or another exception) when the POIs cannot be read."""
     reply = await bus.call_service(MAP_MANAGER_GET_POIS, {}, timeout=POI_TIMEOUT)
-    return next((poi for poi in reply["poi_list"]["pois"] if poi["name"] == name), None)
+    for poi in reply["poi_list"]["pois"]:
+        if poi["name"] == name:
+            return poi
+    return None

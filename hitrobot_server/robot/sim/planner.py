@@ -84,7 +84,14 @@ class PathSearch:
         self._start_point = start
         self._goal_point = goal
         self._smooth = smooth and track_mode is TrackMode.NONE
-        blocked = _blocked_cells(costmap, bbox)
+        blocked = costmap.lethal.copy()  # lethal cells, the border, outside the planning area
+        blocked[0, :] = blocked[-1, :] = blocked[:, 0] = blocked[:, -1] = True
+        if bbox is not None:
+            window = spec.window(bbox)
+            inside = np.zeros(spec.shape, dtype=bool)
+            if window is not None:
+                inside[window] = True
+            blocked |= ~inside
         cost = costmap.cost
         self._min_cost = 1.0
         self._heuristic_weight = heuristic_weight
@@ -96,32 +103,23 @@ class PathSearch:
         if start_cell is None:
             self._fail("the robot is inside an obstacle")
             return
-        goal_cell = self._usable_goal(blocked, substitute_goal)
-        if goal_cell is None:
-            return
+        goal_cell = spec.cell(*goal)
+        if not spec.contains(*goal_cell) or blocked[goal_cell[1], goal_cell[0]]:
+            if not substitute_goal:
+                self._fail("target is occupied or unreachable")
+                return
+            goal_cell = _nearest(spec, ~blocked & costmap.parkable, goal,
+                                 GOAL_SUBSTITUTE_RADIUS)
+            if goal_cell is None:
+                self._fail("no free space near the target")
+                return
+            self._goal_point = tuple(float(v) for v in spec.center(*goal_cell))
         if track_mode is TrackMode.STRICT:
             strict = self._restrict_to_tracks(blocked, start_cell, goal_cell)
             if strict is None:
                 return
             blocked = strict
         self._begin(blocked, cost, start_cell, goal_cell)
-
-    def _usable_goal(self, blocked: np.ndarray, substitute: bool) -> tuple[int, int] | None:
-        """The goal's cell, or (``substitute``) the nearest parkable one when it is blocked;
-        ``None`` (the search failed) when there is none."""
-        spec = self._spec
-        goal_cell = spec.cell(*self._goal_point)
-        if not spec.contains(*goal_cell) or blocked[goal_cell[1], goal_cell[0]]:
-            if not substitute:
-                self._fail("target is occupied or unreachable")
-                return None
-            goal_cell = _nearest(spec, ~blocked & self._costmap.parkable, self._goal_point,
-                                 GOAL_SUBSTITUTE_RADIUS)
-            if goal_cell is None:
-                self._fail("no free space near the target")
-                return None
-            self._goal_point = tuple(float(v) for v in spec.center(*goal_cell))
-        return goal_cell
 
     def _begin(self, blocked: np.ndarray, cost: np.ndarray, start_cell: tuple[int, int],
                goal_cell: tuple[int, int]) -> None:
@@ -266,21 +264,6 @@ class PathSearch:
                 return None
             allowed |= connector
         return blocked | ~allowed
-
-
-def _blocked_cells(costmap: Costmap, bbox: Rect | None) -> np.ndarray:
-    """Cells the search may not enter: lethal ones, the map's border, and (with ``bbox``)
-    everything outside the planning area."""
-    spec = costmap.spec
-    blocked = costmap.lethal.copy()
-    blocked[0, :] = blocked[-1, :] = blocked[:, 0] = blocked[:, -1] = True
-    if bbox is not None:
-        window = spec.window(bbox)
-        inside = np.zeros(spec.shape, dtype=bool)
-        if window is not None:
-            inside[window] = True
-        blocked |= ~inside
-    return blocked
 
 
 def _nearest(

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ...bus.errors import ServiceError
@@ -88,60 +89,50 @@ class ServiceOps:
             c.send({**reply, "values": text, "result": False}, fragment_size=frag)
             c.status("error", f"call_service: {text}", op_id)
 
-        refused = self._refusal(op, name)
-        if refused is not None:
-            fail(refused)
-            return
+        limit = c.settings.max_requests_in_flight
+        compression = op.compression or "none"
+        timeout = op.timeout  # a number (the spec's check), but NaN and < 0 get here too
+        if self.in_flight >= limit:
+            return fail(too_many_in_flight(limit, "service calls"))
+        if compression not in COMPRESSIONS:
+            return fail(f"field 'compression' must be one of {', '.join(COMPRESSIONS)}, "
+                        f"got {compression!r}")
+        if timeout is not None and not (math.isfinite(timeout) and timeout >= 0):
+            return fail(f"field 'timeout' must be a finite number of seconds, 0 or more, "
+                        f"got {timeout}")
+        if not c.settings.services_filter.allows(name):
+            return fail(f"service '{name}' is not allowed by --services-glob")
         service = c.bus.service(name)
         if service is None:
-            fail(f"service '{name}' does not exist")
-            return
+            return fail(f"service '{name}' does not exist")
         try:
             request = args_to_request("call_service", service.stype.request, op.args, c, op_id)
         except ProtocolError as exc:
-            fail(exc.msg.removeprefix("call_service: "))
-            return
-        timeout = c.settings.call_service_timeout if op.timeout is None else op.timeout
-        # binary service replies would break JSON-only clients
-        compression = op.compression if op.compression == "png" else "none"
+            return fail(exc.msg.removeprefix("call_service: "))
+        if timeout is None:
+            timeout = c.settings.call_service_timeout
         c.bus.client_called("call_service", name, c.origin)
-
-        async def run() -> None:
-            try:
-                values = await c.bus.call_service(name, request, timeout)
-            except ServiceError as exc:
-                if exc.values is not None:  # the provider's own failure values, as rosbridge
-                    c.send({**reply, "values": exc.values, "result": False}, fragment_size=frag)
-                else:
-                    fail(str(exc))
-                return
-            finally:
-                self.in_flight -= 1
-            c.send(
-                {**reply, "values": values, "result": True},
-                fragment_size=frag,
-                compression=compression,
-            )
-
         self.in_flight += 1
-        c.spawn(run())
+        # binary service replies would break JSON-only clients
+        c.spawn(self._call(name, request, timeout, reply, frag,
+                           "png" if compression == "png" else "none", fail))
 
-    def _refusal(self, op: CallService, name: str) -> str | None:
-        """Why a call is refused before its service is looked up, or None."""
-        settings = self.client.settings
-        limit = settings.max_requests_in_flight
-        if self.in_flight >= limit:
-            return too_many_in_flight(limit, "service calls")
-        compression = op.compression or "none"
-        if compression not in COMPRESSIONS:
-            return (f"field 'compression' must be one of {', '.join(COMPRESSIONS)}, "
-                    f"got {compression!r}")
-        timeout = op.timeout  # a number (the spec's check), but NaN and < 0 get here too
-        if timeout is not None and not (math.isfinite(timeout) and timeout >= 0):
-            return f"field 'timeout' must be a finite number of seconds, 0 or more, got {timeout}"
-        if not settings.services_filter.allows(name):
-            return f"service '{name}' is not allowed by --services-glob"
-        return None
+    async def _call(self, name: str, request: dict, timeout: float, reply: dict,
+                    frag: int | None, compression: str, fail: Callable[[str], None]) -> None:
+        """The call itself, answered with the provider's values (or its failure)."""
+        c = self.client
+        try:
+            values = await c.bus.call_service(name, request, timeout)
+        except ServiceError as exc:
+            if exc.values is not None:  # the provider's own failure values, as rosbridge
+                c.send({**reply, "values": exc.values, "result": False}, fragment_size=frag)
+            else:
+                fail(str(exc))
+            return
+        finally:
+            self.in_flight -= 1
+        c.send({**reply, "values": values, "result": True}, fragment_size=frag,
+               compression=compression)
 
     # ------------------------------------------------------------- providing
     def advertise_service(self, op: AdvertiseService) -> None:
