@@ -83,7 +83,8 @@ def is_binary(compression: str) -> bool:
 class Seed:
     """What a publisher already has of a message's encodings: the length of the op it came in
     (its size, near enough) and, when the converter left the message as the client wrote it,
-    the client's own ``publish`` op as the outgoing JSON for ``topic`` (session/publish.py).
+    the client's own ``publish`` op as the outgoing JSON for ``topic``
+    (session/rosbridge/publish.py).
     Handed to ``Bus.publish`` (``seed``), which keeps it in the message's ``wire`` slot."""
 
     size: int
