@@ -1,14 +1,29 @@
 // Modal dialogs on the native <dialog> element: a yes/no confirmation and the POI form.
 
-/** Ask `question`; resolves true only if the operator presses OK. */
+/**
+ * Ask `question`; resolves true only if the operator confirms: OK pressed, or Enter (the OK
+ * button has the focus; Enter on Cancel, reached with Tab, still cancels). Esc cancels, as
+ * <dialog> does by itself.
+ */
 export function confirmAction(question, okLabel = 'OK') {
   const dialog = document.getElementById('confirm-dialog');
+  const ok = dialog.querySelector('#confirm-ok');
   dialog.querySelector('.question').textContent = question;
-  dialog.querySelector('#confirm-ok').textContent = okLabel;
+  ok.textContent = okLabel;
   dialog.returnValue = '';
+  const enter = (e) => {
+    if (e.key !== 'Enter' || e.isComposing || e.target.tagName === 'BUTTON') return;
+    e.preventDefault();
+    dialog.querySelector('form').requestSubmit(ok);
+  };
+  dialog.addEventListener('keydown', enter);
   dialog.showModal();
+  ok.focus();
   return new Promise((resolve) => {
-    dialog.addEventListener('close', () => resolve(dialog.returnValue === 'ok'), { once: true });
+    dialog.addEventListener('close', () => {
+      dialog.removeEventListener('keydown', enter);
+      resolve(dialog.returnValue === 'ok');
+    }, { once: true });
   });
 }
 

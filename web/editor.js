@@ -82,7 +82,8 @@ export class MapEditor {
 
   async clear(kind) {
     const n = (kind === 'wall' ? this.walls : this.tracks).lines.length;
-    if (!(await confirmAction(`Remove all ${n} virtual ${kind}s?`, 'Remove'))) return;
+    const question = n === 1 ? `Remove the virtual ${kind}?` : `Remove all ${n} virtual ${kind}s?`;
+    if (!(await confirmAction(question, 'Remove'))) return;
     this.clearLines.publish(new ROSLIB.Message({ usage: { usage: USAGE[kind] } }));
     log('info', `virtual ${kind}s cleared`);
   }

@@ -4,7 +4,7 @@
 /* global ROSLIB */
 import { log } from './log.js';
 import { niceStep } from './overlays.js';
-import { el } from './util.js';
+import { el, plural } from './util.js';
 
 const RATE_WINDOW_MS = 5000;
 const PLOT_POINTS = 200;
@@ -141,7 +141,7 @@ export class Inspector {
     const n = sel.stamps.length;
     const span = n > 1 ? (sel.stamps[n - 1] - sel.stamps[0]) / 1000 : 0;
     const rate = span > 0 ? (n - 1) / span : 0;
-    this.rateEl.textContent = `${rate.toFixed(1)} Hz · ${sel.count || 0} messages`;
+    this.rateEl.textContent = `${rate.toFixed(1)} Hz · ${plural(sel.count || 0, 'message')}`;
     this.rateEl.dataset.count = String(sel.count || 0);
   }
 

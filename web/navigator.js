@@ -19,6 +19,8 @@ import { formatPose, quatOfYaw, yawOf } from './util.js';
 export const GOAL_STATUS = ['PENDING', 'ACTIVE', 'PREEMPTED', 'SUCCEEDED', 'ABORTED', 'REJECTED',
   'PREEMPTING', 'RECALLING', 'RECALLED', 'LOST'];
 const TERMINAL = new Set([2, 3, 4, 5, 8, 9]);
+/** How the console words a status: a preempted goal is one the operator cancelled. */
+const shown = (name) => (name === 'PREEMPTED' ? 'CANCELLED' : name);
 const PLAN_MIN = 0.2; // m: a planned path this long means the robot is on its way somewhere
 const STALE_PLAN_MS = 1500; // a plan seen this soon after an end may be one already on its way
 
@@ -126,13 +128,13 @@ export class Navigator {
     goal.lastStatus = code;
     const t = this.target;
     const text = status.text ? ` — ${status.text}` : '';
-    this.show(name.toLowerCase(), `${name} → ${formatPose(t.x, t.y, t.yaw)}${text}`);
+    this.show(name.toLowerCase(), `${shown(name)} → ${formatPose(t.x, t.y, t.yaw)}${text}`);
     if (TERMINAL.has(code)) {
       this.cancelButton.disabled = true;
       this.marker.hide();
       // a cancel the operator asked for is news, not a warning
       const level = code === 3 || code === 2 || code === 8 ? 'info' : 'error';
-      log(level, `goal ${name.toLowerCase()}${text}`);
+      log(level, `goal ${shown(name).toLowerCase()}${text}`);
     }
   }
 
@@ -177,7 +179,7 @@ export class Navigator {
         log('info', `arrived at ${label}`);
       } else if (status.level === 'info' || status.level === 'warning') {
         // cancelled or replaced by another motion: the server says so at info level
-        this.show('preempted', `PREEMPTED → ${label} — ${operatorText(text)}`);
+        this.show('preempted', `CANCELLED → ${label} — ${operatorText(text)}`);
         log(status.level, operatorText(text));
       } else if (status.level === 'error') {
         this.show('aborted', `ABORTED → ${label} — ${operatorText(text)}`);

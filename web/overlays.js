@@ -76,20 +76,21 @@ export class LinesLayer extends Layer {
     const u = view.metresPerPixel;
     const g = this.shape.graphics.clear();
     if (!this.lines.length) return;
+    // Each segment and each end cap is a path of its own: one path holding several circles
+    // joins them (an arc starts from where the last one ended) and fills the shape between.
     g.setStrokeStyle(this.style.width * u, 'round', 'round');
     if (this.style.dash) g.setStrokeDash(this.style.dash.map((d) => d * u), 0);
-    g.beginStroke(this.style.color);
     for (const line of this.lines) {
-      g.moveTo(line.start.x, -line.start.y).lineTo(line.end.x, -line.end.y);
+      g.beginStroke(this.style.color).moveTo(line.start.x, -line.start.y)
+        .lineTo(line.end.x, -line.end.y).endStroke();
     }
-    g.endStroke();
     // end points, so a zero-length-looking wall is still visible
-    g.setStrokeDash(null).beginFill(this.style.color);
+    g.setStrokeDash(null);
+    const r = this.style.width * 0.9 * u;
     for (const line of this.lines) {
-      g.drawCircle(line.start.x, -line.start.y, this.style.width * 0.9 * u);
-      g.drawCircle(line.end.x, -line.end.y, this.style.width * 0.9 * u);
+      g.beginFill(this.style.color).drawCircle(line.start.x, -line.start.y, r).endFill();
+      g.beginFill(this.style.color).drawCircle(line.end.x, -line.end.y, r).endFill();
     }
-    g.endFill();
   }
 }
 

@@ -7,7 +7,7 @@
 /* global ROSLIB */
 import { log } from './log.js';
 import { SERVICES, TOPICS } from './names.js';
-import { el } from './util.js';
+import { el, plural } from './util.js';
 
 const SPEEDS = [0.25, 0.5, 1, 2, 4, 8];
 
@@ -59,7 +59,7 @@ export class Recordings {
     const first = this.state.dataset.recording === 'unknown';
     this.state.dataset.recording = String(s.recording);
     this.state.textContent = s.recording
-      ? `recording ${s.file}: ${formatBytes(Number(s.bytes))}, ${s.messages} messages` +
+      ? `recording ${s.file}: ${formatBytes(Number(s.bytes))}, ${plural(s.messages, 'message')}` +
         (Number(s.dropped) ? `, ${s.dropped} dropped` : '')
       : 'not recording';
     this.startButton.disabled = s.recording;

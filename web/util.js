@@ -15,8 +15,12 @@ export const degrees = (rad) => (rad * 180) / Math.PI;
 
 /** Format a pose as "x, y m · θ°". */
 export function formatPose(x, y, yaw) {
-  return `${x.toFixed(2)}, ${y.toFixed(2)} m · ${degrees(yaw).toFixed(0)}°`;
+  const angle = degrees(yaw).toFixed(0);
+  return `${x.toFixed(2)}, ${y.toFixed(2)} m · ${angle === '-0' ? '0' : angle}°`;
 }
+
+/** `n word`, the word plural unless n is 1: plural(1, 'message') is "1 message". */
+export const plural = (n, word) => `${n} ${word}${Number(n) === 1 ? '' : 's'}`;
 
 /** Create an element: el('li', {class: 'x', dataset: {name}}, 'text', child, ...). */
 export function el(tag, attrs = {}, ...children) {
