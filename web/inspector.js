@@ -8,6 +8,7 @@ import { el, plural } from './util.js';
 
 const RATE_WINDOW_MS = 5000;
 const PLOT_POINTS = 200;
+const WAITING = 'waiting for a message…';
 const NUMERIC = new Set(['float32', 'float64', 'int8', 'uint8', 'int16', 'uint16', 'int32', 'uint32',
   'int64', 'uint64', 'byte', 'char']);
 
@@ -99,11 +100,28 @@ export class Inspector {
     this.detail.querySelector('.topic-name').textContent = t.name;
     this.detail.querySelector('.topic-type').textContent = t.type;
     this.detail.dataset.topic = t.name;
-    this.lastEl.textContent = 'no message yet';
     this.rateEl.textContent = '–';
-    this.plotPanel.hidden = true;
+    this.forget();
     this.buildForm(t.type);
     this.showList();
+  }
+
+  /** Nothing of the last topic left on show: no message, no fields to plot, no plot, until
+   * the first message of the one just selected. */
+  forget() {
+    this.lastEl.textContent = WAITING;
+    const select = this.detail.querySelector('select.plot-pick');
+    if (select) {
+      select.replaceChildren(el('option', { value: '' }, WAITING));
+      select.disabled = true;
+    }
+    this.plotPanel.hidden = true;
+    this.plotField.textContent = '';
+    this.plotRange.textContent = '';
+    delete this.plotRange.dataset.samples;
+    this.clearPlot();
+    delete this.plotCanvas.dataset.yTicks;
+    delete this.plotCanvas.dataset.tTicks;
   }
 
   onMessage(sel, msg) {
@@ -154,6 +172,7 @@ export class Inspector {
       select.addEventListener('change', () => this.plot(select.value));
       this.rateEl.after(select);
     }
+    select.disabled = false;
     select.replaceChildren(el('option', { value: '' }, paths.length ? 'plot a field…' : 'no numeric fields'),
       ...paths.map((p) => el('option', { value: p }, p)));
   }
@@ -197,7 +216,7 @@ export class Inspector {
       if (i) ctx.lineTo(x, Y(v)); else ctx.moveTo(x, Y(v));
     });
     ctx.stroke();
-    this.plotRange.textContent = `last ${s[s.length - 1].toPrecision(4)} · min ${Math.min(...s).toPrecision(4)} · max ${Math.max(...s).toPrecision(4)} · ${s.length} samples`;
+    this.plotRange.textContent = `last ${s[s.length - 1].toPrecision(4)} · min ${Math.min(...s).toPrecision(4)} · max ${Math.max(...s).toPrecision(4)} · ${plural(s.length, 'sample')}`;
     this.plotRange.dataset.samples = String(s.length);
   }
 
