@@ -13,6 +13,7 @@ from .demo import DemoServices
 from .diagnostics import DiagnosticsNode
 from .fleet import FleetMemberNode, FleetNode
 from .graph import GraphNodeService
+from .ground.messages import slamware_topic
 from .intelligent_navigation import IntelligentNavigationNode
 from .locomotion import LocomotionNode
 from .map_manager import MapManager
@@ -66,11 +67,16 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
     # the shell cancels move_base's goals, the route and graph nodes keep their default files
     # beside the loaded map (mapfiles as MapDefaults) and locomotion names its map-frame
     # odometry after the loaded map. Navigation reads the POIs over the bus, as the fleet does.
-    move_base = MoveBaseNode(bus, link, motion, localization, frame)
+    # move_base is handed the Slamware node's goal topic (/move_base_simple/goal) and runs its
+    # simple goals as action goals, as ROS's move_base does; the Slamware node, always beside
+    # it here, is told to leave them alone (simple_goals=False).
+    goal_topic = settings.slamware.goal_topic
+    move_base = MoveBaseNode(bus, link, motion, localization, frame,
+                             simple_goal=slamware_topic(goal_topic) if goal_topic else None)
     map_manager = site_map or MapManager(bus, link, robot.maps, localization, settings, state)
     mapfiles = MapFilesNode(bus, link, localization, settings)
     return [
-        SlamwareNode(bus, robot, settings.slamware),
+        SlamwareNode(bus, robot, settings.slamware, simple_goals=False),
         ConventionalNode(bus, link, localization, frame),
         move_base,
         ShellNode(bus, robot, settings.authenticate, move_base.cancel_all),

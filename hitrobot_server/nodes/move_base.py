@@ -18,7 +18,11 @@ server side, with the semantics of ``move_base``'s SimpleActionServer:
   or RECALLED for a goal that had not started;
 * ``/move_base/status`` is published every 100 ms even when idle (roslibpy's ActionClient
   blocks until it sees one) and on every transition; finished goals stay in its list for
-  5 s, as actionlib's ``status_list_timeout``; feedback carries the robot's pose.
+  5 s, as actionlib's ``status_list_timeout``; feedback carries the robot's pose;
+* a simple goal (``geometry_msgs/PoseStamped`` on ``move_base_simple/goal``, when the assembly
+  hands the node that topic) is wrapped as an action goal, as ROS's ``move_base`` does: its id
+  generated, it runs, is listed, gets feedback and a result, and preempts, exactly as a goal
+  received on ``/move_base/goal`` (a refused field is named by its path in the PoseStamped).
 """
 
 from __future__ import annotations
@@ -93,7 +97,7 @@ class MoveBaseNode(RobotNode):
 
     def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
                  localization: LocalizationBackend, map_frame: str = "/map",
-                 server: str = "/move_base"):
+                 server: str = "/move_base", simple_goal: str | None = None):
         super().__init__(bus, server, link)
         self.motion = motion
         self.localization = localization
@@ -111,6 +115,8 @@ class MoveBaseNode(RobotNode):
         self.advertise(f"{server}/result", f"{pkg}Result")
         self.subscribe(f"{server}/goal", f"{pkg}Goal", self._on_goal)
         self.subscribe(f"{server}/cancel", "actionlib_msgs/GoalID", self._on_cancel)
+        if simple_goal:  # ROS move_base's move_base_simple/goal
+            self.subscribe(simple_goal, "geometry_msgs/PoseStamped", self._on_simple_goal)
 
     async def start(self) -> None:
         self.every(STATUS_PERIOD, self._tick, needs_robot=False)
@@ -164,7 +170,16 @@ class MoveBaseNode(RobotNode):
     # ------------------------------------------------------------------ goals
     def _on_goal(self, message: Message) -> None:
         msg = message.msg
-        goal_id = {"stamp": dict(msg["goal_id"]["stamp"]), "id": msg["goal_id"]["id"]}
+        self._accept(message, msg["goal_id"], msg["goal"]["target_pose"], "goal.target_pose.")
+
+    def _on_simple_goal(self, message: Message) -> None:
+        """A PoseStamped, run as an action goal without an id (generated) or stamp (now)."""
+        unset = {"stamp": {"secs": 0, "nsecs": 0}, "id": ""}
+        self._accept(message, unset, message.msg, "")
+
+    def _accept(self, message: Message, sent_id: dict, tp: dict, path: str) -> None:
+        """Take a goal (``tp``: its target, a PoseStamped at ``path`` in the message)."""
+        goal_id = {"stamp": dict(sent_id["stamp"]), "id": sent_id["id"]}
         now = self.bus.clock()
         if not goal_id["id"]:  # actionlib's GoalIDGenerator: name-count-stamp
             goal_id["id"] = f"{self.server}-{next(self._ids)}-{now:.6f}"
@@ -176,12 +191,11 @@ class MoveBaseNode(RobotNode):
         goal = Goal(goal_id, message=message)
         self.goals[goal.id] = goal
         try:
-            tp = msg["goal"]["target_pose"]
             frame = tp["header"]["frame_id"]
             if frame not in self.frames:
-                raise RequestRejected(f"field 'goal.target_pose.header.frame_id': '{frame}' is "
+                raise RequestRejected(f"field '{path}header.frame_id': '{frame}' is "
                                       "not the map frame")
-            goal.target = pose2d_of(tp["pose"], "goal.target_pose.pose")
+            goal.target = pose2d_of(tp["pose"], f"{path}pose")
             require_robot(self.link, "")
         except RequestRejected as exc:
             self._finish(goal, REJECTED, str(exc))  # tells the publisher too

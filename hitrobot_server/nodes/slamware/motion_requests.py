@@ -23,10 +23,12 @@ class MotionRequests:
     def __init__(self, runner: Runner, robot: Robot):
         self.runner, self.robot = runner, robot
 
-    def requests(self, p: SlamwareParams) -> list[Request]:
+    def requests(self, p: SlamwareParams, simple_goals: bool = True) -> list[Request]:
+        """The request topics; ``simple_goals`` False leaves ``goal_topic`` to move_base."""
+        goal = (m.slamware_topic(p.goal_topic), "geometry_msgs/PoseStamped", self._on_goal)
         return [
             (m.slamware_topic(p.vel_control_topic), "geometry_msgs/Twist", self._on_cmd_vel),
-            (m.slamware_topic(p.goal_topic), "geometry_msgs/PoseStamped", self._on_goal),
+            *([goal] if simple_goals else []),
             ("set_pose", "geometry_msgs/Pose", self._on_set_pose),
             ("recover_localization", f"{PKG}/RecoverLocalizationRequest", self._on_recover),
             ("move_by_direction", f"{PKG}/MoveByDirectionRequest", self._on_move_by_direction),

@@ -33,7 +33,10 @@ class SlamwareNode(RobotNode):
 
     GLOBAL_NAMES = global_names(SlamwareParams())
 
-    def __init__(self, bus: Bus, robot: Robot, params: SlamwareParams | None = None):
+    def __init__(self, bus: Bus, robot: Robot, params: SlamwareParams | None = None, *,
+                 simple_goals: bool = True):
+        """``simple_goals``: drive the goals of ``goal_topic`` itself, as the real node does;
+        False when a ``/move_base`` node beside it takes them (the assembly decides)."""
         super().__init__(bus, NODE_NAME, robot.link)
         self.robot = robot
         p = self.params = params or SlamwareParams()
@@ -47,7 +50,7 @@ class SlamwareNode(RobotNode):
         self.publishers = Publishers(self, robot, p, self.topics, self.map_copy)
         runner = Runner(self, robot.motion)
         self.map_requests = MapRequests(runner, robot, self.map_copy)
-        motion = MotionRequests(runner, robot).requests(p)
+        motion = MotionRequests(runner, robot).requests(p, simple_goals)
         for topic, type_name, handler in (*motion, *self.map_requests.requests()):
             self.subscribe(m.slamware_topic(topic), type_name, handler)
         self.service(m.slamware_topic("sync_get_stcm"), f"{PKG}/SyncGetStcm",
