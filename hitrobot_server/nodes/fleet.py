@@ -125,7 +125,6 @@ class FleetNode(RobotNode):
         super().__init__(bus, "/fleet", None)
         self.map_frame = map_frame
         self.members: dict[str, tuple[float, dict]] = {}  # name → (heard at, FleetRobot)
-        self._goals: dict[str, tuple[str, str]] = {}  # name → its compute/follow path actions
         self.tasks: dict[int, Task] = {}
         self._next_id = 1
         self._busy: set[str] = set()  # robots a task was handed to and not yet finished
@@ -145,12 +144,7 @@ class FleetNode(RobotNode):
     # ------------------------------------------------------------------ robots
     def _on_member(self, message) -> None:
         msg = message.msg
-        name = msg["name"]
-        if name not in self._goals:  # a new robot: its actions' names, resolved once
-            with contextlib.suppress(ValueError):  # no robot is so named: none to plan with
-                ns = Namespace(name)
-                self._goals[name] = (ns.resolve(COMPUTE_PATH), ns.resolve(FOLLOW_PATH))
-        self.members[name] = (time.monotonic(), msg)
+        self.members[msg["name"]] = (time.monotonic(), msg)
         if msg["state"] == IDLE and self._wake is not None:
             self._wake.set()
 
@@ -269,7 +263,7 @@ class FleetNode(RobotNode):
         goal = {"goal": m.pose_stamped(target, self.map_frame), "start": m.pose_stamped(
             Pose2D(0, 0, 0), self.map_frame), "use_start": False, "planner_id": ""}
         try:
-            _handle, outcome = self.bus.start_goal(self._goals[robot][0], goal)
+            _handle, outcome = self.bus.start_goal(Namespace(robot).resolve(COMPUTE_PATH), goal)
             result = await outcome
         except Exception as exc:
             log.info("fleet: %s cannot plan: %s", robot, exc)
@@ -284,7 +278,7 @@ class FleetNode(RobotNode):
     async def _run(self, task: Task, robot: str, path: dict) -> None:
         try:
             handle, outcome_task = self.bus.start_goal(
-                self._goals[robot][1],
+                Namespace(robot).resolve(FOLLOW_PATH),
                 {"path": path, "controller_id": "", "goal_checker_id": ""})
             task.goal = handle
             outcome = await outcome_task

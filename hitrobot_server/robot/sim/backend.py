@@ -94,8 +94,7 @@ class SimBackend(RobotBackend):
 
     def _call(self, fn: Callable[..., T], *args: object) -> T:
         """Run a simulator call as a backend request: refuse when stopped, translate errors."""
-        if not self.runner.running:  # (_alive, written out: every request passes here)
-            raise NotConnectedError("simulator is not running")
+        self._alive()
         try:
             return fn(*args)
         except ValueError as exc:
@@ -207,7 +206,7 @@ class SimBackend(RobotBackend):
         :data:`~.planner.PLAN_SLICE` expansions so a long search never stalls the loop."""
         options = options or MoveOptions()
         check_poses(start, goal)
-        sim = self._call(lambda: self.runner.simulator)
+        sim = self._call(lambda: self.simulator)
         origin = sim.pose if start is None else start
         return await searched_path(sim.costmap(), origin, goal, options, self._alive)
 

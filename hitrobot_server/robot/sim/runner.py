@@ -39,31 +39,24 @@ class SimRunner:
         self._period = 1.0 / rate_hz
         self._time_scale = time_scale
         self._task: asyncio.Task[None] | None = None
-        self.running = False
-        """Whether the simulator is stepping (a plain value: every backend request reads it)."""
         self._reboot: asyncio.Task[None] | None = None
         self.max_step_seconds = 0.0
         self.reboot_delay = 2.0
         """Wall-clock seconds a simulated reboot keeps the robot offline."""
 
+    @property
+    def running(self) -> bool:
+        return self._task is not None and not self._task.done()
+
     async def start(self) -> None:
         if not self.running:
-            task = self._task = asyncio.get_running_loop().create_task(self._run(),
-                                                                       name="sim-stepper")
-            self.running = True
-            task.add_done_callback(self._ended)
-
-    def _ended(self, task: asyncio.Task[None]) -> None:
-        """The stepping ended (stopped, or a step failed): the robot is offline."""
-        if task is self._task:
-            self.running = False
+            self._task = asyncio.get_running_loop().create_task(self._run(), name="sim-stepper")
 
     async def stop(self) -> None:
         reboot, self._reboot = self._reboot, None
         if reboot is not None and reboot is not asyncio.current_task():
             reboot.cancel()
         task, self._task = self._task, None
-        self.running = False
         if task is not None:
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):

@@ -67,9 +67,7 @@ class SubscribeOps:
         encoded = message.wire
         if encoded.__class__ is not Encoded:  # (encoded_of, one call shorter on this path)
             encoded = Encoded(message)
-        # topic data into the topic's own fair-share stream (FoxgloveOutput.data, written out on
-        # the fan-out path)
-        c.out.outbox.put([(encoded.foxglove(sub_id, cdr), True)], True, message.topic.name)
+        c.out.data([(encoded.foxglove(sub_id, cdr), True)], message.topic.name)
 
     def unsubscribe(self, op: dict) -> None:
         for sub_id in op["subscriptionIds"]:
