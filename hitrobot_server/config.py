@@ -42,7 +42,7 @@ class ProcessOptions:
         "help": "server processes behind the same ports (SO_REUSEPORT), joined over Zenoh "
         "(needs the [zenoh] extra); 'auto' = one per core; 1 = this process alone"})
     event_loop: str = field(default="auto", metadata={
-        "help": "'auto' (uvloop when installed, the [uvloop] extra, except with --ssl), "
+        "help": "'auto' (uvloop, a dependency where it runs, except with --ssl), "
         "'uvloop' or 'asyncio'", "choices": EVENT_LOOPS})
 
     def __post_init__(self) -> None:

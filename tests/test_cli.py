@@ -155,3 +155,12 @@ def test_ssl_runs_on_asyncio_and_refuses_uvloop(tmp_path):
     assert load(build_parser().parse_args(args)).event_loop == "asyncio"
     with pytest.raises(ValueError, match="uvloop"):
         load(build_parser().parse_args([*args, "--event-loop", "uvloop"]))
+
+
+def test_uvloop_comes_with_the_default_install():
+    """`pip install .` (the quick start) brings uvloop, so `auto` runs on it: a base requirement
+    of the installed package, not an extra nobody names."""
+    from importlib.metadata import requires
+
+    base = [r for r in requires("hitrobot-server") or [] if "extra ==" not in r]
+    assert any(r.startswith("uvloop") for r in base), base
