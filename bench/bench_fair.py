@@ -1,14 +1,20 @@
 """Issue 22's scenario: a slow link subscribed to a big stream and a small topic.
 
-A client that reads 2 MB/s (a weak Wi-Fi link: its socket is read at that pace, with a 32 kB
-receive buffer) subscribes to a 10 MB/s stream (500 kB ``std_msgs/String`` messages at 20 Hz,
-like a map in mapping mode or a point cloud) and to a 50 Hz small topic (a pose). A second,
-fast client subscribes to both and reads as fast as it can. Prints, per run, how many small
-messages each client got and how old they were on arrival, and what the big stream delivered.
+A client that reads 2 MB/s (a weak Wi-Fi link: its socket is read at that pace) subscribes to a
+10 MB/s stream (500 kB ``std_msgs/String`` messages at 20 Hz, like a map in mapping mode or a
+point cloud) and to a 50 Hz small topic (a pose). A second, fast client subscribes to both and
+reads as fast as it can. Prints, per run, how many small messages each client got and how old
+they were on arrival, and what the big stream delivered.
 No assertions.
+
+The slow reader runs twice: with a 32 kB receive buffer, and with the operating system's
+default buffers (autotuned up to megabytes, as a browser's are). With deep buffers only the
+server's window of bytes in flight (transport/flight.py) keeps the pose from waiting behind
+what the kernel already holds.
 
     .venv/bin/python bench/bench_fair.py            # 10 s per run
     .venv/bin/python bench/bench_fair.py --quick    # 4 s per run
+    .venv/bin/python bench/bench_fair.py --buffers default
 
 The big stream is subscribed once with ``fragment_size`` 16000 (the scheduler interleaves the
 fragments with the pose) and once without (each 500 kB message is one frame: the pose waits at
@@ -36,11 +42,13 @@ BIG_HZ, SMALL_HZ = 20, 50
 LINK = 2_000_000  # bytes/s the slow reader takes
 
 
-async def slow_client(port: int):
+async def slow_client(port: int, rcvbuf: int | None):
     """A link of LINK bytes/s: after each chunk read from the socket, reading pauses for as
-    long as the link takes to carry it (the application reads what arrived at once)."""
+    long as the link takes to carry it (the application reads what arrived at once).
+    ``rcvbuf``: the socket's receive buffer, or None for the system's default."""
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 32 * 1024)
+    if rcvbuf is not None:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)
     sock.connect((HOST, port))
     sock.setblocking(False)
     ws = await connect(f"ws://{HOST}:{port}", sock=sock, max_size=None, max_queue=None)
@@ -66,8 +74,9 @@ async def ready(ws) -> None:
     raise RuntimeError("no answer from the server")
 
 
-async def run(port: int, seconds: float, fragment_size: int | None) -> dict:
-    slow = await slow_client(port)
+async def run(port: int, seconds: float, fragment_size: int | None,
+              rcvbuf: int | None) -> dict:
+    slow = await slow_client(port, rcvbuf)
     fast = await connect(f"ws://{HOST}:{port}", max_size=None)
     pub = await connect(f"ws://{HOST}:{port}", max_size=None)
     for topic, mtype in ((BIG, "std_msgs/String"), (SMALL, "std_msgs/String")):
@@ -141,13 +150,18 @@ def report(title: str, r: dict) -> None:
                  "big got", "big MB/s"], rows))
 
 
-async def main_async(seconds: float) -> None:
+BUFFERS = {"32k": 32 * 1024, "default": None}
+
+
+async def main_async(seconds: float, buffers: list[str]) -> None:
     server = start_ours(None, "fair")
     try:
-        for frag in (16_000, None):
-            r = await run(server.port, seconds, frag)
-            report(f"slow reader {LINK / 1e6:g} MB/s; big {BIG_BYTES // 1000} kB x {BIG_HZ} Hz "
-                   f"(fragment_size {frag or 'none'}), small x {SMALL_HZ} Hz, {seconds:g} s", r)
+        for name in buffers:
+            for frag in (16_000, None):
+                r = await run(server.port, seconds, frag, BUFFERS[name])
+                report(f"slow reader {LINK / 1e6:g} MB/s, receive buffer {name}; big "
+                       f"{BIG_BYTES // 1000} kB x {BIG_HZ} Hz (fragment_size {frag or 'none'}), "
+                       f"small x {SMALL_HZ} Hz, {seconds:g} s", r)
     finally:
         server.stop()
 
@@ -155,8 +169,11 @@ async def main_async(seconds: float) -> None:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="4 s per run instead of 10")
+    parser.add_argument("--buffers", choices=("both", *BUFFERS), default="both",
+                        help="the slow reader's receive buffer (default: both, in turn)")
     args = parser.parse_args()
-    asyncio.run(main_async(4.0 if args.quick else 10.0))
+    buffers = list(BUFFERS) if args.buffers == "both" else [args.buffers]
+    asyncio.run(main_async(4.0 if args.quick else 10.0, buffers))
     return 0
 
 

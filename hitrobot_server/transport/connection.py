@@ -20,6 +20,7 @@ from ..session.client import ClientSession
 
 SendFrame = Callable[[bytes, bool], Awaitable[None]]  # (data, binary)
 DirectWrite = Callable[[list], bool]  # frames written now, or False: the pump sends them
+Gate = Callable[[], Awaitable[None]]  # returns once the client may be sent more (its window)
 
 # Above this many bytes in a socket's write buffer, frames wait in the outbox instead.
 DIRECT_WRITE_LIMIT = 64 * 1024
@@ -53,11 +54,16 @@ async def keep_reading(session: ClientSession) -> bool:
     return not session.outbox.closed
 
 
-async def pump(session: ClientSession, send_frame: SendFrame, delay: float) -> None:
-    """Drain the session's outbox into the connection until it closes."""
+async def pump(session: ClientSession, send_frame: SendFrame, delay: float,
+               gate: Gate | None = None) -> None:
+    """Drain the session's outbox into the connection until it closes; with a ``gate``, each
+    next pick waits until the client has room (what it has not read is under its window), so
+    the outbox's scheduler, not the kernel's queue, decides what goes next."""
     outbox = session.outbox
     try:
         while True:
+            if gate is not None:
+                await gate()
             frames = await outbox.get()
             if frames is None:
                 return
@@ -71,15 +77,16 @@ async def pump(session: ClientSession, send_frame: SendFrame, delay: float) -> N
 
 
 async def run_session(session: ClientSession, read: Coroutine[Any, Any, None], *, sock,
-                      send_frame: SendFrame, direct: DirectWrite, delay: float) -> None:
+                      send_frame: SendFrame, direct: DirectWrite, delay: float,
+                      gate: Gate | None = None) -> None:
     """Serve one connection's session until the client or the session ends it: ``read``
     feeds the session, the outbox goes out by ``direct`` writes while the socket keeps up (not
-    with a delay between messages) and by ``send_frame`` otherwise. Returns with the session
-    closed; the caller then closes its connection."""
+    with a delay between messages) and by ``send_frame`` otherwise, each pick after ``gate``.
+    Returns with the session closed; the caller then closes its connection."""
     limit_unsent(sock)
     if delay <= 0:
         session.outbox.attach_writer(direct)
-    writer = asyncio.create_task(pump(session, send_frame, delay))
+    writer = asyncio.create_task(pump(session, send_frame, delay, gate))
     reader = asyncio.create_task(read)
     try:
         await asyncio.wait({writer, reader}, return_when=asyncio.FIRST_COMPLETED)

@@ -23,6 +23,7 @@ from websockets.typing import Subprotocol
 
 from ..session.client import ClientSession, WireProtocols
 from .connection import DIRECT_WRITE_LIMIT, keep_reading, run_session
+from .flight import FlightWindow
 from .http import QuietHttpLog
 from .tls import HandshakeGate, peer_address
 
@@ -36,8 +37,60 @@ HttpHandler = Callable[[ServerConnection, Request], Response | Awaitable[Respons
 CHUNK_BYTES = 1024 * 1024
 
 
-def direct_writer(ws: ServerConnection):
-    """Synchronous write while the socket keeps up (``broadcast`` to one connection)."""
+class PongWindow:
+    """One client's :class:`~.flight.FlightWindow`, fed by WebSocket pings and their pongs.
+
+    A ping follows the bytes the window asks it after; its pong (every WebSocket client sends
+    one once it has read up to the ping) tells the window how far the client has read. Raw TCP
+    has no such signal: its clients get only the kernel's short unsent queue (NOTSENT_LOWAT).
+    """
+
+    def __init__(self, ws: ServerConnection):
+        self.ws = ws
+        self.flight = FlightWindow()
+        self._loop = asyncio.get_running_loop()
+        self._room = asyncio.Event()
+        self._room.set()
+        self._pinging: set[asyncio.Task] = set()
+
+    @property
+    def open(self) -> bool:
+        return self.flight.open
+
+    def sent(self, nbytes: int) -> None:
+        """``nbytes`` were written to the client."""
+        now = self._loop.time()
+        if self.flight.on_sent(nbytes, now):
+            task = self._loop.create_task(self._ping(self.flight.pinged(now)))
+            self._pinging.add(task)
+            task.add_done_callback(self._pinging.discard)
+        if not self.flight.open:
+            self._room.clear()
+
+    async def wait_open(self) -> None:
+        """Return once the client's unread bytes are under its window."""
+        while not self.flight.open:
+            self._room.clear()
+            await self._room.wait()
+
+    async def _ping(self, mark: int) -> None:
+        try:
+            pong = await self.ws.ping()
+        except ConnectionClosed:
+            return
+        pong.add_done_callback(lambda done: self._ponged(mark, done))
+
+    def _ponged(self, mark: int, done: asyncio.Future) -> None:
+        if done.cancelled() or done.exception() is not None:
+            return  # the connection closed first
+        self.flight.ponged(mark, self._loop.time())
+        if self.flight.open:
+            self._room.set()
+
+
+def direct_writer(ws: ServerConnection, window: PongWindow | None = None):
+    """Synchronous write while the socket keeps up (``broadcast`` to one connection) and the
+    client's window has room."""
 
     def write(frames: list) -> bool:
         transport = ws.transport
@@ -45,13 +98,18 @@ def direct_writer(ws: ServerConnection):
             ws.protocol.state is not State.OPEN
             or transport is None
             or transport.get_write_buffer_size() > DIRECT_WRITE_LIMIT
+            or (window is not None and not window.open)
         ):
             return False
+        total = 0
         for data, _ in frames:
             if len(data) > CHUNK_BYTES:  # big: the pump sends it in continuation frames
                 return False
+            total += len(data)
         for data, binary in frames:
             broadcast((ws,), data, text=not binary)
+        if window is not None:
+            window.sent(total)
         return True
 
     return write
@@ -111,6 +169,7 @@ async def _serve(ws: ServerConnection, protocols: WireProtocols, delay: float) -
     """One client connection: its session, served until either side ends it."""
     peer = ws.remote_address[0] if ws.remote_address else ""
     session = protocols.open(peer, ws.subprotocol)
+    window = PongWindow(ws)
 
     async def send_frame(data: bytes, binary: bool) -> None:
         if len(data) > CHUNK_BYTES:
@@ -119,11 +178,13 @@ async def _serve(ws: ServerConnection, protocols: WireProtocols, delay: float) -
             await ws.send(chunks, text=not binary)
         else:
             await ws.send(data, text=not binary)
+        window.sent(len(data))
 
     try:
         await run_session(session, _read(ws, session),
                           sock=ws.transport.get_extra_info("socket") if ws.transport else None,
-                          send_frame=send_frame, direct=direct_writer(ws), delay=delay)
+                          send_frame=send_frame, direct=direct_writer(ws, window), delay=delay,
+                          gate=window.wait_open)
     finally:
         if session.close_reason:  # 1008: policy violation, with the reason
             await ws.close(1008, session.close_reason[:120])

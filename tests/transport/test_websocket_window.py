@@ -1,0 +1,143 @@
+"""What a WebSocket client has not read stays under its window: the server pings, the client's
+pongs let more through, and a pose waits behind the window, not behind megabytes.
+
+The client is websockets' own sans-I/O ``ClientProtocol`` over a real socket, so the test
+decides when its pongs go out (an ordinary client sends them as soon as it reads a ping).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+
+from websockets.client import ClientProtocol
+from websockets.frames import Frame, Opcode
+from websockets.uri import parse_uri
+
+from hitrobot_server.transport.flight import INITIAL_WINDOW, TARGET
+
+from ..helpers import WsClient, round_trip
+
+BIG, POSE = "/window/cloud", "/window/pose"
+# The window this client earns while it answers its pings (its replies read at loopback speed)
+# is a few hundred kB: TARGET seconds of the rate seen, which loopback bounds well under 25 MB/s
+# of JSON replies here.
+MAX_HELD = int(25e6 * TARGET)
+
+
+class PongWithholdingClient:
+    """A WebSocket client whose pongs are sent only when the test says so."""
+
+    def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter):
+        self.reader, self.writer = reader, writer
+        self.protocol = ClientProtocol(parse_uri("ws://127.0.0.1/"), max_size=None)
+        self.pings: list[bytes] = []
+        self.texts: list[str] = []
+        self.received = 0  # payload bytes of data frames read so far
+        self.withhold = False
+
+    @classmethod
+    async def open(cls, port: int) -> PongWithholdingClient:
+        client = cls(*await asyncio.open_connection("127.0.0.1", port))
+        client.protocol.send_request(client.protocol.connect())
+        await client.flush()
+        while client.protocol.handshake_exc is None and not client._handshaken():
+            await client.read_some(5.0)
+        assert client.protocol.handshake_exc is None
+        return client
+
+    def _handshaken(self) -> bool:
+        return self.protocol.state.name == "OPEN"
+
+    async def flush(self) -> None:
+        data = b"".join(self.protocol.data_to_send())
+        if self.withhold:  # the automatic pongs are what this client holds back
+            return
+        self.writer.write(data)
+        await self.writer.drain()
+
+    async def send(self, obj: dict) -> None:
+        self.protocol.send_text(json.dumps(obj).encode())
+        pongs_held, self.withhold = self.withhold, False
+        if pongs_held:  # drop the queued pongs, keep the text
+            self.protocol.data_to_send()
+            self.protocol.send_text(json.dumps(obj).encode())
+        await self.flush()
+        self.withhold = pongs_held
+
+    async def read_some(self, timeout: float) -> bool:
+        """Read what arrives within ``timeout``; False when nothing did."""
+        try:
+            data = await asyncio.wait_for(self.reader.read(1 << 16), timeout)
+        except TimeoutError:
+            return False
+        if not data:
+            return False
+        self.protocol.receive_data(data)
+        for event in self.protocol.events_received():
+            if isinstance(event, Frame) and event.opcode is Opcode.PING:
+                self.pings.append(bytes(event.data))
+            elif isinstance(event, Frame) and event.opcode in (Opcode.TEXT, Opcode.CONT):
+                self.received += len(event.data)
+                self.texts.append(bytes(event.data).decode(errors="replace"))
+        await self.flush()
+        return True
+
+    def close(self) -> None:
+        self.writer.transport.abort()
+
+    async def pong_all(self) -> None:
+        """Answer the last ping seen (which answers every earlier one too)."""
+        self.withhold = False
+        self.protocol.data_to_send()  # automatic pongs held back so far: replaced by this one
+        self.protocol.send_pong(self.pings[-1])
+        await self.flush()
+
+    async def read_until(self, needle: str, max_bytes: int, timeout: float = 10.0) -> int:
+        """Read until a text frame holds ``needle``; returns the data bytes read before it."""
+        start = self.received
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + timeout
+        seen = len(self.texts)
+        while loop.time() < deadline and self.received - start <= max_bytes:
+            for text in self.texts[seen:]:
+                if needle in text:
+                    return self.received - start
+            seen = len(self.texts)
+            await self.read_some(deadline - loop.time())
+        raise AssertionError(f"{needle!r} not within {max_bytes} bytes ({self.received - start})")
+
+
+async def test_unread_bytes_stay_under_the_window_and_a_pong_lets_the_pose_through(make_server):
+    server = await make_server()
+    client = await PongWithholdingClient.open(server.port)
+    pub = await WsClient.open(server.port)
+    for topic in (BIG, POSE):
+        await pub.send({"op": "advertise", "topic": topic, "type": "std_msgs/String"})
+    await client.send({"op": "subscribe", "topic": BIG, "type": "std_msgs/String",
+                       "fragment_size": 16_000})
+    await client.send({"op": "subscribe", "topic": POSE, "type": "std_msgs/String"})
+    await client.send({"op": "call_service", "id": "ready", "service": "/rosapi/get_time"})
+    await client.read_until('"ready"', max_bytes=1 << 20)
+    await round_trip(pub)
+
+    client.withhold = True  # from here on the client reads everything but answers no ping
+    body = "c" * 200_000
+    for _ in range(15):  # 3 MB of cloud, far more than a window
+        await pub.send({"op": "publish", "topic": BIG, "msg": {"data": body}})
+    await round_trip(pub)
+    before = client.received
+    while await client.read_some(0.5):  # all the server lets out without a pong
+        assert client.received - before <= MAX_HELD
+    held = client.received - before
+    assert INITIAL_WINDOW // 2 < held <= MAX_HELD, held  # a reader this fast had taken all 3 MB
+    assert client.pings, "the server asked how far the client has read"
+
+    await pub.send({"op": "publish", "topic": POSE, "msg": {"data": "pose-1"}})
+    await round_trip(pub)
+    assert not await client.read_some(0.3)  # the window is full: the pose waits in the outbox
+    await client.pong_all()
+    # the pose is among the next picks from the outbox: behind a few 16 kB fragments at most,
+    # not behind the megabytes still queued for the cloud
+    assert await client.read_until("pose-1", max_bytes=256 * 1024) <= 96 * 1024
+    client.close()
