@@ -29,6 +29,8 @@ DIRECT_WRITE_LIMIT = 64 * 1024
 # megabytes of map already handed to the kernel (TCP_NOTSENT_LOWAT, Linux and macOS).
 NOTSENT_LOWAT = 64 * 1024
 _TCP_NOTSENT_LOWAT = getattr(socket, "TCP_NOTSENT_LOWAT", None)
+# Picks the pump writes at once (the socket having room) before it lets the loop run others.
+PUMP_BURST = 32
 # How long a session that asked to close (an error it reports, a refusal) may flush its outbox.
 CLOSE_FLUSH_SECONDS = 2.0
 
@@ -55,11 +57,14 @@ async def keep_reading(session: ClientSession) -> bool:
 
 
 async def pump(session: ClientSession, send_frame: SendFrame, delay: float,
-               gate: Gate | None = None) -> None:
+               gate: Gate | None = None, direct: DirectWrite | None = None) -> None:
     """Drain the session's outbox into the connection until it closes; with a ``gate``, each
     next pick waits until the client has room (what it has not read is under its window), so
-    the outbox's scheduler, not the kernel's queue, decides what goes next."""
+    the outbox's scheduler, not the kernel's queue, decides what goes next. With ``direct``,
+    a pick is written at once while the socket has room (as a publish is when nothing is
+    queued), yielding to the loop every :data:`PUMP_BURST` picks; otherwise it is awaited."""
     outbox = session.outbox
+    burst = 0
     try:
         while True:
             if gate is not None:
@@ -67,6 +72,14 @@ async def pump(session: ClientSession, send_frame: SendFrame, delay: float,
             frames = await outbox.get()
             if frames is None:
                 return
+            if direct is not None and direct(frames):
+                outbox.sent()
+                burst += 1
+                if burst >= PUMP_BURST:
+                    burst = 0
+                    await asyncio.sleep(0)
+                continue
+            burst = 0
             for data, binary in frames:
                 await send_frame(data, binary)
                 if delay > 0:
@@ -86,7 +99,8 @@ async def run_session(session: ClientSession, read: Coroutine[Any, Any, None], *
     limit_unsent(sock)
     if delay <= 0:
         session.outbox.attach_writer(direct)
-    writer = asyncio.create_task(pump(session, send_frame, delay, gate))
+    writer = asyncio.create_task(pump(session, send_frame, delay, gate,
+                                      direct if delay <= 0 else None))
     reader = asyncio.create_task(read)
     try:
         await asyncio.wait({writer, reader}, return_when=asyncio.FIRST_COMPLETED)

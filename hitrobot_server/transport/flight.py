@@ -22,12 +22,15 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
-TARGET = 0.04
+TARGET = 0.03
 """Seconds of delivery the unread bytes may stand for beyond the bare round trip."""
 MIN_WINDOW = 48 * 1024
 MAX_WINDOW = 16 * 1024 * 1024
 INITIAL_WINDOW = 256 * 1024
 MIN_PING_EVERY = 16 * 1024
+GAIN = 2
+"""The window is this many times the delivery rate's worth of (round trip + target): room for
+a link that the window held back to show a higher rate (a slow reader's rate stays put)."""
 RATE_SPAN = 0.02
 """A rate sample spans at least this long (pongs that arrive in one read are one sample)."""
 RATE_MEMORY = 1.0
@@ -112,7 +115,7 @@ class FlightWindow:
             rtt = now - ping.at
             if ping.clean:
                 self.base_rtt = min(self.base_rtt, rtt)
-            self._resize(rtt, ping.full)
+            self._resize(rtt, ping.full, drained=self.in_flight <= self.window // 4)
 
     def _sample_rate(self, now: float) -> None:
         pongs = self._pongs
@@ -129,11 +132,14 @@ class FlightWindow:
         while self._rates and now - self._rates[0][0] > RATE_MEMORY:
             self._rates.popleft()
 
-    def _resize(self, rtt: float, was_full: bool) -> None:
+    def _resize(self, rtt: float, was_full: bool, drained: bool) -> None:
         window = self.window
         base = self.base_rtt if math.isfinite(self.base_rtt) else 0.0
-        if self.rate > 0:
-            window = int(self.rate * (base + self.target))
-        if was_full and rtt < base + self.target / 2:
-            window = max(window, 2 * self.window)  # the link kept up: the window held it back
+        if self.rate > 0:  # twice the bytes the link carries in a round trip plus the target:
+            # a window-limited link's rate grows with its window, a slow reader's does not
+            window = int(GAIN * self.rate * (base + self.target))
+        if was_full and (rtt < base + self.target / 2 or (drained and rtt < base + self.target)):
+            # the link kept up (a quick pong, or a client that read all it was sent within the
+            # target, as a busy client does in bursts): the window held it back
+            window = max(window, 2 * self.window)
         self.window = max(self.min_window, min(window, self.max_window))
