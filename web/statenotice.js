@@ -11,7 +11,7 @@ import { el } from './util.js';
 function savingPill() {
   const pill = el('span', { class: 'pill', id: 'state-saving', dataset: { state: 'broken' }, role: 'alert',
     title: 'The robot\'s state folder (/Bridge/State in /diagnostics_agg)' }, el('i'), el('span', { class: 'value' }));
-  pill.hidden = true;
+  pill.style.display = 'none';  // not `hidden`: the pills' own display would override it
   document.querySelector('.topbar .pills').append(pill);
   return pill;
 }
@@ -37,7 +37,7 @@ export function showStateOnce(ros) {
     const now = saving.startsWith('no: ') ? saving.slice(4) : '';
     if (now === failing) return;
     failing = now;
-    pill.hidden = !now;
+    pill.style.display = now ? '' : 'none';
     pill.querySelector('.value').textContent = now ? `state is not being saved: ${now}` : '';
     if (now) log('error', `state is not being saved: ${now}`);
     else log('info', 'state is being saved again');

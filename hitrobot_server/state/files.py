@@ -122,10 +122,15 @@ def atomic_write(target: Path, data: bytes) -> None:
     """Temporary file (0600, never through a link), fsync, rename over the target, fsync the
     folder. The folder itself must already be a checked folder of the store."""
     tmp = target.with_name(f".{target.name}.tmp")
-    with _new_file(tmp) as f:
-        f.write(data)
-        f.flush()
-        os.fsync(f.fileno())
+    try:
+        with _new_file(tmp) as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+    except OSError:  # a full disk: the partial copy must not keep the space
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
     os.replace(tmp, target)
     fsync_dir(target.parent)
 

@@ -294,7 +294,9 @@ class StateStore:
         record = encode_record(self._seq + 1, changes)
         fd = open_append(self.path / JOURNAL)
         try:
-            os.write(fd, record)
+            done = 0
+            while done < len(record):  # a nearly full disk takes part of a write
+                done += os.write(fd, record[done:])
             os.fsync(fd)
         except OSError:  # no half line may stay in front of the next batch's
             try:
