@@ -7,6 +7,7 @@ message was made, and a restarted server makes them again."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 
 from ..helpers import ServerProcess, Watcher
@@ -53,10 +54,8 @@ async def take(port: int, names: dict[str, str], like: dict | None = None) -> di
     if like is not None:
         def same() -> bool:
             return all(without_stamps(w.latest(n)) == without_stamps(like[n]) for n in like)
-        try:
+        with contextlib.suppress(AssertionError):  # the comparison below names what differs
             await w.until(same, 20, "every latched topic as it was")
-        except AssertionError:
-            pass  # the comparison below names what differs
     got = {name: w.latest(name) for name in names}
     await w.close()
     return got
