@@ -115,10 +115,15 @@ def _replay_journal(path: Path, restored: Restored, seq: int | None,
     if read.problem is not None:
         kind = "an unfinished last record (a crash while writing)" if read.torn_tail \
             else "a damaged record"
-        where = aside_folder(path) / f"{JOURNAL}.tail.{stamp()}"
-        copy_tail(journal, read.good_bytes, where)
+        if journal.stat().st_size - read.good_bytes <= MAX_LINE:
+            where = aside_folder(path) / f"{JOURNAL}.tail.{stamp()}"
+            copy_tail(journal, read.good_bytes, where)
+            rest = "the rest moved to"
+        else:  # a huge tail is not copied: the file itself is moved, as found
+            where = set_aside(path, JOURNAL, "damaged")
+            rest = "the file as found moved to"
         text = (f"{JOURNAL}: {kind} at {read.problem}; kept the {len(read.records)} good "
-                f"records before it, the rest moved to {where}")
+                f"records before it, {rest} {where}")
         (log.info if read.torn_tail else log.warning)("state: %s", text)
         restored.skipped.append(text)
     return last
@@ -139,7 +144,8 @@ def resolve(path: Path, value: Any) -> Any:
     try:
         data = read_bounded(blob, MAX_BLOB)
     except ValueError as exc:
-        raise JournalError(f"its blob is too large ({exc}); left unread") from None
+        where = set_aside(path, name, "too-large")
+        raise JournalError(f"its blob is too large ({exc}); moved unread to {where}") from None
     except OSError as exc:
         raise JournalError(f"its blob is missing ({exc.strerror})") from None
     if hashlib.sha256(data).hexdigest() != digest:
