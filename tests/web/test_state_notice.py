@@ -39,6 +39,9 @@ async def test_the_console_says_started_fresh_then_restored_once(make_server, br
     await w.client.send({"op": "set_level", "level": "info"})
     assert (await request(w, f"{MM}/add_poi", "map_messages/PointOfInterest",
                           poi("kitchen", 3.0, 8.0), "p1"))["level"] == "info"
+    for op in ("save_map", "load_map"):  # the loaded map's marker survives the restart too
+        assert (await request(w, f"{MM}/{op}", "map_messages/SaveMap",
+                              {"filename": "office_v1"}, op))["level"] == "info"
     await w.close()
     await first.stop()
 
@@ -51,6 +54,9 @@ async def test_the_console_says_started_fresh_then_restored_once(make_server, br
     await w.close()
     got = await notices(page)
     assert len(got) == 1 and "1 POIs" in got[0] and str(state / "sim-office") in got[0], got
+    await page.click(".tabs [data-tab=map]")
+    await page.locator("#map-list li[data-name=office_v1] small", has_text="· loaded").wait_for(
+        timeout=10_000)
     assert errors == []
 
 
