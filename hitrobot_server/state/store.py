@@ -60,7 +60,6 @@ from .loading import (
 
 log = logging.getLogger(__name__)
 
-ASIDE = "set-aside"
 COMPACT_BYTES = 4 * 1024 * 1024
 """Journal size that triggers a snapshot (a snapshot is small: blobs are referenced)."""
 UNUSABLE = (errno.EROFS, errno.EACCES, errno.EPERM)
@@ -252,9 +251,12 @@ class StateStore:
         (a key put again since keeps its newer value, which the next batch tries)."""
         why = reason(exc) if isinstance(exc, OSError) else f"not storable ({exc})"
         text = f"write failed: {why}"
-        log.error("state %s: %s (%s)", self.path, text, exc)
-        self.errors.append(text)
         self.write_failures += 1
+        if why == self.write_error:  # still failing: said once, counted in write_failures
+            log.debug("state %s: %s (%s)", self.path, text, exc)
+        else:
+            log.error("state %s: %s (%s)", self.path, text, exc)
+            self.errors.append(text)
         if isinstance(exc, OSError):
             self.write_error = why
         for key in batch:
