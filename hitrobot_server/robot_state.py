@@ -68,7 +68,12 @@ class RestStateBinder:
                 else:
                     identity = rest_identity(info.device_id, self.url)
                     if identity != self.binding.identity:
-                        await self._bind(identity)
+                        try:
+                            await self._bind(identity)
+                        except OSError as exc:  # held by another server, or not writable
+                            log.error("state: the robot %s cannot be bound to its state "
+                                      "folder: %s; asking again in %.0f s", identity, exc,
+                                      IDENTITY_RECHECK)
                     elif not was:
                         log.info(
                             "state: robot %s reconnected: the robot's side stands for its map, "

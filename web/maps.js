@@ -18,6 +18,11 @@ export class SavedMaps {
     this.listService = new ROSLIB.Service({ ros, name: SERVICES.listMapFiles, serviceType: 'hitrobot_msgs/ListMapFiles' });
     this.loadService = new ROSLIB.Service({ ros, name: SERVICES.loadLaserMap, serviceType: 'hitrobot_msgs/LoadLaserMap' });
     this.saveTopic = new ROSLIB.Topic({ ros, name: TOPICS.saveMap, messageType: 'map_messages/SaveMap' });
+    // which map is loaded, as the server keeps it (latched, so after a reload or a restart too)
+    new ROSLIB.Topic({ ros, name: TOPICS.loadedMap, messageType: 'std_msgs/String' }).subscribe((msg) => {
+      this.current = msg.data;
+      this.show(this.names);
+    });
     document.getElementById('maps-refresh').addEventListener('click', () => this.refresh());
     document.getElementById('map-save-as').addEventListener('click', () => this.saveAs());
   }

@@ -39,6 +39,7 @@ export const TOPICS = Object.freeze({
   modifyPoi: '/map_manager/modify_poi',
   deletePoi: '/map_manager/delete_poi',
   saveMap: '/map_manager/save_map',
+  loadedMap: '/map_manager/loaded_map',  // latched: the saved map last loaded, across restarts
   // the robot's state, diagnostics and sensors
   robotBasicState: slamware('robot_basic_state'),
   diagnostics: '/diagnostics_agg',

@@ -1,22 +1,45 @@
-// Says once in the Messages panel, when the page first hears from the server, where the
-// robot's state came from: "state restored from …" (with what came back) or "started fresh
-// in …". The server reports it in the /Bridge/State entry of /diagnostics_agg.
+// Where the robot's state came from, said once in the Messages panel when the page first hears
+// from the server: "state restored from …" (with what came back) or "started fresh in …"; and,
+// for as long as it lasts, a red pill in the top bar when the state folder cannot be written:
+// "state is not being saved: disk full" (changes are then refused, not acknowledged). The
+// server reports both in the /Bridge/State entry of /diagnostics_agg (its `saving` value).
 /* global ROSLIB */
 import { log } from './log.js';
 import { DIAGNOSTICS, TOPICS } from './names.js';
+import { el } from './util.js';
+
+function savingPill() {
+  const pill = el('span', { class: 'pill', id: 'state-saving', dataset: { state: 'broken' }, role: 'alert',
+    title: 'The robot\'s state folder (/Bridge/State in /diagnostics_agg)' }, el('i'), el('span', { class: 'value' }));
+  pill.style.display = 'none';  // not `hidden`: the pills' own display would override it
+  document.querySelector('.topbar .pills').append(pill);
+  return pill;
+}
 
 export function showStateOnce(ros) {
   const topic = new ROSLIB.Topic({
     ros, name: TOPICS.diagnostics, messageType: 'diagnostic_msgs/DiagnosticArray',
   });
-  const onMessage = (msg) => {
+  const pill = savingPill();
+  let told = false;
+  let failing = '';
+  topic.subscribe((msg) => {
     const item = msg.status.find((s) => s.name === DIAGNOSTICS.bridgeState);
     if (!item) return;
-    topic.unsubscribe(onMessage);
-    const restored = item.values.find((v) => v.key === 'restored');
-    const text = restored && restored.value !== 'nothing'
-      ? `${item.message}: ${restored.value}` : item.message;
-    log('info', text);  // the Messages panel; no toast: toasts are for what went wrong
-  };
-  topic.subscribe(onMessage);
+    const value = (key) => (item.values.find((v) => v.key === key) || {}).value;
+    if (!told) {
+      told = true;
+      const restored = value('restored');
+      const text = restored && restored !== 'nothing' ? `${item.message}: ${restored}` : item.message;
+      log('info', text);  // the Messages panel; no toast: toasts are for what went wrong
+    }
+    const saving = value('saving') || 'yes';
+    const now = saving.startsWith('no: ') ? saving.slice(4) : '';
+    if (now === failing) return;
+    failing = now;
+    pill.style.display = now ? '' : 'none';
+    pill.querySelector('.value').textContent = now ? `state is not being saved: ${now}` : '';
+    if (now) log('error', `state is not being saved: ${now}`);
+    else log('info', 'state is being saved again');
+  });
 }

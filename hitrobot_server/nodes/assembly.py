@@ -76,7 +76,7 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
     map_manager = site_map or MapManager(bus, link, robot.maps, localization, settings, state)
     mapfiles = MapFilesNode(bus, link, localization, settings)
     return [
-        SlamwareNode(bus, robot, settings.slamware, simple_goals=False),
+        SlamwareNode(bus, robot, settings.slamware, simple_goals=False, state=state),
         ConventionalNode(bus, link, localization, frame),
         move_base,
         ShellNode(bus, robot, settings.authenticate, move_base.cancel_all),

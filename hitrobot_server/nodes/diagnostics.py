@@ -226,7 +226,10 @@ def state_item(store: StateStore) -> dict:
             else f"state restored from {info['path']}")
     last = info["last_write"]
     when = "never" if last is None else time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(last))
-    return status("/Bridge/State", WARN if info["errors"] else OK, text, path=info["path"],
+    level = ERROR if info["write_error"] else WARN if info["errors"] else OK
+    return status("/Bridge/State", level, text, path=info["path"],
                   restored=restored.summary or "nothing", last_write=when,
                   writes=info["writes"], errors=len(store.errors),
-                  last_error=info["errors"][-1] if info["errors"] else "")
+                  last_error=info["errors"][-1] if info["errors"] else "",
+                  saving="yes" if info["write_error"] is None
+                  else f"no: {info['write_error']}")

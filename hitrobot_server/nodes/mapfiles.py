@@ -28,7 +28,7 @@ from .ground.loadedmap import LoadedMap
 from .ground.mapstore import MapStore, StoreError, write_file
 from .ground.messages import pose2d_of
 from .ground.namedfiles import FileError, list_reply
-from .ground.names import MAP_MANAGER_LOAD_MAP
+from .ground.names import MAP_MANAGER_LOAD_MAP, MAP_MANAGER_LOADED_MAP
 from .ground.requests import NOT_CONNECTED, robot_error
 from .options import NodeOptions
 
@@ -60,6 +60,8 @@ class MapFilesNode(RobotNode):
         self.service("/set_map", f"{PKG}/SetLaserMap", self._set_map)
         # A client loading a map through the map manager directly loads it for us too.
         self.subscribe(LOAD_MAP_TOPIC, "map_messages/SaveMap", self._on_manager_load)
+        # Which map is loaded, as the map manager keeps it (latched: after a restart too).
+        self.subscribe(MAP_MANAGER_LOADED_MAP, "std_msgs/String", self._on_loaded_map)
 
     # ------------------------------------------------------------------ services
     async def _list(self, request: dict) -> dict:
@@ -125,6 +127,9 @@ class MapFilesNode(RobotNode):
                 self._loaded(name)
 
         message.reply.observe(loaded)
+
+    def _on_loaded_map(self, message: Message) -> None:
+        self.loaded.name = message.msg["data"] or None
 
     def _loaded(self, name: str) -> list[str]:
         """A map was loaded: remember it and apply its default graph and route."""

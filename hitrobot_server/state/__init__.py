@@ -5,9 +5,11 @@ put their sections into it. It imports nothing of ours, so every floor above may
 """
 
 from .binding import StateBinding
+from .files import StateFolderError
 from .journal import JournalError
+from .loading import Restored
 from .location import default_root, identity_folder
-from .store import Restored, StateStore
+from .store import StateStore, StateWriteError
 
-__all__ = ["JournalError", "Restored", "StateBinding", "StateStore", "default_root",
-           "identity_folder"]
+__all__ = ["JournalError", "Restored", "StateBinding", "StateFolderError", "StateStore",
+           "StateWriteError", "default_root", "identity_folder"]

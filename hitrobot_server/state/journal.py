@@ -12,11 +12,14 @@ from __future__ import annotations
 import hashlib
 import json
 import zlib
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
 FORMAT = "hitrobot-server state"
 VERSION = 1
+MAX_LINE = 16 * 1024 * 1024
+"""Longest journal line read back (big values are blobs, so a record is small)."""
 
 
 class JournalError(ValueError):
@@ -42,13 +45,21 @@ class JournalRead:
     torn_tail: bool = False  # the problem is only an unfinished last line (a crash mid-write)
 
 
-def decode_journal(data: bytes, after_seq: int | None) -> JournalRead:
-    """Parse a journal; records up to ``after_seq`` (already in the snapshot) are skipped but
-    must still be well formed. ``after_seq`` None: the snapshot was unusable, take them all."""
+def decode_journal(lines: Iterable[bytes], after_seq: int | None,
+                   max_line: int = MAX_LINE) -> JournalRead:
+    """Parse a journal's lines (bytes: its whole text); records up to ``after_seq`` (already
+    in the snapshot) are skipped but must still be well formed. ``after_seq`` None: the
+    snapshot was unusable, take them all. A line over ``max_line`` bytes ends the readable
+    part (the reader hands it over cut, so it is never held whole)."""
+    if isinstance(lines, bytes):
+        lines = lines.splitlines(keepends=True)
     read = JournalRead()
     expected: int | None = None
     offset = 0
-    for number, line in enumerate(data.splitlines(keepends=True), 1):
+    for number, line in enumerate(lines, 1):
+        if len(line) > max_line:
+            read.problem = f"line {number}: longer than {max_line} bytes"
+            return read
         complete = line.endswith(b"\n")
         try:
             seq, changes = _decode_line(line)

@@ -82,7 +82,9 @@ async def test_every_cut_of_the_journal_is_a_prefix_of_the_batches(tmp_path):
         folder.mkdir()
         (folder / SNAPSHOT).write_bytes(snapshot)
         (folder / JOURNAL).write_bytes(journal[:cut])
-        got = {k: await_open(folder).get(k) for k in states[-1]}
+        opened = await_open(folder)  # one store at a time holds a folder (its lock)
+        got = {k: opened.get(k) for k in states[-1]}
+        await opened.close()
         got = {k: v for k, v in got.items() if v is not None}
         assert got in states, cut
         seen.add(states.index(got))
@@ -139,7 +141,7 @@ async def test_an_unusable_snapshot_is_moved_aside_and_the_journal_still_read(
 async def test_a_hand_edited_snapshot_is_read_and_the_original_kept(tmp_path):
     store = await filled(tmp_path, [{"name": "old"}])
     await store.close()
-    await_open(tmp_path)  # compacts the journal into the snapshot
+    await await_open(tmp_path).close()  # compacts the journal into the snapshot
     doc = json.loads((tmp_path / SNAPSHOT).read_bytes())
     doc["sections"]["name"] = "edited"
     (tmp_path / SNAPSHOT).write_text(json.dumps(doc))

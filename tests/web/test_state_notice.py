@@ -1,9 +1,11 @@
-"""The console says once where the robot's state came from (web/statenotice.js)."""
+"""The console says once where the robot's state came from, and while the state cannot be
+saved (web/statenotice.js)."""
 
 from __future__ import annotations
 
 from ..helpers import Watcher
 from ..nodes.map_manager.util import MM, poi, request
+from ..state.failing_folder import FailingFolder
 from .conftest import READY
 
 NOTICE = "#log li.info .text"
@@ -37,6 +39,9 @@ async def test_the_console_says_started_fresh_then_restored_once(make_server, br
     await w.client.send({"op": "set_level", "level": "info"})
     assert (await request(w, f"{MM}/add_poi", "map_messages/PointOfInterest",
                           poi("kitchen", 3.0, 8.0), "p1"))["level"] == "info"
+    for op in ("save_map", "load_map"):  # the loaded map's marker survives the restart too
+        assert (await request(w, f"{MM}/{op}", "map_messages/SaveMap",
+                              {"filename": "office_v1"}, op))["level"] == "info"
     await w.close()
     await first.stop()
 
@@ -49,4 +54,42 @@ async def test_the_console_says_started_fresh_then_restored_once(make_server, br
     await w.close()
     got = await notices(page)
     assert len(got) == 1 and "1 POIs" in got[0] and str(state / "sim-office") in got[0], got
+    await page.click(".tabs [data-tab=map]")
+    await page.locator("#map-list li[data-name=office_v1] small", has_text="· loaded").wait_for(
+        timeout=10_000)
     assert errors == []
+
+
+async def test_the_console_says_while_the_state_is_not_being_saved(make_server, browser,
+                                                                   tmp_path):
+    """A full state disk (issue 36): a red pill "state is not being saved: disk full" for as
+    long as it lasts, gone once a write succeeds again."""
+    folder = FailingFolder(tmp_path / "state")
+    try:
+        page = browser.pages[0] if browser.pages else await browser.new_page()
+        errors: list[str] = []
+        page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
+        server = await make_server(robot="sim", sim_speed=4, map_dir=str(tmp_path / "maps"),
+                                   state_dir=str(folder.root))
+        await page.goto(f"http://127.0.0.1:{server.port}/")
+        await page.wait_for_function(READY, timeout=30_000)
+        pill = page.locator("#state-saving")
+        assert await pill.is_hidden()
+        w = await Watcher.open(server.port)
+        await w.client.send({"op": "set_level", "level": "info"})
+        folder.fail(folder.root / "sim-office")
+        refused = await request(w, f"{MM}/add_poi", "map_messages/PointOfInterest",
+                                poi("while_full", 3.0, 8.0, remarks="x" * 6000), "p1")
+        assert refused["level"] == "error"
+        text = f"state is not being saved: {folder.reason}"
+        await pill.get_by_text(text).wait_for(state="visible", timeout=10_000)
+        assert await page.locator("#log li.error .text", has_text=text).count() >= 1
+        folder.free()
+        assert (await request(w, f"{MM}/add_poi", "map_messages/PointOfInterest",
+                              poi("after", 3.0, 8.0), "p2"))["level"] == "info"
+        await pill.wait_for(state="hidden", timeout=10_000)
+        await w.close()
+        await server.stop()
+        assert errors == []
+    finally:
+        folder.close()

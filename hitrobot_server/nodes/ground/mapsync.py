@@ -15,6 +15,7 @@ from ...robot.model import MapRegion, Rect
 from .messages import OCCUPANCY_LUT
 
 GROW_MARGIN = 32  # cells added around the map whenever it grows
+MAX_CELLS_SIDE = 20_000  # a remembered extent larger than this is not believed
 
 
 class MapHolder:
@@ -42,6 +43,29 @@ class MapHolder:
     @property
     def empty(self) -> bool:
         return self.cells.size == 0
+
+    def extent(self) -> dict | None:
+        """Where the cells lie (resolution, first column and row, width, height)."""
+        if self.resolution is None or self.empty:
+            return None
+        h, w = self.cells.shape
+        return {"resolution": self.resolution, "col0": self.col0, "row0": self.row0,
+                "width": w, "height": h}
+
+    def unknown_over(self, extent: dict) -> bool:
+        """Every cell unknown over a remembered :meth:`extent` (a cleared map after a
+        restart); False when it does not fit this holder's resolution."""
+        try:
+            res, col0, row0 = float(extent["resolution"]), int(extent["col0"]), int(extent["row0"])
+            w, h = int(extent["width"]), int(extent["height"])
+        except (KeyError, TypeError, ValueError):
+            return False
+        if self.resolution is None or not math.isclose(res, self.resolution) \
+                or not (0 < w <= MAX_CELLS_SIDE and 0 < h <= MAX_CELLS_SIDE):
+            return False
+        self.cells = np.zeros((h, w), dtype=np.uint8)
+        self.col0, self.row0 = col0, row0
+        return True
 
     def _cell(self, metres: float) -> int:
         return int(math.floor(metres / self.resolution + 0.5))

@@ -1,7 +1,10 @@
 """A node's sections of the robot's state store: what the operator built survives restarts.
 
 Nodes put a section whenever it changes and await :meth:`NodeMemory.durable` before they
-acknowledge the request, so an acknowledged change is on disk. Without a binding (tests of a
+acknowledge the request, so an acknowledged change is on disk; when it could not be written
+(disk full) ``durable`` raises :class:`NotSaved`, a service error, so a service answers it as
+a failure, and a node that can takes its change back from :meth:`NodeMemory.get` (the store
+answers what is on disk again). Without a binding (tests of a
 node alone) everything is a no-op; with a binding whose store is not known yet (a REST robot
 not reached so far) a change is only noted, and the server settles it once the robot is known.
 """
@@ -12,9 +15,14 @@ import asyncio
 import logging
 from typing import Any
 
-from ...state import StateBinding, StateStore
+from ...bus.errors import ServiceError
+from ...state import StateBinding, StateStore, StateWriteError
 
 log = logging.getLogger(__name__)
+
+
+class NotSaved(ServiceError):
+    """A change that did not reach the state folder: refuse the request that made it."""
 
 
 class NodeMemory:
@@ -44,11 +52,12 @@ class NodeMemory:
             self.binding.changed_unbound = True
 
     async def durable(self) -> None:
-        """Wait until every section put so far is on disk; a failed write is logged and
-        listed in the store's diagnostics (the change itself stands)."""
+        """Wait until every section put so far is on disk; :class:`NotSaved` (the store's
+        reason: ``not saved to the state folder: disk full``) when it could not be written."""
         pending = self._pending  # the latest put: its batch comes after every earlier one
         if pending is not None:
             try:
                 await asyncio.shield(pending)
-            except OSError as exc:
-                log.error("%s: not saved to the state folder: %s", self.prefix, exc)
+            except StateWriteError as exc:
+                log.error("%s: %s", self.prefix, exc)
+                raise NotSaved(str(exc)) from None

@@ -6,6 +6,8 @@ MAP_MANAGER_GET_POIS = f"{MAP_MANAGER}/get_pois"
 """The map manager's POIs (``map_messages/GetPointsOfInterest``): how other nodes read them."""
 MAP_MANAGER_SAVE_MAP = f"{MAP_MANAGER}/save_map"
 MAP_MANAGER_LOAD_MAP = f"{MAP_MANAGER}/load_map"
+MAP_MANAGER_LOADED_MAP = f"{MAP_MANAGER}/loaded_map"
+"""Latched std_msgs/String: the saved map last loaded ("" for none), kept across restarts."""
 """The map manager's map-folder requests (``map_messages/SaveMap``): the shell's map commands
 and the map-files node's ``load_laser_map`` ask it on a client's behalf."""
 

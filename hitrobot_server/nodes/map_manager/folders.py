@@ -1,6 +1,7 @@
 """``save_map`` and ``load_map``: the map folders of the map store (:mod:`.mapio` says what is
 in one). Saving writes the robot's map, the masks, the POIs and the robot's walls, tracks and
-dock; loading checks the whole folder before anything is applied."""
+dock; loading checks the whole folder before anything is applied. Which map was loaded last is
+kept in the state folder and on the latched ``loaded_map`` topic (the console's "· loaded")."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from ...robot.backend import BackendError
 from ...robot.model import ArtifactUsage
 from ..base import RobotNode
 from ..ground.mapstore import MapStore, StoreError
+from ..ground.memory import NotSaved
 from ..ground.names import MAP_MANAGER_LOAD_MAP, MAP_MANAGER_SAVE_MAP
 from . import mapio
 from .composition import MapComposition
@@ -20,7 +22,7 @@ from .poi_requests import PoiRequests
 from .pois import PoiRegistry
 from .robot_map import RobotMap
 from .sections import Sections
-from .topics import PKG
+from .topics import LOADED_TOPIC, PKG
 
 Folder = tuple[Grid, dict[int, Mask], PoiRegistry, dict | None]
 """A map folder's map, masks, POIs and robot artifacts (walls, tracks, dock; None: none)."""
@@ -33,6 +35,10 @@ class MapFolders:
                  layers: MapComposition, pois: PoiRequests, sections: Sections):
         self.node, self.store, self.robot_map = node, store, robot_map
         self.layers, self.pois, self.sections = layers, pois, sections
+        node.advertise(LOADED_TOPIC, "std_msgs/String", latch=True)
+
+    def publish_loaded(self) -> None:
+        self.node.publish(LOADED_TOPIC, {"data": self.sections.loaded})
 
     def listen(self) -> None:
         self.node.subscribe(MAP_MANAGER_SAVE_MAP, f"{PKG}/SaveMap", self._on_save_map)
@@ -88,18 +94,33 @@ class MapFolders:
                 await self.robot_map.install(grid, robot)
                 self.layers.masks = masks
                 self.pois.pois.replace_all(pois.all())
-                self.sections.remember("pois", "masks")
+                self.sections.loaded = name
+                self.sections.remember("pois", "masks", "loaded")
                 self.pois.publish()
                 self.layers.publish_map(force=True)
+                self.publish_loaded()
                 try:
                     await self.layers.push_blocked()
                 except BackendError as exc:
                     raise BackendError(f"map {name!r} loaded, but the robot did not take its "
                                        f"blocked areas ({exc}); retrying") from None
-                await self.sections.durable()
+                await self._saved(name)
             return f"loaded map {name!r}"
 
         job(self.node, message, "load_map", work)
+
+    async def _saved(self, name: str) -> None:
+        """The load's sections on disk, or its POIs, masks and marker taken back (the robot
+        keeps the map it was given) and the load answered with the reason."""
+        try:
+            await self.sections.durable()
+        except NotSaved as exc:
+            self.sections.take_back()
+            self.pois.publish()
+            self.layers.publish_map(force=True)
+            self.publish_loaded()
+            raise NotSaved(f"{exc}: the POIs, masks and marker of map {name!r} were taken "
+                           "back (the robot has its map)") from None
 
     def _read_folder(self, name: str) -> Folder:
         """Everything of a map folder, parsed and validated before anything is applied."""

@@ -8,12 +8,13 @@ from collections.abc import Awaitable, Callable
 from ...bus.topics import Message
 from ..base import RobotNode
 from ..ground.mapstore import StoreError
+from ..ground.memory import NotSaved
 from ..ground.requests import answer, require_robot
 from .layers import LayerError
 from .mapio import MapFileError
 from .pois import PoiError
 
-REQUEST_ERRORS = (StoreError, MapFileError, PoiError, LayerError)
+REQUEST_ERRORS = (StoreError, MapFileError, PoiError, LayerError, NotSaved)
 """A request's own errors: the publisher hears their text, as it does a robot error's."""
 
 

@@ -9,6 +9,7 @@ from collections.abc import Awaitable, Callable
 from ...bus.topics import Message, RequestRejected
 from ...robot.backend import BackendError
 from ..base import RobotNode
+from ..ground.memory import NotSaved
 from .composition import MapComposition
 from .jobs import job
 from .layers import LAYER_NAMES, MASK_ACTIONS, LayerError, Mask
@@ -69,7 +70,15 @@ class MaskRequests:
 
     def _push_then(self, text: str | None) -> Callable[[], Awaitable[str | None]]:
         async def work() -> str | None:
-            await self.sections.durable()
+            try:
+                await self.sections.durable()
+            except NotSaved as exc:  # the mask or switch is taken back: /map as on disk
+                self.sections.take_back()
+                try:
+                    self.layers.publish_map(force=True)
+                except LayerError as error:
+                    log.warning("/map: %s", error)
+                raise NotSaved(f"{exc}; the change was taken back") from None
             try:
                 await self.layers.push_blocked()
             except BackendError as exc:

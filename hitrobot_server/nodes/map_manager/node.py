@@ -59,15 +59,17 @@ class MapManager(RobotNode):
         self.poi_requests.serve()
         self.sections.restore()
         self.poi_requests.publish()
+        self.folders.publish_loaded()
 
     def adopt(self, restore: bool) -> None:
         """A state folder was bound (a REST robot said who it is): take its sections
         (``restore``) or write ours into it (ours are newer)."""
         if not restore:
-            self.sections.remember("pois", "layers", "masks")
+            self.sections.remember("pois", "layers", "masks", "loaded")
             return
         self.sections.restore()
         self.poi_requests.publish()
+        self.folders.publish_loaded()
         self.layers.resend_blocked()
 
     def restored(self) -> list[str]:

@@ -1,6 +1,7 @@
 """``add_poi``, ``modify_poi``, ``delete_poi`` and the ``get_pois`` service: the points of
 interest (:mod:`.pois`) on the bus, the list on the latched ``pois`` topic. A change is
-acknowledged once it is on disk."""
+acknowledged once it is on disk; one the state folder could not take is answered with the
+reason and taken back."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from collections.abc import Callable
 
 from ...bus.topics import Message, RequestRejected
 from ..base import RobotNode
+from ..ground.memory import NotSaved
 from ..ground.names import MAP_MANAGER_GET_POIS
 from .pois import PoiError, PoiRegistry
 from .sections import Sections
@@ -44,7 +46,13 @@ class PoiRequests:
         self.publish()
 
         async def acknowledge() -> None:  # once the change is on disk
-            await self.sections.durable()
+            try:
+                await self.sections.durable()
+            except NotSaved as exc:
+                self.sections.take_back()
+                self.publish()
+                message.reply.fail(f"{what}: {exc}; the change was taken back")
+                return
             message.reply.ok(f"{what}: {text}")
 
         self.node.spawn(acknowledge())

@@ -1,7 +1,8 @@
-"""The map manager's sections of the robot's state folder: its POIs, layer switches and masks.
+"""The map manager's sections of the robot's state folder: its POIs, layer switches, masks and
+which saved map is loaded.
 
 A section that does not check out when it comes back is skipped (and kept aside by the store);
-the others still apply.
+the others still apply. A change the store could not write is taken back (:meth:`take_back`).
 """
 
 from __future__ import annotations
@@ -48,12 +49,16 @@ class Sections:
 
     def __init__(self, memory: NodeMemory, pois: PoiRegistry, layers: MapComposition):
         self.memory, self.pois, self.layers = memory, pois, layers
+        self.loaded = ""
+        """The saved map last loaded ("" for none): the console marks it "· loaded"."""
 
     def restore(self) -> None:
-        """POIs, layer switches and masks as the state store kept them."""
+        """POIs, layer switches, masks and the loaded map as the state store kept them."""
         pois, layers, masks = (self.memory.get(k) for k in ("pois", "layers", "masks"))
         self.pois.replace_all([])
         self.layers.states, self.layers.masks = dict(DEFAULT_STATES), {}
+        loaded = self.memory.get("loaded")
+        self.loaded = loaded if isinstance(loaded, str) else ""
         if pois is not None:
             try:
                 if not isinstance(pois, list):
@@ -76,11 +81,18 @@ class Sections:
             except (LayerError, ValueError, KeyError, OSError) as exc:
                 self.memory.reject("masks", str(exc))
 
+    def take_back(self) -> None:
+        """A change that could not be written: the POIs, layer switches, masks and loaded map
+        as the state folder has them (the store answers what is on disk again)."""
+        self.restore()
+
     def remember(self, *what: str) -> None:
-        """Put the named sections (pois, layers, masks) into the state store."""
+        """Put the named sections (pois, layers, masks, loaded) into the state store."""
         for name in what:
             if name == "pois":
                 self.memory.put("pois", self.pois.all())
+            elif name == "loaded":
+                self.memory.put("loaded", self.loaded or None)
             elif name == "layers":
                 self.memory.put("layers", {str(k): v for k, v in self.layers.states.items()})
             else:

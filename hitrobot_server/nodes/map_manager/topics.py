@@ -1,7 +1,7 @@
 """The map manager's names on the bus, shared by its parts (the names other nodes use to reach
 it are in :mod:`..ground.names`)."""
 
-from ..ground.names import MAP_MANAGER
+from ..ground.names import MAP_MANAGER, MAP_MANAGER_LOADED_MAP
 
 NODE_NAME = MAP_MANAGER
 PKG = "map_messages"
@@ -9,6 +9,7 @@ MAP_TOPIC = "/map"
 MAP_FRAME = "/map"
 POIS_TOPIC = f"{NODE_NAME}/pois"
 HOME_TOPIC = f"{NODE_NAME}/home"
+LOADED_TOPIC = MAP_MANAGER_LOADED_MAP
 
 
 def request_topic(name: str) -> str:

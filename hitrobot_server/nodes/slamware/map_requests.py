@@ -10,6 +10,7 @@ from ...robot.backend import BackendError
 from ...robot.capabilities import Robot
 from ...robot.model import ArtifactUsage, Line, MapKind
 from ..ground import messages as m
+from ..ground.memory import NotSaved
 from ..ground.names import SLAMWARE_SYNC_MAP
 from .fields import enum_field, line, lines, usage
 from .map_copy import MapCopy
@@ -45,7 +46,10 @@ class MapRequests:
 
         async def clear() -> None:
             await self.robot.maps.clear_map(kind)
-            self.map_copy.sync_requested = True
+            try:
+                await self.map_copy.cleared()
+            except NotSaved as exc:
+                raise BackendError(f"the map was cleared, but {exc}") from None
 
         self.runner.run(message, "clear_map", clear)
 

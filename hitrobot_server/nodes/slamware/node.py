@@ -16,8 +16,10 @@ from __future__ import annotations
 
 from ...bus.core import Bus
 from ...robot.capabilities import Robot
+from ...state import StateBinding
 from ..base import RobotNode
 from ..ground import messages as m
+from ..ground.memory import NodeMemory
 from ..ground.names import TF
 from ..ground.slamware_params import SlamwareParams
 from .map_copy import MapCopy
@@ -34,9 +36,10 @@ class SlamwareNode(RobotNode):
     GLOBAL_NAMES = global_names(SlamwareParams())
 
     def __init__(self, bus: Bus, robot: Robot, params: SlamwareParams | None = None, *,
-                 simple_goals: bool = True):
+                 simple_goals: bool = True, state: StateBinding | None = None):
         """``simple_goals``: drive the goals of ``goal_topic`` itself, as the real node does;
-        False when a ``/move_base`` node beside it takes them (the assembly decides)."""
+        False when a ``/move_base`` node beside it takes them (the assembly decides).
+        ``state``: the robot's state folder (the extent of a cleared map is kept there)."""
         super().__init__(bus, NODE_NAME, robot.link)
         self.robot = robot
         p = self.params = params or SlamwareParams()
@@ -46,7 +49,7 @@ class SlamwareNode(RobotNode):
         for topic, type_name, latch in (*self.topics.advertised(),
                                         (TF, "tf2_msgs/TFMessage", False)):
             self.advertise(topic, type_name, latch=latch)
-        self.map_copy = MapCopy(self, robot, p, self.topics)
+        self.map_copy = MapCopy(self, robot, p, self.topics, NodeMemory(state, "slamware"))
         self.publishers = Publishers(self, robot, p, self.topics, self.map_copy)
         runner = Runner(self, robot.motion)
         self.map_requests = MapRequests(runner, robot, self.map_copy)

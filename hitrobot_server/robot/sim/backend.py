@@ -106,6 +106,7 @@ class SimBackend(RobotBackend):
 
     async def _change(self, fn: Callable[..., T], *args: object) -> T:
         """A request that changes what the robot remembers: answered once it is on disk."""
+        lines = None if self.memory is None else self.simulator.saved_lines()
         result = self._call(fn, *args)
         if self.memory is not None:
             pending = self.memory.sync(self.simulator, asyncio.get_running_loop().time(),
@@ -114,8 +115,9 @@ class SimBackend(RobotBackend):
                 try:
                     await pending
                 except OSError as exc:
-                    raise BackendError(f"done, but not saved to the state folder: {exc}") \
-                        from None
+                    undone = self.memory.take_back_lines(self.simulator, lines)
+                    raise BackendError(f"{exc}" + ("; the walls, tracks and home were taken "
+                                                   "back" if undone else "")) from None
         return result
 
     # --- state -------------------------------------------------------------------------------

@@ -64,6 +64,15 @@ class SimMemory:
         self._map_revision = sim.map_revision
         return done
 
+    def take_back_lines(self, sim: Simulator, lines: dict | None) -> bool:
+        """A change that could not be written: the walls, tracks and home as they were before
+        it (True when it had changed them). The next sample writes them again."""
+        if lines is None or lines == sim.saved_lines():
+            return False
+        sim.restore_lines(lines)
+        self._lines = None
+        return True
+
     def sync(self, sim: Simulator, now: float, urgent: bool = False) -> asyncio.Future | None:
         """Put what changed since the last call; the future of the last put, if any.
         ``urgent``: a request changed the robot, so the map is taken without waiting."""
