@@ -6,14 +6,22 @@ gets an answer. Ops and messages of at least ``OFFLOAD_BYTES`` go to a small pro
 instead; smaller ones stay inline, where a pool round trip (~1 ms) would cost more than the work.
 The pool starts on first use, so a server that never sees a big message never pays for it; the
 server owns it and shuts it down when it stops.
+
+The pool's processes die with the server however it ends (kill -9 too): each asks Linux for
+SIGKILL when its parent dies (``PR_SET_PDEATHSIG``). Without that an idle pool process waits
+for work forever, and keeps multiprocessing's resource tracker (whose pipe it holds) alive too;
+with it the tracker sees its pipe close and exits by itself.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import ctypes
 import multiprocessing
 import os
+import signal
+import sys
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -29,7 +37,24 @@ WORKER_NICENESS = 10
 (every client's answers) gets the CPU first, the big message's encoding what is left."""
 
 
-def _lower_priority() -> None:
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
+
+
+def die_with_parent(parent: int) -> None:
+    """Ask Linux to SIGKILL this process when its parent dies (``prctl(PR_SET_PDEATHSIG)``);
+    if ``parent`` is already gone (it died before the call), exit now. Elsewhere: nothing."""
+    if not sys.platform.startswith("linux"):
+        return
+    with contextlib.suppress(OSError, AttributeError):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:
+        os._exit(0)
+
+
+def _start_worker(parent: int) -> None:
+    """Each pool process, as it starts: dies with the server, runs below the event loop."""
+    die_with_parent(parent)
     with contextlib.suppress(OSError, AttributeError):  # not everywhere allowed or available
         os.nice(WORKER_NICENESS)
 
@@ -47,7 +72,7 @@ class WorkerPool:
             # copies
             self._pool = ProcessPoolExecutor(
                 self.workers, mp_context=multiprocessing.get_context("spawn"),
-                initializer=_lower_priority,
+                initializer=_start_worker, initargs=(os.getpid(),),
             )
         return self._pool
 
