@@ -25,6 +25,7 @@ from .session.offload import WorkerPool
 from .session.options import SessionOptions
 from .session.rosbridge.session import Session, Shared
 from .state import StateBinding
+from .transport.download import Downloads
 from .transport.http import StaticFiles, WithRecordings, default_web_root, missing_libraries
 from .transport.options import TransportOptions
 from .transport.tcp import start_tcp
@@ -63,6 +64,7 @@ class HitrobotServer:
         self._ws = None
         self._tcp: asyncio.Server | None = None
         self._tls: HandshakeGate | None = None
+        self._downloads: Downloads | None = None  # recordings streamed from their files
         self._ws_console = False
         self.port: int | None = None
         self.tcp_port: int | None = None
@@ -154,6 +156,9 @@ class HitrobotServer:
         console = _web_console()
         self._ws_console = console is not None
         recordings = None if session.authenticate else self.settings.store.recordings
+        http_handler = WithRecordings(console, recordings)
+        worker = {WORKER_HEADER: str(plan.worker_id)} if plan.worker else None
+        self._downloads = Downloads(http_handler.resolve, (worker or {}).items())
         self._ws = await start_websocket(
             self.protocols,
             t.address,
@@ -161,12 +166,13 @@ class HitrobotServer:
             max_frame_size=session.max_frame_size,
             delay_between_messages=t.delay_between_messages,
             compression=t.use_compression,
-            http_handler=WithRecordings(console, recordings),
+            http_handler=http_handler,
             tls=tls,
             ping_interval=t.websocket_ping_interval,
             ping_timeout=t.websocket_ping_timeout,
             reuse_port=plan.worker,
-            headers={WORKER_HEADER: str(plan.worker_id)} if plan.worker else None,
+            headers=worker,
+            downloads=self._downloads,
         )
         self.port = self._ws.sockets[0].getsockname()[1] if self._ws.sockets else t.port
         if plan.tcp:
@@ -203,6 +209,8 @@ class HitrobotServer:
         if self._tcp is not None:
             with contextlib.suppress(Exception):
                 await asyncio.wait_for(self._tcp.wait_closed(), 5)
+        if self._downloads is not None:
+            self._downloads.close()
         for session in list(self.sessions):
             session.close()
         self.pool.shutdown()

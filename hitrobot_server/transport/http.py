@@ -10,13 +10,12 @@ Files are sent with ``Cache-Control: no-cache`` and an ``ETag``, so browsers rev
 
 from __future__ import annotations
 
-import asyncio
 import email.utils
 import http
 import logging
 from collections.abc import Callable
 from pathlib import Path
-from urllib.parse import quote, unquote
+from urllib.parse import unquote
 
 from websockets.datastructures import Headers
 from websockets.http11 import Request, Response
@@ -156,9 +155,11 @@ RECORDINGS_PREFIX = "/recordings/"
 
 
 class WithRecordings:
-    """The console's files, and ``GET /recordings/NAME.mcap``: a file of the recordings folder
-    as a download. Only plain ``*.mcap`` names directly in that folder are served (no
-    subfolders, no hidden files, nothing outside it after symlinks); anything else is 404."""
+    """The console's files, and where ``GET /recordings/NAME.mcap`` may download from: only
+    plain ``*.mcap`` names directly in the recordings folder (no subfolders, no hidden files,
+    nothing outside it after symlinks). The download itself is streamed from the file by
+    :mod:`.download`, which takes those connections before websockets; what reaches this
+    handler under ``/recordings/`` is refused (405 for another method, else 404)."""
 
     def __init__(self, static: StaticFiles | None, folder: Path | None):
         """``folder`` None: downloads are off (``--authenticate``: HTTP has no rosauth, and a
@@ -167,7 +168,7 @@ class WithRecordings:
         self.folder = folder
 
     def resolve(self, raw_path: str) -> Path | None:
-        if self.folder is None:
+        if self.folder is None or not raw_path.startswith(RECORDINGS_PREFIX):
             return None
         name = unquote(raw_path.split("?", 1)[0].split("#", 1)[0]).removeprefix(RECORDINGS_PREFIX)
         if not name.endswith(".mcap") or name.startswith(".") or any(c in name for c in "/\\\0"):
@@ -179,22 +180,14 @@ class WithRecordings:
             return None
         return file if file.parent == root and file.is_file() else None
 
-    async def __call__(self, ws, request: Request) -> Response:
+    def __call__(self, ws, request: Request) -> Response:
         if not request.path.startswith(RECORDINGS_PREFIX):
             if self.static is None:
                 return ws.respond(426, "This is a WebSocket endpoint (hitrobot protocol).\n")
             return self.static(ws, request)
-        method, file = _lookup(request, self.resolve)
-        if isinstance(file, Response):
-            return file
-        try:
-            size = file.stat().st_size if method == "HEAD" else None
-            body = b"" if method == "HEAD" else await asyncio.to_thread(file.read_bytes)
-        except OSError:
-            return _response(404, b"Not found\n", head=method == "HEAD")
-        headers = [("Content-Type", "application/octet-stream"), ("Cache-Control", "no-store"),
-                   ("Content-Disposition", f"attachment; filename*=UTF-8''{quote(file.name)}")]
-        return _response(200, body, headers, head=method == "HEAD", size=size)
+        _method, refusal = _lookup(request, lambda _path: None)  # nothing served here
+        assert isinstance(refusal, Response)
+        return refusal
 
 
 def _lookup(request: Request, resolve: Callable[[str], Path | None]
