@@ -13,6 +13,7 @@ from .bus.core import Bus
 from .bus.rosout import RosoutHandler
 from .bus.zenoh.keys import endpoints
 from .config import Settings
+from .metrics import ServerMetrics, Sources
 from .nodes.base import Node
 from .protocol.auth import load_secret
 from .protocol.foxglove import SUBPROTOCOLS as FOXGLOVE_SUBPROTOCOLS
@@ -70,12 +71,18 @@ class HitrobotServer:
         self.tcp_port: int | None = None
         self._rosout: RosoutHandler | None = None
         self.recording: RecordingControl | None = None
+        self.metrics = ServerMetrics(Sources(
+            sessions=lambda: self.sessions, robots=lambda: self.robots,
+            recording=lambda: self.recording, worker=self.plan.worker_id
+            if self.plan.worker else None))
 
     def _options(self) -> SessionOptions:
         return self._session_options or self.settings.session.for_sessions()
 
     def _track(self, session: T) -> T:
-        """Keep a new session until it closes (stop closes those left)."""
+        """Keep a new session until it closes (stop closes those left); its outbox counts
+        into the metrics."""
+        session.outbox.traffic = self.metrics.traffic
         self.sessions.add(session)
         session.on_close.append(self.sessions.discard)
         return session
@@ -107,6 +114,8 @@ class HitrobotServer:
         s, plan = self.settings, self.plan
         secret = _secret(s.session)  # first: a missing secret is refused before anything starts
         await self._start_recording()
+        self.bus.taps.append(self.metrics.publishes)
+        self.metrics.loop.start()
         self._rosout = RosoutHandler(self.bus, s.process.log_level.upper())
         logging.getLogger(PACKAGE_LOGGER).addHandler(self._rosout)
         tag = await self._start_link() if plan.zenoh else ""
@@ -156,7 +165,9 @@ class HitrobotServer:
         console = _web_console()
         self._ws_console = console is not None
         recordings = None if session.authenticate else self.settings.store.recordings
-        http_handler = WithRecordings(console, recordings)
+        pages = None if session.authenticate else {
+            "/metrics": self.metrics.metrics_page, "/healthz": self.metrics.health_page}
+        http_handler = WithRecordings(console, recordings, pages)
         worker = {WORKER_HEADER: str(plan.worker_id)} if plan.worker else None
         self._downloads = Downloads(http_handler.resolve, (worker or {}).items())
         self._ws = await start_websocket(
@@ -214,6 +225,7 @@ class HitrobotServer:
         for session in list(self.sessions):
             session.close()
         self.pool.shutdown()
+        self.metrics.loop.stop()
         await stop_robots(self.nodes, self.robots)
         self.nodes.clear()
         self.robots.clear()

@@ -152,6 +152,7 @@ class StaticFiles:
 
 
 RECORDINGS_PREFIX = "/recordings/"
+Page = Callable[[], tuple[int, str, bytes]]  # a generated page: status, content type, body
 
 
 class WithRecordings:
@@ -161,11 +162,14 @@ class WithRecordings:
     :mod:`.download`, which takes those connections before websockets; what reaches this
     handler under ``/recordings/`` is refused (405 for another method, else 404)."""
 
-    def __init__(self, static: StaticFiles | None, folder: Path | None):
+    def __init__(self, static: StaticFiles | None, folder: Path | None,
+                 pages: dict[str, Page] | None = None):
         """``folder`` None: downloads are off (``--authenticate``: HTTP has no rosauth, and a
-        recording is the robot's data)."""
+        recording is the robot's data). ``pages``: path → what answers it, made on each
+        request (``/metrics``, ``/healthz``)."""
         self.static = static
         self.folder = folder
+        self.pages = pages or {}
 
     def resolve(self, raw_path: str) -> Path | None:
         if self.folder is None or not raw_path.startswith(RECORDINGS_PREFIX):
@@ -181,6 +185,9 @@ class WithRecordings:
         return file if file.parent == root and file.is_file() else None
 
     def __call__(self, ws, request: Request) -> Response:
+        page = self.pages.get(request.path.split("?", 1)[0])
+        if page is not None:
+            return _page(request, page)
         if not request.path.startswith(RECORDINGS_PREFIX):
             if self.static is None:
                 return ws.respond(426, "This is a WebSocket endpoint (hitrobot protocol).\n")
@@ -188,6 +195,16 @@ class WithRecordings:
         _method, refusal = _lookup(request, lambda _path: None)  # nothing served here
         assert isinstance(refusal, Response)
         return refusal
+
+
+def _page(request: Request, page: Page) -> Response:
+    """A page made now (no caching), for GET and HEAD."""
+    method = getattr(request, "method", "GET")
+    if method not in ("GET", "HEAD"):
+        return _response(405, b"Method not allowed\n", [("Allow", "GET, HEAD")])
+    status, content_type, body = page()
+    return _response(status, body, [("Content-Type", content_type), ("Cache-Control", "no-store")],
+                     head=method == "HEAD")
 
 
 def _lookup(request: Request, resolve: Callable[[str], Path | None]
