@@ -7,16 +7,18 @@ published per topic, and a small task measures how late the event loop wakes up.
 else (clients, queued bytes, requests in flight, robot links, the state stores, the recorder,
 the resident memory of every process of the server) is read when a scrape asks.
 
-With ``--workers N`` each worker answers for itself (the ``worker`` label on every sample:
-its clients, its topics, its robots) and reads the memory of every process of the server
-from /proc (the parent, every worker and their children), so whichever worker the kernel
-hands a scrape to reports the whole server's memory; the per-topic counts of a worker's
-clients are in that worker's answer (``worker`` label), see deploy/README.md.
+With ``--workers N`` every sample carries a ``worker`` label, and a scrape, whichever worker
+the kernel hands it to, covers them all: each worker also serves its own samples on a unix
+socket in the workers' private folder (``$HITROBOT_METRICS_DIR``, set by the parent), and the
+worker that answers reads the others' there (bounded in size and time) and merges them into
+one family per name. Each worker reports its own memory and its children's; worker 0 also
+the parent's.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import os
 import time
@@ -28,6 +30,7 @@ from typing import Any
 from prometheus_client import CollectorRegistry, generate_latest
 from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Metric
 from prometheus_client.exposition import CONTENT_TYPE_LATEST
+from prometheus_client.parser import text_string_to_metric_families
 
 from . import procmem
 from .bus.names import CLIENT_NODE_PREFIX
@@ -41,6 +44,9 @@ from .session.rosbridge.session import Session
 from .session.traffic import Traffic
 from .wire.encoded import Encoded, Seed
 
+METRICS_DIR = "HITROBOT_METRICS_DIR"  # the environment variable the --workers parent sets
+PEER_TIMEOUT = 2.0  # seconds to read another worker's samples
+PEER_LIMIT = 32 * 1024 * 1024  # bytes of another worker's samples, at most
 LOOP_PERIOD = 0.5  # seconds between the loop watch's wake-ups
 LOOP_STALL = 2.0  # a wake-up this late (or none for this long): the loop is not answering
 Page = tuple[int, str, bytes]  # status, content type, body
@@ -116,12 +122,46 @@ class ServerMetrics:
         self.loop = LoopWatch()
         self._registry = CollectorRegistry(auto_describe=False)
         self._registry.register(self)
+        self._folder: Path | None = None
+        self._share: asyncio.AbstractServer | None = None
+
+    # ------------------------------------------------------------------ --workers
+    async def share(self, folder: str) -> None:
+        """Serve this worker's samples to the other workers on ``folder``/metrics-N.sock."""
+        self._folder = Path(folder)
+
+        async def send(_reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            writer.write(generate_latest(self._registry))
+            with contextlib.suppress(ConnectionError, TimeoutError):
+                await asyncio.wait_for(writer.drain(), PEER_TIMEOUT)
+            writer.close()
+
+        self._share = await asyncio.start_unix_server(
+            send, str(self._folder / f"metrics-{self.sources.worker}.sock"))
+
+    def unshare(self) -> None:
+        if self._share is not None:
+            self._share.close()
+            self._share = None
+
+    async def _peers(self) -> list[str]:
+        """The other workers' samples (those that answer in time)."""
+        if self._folder is None:
+            return []
+        own = f"metrics-{self.sources.worker}.sock"
+        paths = [p for p in self._folder.glob("metrics-*.sock") if p.name != own]
+        texts = await asyncio.gather(*(_read_peer(p) for p in paths))
+        return [t for t in texts if t]
 
     # ------------------------------------------------------------------ pages
-    def metrics_page(self) -> Page:
-        return 200, CONTENT_TYPE_LATEST, generate_latest(self._registry)
+    async def metrics_page(self) -> Page:
+        own = generate_latest(self._registry)
+        peers = await self._peers()
+        if not peers:
+            return 200, CONTENT_TYPE_LATEST, own
+        return 200, CONTENT_TYPE_LATEST, _merged([own.decode(), *peers])
 
-    def health_page(self) -> Page:
+    async def health_page(self) -> Page:
         health = self.health()
         body = json.dumps(health, indent=1).encode() + b"\n"
         return (200 if health["ok"] else 503), "application/json", body
@@ -237,6 +277,42 @@ class ServerMetrics:
         yield from (running, dropped)
 
 
+async def _read_peer(path: Path) -> str:
+    try:
+        reader, writer = await asyncio.wait_for(asyncio.open_unix_connection(str(path)),
+                                                PEER_TIMEOUT)
+    except (OSError, TimeoutError):
+        return ""  # a worker starting again, or gone
+    try:
+        data = await asyncio.wait_for(reader.read(PEER_LIMIT), PEER_TIMEOUT)
+        return data.decode(errors="replace")
+    except (OSError, TimeoutError):
+        return ""
+    finally:
+        writer.close()
+
+
+def _merged(texts: list[str]) -> bytes:
+    """Several workers' samples as one exposition: one family per name (each sample keeps
+    its ``worker`` label, so none repeats)."""
+    families: dict[str, Metric] = {}
+    for text in texts:
+        for family in text_string_to_metric_families(text):
+            merged = families.get(family.name)
+            if merged is None:
+                merged = families[family.name] = Metric(
+                    family.name, family.documentation, family.type)
+            merged.samples += family.samples
+
+    class Merged:
+        def collect(self) -> Iterator[Metric]:
+            return iter(families.values())
+
+    registry = CollectorRegistry(auto_describe=False)
+    registry.register(Merged())
+    return generate_latest(registry)
+
+
 def _link_up(unit: RobotUnit) -> bool:
     return unit.backend is not None and unit.backend.connected
 
@@ -263,10 +339,11 @@ def _recorder_health(control: RecordingControl | None) -> dict[str, Any]:
 
 
 def _workers_health(worker: int | None) -> dict[str, Any]:
+    """With --workers: the workers the parent runs now (this one answering)."""
     if worker is None:
         return {"ok": True, "workers": 1}
-    running = sum(1 for _pid, role in _server_processes(worker) if role.startswith("worker"))
-    return {"ok": running >= 1, "worker": worker, "running": running}
+    running = [pid for pid in procmem.children(os.getppid()) if "--worker-id" in _cmdline(pid)]
+    return {"ok": len(running) >= 1, "worker": worker, "running": len(running)}
 
 
 def _server_processes(worker: int | None) -> list[tuple[int, str]]:
@@ -275,11 +352,9 @@ def _server_processes(worker: int | None) -> list[tuple[int, str]]:
     me = os.getpid()
     if worker is None:
         return [(me, "server"), *_children(me)]
-    parent = os.getppid()
-    found = [(parent, "supervisor")]
-    for pid in procmem.children(parent):
-        found.append((pid, _worker_role(pid)))
-        found += _children(pid)
+    found = [(me, f"worker {worker}"), *_children(me)]
+    if worker == 0:
+        found.append((os.getppid(), "supervisor"))
     return found
 
 
@@ -292,13 +367,6 @@ def _cmdline(pid: int) -> list[str]:
         return Path(f"/proc/{pid}/cmdline").read_bytes().decode(errors="replace").split("\0")
     except OSError:
         return []
-
-
-def _worker_role(pid: int) -> str:
-    args = _cmdline(pid)
-    if "--worker-id" in args[:-1]:
-        return f"worker {args[args.index('--worker-id') + 1]}"
-    return "child"
 
 
 def _child_role(pid: int) -> str:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import os
 import ssl
 from typing import TypeVar
 
@@ -13,7 +14,7 @@ from .bus.core import Bus
 from .bus.rosout import RosoutHandler
 from .bus.zenoh.keys import endpoints
 from .config import Settings
-from .metrics import ServerMetrics, Sources
+from .metrics import METRICS_DIR, ServerMetrics, Sources
 from .nodes.base import Node
 from .protocol.auth import load_secret
 from .protocol.foxglove import SUBPROTOCOLS as FOXGLOVE_SUBPROTOCOLS
@@ -122,6 +123,8 @@ class HitrobotServer:
         self._session_options = s.session.for_sessions(secret, tag)
         self.nodes, self.robots = await start_planned(self.bus, s, plan)
         await self._start_listeners()
+        if plan.worker and os.environ.get(METRICS_DIR):  # one scrape covers every worker
+            await self.metrics.share(os.environ[METRICS_DIR])
 
     async def _start_recording(self) -> None:
         s = self.settings
@@ -226,6 +229,7 @@ class HitrobotServer:
             session.close()
         self.pool.shutdown()
         self.metrics.loop.stop()
+        self.metrics.unshare()
         await stop_robots(self.nodes, self.robots)
         self.nodes.clear()
         self.robots.clear()

@@ -42,6 +42,7 @@ STOP_TIMEOUT = 10.0  # seconds a worker has to stop after SIGTERM before it is k
 QUICK_EXIT = 10.0  # a worker that dies sooner than this after starting is failing at once
 MAX_QUICK_EXITS = 5  # ... this many times in a row: give up and stop everything
 RESTART_PAUSE = (0.2, 5.0)  # the first pause before a restart, and the longest
+METRICS_DIR = "HITROBOT_METRICS_DIR"  # where the workers share their /metrics (metrics.py)
 SYSTEMD_VARIABLES = ("NOTIFY_SOCKET", "WATCHDOG_USEC", "WATCHDOG_PID")  # the parent's own
 
 
@@ -152,7 +153,7 @@ class Supervisor:
         return args  # only worker 0 starts the robots (StartPlan.primary)
 
     async def _spawn(self, worker: Worker) -> None:
-        proc = await start_worker(self._command(worker))
+        proc = await start_worker(self._command(worker), {METRICS_DIR: self._dir})
         worker.proc = proc
         worker.started = time.monotonic()
         try:
@@ -253,12 +254,12 @@ class _WorkerProtocol(asyncio.subprocess.SubprocessStreamProtocol):
             self.exited.set_result(self._process.get_returncode())
 
 
-async def start_worker(command: list[str]) -> WorkerProcess:
+async def start_worker(command: list[str], env: dict[str, str]) -> WorkerProcess:
     """Start a worker: stdin a pipe from us (its end tells it we are gone), stdout a pipe to
     us (its address), in its own session (Ctrl-C reaches the parent, which stops the workers);
-    without ``NOTIFY_SOCKET``: only the parent speaks to systemd."""
+    without ``NOTIFY_SOCKET``: only the parent speaks to systemd; ``env`` added."""
     loop = asyncio.get_running_loop()
-    env = {k: v for k, v in os.environ.items() if k not in SYSTEMD_VARIABLES}
+    env = {**{k: v for k, v in os.environ.items() if k not in SYSTEMD_VARIABLES}, **env}
     transport, protocol = await loop.subprocess_exec(
         lambda: _WorkerProtocol(2**16, loop), *command, stdin=subprocess.PIPE,
         stdout=subprocess.PIPE, stderr=None, start_new_session=True, env=env,

@@ -6,8 +6,10 @@ from __future__ import annotations
 import json
 
 from prometheus_client.parser import text_string_to_metric_families
+from websockets.asyncio.client import connect
 
-from .helpers import WsClient, round_trip
+from .helpers import ServerProcess, WsClient, round_trip
+from .test_process_tree import wait_for_line
 from .transport.test_http import http
 
 
@@ -87,3 +89,31 @@ async def test_not_served_with_authenticate(make_server, tmp_path):
     for path in ("/metrics", "/healthz"):
         status, _h, body = await http(server.port, "GET", path)
         assert status == 404 and b"hitrobot" not in body, path
+
+
+async def test_one_scrape_covers_every_worker():
+    """``--workers 2``: whichever worker answers, the scrape holds both workers' samples and
+    the memory of every process (the parent, both workers)."""
+    server = ServerProcess("--workers", "2")
+    clients = []
+    try:
+        wait_for_line(server, "(2 workers)")
+        seen: set[str] = set()
+        for _ in range(60):  # a client on each worker (the kernel spreads connections)
+            ws = await connect(f"ws://127.0.0.1:{server.port}")
+            clients.append(ws)
+            seen.add(ws.response.headers["X-Hitrobot-Worker"])
+            if seen == {"0", "1"}:
+                break
+        assert seen == {"0", "1"}
+        for _ in range(3):  # three scrapes, answered by either worker
+            m = await scrape(server.port)
+            per_worker = {dict(k)["worker"]: v for k, v in m["hitrobot_clients"].items()
+                          if dict(k)["protocol"] == "rosbridge" and dict(k)["transport"] == "ws"}
+            assert set(per_worker) == {"0", "1"} and sum(per_worker.values()) == len(clients)
+            roles = {dict(k)["role"] for k in m["hitrobot_process_resident_bytes"]}
+            assert {"supervisor", "worker 0", "worker 1"} <= roles
+    finally:
+        for ws in clients:
+            await ws.close()
+        server.stop()

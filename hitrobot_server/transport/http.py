@@ -13,7 +13,7 @@ from __future__ import annotations
 import email.utils
 import http
 import logging
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from pathlib import Path
 from urllib.parse import unquote
 
@@ -152,7 +152,7 @@ class StaticFiles:
 
 
 RECORDINGS_PREFIX = "/recordings/"
-Page = Callable[[], tuple[int, str, bytes]]  # a generated page: status, content type, body
+Page = Callable[[], Awaitable[tuple[int, str, bytes]]]  # made on request: status, type, body
 
 
 class WithRecordings:
@@ -184,10 +184,10 @@ class WithRecordings:
             return None
         return file if file.parent == root and file.is_file() else None
 
-    def __call__(self, ws, request: Request) -> Response:
+    async def __call__(self, ws, request: Request) -> Response:
         page = self.pages.get(request.path.split("?", 1)[0])
         if page is not None:
-            return _page(request, page)
+            return await _page(request, page)
         if not request.path.startswith(RECORDINGS_PREFIX):
             if self.static is None:
                 return ws.respond(426, "This is a WebSocket endpoint (hitrobot protocol).\n")
@@ -197,12 +197,12 @@ class WithRecordings:
         return refusal
 
 
-def _page(request: Request, page: Page) -> Response:
+async def _page(request: Request, page: Page) -> Response:
     """A page made now (no caching), for GET and HEAD."""
     method = getattr(request, "method", "GET")
     if method not in ("GET", "HEAD"):
         return _response(405, b"Method not allowed\n", [("Allow", "GET, HEAD")])
-    status, content_type, body = page()
+    status, content_type, body = await page()
     return _response(status, body, [("Content-Type", content_type), ("Cache-Control", "no-store")],
                      head=method == "HEAD")
 
