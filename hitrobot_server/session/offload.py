@@ -7,6 +7,10 @@ instead; smaller ones stay inline, where a pool round trip (~1 ms) would cost mo
 The pool starts on first use, so a server that never sees a big message never pays for it; the
 server owns it and shuts it down when it stops.
 
+A pool left idle for ``IDLE_STOP`` seconds is shut down (it starts again on the next big
+message): what a burst of big messages left in its processes (a parse's peak, the allocator's
+fragments) is given back rather than kept for the server's whole life.
+
 The pool's processes die with the server however it ends (kill -9 too): each asks Linux for
 SIGKILL when its parent dies (``PR_SET_PDEATHSIG``). Without that an idle pool process waits
 for work forever, and keeps multiprocessing's resource tracker (whose pipe it holds) alive too;
@@ -37,6 +41,9 @@ WORKER_NICENESS = 10
 (every client's answers) gets the CPU first, the big message's encoding what is left."""
 
 
+IDLE_STOP = 300.0
+"""Seconds without a task after which the pool's processes are stopped (memory given back)."""
+
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 
@@ -62,9 +69,12 @@ def _start_worker(parent: int) -> None:
 class WorkerPool:
     """The worker processes of one server (made at the top, shut down when it stops)."""
 
-    def __init__(self, workers: int = WORKERS):
+    def __init__(self, workers: int = WORKERS, idle_stop: float = IDLE_STOP):
         self.workers = workers
+        self.idle_stop = idle_stop
         self._pool: ProcessPoolExecutor | None = None
+        self._running = 0  # tasks in the pool now
+        self._idle: asyncio.TimerHandle | None = None  # stops an idle pool
 
     def _executor(self) -> ProcessPoolExecutor:
         if self._pool is None:
@@ -79,15 +89,27 @@ class WorkerPool:
     async def run(self, fn: Callable[..., T], *args: Any) -> T:
         """``fn(*args)`` in the worker pool; a crashed pool is replaced for the next call."""
         pool = self._executor()
+        loop = asyncio.get_running_loop()
+        if self._idle is not None:
+            self._idle.cancel()
+            self._idle = None
+        self._running += 1
         try:
-            return await asyncio.get_running_loop().run_in_executor(pool, fn, *args)
+            return await loop.run_in_executor(pool, fn, *args)
         except BrokenProcessPool:
             if self._pool is pool:
                 self._pool = None
             raise
+        finally:
+            self._running -= 1
+            if not self._running and self._pool is pool and self.idle_stop > 0:
+                self._idle = loop.call_later(self.idle_stop, self.shutdown)
 
     def shutdown(self) -> None:
         """Stop the workers (they start again on the next :meth:`run`)."""
         pool, self._pool = self._pool, None
+        if self._idle is not None:
+            self._idle.cancel()
+            self._idle = None
         if pool is not None:
             pool.shutdown(wait=False, cancel_futures=True)
