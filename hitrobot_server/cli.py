@@ -11,7 +11,7 @@ import sys
 from . import __version__
 from .commands import run_command
 from .config import Settings, add_arguments, load
-from .signals import until_terminated
+from .signals import serve_until_terminated
 
 TOOLS = {
     "conformance": "hitrobot_server.conformance.runner",
@@ -62,24 +62,32 @@ async def serve(settings: Settings) -> None:
     server = HitrobotServer(settings)
     loop = asyncio.get_running_loop()
     logging.getLogger(__name__).info("event loop: %s", type(loop).__module__.split(".")[0])
-    await server.start()
-    print(server.banner(), flush=True)
     try:
         if settings.worker_id is None:
-            await until_terminated()
-        else:  # one of --workers: also stop when the parent is gone
-            await _first(until_terminated(), until_stdin_closed())
+            await _run(server)
+        else:  # one of --workers: also stop when the parent is gone, even while starting
+            await _first(_run(server), until_stdin_closed())
     finally:
         await server.stop()
 
 
+async def _run(server) -> None:
+    """Start, say so (stdout, and systemd), serve until Ctrl-C/SIGTERM."""
+    await server.start()
+    print(server.banner(), flush=True)
+    await serve_until_terminated(server.banner())
+
+
 async def _first(*waits) -> None:
+    """Until the first of ``waits`` ends (its error raised); the others are cancelled."""
     tasks = [asyncio.ensure_future(w) for w in waits]
     try:
-        await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+        done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
     finally:
         for task in tasks:
             task.cancel()
+    for task in done:
+        task.result()
 
 
 async def until_stdin_closed() -> None:

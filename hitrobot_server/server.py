@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import os
 import ssl
 from typing import TypeVar
 
@@ -13,6 +14,7 @@ from .bus.core import Bus
 from .bus.rosout import RosoutHandler
 from .bus.zenoh.keys import endpoints
 from .config import Settings
+from .metrics import METRICS_DIR, ServerMetrics, Sources
 from .nodes.base import Node
 from .protocol.auth import load_secret
 from .protocol.foxglove import SUBPROTOCOLS as FOXGLOVE_SUBPROTOCOLS
@@ -25,6 +27,7 @@ from .session.offload import WorkerPool
 from .session.options import SessionOptions
 from .session.rosbridge.session import Session, Shared
 from .state import StateBinding
+from .transport.download import Downloads
 from .transport.http import StaticFiles, WithRecordings, default_web_root, missing_libraries
 from .transport.options import TransportOptions
 from .transport.tcp import start_tcp
@@ -63,17 +66,24 @@ class HitrobotServer:
         self._ws = None
         self._tcp: asyncio.Server | None = None
         self._tls: HandshakeGate | None = None
+        self._downloads: Downloads | None = None  # recordings streamed from their files
         self._ws_console = False
         self.port: int | None = None
         self.tcp_port: int | None = None
         self._rosout: RosoutHandler | None = None
         self.recording: RecordingControl | None = None
+        self.metrics = ServerMetrics(Sources(
+            sessions=lambda: self.sessions, robots=lambda: self.robots,
+            recording=lambda: self.recording, worker=self.plan.worker_id
+            if self.plan.worker else None))
 
     def _options(self) -> SessionOptions:
         return self._session_options or self.settings.session.for_sessions()
 
     def _track(self, session: T) -> T:
-        """Keep a new session until it closes (stop closes those left)."""
+        """Keep a new session until it closes (stop closes those left); its outbox counts
+        into the metrics."""
+        session.outbox.traffic = self.metrics.traffic
         self.sessions.add(session)
         session.on_close.append(self.sessions.discard)
         return session
@@ -105,12 +115,16 @@ class HitrobotServer:
         s, plan = self.settings, self.plan
         secret = _secret(s.session)  # first: a missing secret is refused before anything starts
         await self._start_recording()
+        self.bus.taps.append(self.metrics.publishes)
+        self.metrics.loop.start()
         self._rosout = RosoutHandler(self.bus, s.process.log_level.upper())
         logging.getLogger(PACKAGE_LOGGER).addHandler(self._rosout)
         tag = await self._start_link() if plan.zenoh else ""
         self._session_options = s.session.for_sessions(secret, tag)
         self.nodes, self.robots = await start_planned(self.bus, s, plan)
         await self._start_listeners()
+        if plan.worker and os.environ.get(METRICS_DIR):  # one scrape covers every worker
+            await self.metrics.share(os.environ[METRICS_DIR])
 
     async def _start_recording(self) -> None:
         s = self.settings
@@ -154,6 +168,11 @@ class HitrobotServer:
         console = _web_console()
         self._ws_console = console is not None
         recordings = None if session.authenticate else self.settings.store.recordings
+        pages = None if session.authenticate else {
+            "/metrics": self.metrics.metrics_page, "/healthz": self.metrics.health_page}
+        http_handler = WithRecordings(console, recordings, pages)
+        worker = {WORKER_HEADER: str(plan.worker_id)} if plan.worker else None
+        self._downloads = Downloads(http_handler.resolve, (worker or {}).items())
         self._ws = await start_websocket(
             self.protocols,
             t.address,
@@ -161,12 +180,13 @@ class HitrobotServer:
             max_frame_size=session.max_frame_size,
             delay_between_messages=t.delay_between_messages,
             compression=t.use_compression,
-            http_handler=WithRecordings(console, recordings),
+            http_handler=http_handler,
             tls=tls,
             ping_interval=t.websocket_ping_interval,
             ping_timeout=t.websocket_ping_timeout,
             reuse_port=plan.worker,
-            headers={WORKER_HEADER: str(plan.worker_id)} if plan.worker else None,
+            headers=worker,
+            downloads=self._downloads,
         )
         self.port = self._ws.sockets[0].getsockname()[1] if self._ws.sockets else t.port
         if plan.tcp:
@@ -203,9 +223,13 @@ class HitrobotServer:
         if self._tcp is not None:
             with contextlib.suppress(Exception):
                 await asyncio.wait_for(self._tcp.wait_closed(), 5)
+        if self._downloads is not None:
+            self._downloads.close()
         for session in list(self.sessions):
             session.close()
         self.pool.shutdown()
+        self.metrics.loop.stop()
+        self.metrics.unshare()
         await stop_robots(self.nodes, self.robots)
         self.nodes.clear()
         self.robots.clear()

@@ -1,10 +1,21 @@
-"""Waiting for Ctrl-C or a service manager's SIGTERM, for every long-running command."""
+"""Waiting for Ctrl-C or a service manager's SIGTERM, for every long-running command, and
+telling systemd how the service is doing (``sd_notify``: ready, alive, stopping).
+
+systemd's notify protocol is one datagram of ``KEY=VALUE`` lines to the unix socket named by
+``$NOTIFY_SOCKET`` (``@`` first: Linux's abstract namespace); without that variable nothing is
+sent. ``$WATCHDOG_USEC`` (with ``$WATCHDOG_PID``, when it names us) asks for ``WATCHDOG=1`` at
+least that often: it is sent from the event loop, so a loop that stops answering stops it and
+systemd restarts the service.
+"""
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import os
 import signal
+import socket
+from collections.abc import Mapping
 
 
 async def until_terminated() -> None:
@@ -15,3 +26,48 @@ async def until_terminated() -> None:
         with contextlib.suppress(NotImplementedError):  # platforms without signal handlers
             loop.add_signal_handler(sig, stop.set)
     await stop.wait()
+
+
+class ServiceNotifier:
+    """``sd_notify`` for the process systemd started (a no-op without ``$NOTIFY_SOCKET``)."""
+
+    def __init__(self, environ: Mapping[str, str] | None = None):
+        env = os.environ if environ is None else environ
+        name = env.get("NOTIFY_SOCKET", "")
+        self.address = "\0" + name[1:] if name.startswith("@") else name
+        usec = env.get("WATCHDOG_USEC", "")
+        pid = env.get("WATCHDOG_PID", "")
+        ours = not pid or pid == str(os.getpid())
+        self.watchdog = int(usec) / 1e6 if usec.isdigit() and int(usec) > 0 and ours else 0.0
+
+    def notify(self, *states: str) -> bool:
+        """Send ``states`` (``READY=1``...); False when there is nobody to tell or it failed."""
+        if not self.address:
+            return False
+        with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM | socket.SOCK_CLOEXEC) as sock:
+            try:
+                sock.sendto("\n".join(states).encode(), self.address)
+            except OSError:
+                return False
+        return True
+
+    async def keep_alive(self) -> None:
+        """``WATCHDOG=1`` at half the asked period, for as long as the event loop runs it."""
+        if not self.watchdog or not self.address:
+            return
+        while True:
+            self.notify("WATCHDOG=1")
+            await asyncio.sleep(self.watchdog / 2)
+
+
+async def serve_until_terminated(status: str = "") -> None:
+    """Tell systemd the service is ready, keep its watchdog fed, and return when SIGINT or
+    SIGTERM arrives, after telling it the service is stopping."""
+    notifier = ServiceNotifier()
+    notifier.notify("READY=1", *([f"STATUS={status}"] if status else []))
+    alive = asyncio.ensure_future(notifier.keep_alive())
+    try:
+        await until_terminated()
+    finally:
+        alive.cancel()
+        notifier.notify("STOPPING=1")

@@ -19,9 +19,11 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import os
 import shutil
 import signal
 import socket
+import subprocess
 import sys
 import tempfile
 import time
@@ -31,7 +33,7 @@ from pathlib import Path
 from . import __version__
 from .bus.zenoh.keys import endpoints
 from .config import Settings
-from .signals import until_terminated
+from .signals import serve_until_terminated
 
 log = logging.getLogger(__name__)
 
@@ -40,6 +42,8 @@ STOP_TIMEOUT = 10.0  # seconds a worker has to stop after SIGTERM before it is k
 QUICK_EXIT = 10.0  # a worker that dies sooner than this after starting is failing at once
 MAX_QUICK_EXITS = 5  # ... this many times in a row: give up and stop everything
 RESTART_PAUSE = (0.2, 5.0)  # the first pause before a restart, and the longest
+METRICS_DIR = "HITROBOT_METRICS_DIR"  # where the workers share their /metrics (metrics.py)
+SYSTEMD_VARIABLES = ("NOTIFY_SOCKET", "WATCHDOG_USEC", "WATCHDOG_PID")  # the parent's own
 
 
 def check_zenoh() -> None:
@@ -90,7 +94,7 @@ class Worker:
 
     index: int
     generation: int = 0
-    proc: asyncio.subprocess.Process | None = None
+    proc: WorkerProcess | None = None
     started: float = 0.0
     quick_exits: int = 0
     socket_path: str = ""
@@ -149,15 +153,9 @@ class Supervisor:
         return args  # only worker 0 starts the robots (StartPlan.primary)
 
     async def _spawn(self, worker: Worker) -> None:
-        proc = await asyncio.create_subprocess_exec(
-            *self._command(worker),
-            stdin=asyncio.subprocess.PIPE,
-            stdout=asyncio.subprocess.PIPE,
-            start_new_session=True,  # Ctrl-C reaches the parent, which stops the workers
-        )
+        proc = await start_worker(self._command(worker), {METRICS_DIR: self._dir})
         worker.proc = proc
         worker.started = time.monotonic()
-        assert proc.stdout is not None
         try:
             line = await asyncio.wait_for(self._ready_line(proc), START_TIMEOUT)
         except TimeoutError:
@@ -171,7 +169,7 @@ class Supervisor:
         task.add_done_callback(self._watchers.discard)
 
     @staticmethod
-    async def _ready_line(proc: asyncio.subprocess.Process) -> str:
+    async def _ready_line(proc: WorkerProcess) -> str:
         """The worker's first line on stdout is its address: it is serving."""
         assert proc.stdout is not None
         while raw := await proc.stdout.readline():
@@ -180,12 +178,14 @@ class Supervisor:
                 return line
         return ""
 
-    async def _watch(self, worker: Worker, proc: asyncio.subprocess.Process) -> None:
-        """Wait for the worker to exit; unless stopping, start it again (bounded)."""
-        assert proc.stdout is not None
-        while await proc.stdout.readline():  # keep its pipe drained
-            pass
-        code = f"exit code {await proc.wait()}"
+    async def _watch(self, worker: Worker, proc: WorkerProcess) -> None:
+        """Wait for the worker to exit; unless stopping, start it again (bounded). Its exit,
+        not the end of its stdout: a child it left behind may hold that pipe open."""
+        drain = asyncio.create_task(_drain(proc))
+        try:
+            code = f"exit code {await proc.exited}"
+        finally:
+            drain.cancel()
         while not self.stopping:
             quick = time.monotonic() - worker.started < QUICK_EXIT
             worker.quick_exits = worker.quick_exits + 1 if quick else 0
@@ -208,13 +208,15 @@ class Supervisor:
                 log.error("%s", exc)
                 code = "it did not start"
 
-    async def wait(self) -> None:
-        """Until Ctrl-C/SIGTERM, or until a worker cannot be kept running."""
-        stop = asyncio.create_task(until_terminated())
+    async def wait(self, status: str = "") -> None:
+        """Until Ctrl-C/SIGTERM, or until a worker cannot be kept running (systemd told that
+        the service is ready, then that it stops)."""
+        stop = asyncio.create_task(serve_until_terminated(status))
         gave_up = asyncio.create_task(self._gave_up.wait())
         await asyncio.wait({stop, gave_up}, return_when=asyncio.FIRST_COMPLETED)
         for task in (stop, gave_up):
             task.cancel()
+        await asyncio.gather(stop, gave_up, return_exceptions=True)  # STOPPING=1 sent
 
     async def stop(self) -> None:
         self.stopping = True
@@ -229,17 +231,62 @@ class Supervisor:
             shutil.rmtree(self._dir, ignore_errors=True)
 
 
-async def _terminate(proc: asyncio.subprocess.Process) -> None:
+class WorkerProcess(asyncio.subprocess.Process):
+    """A worker's process with ``exited``: its exit code as soon as it exits. asyncio's own
+    ``wait()`` also waits for its pipes to close, which a child left behind can hold open."""
+
+    exited: asyncio.Future[int]
+
+
+class _WorkerProtocol(asyncio.subprocess.SubprocessStreamProtocol):
+    def __init__(self, limit: int, loop: asyncio.AbstractEventLoop):
+        super().__init__(limit=limit, loop=loop)
+        self.exited: asyncio.Future[int] = loop.create_future()
+        self._process: asyncio.SubprocessTransport | None = None
+
+    def connection_made(self, transport) -> None:  # type: ignore[override]
+        super().connection_made(transport)
+        self._process = transport
+
+    def process_exited(self) -> None:
+        super().process_exited()
+        if not self.exited.done() and self._process is not None:
+            self.exited.set_result(self._process.get_returncode())
+
+
+async def start_worker(command: list[str], env: dict[str, str]) -> WorkerProcess:
+    """Start a worker: stdin a pipe from us (its end tells it we are gone), stdout a pipe to
+    us (its address), in its own session (Ctrl-C reaches the parent, which stops the workers);
+    without ``NOTIFY_SOCKET``: only the parent speaks to systemd; ``env`` added."""
+    loop = asyncio.get_running_loop()
+    env = {**{k: v for k, v in os.environ.items() if k not in SYSTEMD_VARIABLES}, **env}
+    transport, protocol = await loop.subprocess_exec(
+        lambda: _WorkerProtocol(2**16, loop), *command, stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE, stderr=None, start_new_session=True, env=env,
+    )
+    proc = WorkerProcess(transport, protocol, loop)
+    proc.exited = protocol.exited
+    return proc
+
+
+async def _drain(proc: WorkerProcess) -> None:
+    """Keep reading a worker's stdout, so that it never blocks on a full pipe."""
+    assert proc.stdout is not None
+    while await proc.stdout.read(2**16):
+        pass
+
+
+async def _terminate(proc: WorkerProcess) -> None:
     """SIGTERM, then SIGKILL if the worker has not stopped in time."""
-    if proc.returncode is None:
+    if not proc.exited.done():
         with contextlib.suppress(ProcessLookupError):
             proc.send_signal(signal.SIGTERM)
         try:
-            await asyncio.wait_for(proc.wait(), STOP_TIMEOUT)
+            await asyncio.wait_for(asyncio.shield(proc.exited), STOP_TIMEOUT)
         except TimeoutError:
             with contextlib.suppress(ProcessLookupError):
                 proc.kill()
-            await proc.wait()
+            await proc.exited
 
 
 async def supervise(settings: Settings, argv: list[str]) -> None:
@@ -251,9 +298,10 @@ async def supervise(settings: Settings, argv: list[str]) -> None:
         ws, tcp = settings.transport.schemes()
         address = settings.transport.address
         tcp_text = f"  {tcp}://{address}:{supervisor.tcp_port}" if supervisor.tcp_port else ""
-        print(f"hitrobot-server {__version__}: {ws}://{address}:{supervisor.port}{tcp_text}"
-              f"  ({supervisor.count} workers)", flush=True)
-        await supervisor.wait()
+        banner = (f"hitrobot-server {__version__}: {ws}://{address}:{supervisor.port}"
+                  f"{tcp_text}  ({supervisor.count} workers)")
+        print(banner, flush=True)
+        await supervisor.wait(banner)
     finally:
         await supervisor.stop()
     if supervisor.failed:

@@ -34,7 +34,9 @@ ALLOWED: dict[str, set[str]] = {
     "config": {"session", "transport", "bus", "nodes", "robot", "record", "protocol", "types",
                "state"},
     "server": {"config", "robots", "transport", "session", "bus", "nodes", "robot", "record",
-               "protocol", "types", "state"},
+               "protocol", "types", "state", "metrics"},
+    # /metrics and /healthz: read the server's parts when scraped (beside server, below it)
+    "metrics": {"robots", "session", "bus", "record", "wire", "procmem"},
     # one robot = backend + nodes (+ its state folder, robot_state)
     "robots": {"config", "bus", "nodes", "robot", "types", "state", "robot_state"},
     "robot_state": {"nodes", "robot", "state"},

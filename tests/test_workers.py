@@ -3,16 +3,24 @@ clear error when Zenoh is missing."""
 
 from __future__ import annotations
 
+import os
+import signal
 import socket
 import subprocess
 import sys
+import time
+from pathlib import Path
 
 import pytest
+from websockets.asyncio.client import connect
 
 from hitrobot_server.cli import build_parser
 from hitrobot_server.config import load
 from hitrobot_server.robots import start_plan
 from hitrobot_server.workers import reserve_port, without_workers_flag
+
+from .helpers import ServerProcess, WsClient, round_trip
+from .test_process_tree import BIG, alive, descendants, until_some, wait_for_line
 
 
 def free_port() -> int:
@@ -112,3 +120,35 @@ def test_a_port_in_use_is_a_clear_error():
                               "--robot", "none", "--port", str(port), "--tcp-port", "0"],
                              capture_output=True, text=True, timeout=60)
     assert out.returncode == 1 and "in use" in out.stderr
+
+
+async def test_a_killed_worker_0_with_a_pool_comes_back_in_seconds():
+    """kill -9 of worker 0 once its offload pool exists: a new worker 0 serves in seconds
+    (the parent waits for the process, not for its stdout, which the pool held open), and
+    the old worker's pool and resource tracker exit with it."""
+    server = ServerProcess("--workers", "2")
+    try:
+        wait_for_line(server, "(2 workers)")
+        for _ in range(50):  # the kernel spreads connections: find one on worker 0
+            ws = await connect(f"ws://127.0.0.1:{server.port}", max_size=None)
+            if ws.response.headers.get("X-Hitrobot-Worker") == "0":
+                break
+            await ws.close()
+        else:
+            raise AssertionError("no connection reached worker 0")
+        client = WsClient(ws)
+        await client.send({"op": "advertise", "topic": "/big", "type": "std_msgs/String"})
+        await client.send({"op": "publish", "topic": "/big", "msg": {"data": BIG}})
+        await round_trip(client, timeout=30)
+        await client.close()
+        worker0 = next(p for p in descendants(server.proc.pid)
+                       if b"--worker-id\x000\x00" in Path(f"/proc/{p}/cmdline").read_bytes())
+        left = descendants(worker0)
+        assert len(left) >= 2  # its pool's process and the resource tracker
+        os.kill(worker0, signal.SIGKILL)
+        killed = time.monotonic()
+        wait_for_line(server, "worker 0 (pid", timeout=30)
+        assert time.monotonic() - killed < 20  # a worker's own start (~5-9 s on a busy 2-core CI)
+        assert await until_some(lambda: not any(alive(p) for p in left), 20)
+    finally:
+        server.stop()

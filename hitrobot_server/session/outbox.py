@@ -37,6 +37,7 @@ from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 
 from ..wire.frames import Frame, Frames, PendingFrames
+from .traffic import Traffic
 
 DirectWrite = Callable[[list[Frame]], bool]
 
@@ -97,6 +98,7 @@ class Outbox:
         # means order is kept, and the common case costs no task switch (2x the fan-out rate).
         self.direct: DirectWrite | None = None
         self.busy = False  # the transport's pump is sending an entry
+        self.traffic: Traffic | None = None  # the server's counts per topic (/metrics)
 
     def attach_writer(self, direct: DirectWrite | None) -> None:
         """The transport's synchronous writer, used while nothing is queued (None: the pump
@@ -136,6 +138,8 @@ class Outbox:
         """
         if self.closed:
             return False
+        if droppable and self.traffic is not None:  # metrics hook: topic data, per topic
+            self.traffic.count_sent(key, nbytes(frames))
         pending = isinstance(frames, PendingFrames)
         if (not pending and not self._bytes and not self._control and not self._active
                 and not self.busy and self.direct is not None and self.direct(frames)):
@@ -195,6 +199,8 @@ class Outbox:
     def _count_drop(self, stream: _Stream) -> None:
         stream.dropped += 1
         self.dropped += 1
+        if self.traffic is not None:  # metrics hook: thinned per topic
+            self.traffic.count_thinned(stream.key)
         if stream.dropped == 1 and self.on_thinned is not None:
             self.on_thinned(stream.key)
 

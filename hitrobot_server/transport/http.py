@@ -10,13 +10,12 @@ Files are sent with ``Cache-Control: no-cache`` and an ``ETag``, so browsers rev
 
 from __future__ import annotations
 
-import asyncio
 import email.utils
 import http
 import logging
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from pathlib import Path
-from urllib.parse import quote, unquote
+from urllib.parse import unquote
 
 from websockets.datastructures import Headers
 from websockets.http11 import Request, Response
@@ -153,21 +152,27 @@ class StaticFiles:
 
 
 RECORDINGS_PREFIX = "/recordings/"
+Page = Callable[[], Awaitable[tuple[int, str, bytes]]]  # made on request: status, type, body
 
 
 class WithRecordings:
-    """The console's files, and ``GET /recordings/NAME.mcap``: a file of the recordings folder
-    as a download. Only plain ``*.mcap`` names directly in that folder are served (no
-    subfolders, no hidden files, nothing outside it after symlinks); anything else is 404."""
+    """The console's files, and where ``GET /recordings/NAME.mcap`` may download from: only
+    plain ``*.mcap`` names directly in the recordings folder (no subfolders, no hidden files,
+    nothing outside it after symlinks). The download itself is streamed from the file by
+    :mod:`.download`, which takes those connections before websockets; what reaches this
+    handler under ``/recordings/`` is refused (405 for another method, else 404)."""
 
-    def __init__(self, static: StaticFiles | None, folder: Path | None):
+    def __init__(self, static: StaticFiles | None, folder: Path | None,
+                 pages: dict[str, Page] | None = None):
         """``folder`` None: downloads are off (``--authenticate``: HTTP has no rosauth, and a
-        recording is the robot's data)."""
+        recording is the robot's data). ``pages``: path → what answers it, made on each
+        request (``/metrics``, ``/healthz``)."""
         self.static = static
         self.folder = folder
+        self.pages = pages or {}
 
     def resolve(self, raw_path: str) -> Path | None:
-        if self.folder is None:
+        if self.folder is None or not raw_path.startswith(RECORDINGS_PREFIX):
             return None
         name = unquote(raw_path.split("?", 1)[0].split("#", 1)[0]).removeprefix(RECORDINGS_PREFIX)
         if not name.endswith(".mcap") or name.startswith(".") or any(c in name for c in "/\\\0"):
@@ -180,21 +185,26 @@ class WithRecordings:
         return file if file.parent == root and file.is_file() else None
 
     async def __call__(self, ws, request: Request) -> Response:
+        page = self.pages.get(request.path.split("?", 1)[0])
+        if page is not None:
+            return await _page(request, page)
         if not request.path.startswith(RECORDINGS_PREFIX):
             if self.static is None:
                 return ws.respond(426, "This is a WebSocket endpoint (hitrobot protocol).\n")
             return self.static(ws, request)
-        method, file = _lookup(request, self.resolve)
-        if isinstance(file, Response):
-            return file
-        try:
-            size = file.stat().st_size if method == "HEAD" else None
-            body = b"" if method == "HEAD" else await asyncio.to_thread(file.read_bytes)
-        except OSError:
-            return _response(404, b"Not found\n", head=method == "HEAD")
-        headers = [("Content-Type", "application/octet-stream"), ("Cache-Control", "no-store"),
-                   ("Content-Disposition", f"attachment; filename*=UTF-8''{quote(file.name)}")]
-        return _response(200, body, headers, head=method == "HEAD", size=size)
+        _method, refusal = _lookup(request, lambda _path: None)  # nothing served here
+        assert isinstance(refusal, Response)
+        return refusal
+
+
+async def _page(request: Request, page: Page) -> Response:
+    """A page made now (no caching), for GET and HEAD."""
+    method = getattr(request, "method", "GET")
+    if method not in ("GET", "HEAD"):
+        return _response(405, b"Method not allowed\n", [("Allow", "GET, HEAD")])
+    status, content_type, body = await page()
+    return _response(status, body, [("Content-Type", content_type), ("Cache-Control", "no-store")],
+                     head=method == "HEAD")
 
 
 def _lookup(request: Request, resolve: Callable[[str], Path | None]

@@ -22,7 +22,9 @@ from websockets.protocol import State
 from websockets.typing import Subprotocol
 
 from ..session.client import ClientSession, WireProtocols
+from . import download
 from .connection import DIRECT_WRITE_LIMIT, keep_reading, run_session
+from .download import Downloads
 from .flight import FlightWindow
 from .http import QuietHttpLog
 from .tls import HandshakeGate, peer_address
@@ -129,13 +131,15 @@ async def start_websocket(
     ping_timeout: float = 30.0,
     reuse_port: bool = False,
     headers: dict[str, str] | None = None,
+    downloads: Downloads | None = None,
 ) -> Server:
     """Serve WebSocket (``wss://`` with ``tls``, its handshakes bounded by the gate); with
     ``ping_interval`` > 0 each client is pinged that often and dropped when it does not answer
     within ``ping_timeout``. A client gets the session of the first subprotocol it offers that
     ``protocols`` has, any other the default (rosbridge). ``reuse_port``: share the port with
     other processes (SO_REUSEPORT, ``--workers``); ``headers`` go on every response (handshake
-    and HTTP)."""
+    and HTTP); ``downloads`` takes the connections that ask for a recording (streamed, not
+    through websockets)."""
 
     async def handler(ws: ServerConnection) -> None:
         await _serve(ws, protocols, delay_between_messages)
@@ -161,7 +165,7 @@ async def start_websocket(
         ping_interval=ping_interval or None,
         ping_timeout=ping_timeout,
         max_queue=64,
-        create_connection=ServerConnection if tls is None else _gated(tls),
+        create_connection=_connection_class(tls, downloads),
     )
 
 
@@ -206,11 +210,71 @@ def _http_requests(http_handler: HttpHandler | None):
     return process_request
 
 
-def _gated(gate: HandshakeGate) -> type[ServerConnection]:
+def _connection_class(tls: HandshakeGate | None, downloads: Downloads | None
+                      ) -> type[ServerConnection]:
+    base = ServerConnection if downloads is None else _with_downloads(downloads)
+    return base if tls is None else _gated(tls, base)
+
+
+def _with_downloads(downloads: Downloads) -> type[ServerConnection]:
+    """A connection class that looks at the first bytes before websockets does: a recordings
+    download goes to ``downloads`` (websockets never sees it), anything else to websockets
+    as if nothing had happened. Until the first bytes say which, a timer bounds the wait."""
+
+    class SplitConnection(ServerConnection):
+        _peeked = b""
+        _decided = False
+        _held: asyncio.BaseTransport | None = None
+        _timer: asyncio.TimerHandle | None = None
+
+        def connection_made(self, transport: asyncio.BaseTransport) -> None:
+            self._held = transport
+            self._timer = asyncio.get_running_loop().call_later(
+                download.HEAD_TIMEOUT, transport.abort)
+            self._peek(b"")  # TLS may hand over the first bytes before the transport
+
+        def data_received(self, data: bytes) -> None:
+            if self._decided:
+                return super().data_received(data)
+            self._peek(data)
+
+        def _peek(self, data: bytes) -> None:
+            self._peeked += data
+            claimed = download.claims(self._peeked) if self._peeked else None
+            if claimed is not None and self._held is not None:
+                self._decide(claimed)
+
+        def _decide(self, claimed: bool) -> None:
+            self._decided = True
+            if self._timer is not None:
+                self._timer.cancel()
+            peeked, self._peeked = self._peeked, b""
+            if claimed:
+                downloads.take(self._held, peeked)  # type: ignore[arg-type]
+                return
+            super().connection_made(self._held)
+            if peeked:
+                super().data_received(peeked)
+
+        def eof_received(self) -> bool | None:
+            if not self._decided and self._held is not None:
+                self._decide(False)
+            return super().eof_received()
+
+        def connection_lost(self, exc: Exception | None) -> None:
+            if self._decided:
+                super().connection_lost(exc)
+            elif self._timer is not None:
+                self._timer.cancel()
+
+    return SplitConnection
+
+
+def _gated(gate: HandshakeGate, base: type[ServerConnection]) -> type[ServerConnection]:
     """A connection class that first runs the TLS handshake through ``gate`` and only then
     becomes a WebSocket connection (websockets' documented hook for custom connections)."""
 
-    class TlsServerConnection(ServerConnection):
+    class TlsServerConnection(base):  # type: ignore[valid-type,misc]
         _upgraded = False
 
         def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]

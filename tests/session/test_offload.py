@@ -10,6 +10,8 @@ from __future__ import annotations
 import asyncio
 import base64
 import io
+import os
+import time
 
 import cbor2
 import numpy as np
@@ -18,7 +20,9 @@ import pytest
 from PIL import Image
 
 from hitrobot_server.bus.core import Bus
+from hitrobot_server.procmem import children
 from hitrobot_server.protocol import bulk, cbor, rawmsg
+from hitrobot_server.session.offload import WorkerPool
 from hitrobot_server.session.options import SessionOptions
 from hitrobot_server.session.rosbridge.session import Session
 from hitrobot_server.types.convert import from_json
@@ -378,3 +382,20 @@ async def test_a_big_frame_before_auth_closes_without_parsing(bus):
     error = await next_op(s, "status")
     assert error["level"] == "error" and "not authenticated" in error["msg"]
     assert s.outbox.closed
+
+
+async def test_an_idle_pool_gives_its_processes_back_and_starts_again():
+    """After ``idle_stop`` seconds without a task the pool's process exits (its memory given
+    back); the next big op starts a new one."""
+    pool = WorkerPool(workers=1, idle_stop=0.3)
+    try:
+        first = await pool.run(os.getpid)
+        assert first in children(os.getpid())
+        deadline = time.monotonic() + 20
+        while first in children(os.getpid()) and time.monotonic() < deadline:
+            await asyncio.sleep(0.05)  # polling the process table, bounded
+        assert first not in children(os.getpid())
+        second = await pool.run(os.getpid)
+        assert second != first and second in children(os.getpid())
+    finally:
+        pool.shutdown()

@@ -1,0 +1,119 @@
+"""``GET /metrics`` (scraped with prometheus_client's own parser) and ``GET /healthz``
+(issue 36, item 6)."""
+
+from __future__ import annotations
+
+import json
+
+from prometheus_client.parser import text_string_to_metric_families
+from websockets.asyncio.client import connect
+
+from .helpers import ServerProcess, WsClient, round_trip
+from .test_process_tree import wait_for_line
+from .transport.test_http import http
+
+
+async def scrape(port: int) -> dict[str, dict[tuple, float]]:
+    """name → {labels (sorted items): value}, parsed by prometheus_client."""
+    status, headers, body = await http(port, "GET", "/metrics")
+    assert status == 200 and headers["content-type"].startswith("text/plain; version=")
+    samples: dict[str, dict[tuple, float]] = {}
+    for family in text_string_to_metric_families(body.decode()):
+        for sample in family.samples:
+            samples.setdefault(sample.name, {})[tuple(sorted(sample.labels.items()))] = (
+                sample.value)
+    return samples
+
+
+async def test_metrics_count_clients_topics_and_memory(make_server):
+    server = await make_server(robot="sim")
+    publisher = await WsClient.open(server.port)
+    listener = await WsClient.open(server.port)
+    try:
+        await listener.send({"op": "subscribe", "topic": "/chatter", "type": "std_msgs/String"})
+        await round_trip(listener)
+        await publisher.send({"op": "advertise", "topic": "/chatter", "type": "std_msgs/String"})
+        for i in range(3):
+            await publisher.send({"op": "publish", "topic": "/chatter", "msg": {"data": f"{i}"}})
+        for _ in range(3):
+            await listener.expect(op="publish", topic="/chatter")
+        m = await scrape(server.port)
+        clients = m["hitrobot_clients"]
+        assert clients[(("protocol", "rosbridge"), ("transport", "ws"))] == 2
+        assert clients[(("protocol", "foxglove"), ("transport", "ws"))] == 0
+        chatter = (("topic", "/chatter"),)
+        assert m["hitrobot_messages_received_total"][chatter] == 3
+        assert m["hitrobot_received_bytes_total"][chatter] > 3 * len('"data"')
+        assert m["hitrobot_messages_sent_total"][chatter] == 3
+        assert m["hitrobot_sent_bytes_total"][chatter] > 0
+        assert "hitrobot_messages_thinned_total" not in m or chatter not in m[
+            "hitrobot_messages_thinned_total"]
+        assert m["hitrobot_queued_bytes"][()] >= 0
+        assert m["hitrobot_requests_in_flight"][()] == 0
+        assert m["hitrobot_robot_link_up"][(("robot", "robot"),)] == 1
+        assert m["hitrobot_state_write_failures_total"][(("robot", "robot"),)] == 0
+        assert m["hitrobot_recording"][()] == 0 and m["hitrobot_recorder_dropped_total"][()] == 0
+        rss = m["hitrobot_process_resident_bytes"]
+        assert any(dict(k)["role"] == "server" and v > 10e6 for k, v in rss.items())
+        assert 0 <= m["hitrobot_event_loop_lag_seconds"][()] < 2
+    finally:
+        await publisher.close()
+        await listener.close()
+
+
+async def test_healthz_says_ok_and_what_it_checked(make_server):
+    server = await make_server(robot="sim")
+    status, headers, body = await http(server.port, "GET", "/healthz")
+    assert status == 200 and headers["content-type"] == "application/json"
+    health = json.loads(body)
+    assert health["ok"] and health["loop"]["ok"]
+    assert health["robots"]["links"] == [{"robot": "robot", "connected": True}]
+    assert health["recorder"] == {"ok": True, "recording": False}
+    assert health["state"]["ok"] and health["workers"]["ok"]
+
+
+async def test_healthz_is_503_when_the_robot_does_not_answer(make_server):
+    server = await make_server(robot="http://127.0.0.1:9")  # nobody listens there
+    status, _headers, body = await http(server.port, "GET", "/healthz")
+    health = json.loads(body)
+    assert status == 503 and not health["ok"]
+    assert health["robots"]["links"] == [{"robot": "robot", "connected": False}]
+    m = await scrape(server.port)
+    assert m["hitrobot_robot_link_up"][(("robot", "robot"),)] == 0
+
+
+async def test_not_served_with_authenticate(make_server, tmp_path):
+    secret = tmp_path / "secret"
+    secret.write_text("relaxthisisasecr\n")
+    server = await make_server(authenticate=True, auth_secret_file=str(secret))
+    for path in ("/metrics", "/healthz"):
+        status, _h, body = await http(server.port, "GET", path)
+        assert status == 404 and b"hitrobot" not in body, path
+
+
+async def test_one_scrape_covers_every_worker():
+    """``--workers 2``: whichever worker answers, the scrape holds both workers' samples and
+    the memory of every process (the parent, both workers)."""
+    server = ServerProcess("--workers", "2")
+    clients = []
+    try:
+        wait_for_line(server, "(2 workers)")
+        seen: set[str] = set()
+        for _ in range(60):  # a client on each worker (the kernel spreads connections)
+            ws = await connect(f"ws://127.0.0.1:{server.port}")
+            clients.append(ws)
+            seen.add(ws.response.headers["X-Hitrobot-Worker"])
+            if seen == {"0", "1"}:
+                break
+        assert seen == {"0", "1"}
+        for _ in range(3):  # three scrapes, answered by either worker
+            m = await scrape(server.port)
+            per_worker = {dict(k)["worker"]: v for k, v in m["hitrobot_clients"].items()
+                          if dict(k)["protocol"] == "rosbridge" and dict(k)["transport"] == "ws"}
+            assert set(per_worker) == {"0", "1"} and sum(per_worker.values()) == len(clients)
+            roles = {dict(k)["role"] for k in m["hitrobot_process_resident_bytes"]}
+            assert {"supervisor", "worker 0", "worker 1"} <= roles
+    finally:
+        for ws in clients:
+            await ws.close()
+        server.stop()
