@@ -319,15 +319,14 @@ def _link_up(unit: RobotUnit) -> bool:
 
 def _write_failures(unit: RobotUnit) -> int:
     store = unit.state.store
-    return 0 if store is None else sum(e.startswith("write failed") for e in store.errors)
+    return 0 if store is None else store.write_failures
 
 
 def _state_health(unit: RobotUnit) -> dict[str, Any]:
     store = unit.state.store
     assert store is not None
-    last = store.errors[-1] if store.errors else ""
-    return {"robot": unit.name or "robot", "ok": not last.startswith("write failed"),
-            "writes": store.writes, "last_error": last}
+    return {"robot": unit.name or "robot", "ok": store.healthy, "writes": store.writes,
+            "last_error": store.write_error or ""}
 
 
 def _recorder_health(control: RecordingControl | None) -> dict[str, Any]:
