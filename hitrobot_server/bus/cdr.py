@@ -82,6 +82,7 @@ class Ros2Codec:
                 for n, d in fields
             ],
         )
+        self.store.fielddefs.update(types.adopted)  # a replayed file's own definitions
         self._hashes: dict[str, str] = {}
         self._definitions: dict[str, str] = {}
         self._enc: dict[str, Build] = {}

@@ -268,6 +268,18 @@ class TypeRegistry:
         self.plans: defaultdict[str, dict[str, Any]] = defaultdict(dict)
         """Per-registry memo for the per-type plans codecs compile once: ``plans[kind][type
         name]`` (a plain mapping, read on every message without a call)."""
+        self.adopted: dict[str, Any] = {}
+        """ROS 2 definitions taken from a replayed recording in place of ours (its codecs follow
+        them too): :meth:`adopt`."""
+
+    def adopt(self, definitions: dict[str, tuple[Any, Any]]) -> None:
+        """Serve these ROS 2 definitions (a replayed file's own) in place of ours; only for a
+        registry of its own (``TypeRegistry()``, never :meth:`default`), before it is used."""
+        self.typestore.fielddefs.update(definitions)
+        self.adopted.update(definitions)
+        self._msgs.clear()
+        self._definitions.clear()
+        self.plans.clear()
 
     @classmethod
     def default(cls) -> TypeRegistry:

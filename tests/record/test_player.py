@@ -6,7 +6,8 @@ import asyncio
 import logging
 
 from hitrobot_server.bus.core import Bus
-from hitrobot_server.record.player import Player, load_recording
+from hitrobot_server.record.player import Player
+from hitrobot_server.record.reading import load_recording
 from hitrobot_server.record.recorder import Recorder
 from hitrobot_server.types.registry import TypeRegistry
 
@@ -39,7 +40,7 @@ async def test_plays_to_the_end_then_resume_starts_over(tmp_path):
                   lambda m: states.append(m.msg))
     recording = await asyncio.to_thread(load_recording, path, bus.types)
     assert abs(recording.duration - 0.38) < 1e-6
-    player = Player(bus, recording, speed=4.0)
+    player = Player(bus, recording, speed=4.0, play=True)
     await player.start()
     try:
         await until(lambda: states and states[-1]["paused"], "the end", 5)
@@ -63,7 +64,7 @@ async def test_topics_it_cannot_serve_are_left_out(tmp_path, caplog):
     assert "/record/state" not in {t.topic for t in recording.tracks.values()}
     got: list[str] = []
     bus.subscribe("/chatter", "std_msgs/String", "k", "/k", lambda m: got.append(m.msg["data"]))
-    player = Player(bus, recording, speed=10.0)
+    player = Player(bus, recording, speed=10.0, play=True)
     with caplog.at_level(logging.WARNING):
         await player.start()
     try:
