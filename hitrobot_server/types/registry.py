@@ -242,6 +242,15 @@ def _field(name: str, desc: tuple[Any, Any]) -> Field:
     return Field(name, desc[1], True, array)
 
 
+def replace_definitions(store: Typestore, definitions: _Typesdict) -> None:
+    """Register ``definitions`` in ``store`` in place of what it has of those names."""
+    for name in definitions:
+        store.fielddefs.pop(name, None)
+        store.types.pop(name, None)
+    store.cache.clear()
+    store.register(definitions)
+
+
 class TypeRegistry:
     """All known interface types; lookups are memoised because they sit on hot paths."""
 
@@ -275,7 +284,7 @@ class TypeRegistry:
     def adopt(self, definitions: dict[str, tuple[Any, Any]]) -> None:
         """Serve these ROS 2 definitions (a replayed file's own) in place of ours; only for a
         registry of its own (``TypeRegistry()``, never :meth:`default`), before it is used."""
-        self.typestore.fielddefs.update(definitions)
+        replace_definitions(self.typestore, definitions)
         self.adopted.update(definitions)
         self._msgs.clear()
         self._definitions.clear()
