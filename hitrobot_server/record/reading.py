@@ -187,12 +187,23 @@ class _Collect:
             self.complete = True
 
 
+def _mcap_of(path: Path) -> Path:
+    """A rosbag2 bag folder (``metadata.yaml`` beside the ``.mcap``) stands for its one file."""
+    if not path.is_dir():
+        return path
+    files = sorted(path.glob("*.mcap"))
+    if len(files) != 1:
+        raise RecordingError(f"{path} is a folder with {len(files)} .mcap files: name the one "
+                             "to replay")
+    return files[0]
+
+
 def load_recording(path: Path | str, types: TypeRegistry,
                    max_inflated: int = DEFAULT_MAX_INFLATED) -> Recording:
     """Read a recording (blocking; run it in a thread). Types the file defines differently from
     ``types`` (or that ``types`` lacks) are taken into ``types`` from the file's own schemas, so
     give it the replaying server's registry."""
-    path = Path(path)
+    path = _mcap_of(Path(path))
     try:
         file = open(path, "rb")  # noqa: SIM115 - closed below
     except OSError as exc:

@@ -73,3 +73,23 @@ async def test_topics_it_cannot_serve_are_left_out(tmp_path, caplog):
         assert bus.topic("/count").type_name == "std_msgs/msg/String"
     finally:
         await player.stop()
+
+
+async def test_it_waits_paused_for_a_client_not_for_the_servers_own_nodes(tmp_path):
+    path = tmp_path / "r.mcap"
+    await make_recording(path, count=3)
+    bus = Bus(TypeRegistry.default())
+    recording = await asyncio.to_thread(load_recording, path, bus.types)
+    player = Player(bus, recording, speed=10.0)
+    got: list[str] = []
+    bus.subscribe("/chatter", "std_msgs/String", "node", "/some_node", lambda m: got.append("n"))
+    await player.start()
+    try:
+        assert player.paused and player.waiting and player.clock() == recording.start_ns / 1e9
+        state = await bus.call_service("/replay/pause", {})  # a round trip: still at 0
+        assert state["message"] == "paused at 0.000 s" and not got
+        bus.subscribe("/count", "std_msgs/Int32", "c", "/hitrobot_client_7", lambda m: None)
+        assert not player.paused and not player.waiting  # a client came: it plays
+        await until(lambda: len(got) == 3, "the chatter", 5)
+    finally:
+        await player.stop()

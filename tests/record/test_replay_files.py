@@ -20,6 +20,9 @@ from mcap.records import Channel, Chunk, DataEnd, Footer, Header, Schema
 from mcap.writer import MCAP0_MAGIC
 from mcap_ros2.writer import Writer as Ros2Writer
 
+from hitrobot_server.record.reading import RecordingError, load_recording
+from hitrobot_server.types.registry import TypeRegistry
+
 from ..helpers import ServerProcess, connect_roslibpy
 from .conftest import ODOM
 from .test_replay import Collector, call
@@ -161,3 +164,15 @@ def test_a_decompression_bomb_is_refused_fast_in_bounded_memory(case, tmp_path):
     assert seconds < 30, seconds  # seconds on a busy 2-core machine; refused before inflating
     print(f"{case}: refused in {seconds:.1f} s, peak RSS {rss} MiB")
     assert rss < 400, f"{rss} MiB"  # the interpreter and the server's imports: ~150 MiB
+
+
+def test_a_rosbag2_bag_folder_stands_for_its_mcap(tmp_path):
+    bag = tmp_path / "bag"
+    bag.mkdir()
+    foreign_file(bag / "bag_0.mcap")
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: {version: 9}\n")
+    recording = load_recording(bag, TypeRegistry())
+    assert recording.path == bag / "bag_0.mcap" and len(recording.messages) == 10
+    foreign_file(bag / "bag_1.mcap")
+    with pytest.raises(RecordingError, match="2 .mcap files"):
+        load_recording(bag, TypeRegistry())
