@@ -4,44 +4,17 @@ the map is not dimmed as a robot's absence dims it."""
 
 from __future__ import annotations
 
-import time
-
-from hitrobot_server.bus.core import Bus
-from hitrobot_server.record.recorder import Recorder
-from hitrobot_server.types.registry import TypeRegistry
-
 from ..helpers import ServerProcess
+from .test_console_recordings import synthetic_recording
 
 BAR = "#replay-bar"
 CONNECTED = {"level": 0, "name": "/Robot/Connection", "message": "robot connected",
              "hardware_id": "", "values": []}
 
 
-async def recording_with_a_connected_robot(path) -> None:
-    """10 s of a pose at 10 Hz, a latched map, and diagnostics saying the robot is connected."""
-    bus = Bus(TypeRegistry.default())
-    bus.advertise("/map", "nav_msgs/OccupancyGrid", "t", "/t", latch=True)
-    bus.advertise("/robot_pose", "geometry_msgs/Pose", "t", "/t")
-    bus.advertise("/diagnostics_agg", "diagnostic_msgs/DiagnosticArray", "t", "/t")
-    t0 = time.time()
-    bus.publish("/map", {"header": {"frame_id": "map"},
-                         "info": {"resolution": 0.05, "width": 200, "height": 100,
-                                  "origin": {"orientation": {"w": 1.0}}},
-                         "data": [0] * 20000}, stamp=t0)
-    recorder = Recorder(bus, path)
-    recorder.start()
-    for i in range(101):
-        stamp = t0 + i * 0.1
-        bus.publish("/robot_pose", {"position": {"x": 1 + i * 0.05, "y": 2.5},
-                                    "orientation": {"w": 1.0}}, stamp=stamp)
-        if i % 5 == 0:
-            bus.publish("/diagnostics_agg", {"status": [CONNECTED]}, stamp=stamp)
-    await recorder.stop()
-
-
 async def test_the_replay_view_says_one_thing_and_keeps_the_map_bright(browser, tmp_path):
     path = tmp_path / "shift.mcap"
-    await recording_with_a_connected_robot(path)
+    await synthetic_recording(path, diagnostics=CONNECTED)  # "robot connected" in it
     server = ServerProcess("--loop", command=("replay", str(path)))
     try:
         page = browser.pages[0] if browser.pages else await browser.new_page()
