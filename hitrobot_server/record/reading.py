@@ -208,12 +208,12 @@ def load_recording(path: Path | str, types: TypeRegistry,
         file = open(path, "rb")  # noqa: SIM115 - closed below
     except OSError as exc:
         raise RecordingError(f"cannot open {path}: {exc.strerror or exc}") from None
-    collect = _Collect(Schemas(types))
     with file:
         if file.read(len(MAGIC)) != MAGIC:
             raise RecordingError(f"{path} is not an MCAP file")
         budget = Budget(max_inflated)
         check_claims(file, budget)
+        collect = _Collect(Schemas(types))
         try:
             for record in records(file, budget):
                 collect.add(record)
