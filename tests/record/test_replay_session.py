@@ -21,10 +21,14 @@ EXPECTED_TYPES = {
     "move_base_msgs/msg/MoveBaseActionResult",  # the result the issue found refused
     "move_base_msgs/msg/MoveBaseActionFeedback",
     "actionlib_msgs/msg/GoalStatusArray",
+    "action_msgs/msg/GoalStatusArray",  # nav2's compute_path_to_pose, run by the dispatch
     "tf2_msgs/msg/TFMessage",
     "nav_msgs/msg/OccupancyGrid",
     "diagnostic_msgs/msg/DiagnosticArray",
     "hitrobot_msgs/msg/FleetTasks",
+    "hitrobot_msgs/msg/FleetRobots",
+    "map_messages/msg/PointsOfInterest",
+    "rosgraph_msgs/msg/Log",
     "hitrobot_msgs/msg/PatrolState",
 }
 
