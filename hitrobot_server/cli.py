@@ -22,7 +22,7 @@ TOOLS = {
 USAGE = """%(prog)s [options]
        %(prog)s conformance --url ws://HOST:PORT [options]
        %(prog)s sim-device [--port PORT] [options]
-       %(prog)s replay FILE.mcap [--speed X] [--loop] [--start SECONDS] [options]"""
+       %(prog)s replay FILE.mcap [--speed X] [--loop] [--start SECONDS] [--play] [options]"""
 
 
 class HelpFormatter(argparse.HelpFormatter):

@@ -204,14 +204,34 @@ function followPresence({ ros, tools, navigator, robotState }) {
     onChange: (present, seen) => {
       if (present) return;
       tools.setEnabled(false);
-      navigator.robotAbsent(seen);
       for (const control of robotControls()) control.disabled = true;
+      if (document.body.classList.contains('replaying')) return; // followReplay says what this is
+      navigator.robotAbsent(seen);
       robotState.setRobot('none', seen ? 'offline' : 'no robot');
       document.getElementById('hint').textContent = seen
         ? 'Robot offline: its server left the bus. The map and pose shown are its last known.'
         : 'No robot: this server runs the bridge alone (--robot none).';
       log(seen ? 'error' : 'info', seen ? 'the robot went offline' : 'no robot behind this bridge');
     },
+  });
+}
+
+/** A replaying server (`hitrobot-server replay`, recordings.js's timeline): the page says one
+ * thing, "Replaying NAME — playing t / T", in the hint, the robot pill and the goal status,
+ * where it would say "No robot" (and the recorded "robot connected" is not shown as live). */
+function followReplay({ navigator, robotState }) {
+  let shown = '';
+  window.addEventListener('replay', (e) => {
+    const { summary } = e.detail;
+    if (summary === shown) return;
+    const name = summary.split(' — ')[0];
+    if (!shown) log('info', `${name}: a recording, not a live robot`);
+    // the goal box follows the recorded goals; it names the replay where it would say "No robot"
+    if (!shown || navigator.statusBox.dataset.status === 'offline') navigator.show('replay', name);
+    shown = summary;
+    robotState.setRobot('replay', name.replace('Replaying', 'replaying'));
+    document.getElementById('hint').textContent = `${summary}. A recording, not a live robot: ` +
+      'what would drive a robot is off; the timeline over the map plays, pauses and seeks.';
   });
 }
 
@@ -309,6 +329,7 @@ function main() {
   const tools = buildTools({ view, state, navigator, panels, editor });
   followBridge({ ros, tools, navigator });
   const presence = followPresence({ ros, tools, navigator, robotState: panels.robotState });
+  followReplay({ navigator, robotState: panels.robotState });
   const showTab = wireTabs(panels);
   wireScaleBar(view);
   wireToolbar({ view, layers, tools, state });

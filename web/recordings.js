@@ -119,6 +119,9 @@ export class ReplayTimeline {
   show(s) {
     this.state = s;
     this.bar.hidden = false;
+    // the page is a replay's: app.js's followReplay says so everywhere (no "No robot" beside it)
+    document.body.classList.add('replaying');
+    window.dispatchEvent(new CustomEvent('replay', { detail: { state: s, summary: this.summary(s) } }));
     this.bar.dataset.paused = String(s.paused);
     this.bar.dataset.position = s.position.toFixed(3);
     this.bar.dataset.speed = String(s.speed);
@@ -130,6 +133,14 @@ export class ReplayTimeline {
       this.slider.value = String(s.position);
       this.showTime(s.position);
     }
+  }
+
+  /** One line for the whole page: "Replaying NAME — playing 0:03.2 / 0:10.0". */
+  summary(s) {
+    const ended = s.paused && s.position >= s.duration;
+    const what = s.waiting ? 'paused until a client subscribes' : ended ? 'ended' : s.paused ? 'paused' : 'playing';
+    const speed = s.speed !== 1 ? ` at ${s.speed}×` : '';
+    return `Replaying ${s.file} — ${what}${speed} ${formatTime(s.position)} / ${formatTime(s.duration)}`;
   }
 
   showTime(position) {

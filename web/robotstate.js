@@ -26,7 +26,8 @@ export class RobotState {
     new ROSLIB.Topic({ ros, name: TOPICS.diagnostics, messageType: 'diagnostic_msgs/DiagnosticArray',
       throttle_rate: 500 }).subscribe((d) => this.diagnostics(d));
     setInterval(() => {
-      if (document.body.classList.contains('no-robot')) return; // robotpresence.js says so
+      // robotpresence.js says so, or app.js's followReplay
+      if (document.body.classList.contains('no-robot') || document.body.classList.contains('replaying')) return;
       if (this.lastDiagnostics && Date.now() - this.lastDiagnostics > STALE_MS) {
         this.setRobot('stale', 'no diagnostics');
       }
@@ -58,7 +59,7 @@ export class RobotState {
   diagnostics(array) {
     const statuses = (array && array.status) || [];
     const conn = statuses.find((s) => /connection/i.test(s.name || ''));
-    if (!conn) return;
+    if (!conn || document.body.classList.contains('replaying')) return; // a recorded link, not live
     this.lastDiagnostics = Date.now();
     const level = LEVELS[conn.level] || 'error';
     const text = level === 'ok' ? (conn.message || 'connected') : conn.message || level;

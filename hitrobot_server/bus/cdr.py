@@ -19,7 +19,13 @@ from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_typestore
 
 from ..types.convert import BIG_ARRAY
-from ..types.registry import NUMPY_DTYPES, ActionType, MsgType, TypeRegistry
+from ..types.registry import (
+    NUMPY_DTYPES,
+    ActionType,
+    MsgType,
+    TypeRegistry,
+    replace_definitions,
+)
 
 _TIME = frozenset({"builtin_interfaces/msg/Time", "builtin_interfaces/msg/Duration"})
 _ZERO = {"string": "", "bool": False, "float32": 0.0, "float64": 0.0}
@@ -82,6 +88,7 @@ class Ros2Codec:
                 for n, d in fields
             ],
         )
+        replace_definitions(self.store, types.adopted)  # a replayed file's own definitions
         self._hashes: dict[str, str] = {}
         self._definitions: dict[str, str] = {}
         self._enc: dict[str, Build] = {}

@@ -8,10 +8,12 @@ import asyncio
 import sys
 
 from ..config import add_arguments, load
-from ..record.player import MAX_SPEED, Player, load_recording
+from ..record.player import MAX_SPEED, Player
+from ..record.reading import DEFAULT_MAX_INFLATED, load_recording
 from ..robots import start_plan
 from ..server import HitrobotServer
 from ..signals import until_terminated
+from ..types.registry import TypeRegistry
 from . import run_command
 
 PROG = "hitrobot-server replay"
@@ -23,7 +25,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Serve an MCAP recording (hitrobot-server --record, ROS 2 profile) on the "
         "bus instead of a robot: its topics in order with their recorded contents and stamps, "
         "latched ones latched; /replay/state and the services /replay/pause, /replay/resume, "
-        "/replay/seek and /replay/set_speed control it. Every server flag applies.",
+        "/replay/seek and /replay/set_speed control it (and Foxglove's timeline). It waits, "
+        "paused, for the first client to subscribe to one of its topics. The server's clock is "
+        "the recording's time. Every server flag applies.",
     )
     parser.add_argument("file", metavar="FILE", help="the recording (.mcap)")
     parser.add_argument("--speed", type=float, default=1.0,
@@ -32,6 +36,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--loop", action="store_true", help="start again at the end")
     parser.add_argument("--start", type=float, default=0.0, metavar="SECONDS",
                         help="begin this many seconds into the recording (default: 0)")
+    parser.add_argument("--play", action="store_true",
+                        help="play at once (default: paused until a client subscribes to one of "
+                        "the recording's topics)")
+    parser.add_argument("--max-inflated", type=int, default=DEFAULT_MAX_INFLATED >> 20,
+                        metavar="MB", help="the most the recording may inflate to in memory; a "
+                        "file that claims more is refused before it is inflated (default: "
+                        f"{DEFAULT_MAX_INFLATED >> 20})")
     add_arguments(parser)
     return parser
 
@@ -41,15 +52,24 @@ async def serve(args: argparse.Namespace) -> None:
     if args.robot not in (None, "none", ["none"]):  # --robot is repeatable: a list
         raise ValueError("replay serves the recording in place of a robot: --robot cannot be "
                          "used with it")
-    server = HitrobotServer(settings, plan=start_plan(settings, robot="none"))
-    recording = await asyncio.to_thread(load_recording, args.file, server.bus.types)
-    player = Player(server.bus, recording, speed=args.speed, loop=args.loop, start=args.start)
+    if args.max_inflated <= 0:
+        raise ValueError("--max-inflated must be above 0 MB")
+    types = TypeRegistry()  # its own: the file's definitions may replace ours
+    recording = await asyncio.to_thread(load_recording, args.file, types,
+                                        args.max_inflated << 20)
+    server = HitrobotServer(settings, types, plan=start_plan(settings, robot="none"))
+    player = Player(server.bus, recording, speed=args.speed, loop=args.loop, start=args.start,
+                    play=args.play)
+    server.bus.clock = player.clock
     await server.start()
     try:
         await player.start()
         print(server.banner(), flush=True)
+        cut = "" if recording.complete else " (cut off: served as far as it goes)"
+        wait = "" if args.play else ", paused until a client subscribes"
         print(f"{PROG}: {recording.path.name}, {recording.duration:.1f} s, "
-              f"{len(recording.messages)} messages on {len(recording.tracks)} topics", flush=True)
+              f"{len(recording.messages)} messages on {len(recording.tracks)} topics{cut}{wait}",
+              flush=True)
         await until_terminated()
     finally:
         await player.stop()

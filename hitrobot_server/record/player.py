@@ -1,11 +1,11 @@
 """Replaying a recording onto the bus: every recorded topic, in order, with its recorded
 contents and stamps, paced by the recorded log times; latched channels stay latched (the map
 reaches late joiners). Controlled by ``/replay/pause``, ``/replay/resume``, ``/replay/seek`` and
-``/replay/set_speed``; ``/replay/state`` (latched) says where it is.
+``/replay/set_speed``; ``/replay/state`` (latched) says where it is. It starts paused until a
+client subscribes to a replayed topic (or ``play=True``), so nobody misses the beginning; its
+position is the bus clock (:meth:`Player.clock`), so clients see the recording's time.
 
-A file is checked completely before anything is served: an MCAP file with its footer (a
-recording cut short is refused as truncated), ROS 2 channels (``cdr`` messages, ``ros2msg``
-schemas) of types we know, each schema describing the same fields as our definition of it.
+Reading the file (what it holds, what it may inflate) is :mod:`.reading`.
 """
 
 from __future__ import annotations
@@ -15,21 +15,13 @@ import bisect
 import contextlib
 import logging
 import math
-import os
 import time
-from dataclasses import dataclass
-from pathlib import Path
-
-from mcap.exceptions import EndOfFile
-from mcap.records import Channel, Footer, Message, Schema
-from mcap.stream_reader import StreamReader
-from rosbags.typesys import get_types_from_msg
 
 from ..bus.cdr import Ros2Codec
 from ..bus.core import Bus
 from ..bus.errors import BusError, ServiceError
-from ..types.registry import MsgType, TypeRegistry, UnknownType
-from .profile import AUDIT_TOPIC, is_latched
+from ..bus.names import CLIENT_NODE_PREFIX
+from .reading import Recording
 
 log = logging.getLogger(__name__)
 
@@ -37,125 +29,13 @@ NODE = "/replay"
 STATE_TOPIC = "/replay/state"
 STATE_PERIOD = 0.25
 MAX_SPEED = 100.0
-MAGIC = b"\x89MCAP0\r\n"
-# the audit trail, and the state of a recorder or player at the time: the replaying server
-# has its own
-NOT_REPLAYED = frozenset({AUDIT_TOPIC, STATE_TOPIC, "/record/state"})
-
-
-class RecordingError(ValueError):
-    """A file that cannot be replayed; the text says why."""
-
-
-@dataclass(frozen=True, slots=True)
-class Track:
-    topic: str
-    mtype: MsgType
-    latched: bool
-
-
-@dataclass
-class Recording:
-    """A checked recording: its tracks and messages (log time order), raw CDR."""
-
-    path: Path
-    tracks: dict[int, Track]
-    times: list[float]  # seconds from the first message
-    messages: list[tuple[int, int, bytes]]  # (channel id, log time ns, CDR)
-
-    @property
-    def duration(self) -> float:
-        return self.times[-1] if self.times else 0.0
-
-
-def _check_schema(codec: Ros2Codec, schema: Schema, channel: Channel, mtype: MsgType) -> None:
-    try:
-        found = get_types_from_msg(schema.data.decode(), schema.name)
-    except Exception as exc:
-        raise RecordingError(
-            f"channel {channel.topic}: its schema {schema.name} cannot be parsed ({exc})"
-        ) from None
-    codec.type_hash(mtype.name)  # registers our types in the ROS 2 store
-    for name, (_consts, fields) in found.items():
-        ours = codec.store.fielddefs.get(name)
-        if ours is None or ours[1] != fields:
-            raise RecordingError(
-                f"channel {channel.topic}: the recording's {name} is not ours (alien schema: "
-                "its fields differ from our definition)"
-            )
-
-
-def load_recording(path: Path | str, types: TypeRegistry) -> Recording:
-    """Read and check a whole recording (blocking; run it in a thread)."""
-    path = Path(path)
-    try:
-        file = open(path, "rb")  # noqa: SIM115 - closed below
-    except OSError as exc:
-        raise RecordingError(f"cannot open {path}: {exc.strerror or exc}") from None
-    codec = Ros2Codec(types)
-    schemas: dict[int, Schema] = {}
-    tracks: dict[int, Track] = {}
-    skipped: set[int] = set()
-    messages: list[tuple[int, int, bytes]] = []
-    complete = False
-    with file:
-        if file.read(len(MAGIC)) != MAGIC:
-            raise RecordingError(f"{path} is not an MCAP file")
-        file.seek(0)
-        try:
-            for record in StreamReader(file, skip_magic=False).records:
-                if isinstance(record, Schema):
-                    schemas[record.id] = record
-                elif isinstance(record, Channel):
-                    if record.id in tracks or record.id in skipped:
-                        continue
-                    if record.topic in NOT_REPLAYED:
-                        skipped.add(record.id)
-                        continue
-                    tracks[record.id] = _track(codec, types, record, schemas.get(record.schema_id))
-                elif isinstance(record, Message) and record.channel_id in tracks:
-                    messages.append((record.channel_id, record.log_time, record.data))
-                elif isinstance(record, Footer):
-                    complete = True
-        except RecordingError:
-            raise
-        except Exception as exc:
-            if isinstance(exc, EndOfFile) or file.tell() >= os.fstat(file.fileno()).st_size:
-                raise RecordingError(f"{path} is truncated: it ends in the middle of a record "
-                                     "(a recording that was cut off)") from None
-            raise RecordingError(
-                f"{path} is corrupt ({type(exc).__name__}: {exc or 'bad record'})") from None
-    if not complete:
-        raise RecordingError(f"{path} is truncated: it ends before the MCAP footer (a "
-                             "recording that was cut off)")
-    if not messages:
-        raise RecordingError(f"{path} has no ROS 2 messages to replay")
-    messages.sort(key=lambda m: m[1])
-    first = messages[0][1]
-    return Recording(path, tracks, [(m[1] - first) / 1e9 for m in messages], messages)
-
-
-def _track(codec: Ros2Codec, types: TypeRegistry, channel: Channel,
-           schema: Schema | None) -> Track:
-    if schema is None or schema.encoding != "ros2msg" or channel.message_encoding != "cdr":
-        found = f"{schema.encoding if schema else 'no'} schema, {channel.message_encoding}"
-        raise RecordingError(f"channel {channel.topic} is not ROS 2 ({found}; alien schema: "
-                             "replay needs ros2msg schemas and cdr messages)")
-    try:
-        mtype = types.msg(schema.name)
-    except UnknownType:
-        raise RecordingError(
-            f"channel {channel.topic} has a type we do not know: {schema.name} (alien schema)"
-        ) from None
-    _check_schema(codec, schema, channel, mtype)
-    return Track(channel.topic, mtype, is_latched(dict(channel.metadata)))
 
 
 class Player:
     """Serves a :class:`Recording` on the bus from :meth:`start` to :meth:`stop`."""
 
     def __init__(self, bus: Bus, recording: Recording, *, speed: float = 1.0,
-                 loop: bool = False, start: float = 0.0):
+                 loop: bool = False, start: float = 0.0, play: bool = False):
         if not (math.isfinite(speed) and 0 < speed <= MAX_SPEED):
             raise ValueError(f"--speed must be above 0 and at most {MAX_SPEED:g}")
         if not (math.isfinite(start) and 0 <= start <= recording.duration):
@@ -165,7 +45,8 @@ class Player:
         self.codec = Ros2Codec(bus.types)
         self.speed = speed
         self.loop = loop
-        self.paused = False
+        self.paused = not play
+        self.waiting = not play  # paused until a client subscribes to a replayed topic
         self._index = 0
         self._origin = start  # recording seconds at wall time _wall
         self._wall = time.monotonic()
@@ -173,6 +54,7 @@ class Player:
         self._changed = asyncio.Event()
         self._tasks: list[asyncio.Task] = []
         self._skipped: set[int] = set()  # channels whose topic the bus refused
+        self._topics = {track.topic for track in recording.tracks.values()}
 
     # ------------------------------------------------------------------ position
     @property
@@ -181,6 +63,10 @@ class Player:
             return self._origin
         moved = self._origin + (time.monotonic() - self._wall) * self.speed
         return min(moved, self.recording.duration)
+
+    def clock(self) -> float:
+        """The recording's time now (UNIX seconds): the replaying server's clock."""
+        return self.recording.start_ns / 1e9 + self.position
 
     def _set_clock(self, position: float) -> None:
         """``position`` is now; the next message stays the one due next."""
@@ -206,8 +92,29 @@ class Player:
                               self._set_speed)
         self._seek_to(self._start)
         self._tasks = [asyncio.ensure_future(self._play()), asyncio.ensure_future(self._report())]
+        bus.watchers.append(self._bus_changed)
+        if self.waiting:
+            log.info("replay: %s paused at %.3f s until a client subscribes to one of its %d "
+                     "topics (--play starts at once)", self.recording.path.name, self._origin,
+                     len(self._topics))
+
+    def _bus_changed(self, kind: str, name: str) -> None:
+        """The first client subscribing to a replayed topic starts a waiting replay."""
+        if not self.waiting or kind != "topic" or name not in self._topics:
+            return
+        topic = self.bus.topic(name)
+        if topic is None or not any(node.startswith(CLIENT_NODE_PREFIX)
+                                    for node, _cb in list(topic.subscribers.values())):
+            return
+        log.info("replay: a client subscribed to %s: playing", name)
+        self.waiting = False
+        self.paused = False
+        self._set_clock(self._origin)
+        self._publish_state()
 
     async def stop(self) -> None:
+        if self._bus_changed in self.bus.watchers:
+            self.bus.watchers.remove(self._bus_changed)
         for task in self._tasks:
             task.cancel()
         for task in self._tasks:
@@ -285,6 +192,8 @@ class Player:
             "speed": self.speed,
             "paused": self.paused,
             "loop": self.loop,
+            "start": self.recording.start_ns / 1e9,
+            "waiting": self.waiting,
         })
 
     # ------------------------------------------------------------------ services
@@ -296,6 +205,7 @@ class Player:
         return {"success": True, "message": f"paused at {self._origin:.3f} s"}
 
     async def _resume(self, _request: dict) -> dict:
+        self.waiting = False
         if self.paused:
             self.paused = False
             if self._index >= len(self.recording.times):  # ended: from the start again

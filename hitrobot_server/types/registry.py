@@ -242,6 +242,15 @@ def _field(name: str, desc: tuple[Any, Any]) -> Field:
     return Field(name, desc[1], True, array)
 
 
+def replace_definitions(store: Typestore, definitions: _Typesdict) -> None:
+    """Register ``definitions`` in ``store`` in place of what it has of those names."""
+    for name in definitions:
+        store.fielddefs.pop(name, None)
+        store.types.pop(name, None)
+    store.cache.clear()
+    store.register(definitions)
+
+
 class TypeRegistry:
     """All known interface types; lookups are memoised because they sit on hot paths."""
 
@@ -268,6 +277,18 @@ class TypeRegistry:
         self.plans: defaultdict[str, dict[str, Any]] = defaultdict(dict)
         """Per-registry memo for the per-type plans codecs compile once: ``plans[kind][type
         name]`` (a plain mapping, read on every message without a call)."""
+        self.adopted: dict[str, Any] = {}
+        """ROS 2 definitions taken from a replayed recording in place of ours (its codecs follow
+        them too): :meth:`adopt`."""
+
+    def adopt(self, definitions: dict[str, tuple[Any, Any]]) -> None:
+        """Serve these ROS 2 definitions (a replayed file's own) in place of ours; only for a
+        registry of its own (``TypeRegistry()``, never :meth:`default`), before it is used."""
+        replace_definitions(self.typestore, definitions)
+        self.adopted.update(definitions)
+        self._msgs.clear()
+        self._definitions.clear()
+        self.plans.clear()
 
     @classmethod
     def default(cls) -> TypeRegistry:

@@ -16,11 +16,13 @@ from .conftest import ARTIFACTS
 BAR = "#replay-bar"
 
 
-async def synthetic_recording(path) -> None:
-    """10 s of a robot pose at 10 Hz and a latched map, stamped as if recorded live."""
+async def synthetic_recording(path, diagnostics: dict | None = None) -> None:
+    """10 s of a robot pose at 10 Hz and a latched map, stamped as if recorded live; and
+    ``diagnostics`` (a /diagnostics_agg status) at 2 Hz when given."""
     bus = Bus(TypeRegistry.default())
     bus.advertise("/map", "nav_msgs/OccupancyGrid", "t", "/t", latch=True)
     bus.advertise("/robot_pose", "geometry_msgs/Pose", "t", "/t")
+    bus.advertise("/diagnostics_agg", "diagnostic_msgs/DiagnosticArray", "t", "/t")
     t0 = time.time()
     bus.publish("/map", {"header": {"frame_id": "map"},
                          "info": {"resolution": 0.05, "width": 200, "height": 100,
@@ -31,6 +33,8 @@ async def synthetic_recording(path) -> None:
     for i in range(101):
         bus.publish("/robot_pose", {"position": {"x": 1 + i * 0.05, "y": 2.5},
                                     "orientation": {"w": 1.0}}, stamp=t0 + i * 0.1)
+        if diagnostics is not None and i % 5 == 0:
+            bus.publish("/diagnostics_agg", {"status": [diagnostics]}, stamp=t0 + i * 0.1)
     await recorder.stop()
 
 

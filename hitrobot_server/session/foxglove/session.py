@@ -20,6 +20,7 @@ from ...bus.core import Bus
 from ...bus.names import CLIENT_NODE_PREFIX
 from ...bus.topics import Origin
 from ...protocol import foxglove as fg
+from ...protocol.foxglove_playback import CLIENT_PLAYBACK_CONTROL_REQUEST
 from ..client import release_client
 from ..options import SessionOptions
 from ..outbox import Outbox
@@ -27,6 +28,7 @@ from .channels import ChannelOps
 from .frames import FoxgloveOutput
 from .graph import GraphOps
 from .params import ParamOps
+from .playback import PlaybackOps
 from .publish import PublishOps
 from .services import ServiceOps
 from .shared import FoxgloveShared
@@ -36,6 +38,7 @@ log = logging.getLogger(__name__)
 
 TIME_PERIOD = 0.1
 """Seconds between two ``time`` messages (the bus clock) to each client."""
+PLAYBACK_REQUEST = bytes([CLIENT_PLAYBACK_CONTROL_REQUEST])
 MAX_TEXT_BYTES = 16 * 1024 * 1024
 """Largest JSON op accepted (ops are small; binary frames carry the data)."""
 
@@ -75,6 +78,7 @@ class FoxgloveSession:
         self.service_ops = ServiceOps(self, self.channel_ops.services)
         self.param_ops = ParamOps(self)
         self.graph_ops = GraphOps(self)
+        self.playback = PlaybackOps(self)  # replay's playbackControl (helper replay)
         self._handlers = self._op_table()
         self._sync_handle: asyncio.Handle | None = None
         self._time_handle: asyncio.TimerHandle | None = None
@@ -87,7 +91,8 @@ class FoxgloveSession:
                             "with 'auth'; closing")
             self.outbox.close()
             return
-        self.out.send(fg.server_info(server_name, uuid.uuid4().hex, {"ROS_DISTRO": "jazzy"}))
+        self.out.send(self.playback.describe(
+            fg.server_info(server_name, uuid.uuid4().hex, {"ROS_DISTRO": "jazzy"})))
         self._sync()
         bus.watchers.append(self._changed)
         bus.params.watchers.append(self._param_changed)
@@ -116,7 +121,11 @@ class FoxgloveSession:
             return None
         try:
             if binary:
-                self._binary(fg.parse_binary(data if isinstance(data, bytes) else data.encode()))
+                raw = data if isinstance(data, bytes) else data.encode()
+                if raw[:1] == PLAYBACK_REQUEST:  # replay's playbackControl (helper replay)
+                    self.playback.request(raw)
+                else:
+                    self._binary(fg.parse_binary(raw))
             else:
                 if len(data) > MAX_TEXT_BYTES:
                     raise fg.FoxgloveError(
@@ -179,6 +188,7 @@ class FoxgloveSession:
         if self._param_changed in self.bus.params.watchers:
             self.bus.params.watchers.remove(self._param_changed)
         self.subscriptions.close()
+        self.playback.close()
         release_client(self, self.service_ops.tasks)
         self._handlers.clear()  # bound methods of the op groups: session ↔ ops cycles
         log.info("foxglove client %s (%s) disconnected", self.node, self.peer or "?")
