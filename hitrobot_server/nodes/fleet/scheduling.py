@@ -10,7 +10,7 @@ import datetime as dt
 import logging
 from typing import TYPE_CHECKING
 
-from .member import PKG
+from .member import OFFLINE, PKG
 from .requests import read_stops
 from .schedules import MAX_SCHEDULES, Schedule, ScheduleError, missed, parse, slot_after
 from .tasks import Refused
@@ -26,6 +26,7 @@ TASK_FIELDS = ("poi", "pose", "robot", "kind", "pois", "dwell", "laps", "priorit
 class ScheduleServices:
     def __init__(self, fleet: FleetNode, zone: dt.tzinfo):
         self.fleet, self.zone = fleet, zone
+        self._missed: dict[int, str] = {}  # schedule → what it missed (until its catch-up)
         for name, kind, handler in (("schedule_add", "FleetScheduleAdd", self._add),
                                     ("schedule_list", "FleetScheduleList", self._list),
                                     ("schedule_remove", "CancelTask", self._remove)):
@@ -71,10 +72,15 @@ class ScheduleServices:
                 schedule.message = (f"missed {count} slot(s) while the server was down (from "
                                     f"{_local(schedule.next, self.zone)}); run once at start")
                 log.warning("fleet: schedule %d %s", schedule.id, schedule.message)
-                schedule.next = now  # fired by the first check
+                schedule.next = now  # fired by the first check once a robot is heard
+                self._missed[schedule.id] = schedule.message
 
     async def fire_due(self) -> None:
+        """Dispatch the due slots; none while no robot is heard from (a server starting, its
+        robots not yet reporting: the slot waits for them rather than being refused)."""
         now = self.fleet.clock()
+        if all(r["state"] == OFFLINE for r in self.fleet.robots()):
+            return
         due = [s for s in self.board.schedules.values() if s.next <= now]
         for schedule in due:
             schedule.last = schedule.next
@@ -85,6 +91,8 @@ class ScheduleServices:
                 reply = {"accepted": False, "message": str(exc)}
             text = reply["message"] if reply["accepted"] else f"refused: {reply['message']}"
             schedule.message = f"{_local(schedule.last, self.zone)}: {text}"
+            if missed_text := self._missed.pop(schedule.id, ""):
+                schedule.message = f"{missed_text} — {schedule.message}"
         if due:
             self.board.save_schedules()
 
