@@ -131,7 +131,9 @@ async def test_bad_dispatches_are_refused(make_server, tmp_path):
         bad = pose(float("nan"), Y)
         got = await dispatch(w, target=bad)
         assert not got["accepted"] and "pose.position" in got["message"]
-        inside = await dispatch(w, target=pose(-0.4, -0.4))  # in the outer wall: no path
+        outside = await dispatch(w, target=pose(-0.4, -0.4))  # beyond the site map's edge
+        assert not outside["accepted"] and "off the map" in outside["message"], outside
+        inside = await dispatch(w, target=pose(10.0, 0.1))  # in the outer wall: no path
         assert not inside["accepted"] and inside["task"] == 0, inside  # refused, with why
         assert "no robot can take it: a: " in inside["message"] and "b: " in inside["message"]
         assert w.latest("/fleet/tasks")["tasks"][:len(before)] == before

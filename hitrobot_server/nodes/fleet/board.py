@@ -39,6 +39,7 @@ class Board:
         try:
             for record in self.memory.get("open") or []:
                 task = Task.from_record(record)
+                task.reserved = ""  # bids are not kept: free robots take it
                 if task.state == RUNNING:
                     task.state, task.message = QUEUED, "interrupted by a restart; queued again"
                 self.tasks[task.id] = task

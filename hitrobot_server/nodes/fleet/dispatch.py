@@ -15,12 +15,14 @@ from ...robot.model import Pose2D
 from ..ground import messages as m
 from .member import ERROR, OFFLINE
 from .policy import Bid
-from .requests import read_stops
+from .requests import check_on_map, read_stops
 from .tasks import CHARGE, QUEUED, RUNNING, Refused, Stop, Task
 
 if TYPE_CHECKING:
     from .node import FleetNode
 
+BIDDING = "/bidding"
+"""A task's reservation while robots bid for it (no robot is named so)."""
 CHARGE_PRIORITY = 1000
 """A charge goes before any task waiting for the same robot."""
 
@@ -54,6 +56,8 @@ class Dispatcher:
             raise Refused(f"robot '{wanted}' is offline")
         board.check_room(wanted)
         kind, stops, laps = await read_stops(fleet.bus, request)
+        for stop in stops:
+            check_on_map(fleet.site_map, stop)
         priority = max(-100, min(100, int(request.get("priority") or 0)))
         task = Task(0, kind, stops, wanted, priority, laps, created=fleet.clock())
         bids, refusals = await self.bids(task, [robots[wanted]] if wanted else [
@@ -79,7 +83,9 @@ class Dispatcher:
         """A task that failed on a robot: the others bid again (once, on that event)."""
         robots = [r for r in self.fleet.robots() if r["state"] not in (OFFLINE, ERROR)
                   and r["in_service"] and r["name"] not in task.tried]
+        task.reserved = BIDDING  # no robot takes it while the others bid
         bids, refusals = await self.bids(task, robots)
+        task.reserved = ""
         if task.state != QUEUED:
             return
         if not bids:

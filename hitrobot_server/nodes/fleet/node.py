@@ -39,6 +39,7 @@ from .tasks import (
 log = logging.getLogger(__name__)
 
 ROBOTS, TASKS = "/fleet/robots", "/fleet/tasks"
+SITE_MAP = "/map"
 
 
 class FleetNode(RobotNode):
@@ -67,6 +68,8 @@ class FleetNode(RobotNode):
         self.advertise(ROBOTS, f"{PKG}/FleetRobots", latch=True)
         self.advertise(TASKS, f"{PKG}/FleetTasks", latch=True)
         self.subscribe(MEMBERS, f"{PKG}/FleetRobot", self._on_member)
+        self.site_map: dict | None = None  # the site's /map: targets are checked on it
+        self.subscribe(SITE_MAP, "nav_msgs/OccupancyGrid", self._on_map)
         for name, kind, handler in (
                 ("dispatch", "Dispatch", self.dispatcher.dispatch),
                 ("cancel", "CancelTask", self._cancel), ("pause", "CancelTask", self._pause),
@@ -102,6 +105,11 @@ class FleetNode(RobotNode):
         heard = self._heard.pop(name, None)
         if heard is not None:
             heard.set()
+
+    def _on_map(self, message) -> None:
+        """A new site map: targets found unreachable may be reachable now."""
+        self.site_map = message.msg
+        self.runner.forget_unreachable()
 
     def _low(self, battery: float) -> bool:
         return battery < self.policy.charge_below

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ...bus.core import Bus
 from ...bus.topics import RequestRejected
 from ..ground import messages as m
@@ -22,6 +24,8 @@ from .tasks import (
     checked_pose,
 )
 
+FREE_BELOW = 50
+"""Occupancy (0–100) below which a cell of the site map is floor."""
 SITE_LIMIT = 10_000.0
 """Metres from the map origin beyond which a target is refused at once (off any site's map)."""
 
@@ -66,3 +70,29 @@ async def _poi_pose(bus: Bus, name: str):
     if poi is None:
         raise Refused(f"unknown POI '{name}'")
     return m.pose2d(poi["pose"])
+
+
+NEAR = 0.3
+"""Metres around a target within which a free cell of the site map must be (a target drawn a
+little into a wall is still reachable; the planner has the same tolerance)."""
+
+
+def check_on_map(grid: dict | None, stop: Stop) -> None:
+    """Refuse a stop off the site map (``/map``) or with no free cell near it: no robot could
+    reach it, and a search that fails explores the whole map."""
+    if grid is None:
+        return
+    info = grid["info"]
+    res, width, height = info["resolution"], info["width"], info["height"]
+    origin = info["origin"]["position"]
+    col = math.floor((stop.pose.x - origin["x"]) / res)
+    row = math.floor((stop.pose.y - origin["y"]) / res)
+    what = stop.name or f"({stop.pose.x:g}, {stop.pose.y:g})"
+    if not (0 <= col < width and 0 <= row < height):
+        raise Refused(f"{what} is off the map")
+    cells = np.asarray(grid["data"]).reshape(height, width)
+    reach = max(1, math.ceil(NEAR / res))
+    window = cells[max(0, row - reach):row + reach + 1, max(0, col - reach):col + reach + 1]
+    if not ((window >= 0) & (window < FREE_BELOW)).any():
+        raise Refused(f"{what} is inside a wall or unknown space: no free floor within "
+                      f"{NEAR:g} m")

@@ -23,6 +23,12 @@ GO_HOME_TYPE = "slamware_ros_sdk/GoHomeRequest"
 DOCK_TIMEOUT = 600.0
 """Seconds a robot has to reach its dock and start charging."""
 
+PLANNERS = 2
+"""Plans the fleet runs at once (each bid is one; they wait their turn)."""
+NO_PATH_CELL = 0.25
+NO_PATH_SECONDS = 10.0
+NO_PATH_KEPT = 1000
+
 WaitMember = Callable[[str, Callable[[dict], bool], float], Awaitable[dict | None]]
 
 
@@ -35,10 +41,32 @@ class TaskRunner:
                  wait_member: WaitMember, advertise: Callable[[str, str], None]):
         self.bus, self.map_frame, self.policy = bus, map_frame, policy
         self.wait_member, self.advertise = wait_member, advertise
+        self._planning = asyncio.Semaphore(PLANNERS)
+        self._no_path: dict[tuple[str, int, int], tuple[float, str]] = {}
 
     async def plan(self, robot: str, target: Pose2D,
                    start: Pose2D | None = None) -> tuple[float, dict | None, str]:
-        """The path's length, the path (None when there is none) and the planner's reason."""
+        """The path's length, the path (None when there is none) and the planner's reason.
+        At most :data:`PLANNERS` plans at a time; a place found unreachable is not planned
+        again for :data:`NO_PATH_SECONDS` (a search that fails explores the whole map)."""
+        loop = asyncio.get_running_loop()
+        key = (robot, round(target.x / NO_PATH_CELL), round(target.y / NO_PATH_CELL))
+        async with self._planning:  # checked inside: the plans queued behind one learn of it
+            known = self._no_path.get(key)
+            if known is not None and loop.time() - known[0] < NO_PATH_SECONDS:
+                return math.inf, None, known[1]
+            length, path, reason = await self._plan(robot, target, start)
+        if path is None:
+            if len(self._no_path) >= NO_PATH_KEPT:
+                self._no_path.clear()
+            self._no_path[key] = (loop.time(), reason)
+        return length, path, reason
+
+    def forget_unreachable(self) -> None:
+        self._no_path.clear()
+
+    async def _plan(self, robot: str, target: Pose2D,
+                    start: Pose2D | None) -> tuple[float, dict | None, str]:
         goal = {"goal": m.pose_stamped(target, self.map_frame),
                 "start": m.pose_stamped(start or Pose2D(0, 0, 0), self.map_frame),
                 "use_start": start is not None, "planner_id": ""}
