@@ -9,17 +9,14 @@ from __future__ import annotations
 
 import asyncio
 import math
-from typing import TYPE_CHECKING
 
 from ...robot.model import Pose2D
 from ..ground import messages as m
 from .member import ERROR, OFFLINE
 from .policy import Bid
 from .requests import check_on_map, read_stops
+from .site import Site
 from .tasks import CHARGE, QUEUED, RUNNING, Refused, Stop, Task
-
-if TYPE_CHECKING:
-    from .node import FleetNode
 
 BIDDING = "/bidding"
 """A task's reservation while robots bid for it (no robot is named so)."""
@@ -28,7 +25,7 @@ CHARGE_PRIORITY = 1000
 
 
 class Dispatcher:
-    def __init__(self, fleet: FleetNode):
+    def __init__(self, fleet: Site):
         self.fleet = fleet
 
     # ------------------------------------------------------------------ dispatch

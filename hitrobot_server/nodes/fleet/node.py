@@ -63,7 +63,8 @@ class FleetNode(RobotNode):
         self.runner = TaskRunner(bus, map_frame, self.policy, self.wait_member,
                                  self._advertise_once)
         self.dispatcher = Dispatcher(self)
-        self.schedules = ScheduleServices(self, zone or dt.datetime.now().astimezone().tzinfo)
+        local = dt.datetime.now().astimezone().tzinfo  # the server's (a fixed offset)
+        self.schedules = ScheduleServices(self, self.dispatcher.dispatch, zone or local)
         self._advertised: set[str] = set()
         self.advertise(ROBOTS, f"{PKG}/FleetRobots", latch=True)
         self.advertise(TASKS, f"{PKG}/FleetTasks", latch=True)

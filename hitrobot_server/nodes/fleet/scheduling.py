@@ -8,15 +8,13 @@ from __future__ import annotations
 
 import datetime as dt
 import logging
-from typing import TYPE_CHECKING
+from collections.abc import Awaitable, Callable
 
 from .member import OFFLINE, PKG
 from .requests import read_stops
 from .schedules import MAX_SCHEDULES, Schedule, ScheduleError, missed, parse, slot_after
+from .site import Site
 from .tasks import Refused
-
-if TYPE_CHECKING:
-    from .node import FleetNode
 
 log = logging.getLogger(__name__)
 
@@ -24,8 +22,9 @@ TASK_FIELDS = ("poi", "pose", "robot", "kind", "pois", "dwell", "laps", "priorit
 
 
 class ScheduleServices:
-    def __init__(self, fleet: FleetNode, zone: dt.tzinfo):
-        self.fleet, self.zone = fleet, zone
+    def __init__(self, fleet: Site, dispatch: Callable[[dict], Awaitable[dict]],
+                 zone: dt.tzinfo):
+        self.fleet, self.dispatch, self.zone = fleet, dispatch, zone
         self._missed: dict[int, str] = {}  # schedule → what it missed (until its catch-up)
         for name, kind, handler in (("schedule_add", "FleetScheduleAdd", self._add),
                                     ("schedule_list", "FleetScheduleList", self._list),
@@ -86,7 +85,7 @@ class ScheduleServices:
             schedule.last = schedule.next
             schedule.next = slot_after(schedule, now, self.zone)
             try:
-                reply = await self.fleet.dispatcher.dispatch(dict(schedule.task))
+                reply = await self.dispatch(dict(schedule.task))
             except Exception as exc:  # a slot never stops the schedules
                 reply = {"accepted": False, "message": str(exc)}
             text = reply["message"] if reply["accepted"] else f"refused: {reply['message']}"
