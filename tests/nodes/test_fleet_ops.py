@@ -149,7 +149,7 @@ async def test_pause_resume_out_of_service_and_history(make_server, tmp_path):
         assert state(w, seq["task"]) == "queued"  # named for a, which is out of service
         await w.call("/fleet/set_in_service", {"robot": "a", "in_service": True})
         await w.until(lambda: state(w, seq["task"]) == "succeeded", 40, "a finishing")
-        assert at(w, "a", 9.0, Y)
+        await w.until(lambda: at(w, "a", 9.0, Y), 3, "a listed at p2, the sequence's end")
         history = (await w.call("/fleet/history", {"robot": "a", "limit": 5}))["values"]
         assert [t["id"] for t in history["tasks"]][:1] == [seq["task"]]
         first = history["tasks"][0]
