@@ -26,6 +26,7 @@ from .nodes.assembly import (
     start_bridge_nodes,
     start_nodes,
     start_robot_nodes,
+    start_sim_controls,
     start_site_nodes,
     stop_nodes,
 )
@@ -47,6 +48,8 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 ROBOT_ID_PARAM = "robot_id"
+SITE_IDENTITY = "site"
+"""The state folder of a fleet's site (the fleet's tasks, history and schedules)."""
 
 
 @dataclass(frozen=True)
@@ -151,6 +154,8 @@ async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
             unit.bus = view
             unit.nodes = await start_robot_nodes(view, entry.name, node_options, robot, site_map,
                                                  unit.state)
+        if isinstance(backend, SimBackend) and unit.bus is not None:
+            unit.nodes.append(await start_sim_controls(unit.bus, backend))
         if unit.state.store is not None:
             # the simulator restores itself from the store (a REST robot keeps its own state)
             own = backend.restored if isinstance(backend, SimBackend) else []
@@ -198,7 +203,15 @@ async def start_planned(bus: Bus, settings: Settings,
     sims = any(e.spec == "sim" for e in plan.robots)
     world = shared_world(settings.robot_options()) if sims else None
     try:
-        site = await start_site_nodes(bus, settings.node_options())
+        site_store = await open_state(settings.store.state_root, SITE_IDENTITY,
+                                      settings.store.fresh)
+        site_state = StateBinding(site_store, SITE_IDENTITY)
+        try:  # the fleet owns the site's folder from here: its stop closes it
+            site = await start_site_nodes(bus, settings.node_options(), site_state)
+        except BaseException:
+            await site_store.close()
+            raise
+
         site_map: MapManager | None = None
         for entry in plan.robots:
             unit = await start_robot(bus, settings, entry, world=world, site_map=site_map)

@@ -19,7 +19,8 @@ from hitrobot_server.robots import start_plan
 HANDED_DOWN = {"map_store", "slamware", "authenticate", "topics_glob", "services_glob",
                "params_glob"}  # NodeOptions: the store's, [slamware], the sessions'
 NOT_SETTINGS = {
-    "NodeOptions": HANDED_DOWN | {"time_scale"},  # the robot's sim_speed, per robot
+    "NodeOptions": HANDED_DOWN | {"time_scale", "fleet_clock"},  # sim_speed per robot; a
+    # clock tests hand the fleet (its schedules on a held clock)
     "SessionOptions": {"auth_secret", "client_tag"},  # learnt at start (for_sessions)
     "RobotOptions": {"reconn_wait_ms", "start"},  # [slamware]; one robot's start pose
 }

@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
+from zoneinfo import ZoneInfo
+
 from ..bus.core import Bus
 from ..bus.namespace import SITE_WIDE, SITE_WIDE_TOPICS
 from ..bus.rosout import SERVER_NODE
 from ..robot.capabilities import Robot
+from ..robot.sim.backend import SimBackend
 from ..state import StateBinding
 from .base import Node
 from .conventional import ConventionalNode
 from .demo import DemoServices
 from .diagnostics import DiagnosticsNode
-from .fleet import FleetMemberNode, FleetNode
+from .fleet import ChargePolicy, FleetMemberNode, FleetNode
 from .graph import GraphNodeService
 from .ground.messages import slamware_topic
 from .intelligent_navigation import IntelligentNavigationNode
@@ -26,6 +29,7 @@ from .patrol import PatrolNode
 from .pointclouds import PointCloudNode
 from .rosapi import Rosapi
 from .shell import ShellNode
+from .sim_controls import SimControlsNode
 from .slamware import SlamwareNode
 from .tf_republisher import TFRepublisherNode
 
@@ -93,11 +97,17 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
     ]
 
 
-async def start_site_nodes(bus: Bus, settings: NodeOptions) -> list[Node]:
+async def start_site_nodes(bus: Bus, settings: NodeOptions,
+                           state: StateBinding | None = None) -> list[Node]:
     """The site-wide nodes of a server with named robots: rosapi, TF, the bridge's
-    diagnostics and the fleet (the site map manager comes with the first robot)."""
+    diagnostics and the fleet (the site map manager comes with the first robot). ``state``: the
+    site's state folder (the fleet's tasks, history and schedules)."""
+    policy = ChargePolicy(charge_below=settings.charge_below, charge_until=settings.charge_until)
+    zone = ZoneInfo(settings.site_timezone) if settings.site_timezone else None
+    fleet = FleetNode(bus, settings.slamware.map_frame, state, policy, zone,
+                      settings.fleet_clock)
     nodes: list[Node] = [Rosapi(bus, settings), TFRepublisherNode(bus), DiagnosticsNode(bus),
-                         FleetNode(bus, settings.slamware.map_frame)]
+                         fleet]
     await _start(nodes)
     return nodes
 
@@ -114,6 +124,13 @@ async def start_robot_nodes(bus: Bus, name: str, settings: NodeOptions, robot: R
     return nodes
 
 
+async def start_sim_controls(bus: Bus, backend: SimBackend) -> Node:
+    """A simulated robot's controls (``/sim/…``, ``/NAME/sim/…`` on a robot's view)."""
+    node = SimControlsNode(bus, backend)
+    await node.start()
+    return node
+
+
 async def _start(nodes: list[Node]) -> None:
     for node in nodes:
         await node.start()
@@ -128,7 +145,7 @@ NODE_CLASSES: tuple[type[Node], ...] = (
     TFRepublisherNode, DemoServices, DiagnosticsNode, FleetNode, FleetMemberNode, SlamwareNode,
     ConventionalNode, MoveBaseNode, ShellNode, MapManager, NavigationNode, PointCloudNode,
     Nav2ActionsNode, IntelligentNavigationNode, MapFilesNode, PatrolNode, GraphNodeService,
-    LocomotionNode,
+    LocomotionNode, SimControlsNode,
 )
 """Every node class the assembly makes (rosapi's names are the bus's site-wide ones)."""
 BESIDE_THE_NODES = ("/record", "/recorder", "/replay")

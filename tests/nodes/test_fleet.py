@@ -122,6 +122,7 @@ async def test_tasks_queue_when_every_robot_is_busy_and_cancel(make_server, tmp_
 async def test_bad_dispatches_are_refused(make_server, tmp_path):
     _server, w = await fleet(make_server, tmp_path, ("a", 4.0, Y), ("b", 12.0, Y))
     try:
+        await w.until(lambda: w.latest("/fleet/tasks") is not None, 5, "the latched task list")
         before = w.latest("/fleet/tasks")["tasks"]
         for args, needle in ((dict(poi="nowhere"), "unknown POI 'nowhere'"),
                              (dict(poi="", robot="zed"), "unknown robot 'zed'")):
@@ -130,9 +131,11 @@ async def test_bad_dispatches_are_refused(make_server, tmp_path):
         bad = pose(float("nan"), Y)
         got = await dispatch(w, target=bad)
         assert not got["accepted"] and "pose.position" in got["message"]
-        inside = await dispatch(w, target=pose(-0.4, -0.4))  # in the outer wall: no path
-        assert inside["accepted"] and inside["robot"] == ""
-        assert "no idle robot can reach" in task(w, inside["task"])["message"]
+        outside = await dispatch(w, target=pose(-0.4, -0.4))  # beyond the site map's edge
+        assert not outside["accepted"] and "off the map" in outside["message"], outside
+        inside = await dispatch(w, target=pose(10.0, 0.1))  # in the outer wall: no path
+        assert not inside["accepted"] and inside["task"] == 0, inside  # refused, with why
+        assert "no robot can take it: a: " in inside["message"] and "b: " in inside["message"]
         assert w.latest("/fleet/tasks")["tasks"][:len(before)] == before
     finally:
         await w.close()

@@ -231,6 +231,16 @@ class SimBackend(RobotBackend):
     async def rotate(self, angle: float, options: MoveOptions | None = None) -> ActionInfo:
         return self._call(self.simulator.rotate, angle, options)
 
+    # --- the simulator's own controls (no real robot has them) ------------------------------
+    def set_battery(self, percent: float) -> float:
+        return self._call(self.simulator.set_battery, percent)
+
+    def kidnap(self, true_pose: Pose2D) -> None:
+        self._call(self.simulator.kidnap, true_pose)
+
+    def emergency_stop(self, pressed: bool) -> None:
+        self._call(self.simulator.emergency_stop, pressed)
+
     async def go_home(self, options: MoveOptions | None = None) -> ActionInfo:
         return self._call(self.simulator.go_home, options)
 

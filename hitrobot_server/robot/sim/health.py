@@ -4,6 +4,7 @@ condition, each with a fresh id when it (re)appears, as on the REST API."""
 from __future__ import annotations
 
 from ..model import HealthComponent, HealthError, HealthInfo, HealthLevel, health_error_code
+from .controls import EMERGENCY_STOP, EMERGENCY_STOP_MESSAGE
 
 LOW_QUALITY = 30
 """Localization quality below which health reports an error."""
@@ -21,6 +22,8 @@ class HealthMonitor:
         self._next_health_id = 1
         self.relocalization_failed = False
         """Whether the last relocalization failed (until acknowledged or one succeeds)."""
+        self.emergency_stop = False
+        """Whether the (simulated) emergency stop is pressed: a FATAL error until released."""
 
     def report(self, power_low: bool, localization_enabled: bool, quality: int) -> HealthInfo:
         """The errors active for this condition of the robot."""
@@ -38,6 +41,8 @@ class HealthMonitor:
                 HealthLevel.ERROR,
                 "relocalization failed",
             ),
+            EMERGENCY_STOP: (self.emergency_stop, HealthComponent.MOTION, HealthLevel.FATAL,
+                             EMERGENCY_STOP_MESSAGE),
         }
         for code, (on, component, level, message) in active.items():
             if on and code not in self._health:

@@ -39,6 +39,7 @@ from .checks import checked_pose
 from .commands import ActionSlot, MotionCommands
 from .config import SimConfig
 from .context import ActionContext
+from .controls import SimControls
 from .costmap import Costmap, build_costmap
 from .geometry import compose, inverse, wrap_angle
 from .grid import distance_field
@@ -62,7 +63,7 @@ TRUE_FIELD_CELLS = 20
 """Reach (cells) of the ground-truth distance field used for collisions and matching."""
 
 
-class Simulator(MotionCommands, MapRequests, SavedState):
+class Simulator(MotionCommands, MapRequests, SavedState, SimControls):
     """One simulated robot in one world. Not thread-safe; drive it from one thread/loop.
 
     This class owns the physics, the sensing and what actions see (:class:`ActionContext`);
@@ -134,6 +135,8 @@ class Simulator(MotionCommands, MapRequests, SavedState):
 
     def _tick(self) -> None:
         tick = self.config.tick
+        if self._health.emergency_stop:
+            self._actions_abort("emergency stop")
         action = self._actions.current
         linear, angular = (0.0, 0.0)
         if action is not None and not action.done:

@@ -1,0 +1,203 @@
+"""Dispatch by cost: every capable robot bids its estimated finish time for the task (see
+:mod:`.policy`); the reply says who won and why. A named robot is sent as asked. A target is
+checked before it is accepted: finite, on the map and reachable (each bidder plans it; a target
+no robot can reach is refused with the planners' reasons). The charging policy lives here too:
+a free robot below ``charge_below`` gets a ``charge`` task to its dock; robots sharing a dock
+take turns."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+
+from ...robot.model import Pose2D
+from ..ground import messages as m
+from .member import ERROR, OFFLINE
+from .policy import Bid
+from .requests import check_on_map, read_stops
+from .site import Site
+from .tasks import CHARGE, QUEUED, RUNNING, Refused, Stop, Task
+
+BIDDING = "/bidding"
+"""A task's reservation while robots bid for it (no robot is named so)."""
+CHARGE_PRIORITY = 1000
+"""A charge goes before any task waiting for the same robot."""
+
+
+class Dispatcher:
+    def __init__(self, fleet: Site):
+        self.fleet = fleet
+
+    # ------------------------------------------------------------------ dispatch
+    async def dispatch(self, request: dict) -> dict:
+        try:
+            task, text, start = await self.accept(request)
+        except Refused as exc:
+            return {"robot": "", "accepted": False, "message": str(exc), "task": 0}
+        if start:
+            self.fleet.start_task(task, start)
+        self.fleet.kick()
+        return {"robot": start, "accepted": True, "task": task.id,
+                "message": f"task {task.id}: {text}"}
+
+    async def accept(self, request: dict) -> tuple[Task, str, str]:
+        """Check ``request``, take the bids, queue the task: (task, why, robot started now)."""
+        fleet, board = self.fleet, self.fleet.board
+        robots = {r["name"]: r for r in fleet.robots()}
+        wanted = request.get("robot", "")
+        if wanted and wanted not in robots:
+            raise Refused(f"unknown robot '{wanted}' (robots: {', '.join(robots) or 'none'})")
+        if not robots or all(r["state"] == OFFLINE for r in robots.values()):
+            raise Refused("every robot is offline")
+        if wanted and robots[wanted]["state"] == OFFLINE:
+            raise Refused(f"robot '{wanted}' is offline")
+        board.check_room(wanted)
+        kind, stops, laps = await read_stops(fleet.bus, request)
+        for stop in stops:
+            check_on_map(fleet.site_map, stop)
+        priority = max(-100, min(100, int(request.get("priority") or 0)))
+        task = Task(0, kind, stops, wanted, priority, laps, created=fleet.clock())
+        bids, refusals = await self.bids(task, [robots[wanted]] if wanted else [
+            r for r in robots.values() if r["state"] not in (OFFLINE, ERROR) and r["in_service"]])
+        if not bids:
+            raise Refused("no robot can take it: " + ("; ".join(refusals) or
+                                                       "every robot is out of service"))
+        best = min(bids, key=lambda b: (b.finish, b.robot))
+        task.id = board.new_id()
+        why = "; ".join(b.why(fleet.policy) for b in sorted(bids, key=lambda b: b.finish))
+        free = {r["name"] for r in fleet.free()}
+        board.add(task)
+        if best.charge:
+            self.charge(best.robot, f"task {task.id} needs more than its battery")
+        if best.robot in free and not best.charge:
+            return task, f"{best.robot} is on its way — bids: {why}", best.robot
+        task.reserved = best.robot
+        task.message = f"queued for {best.robot} (finishes first) — bids: {why}"
+        fleet.changed()
+        return task, task.message, ""
+
+    async def rebid(self, task: Task) -> None:
+        """A task that failed on a robot: the others bid again (once, on that event)."""
+        robots = [r for r in self.fleet.robots() if r["state"] not in (OFFLINE, ERROR)
+                  and r["in_service"] and r["name"] not in task.tried]
+        task.reserved = BIDDING  # no robot takes it while the others bid
+        bids, refusals = await self.bids(task, robots)
+        task.reserved = ""
+        if task.state != QUEUED:
+            return
+        if not bids:
+            task.message += "; no other robot can take it: " + "; ".join(refusals)
+        else:
+            task.reserved = min(bids, key=lambda b: (b.finish, b.robot)).robot
+        self.fleet.changed()
+        self.fleet.kick()
+
+    async def bids(self, task: Task, robots: list[dict]) -> tuple[list[Bid], list[str]]:
+        """Each robot's bid (those that can plan the first leg) and why the others cannot."""
+        plans = await asyncio.gather(*(self.fleet.runner.plan(
+            r["name"], task.target(), self._end_of_work(r["name"])) for r in robots))
+        bids, refusals = [], []
+        policy = self.fleet.policy
+        for robot, (length, path, reason) in zip(robots, plans, strict=True):
+            if path is None:
+                refusals.append(f"{robot['name']}: {reason}")
+                continue
+            first = task.stops[0].pose
+            rest = _metres(task.route[1:], (first.x, first.y))
+            metres = length + rest
+            busy = self._busy_seconds(robot["name"])
+            charge = not policy.lasts(robot["battery"], metres)
+            finish = busy + metres / policy.speed + sum(s.dwell for s in task.route)
+            if charge:
+                finish += policy.charge_time(robot["battery"])
+            bids.append(Bid(robot["name"], finish, metres, robot["battery"], charge, busy))
+        return bids, refusals
+
+    def _work(self, robot: str) -> list[Task]:
+        return [t for t in self.fleet.board.tasks.values() if t.open and (
+            t.assigned == robot and t.state == RUNNING or t.state == QUEUED and
+            robot in (t.reserved, t.robot))]
+
+    def _end_of_work(self, robot: str) -> Pose2D | None:
+        """Where the robot will be once its work is done (None: where it is now)."""
+        work = self._work(robot)
+        return work[-1].route[-1].pose if work else None
+
+    def _busy_seconds(self, robot: str) -> float:
+        policy = self.fleet.policy
+        msg = self.fleet.members.get(robot, (0.0, {}))[1]
+        here = msg.get("pose", {}).get("position", {"x": 0.0, "y": 0.0})
+        at, total = (here["x"], here["y"]), 0.0
+        for task in self._work(robot):
+            route = task.route[task.leg:]
+            total += _metres(route, at) / policy.speed + sum(s.dwell for s in route)
+            if route:
+                at = (route[-1].pose.x, route[-1].pose.y)
+        return total
+
+    # ------------------------------------------------------------------ handing out
+    def next_for(self, robot: dict) -> Task | None:
+        """The task ``robot`` (free) starts now, if any: its charge first; nothing else while
+        its battery is below the charge threshold or a charge is not finished; a task its
+        battery would not last is left for another (its bid said so)."""
+        name, board = robot["name"], self.fleet.board
+        for task in board.queued():
+            if task.robot not in ("", name) or task.reserved not in ("", name):
+                continue
+            if task.kind == CHARGE:
+                if not self._dock_taken(robot):
+                    return task
+                task.message = f"{name} waits for its dock"
+                continue
+            if robot["battery"] < self.fleet.policy.charge_below:
+                continue
+            return task
+        return None
+
+    def _dock_taken(self, robot: dict) -> bool:
+        """Another robot is charging at (or going to) ``robot``'s dock."""
+        dock = robot["dock"]["position"]
+        for other in self.fleet.robots():
+            if other["name"] == robot["name"]:
+                continue
+            their = other["dock"]["position"]
+            same = math.hypot(their["x"] - dock["x"], their["y"] - dock["y"]) < 0.3
+            if same and any(t.kind == CHARGE and t.state == RUNNING and
+                            t.assigned == other["name"] for t in self.fleet.board.tasks.values()):
+                return True
+        return False
+
+    def charge_policy(self) -> None:
+        """A free robot below the threshold, with a dock and no charge open, gets one."""
+        for robot in self.fleet.free():
+            if (robot["battery"] < self.fleet.policy.charge_below and robot["has_dock"]
+                    and robot["state"] != "charging"):
+                self.charge(robot["name"], f"battery {robot['battery']:.0f} % is below "
+                            f"{self.fleet.policy.charge_below:.0f} %")
+
+    def charge(self, robot: str, why: str) -> None:
+        board = self.fleet.board
+        if any(t.kind == CHARGE and t.open and t.robot == robot for t in board.tasks.values()):
+            return
+        msg = self.fleet.members.get(robot, (0.0, {}))[1]
+        dock = m.pose2d(msg["dock"]) if msg.get("has_dock") else Pose2D(0, 0, 0)
+        task = Task(board.new_id(), CHARGE, [Stop("dock", dock)], robot, CHARGE_PRIORITY,
+                    created=self.fleet.clock(), message=f"to charge: {why}")
+        board.add(task)
+        self.fleet.publish_tasks()
+
+    def release(self, robot: str) -> list[int]:
+        """A robot out of service: its reserved tasks wait for the others (re-bid when handed
+        out); the ones asked of it by name stay."""
+        moved = []
+        for task in self.fleet.board.queued():
+            if task.reserved == robot and not task.robot:
+                task.reserved, task.message = "", f"{robot} is out of service; waiting for " \
+                    "another robot"
+                moved.append(task.id)
+        return moved
+
+
+def _metres(stops: list[Stop], start: tuple[float, float]) -> float:
+    points = [start, *((s.pose.x, s.pose.y) for s in stops)]
+    return sum(math.dist(a, b) for a, b in zip(points, points[1:], strict=False))
