@@ -133,6 +133,14 @@ class Encoded:
         """An encoding if someone already made it."""
         return self._bytes.get((encoding, topic, None))
 
+    def publish_op_json(self) -> bytes | None:
+        """A ``publish`` op of this message as JSON, in whichever topic spelling one was made
+        (the recorder takes its ``msg``), or None."""
+        for (encoding, _topic, _variant), data in self._bytes.items():
+            if encoding is Encoding.JSON:
+                return data
+        return None
+
     def size(self) -> int:
         """Estimated JSON size of the body, computed once (or given by the publisher)."""
         if self._size is None:

@@ -1,0 +1,111 @@
+"""What recording every topic costs the fan-out (issue 33, item 7): the same LaserScan fan-out as
+``bench_bridge.py`` section 2, to 1, 10 and 50 subscribers, on a server without recording and
+on one with ``--record`` (every topic), run side by side (interleaved, a fresh server each run)
+in one process, and the ratio recorded / not recorded of delivered msg/s and of server CPU per
+delivered message. Prints figures only (no assertions).
+
+    .venv/bin/python bench/bench_record.py            # 3 rounds per client count
+    .venv/bin/python bench/bench_record.py --quick    # 1 round, smaller counts
+
+Each round runs both servers for each client count (the order alternates between rounds, so a
+background load hits both alike); a server's CPU includes its recorder's writer process. After
+each recorded run the file is read back with the ``mcap`` reader and its LaserScans counted
+(``recorded``: what reached the file of what was published).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import shlex
+import statistics
+import sys
+import tempfile
+from pathlib import Path
+
+from mcap.reader import make_reader
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import bench_bridge as bb  # noqa: E402
+
+
+def recorded_count(folder: Path, topic: str) -> int:
+    """LaserScans of ``topic`` in every file of the folder (a split recording has several)."""
+    total = 0
+    for path in sorted(folder.glob("*.mcap")):
+        with open(path, "rb") as f:
+            summary = make_reader(f).get_summary()
+        if summary is None or summary.statistics is None:
+            continue
+        ids = [i for i, c in summary.channels.items() if c.topic == topic]
+        total += sum(summary.statistics.channel_message_counts.get(i, 0) for i in ids)
+    return total
+
+
+async def one_run(n: int, record: bool, cfg, folder: Path, tag: str) -> dict:
+    topic = f"/bench/scan_{n}"
+    src = bb.ScanSource(topic)
+    out = folder / tag
+    out.mkdir()
+    bb.RECORD_DIR = str(out) if record else None
+    server = bb.start_ours(None, tag)
+    try:
+        run = await bb.fanout_run(server.port, server, n, cfg.scan_counts[n], src, topic, cfg)
+    finally:
+        server.stop()
+        bb.RECORD_DIR = None
+    run["recorded"] = recorded_count(out, topic) if record else None
+    return run
+
+
+async def main_async(cfg, rounds: int) -> None:
+    bb.machine_info()
+    results: dict[tuple[int, bool], list[dict]] = {}
+    with tempfile.TemporaryDirectory(prefix="bench-record-") as tmp:
+        folder = Path(tmp)
+        for r in range(rounds):
+            for n in cfg.clients:
+                order = (False, True) if (r + n) % 2 == 0 else (True, False)
+                for record in order:
+                    tag = f"r{r}_{n}_{'rec' if record else 'plain'}"
+                    run = await one_run(n, record, cfg, folder, tag)
+                    results.setdefault((n, record), []).append(run)
+                    print(f"  round {r + 1} {n:>2} clients {'record' if record else 'plain ':6}: "
+                          f"{bb.fnum(run['rate'])} msg/s, {run['srv_us']:.1f} us/msg server CPU, "
+                          f"recv {run['total']:,}/{run['expected']:,}"
+                          + (f", recorded {run['recorded']:,}/{run['count']:,}"
+                             if record else ""), flush=True)
+    rows = []
+    for n in cfg.clients:
+        plain, rec = results[(n, False)], results[(n, True)]
+        ratios = [b["rate"] / a["rate"] for a, b in zip(plain, rec, strict=True)]
+        cpu = [b["srv_us"] / a["srv_us"] for a, b in zip(plain, rec, strict=True)]
+        rows.append([
+            n,
+            bb.fnum(statistics.median(a["rate"] for a in plain)),
+            bb.fnum(statistics.median(b["rate"] for b in rec)),
+            " / ".join(f"{x:.2f}" for x in ratios),
+            f"{statistics.median(ratios):.2f}",
+            " / ".join(f"{x:.2f}" for x in cpu),
+            ", ".join(f"{b['recorded']:,}/{b['count']:,}" for b in rec),
+        ])
+    print("\nLaserScan fan-out (720 ranges), recording every topic vs not, side by side")
+    print(bb.table(["clients", "plain msg/s", "recorded msg/s", "ratio per round",
+                    "median ratio", "srv us/msg ratio", "recorded/published"], rows))
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="1 round, smaller counts")
+    parser.add_argument("--rounds", type=int, default=None, help="rounds (default 3, quick 1)")
+    parser.add_argument("--server-args", default="", metavar="ARGS",
+                        help="more flags for each hitrobot-server")
+    args = parser.parse_args()
+    cfg = bb.config(args.quick)
+    bb.SERVER_ARGS.extend(shlex.split(args.server_args))
+    asyncio.run(main_async(cfg, args.rounds or (1 if args.quick else 3)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
