@@ -7,6 +7,12 @@ delivered message. Prints figures only (no assertions).
     .venv/bin/python bench/bench_record.py            # 3 rounds per client count
     .venv/bin/python bench/bench_record.py --quick    # 1 round, smaller counts
 
+``--loop`` measures instead, in this process, what the recorder's tap costs the event loop's
+process per message: the CPU time (every thread of the process: the queue's feeder thread
+pickles on the loop's GIL) of publishing client LaserScans (a rosbridge publish's own JSON text,
+as the bus carries it) with a recorder tapping the bus, minus the same without one. Run it
+with another tree first on ``PYTHONPATH`` to measure that tree's recorder.
+
 Each round runs both servers for each client count (the order alternates between rounds, so a
 background load hits both alike); a server's CPU includes its recorder's writer process. After
 each recorded run the file is read back with the ``mcap`` reader and its LaserScans counted
@@ -94,13 +100,62 @@ async def main_async(cfg, rounds: int) -> None:
                     "median ratio", "srv us/msg ratio", "recorded/published"], rows))
 
 
+async def loop_cost(count: int, rounds: int) -> None:
+    """CPU µs per published message with and without a recorder tap (see the docstring)."""
+    import time
+
+    import orjson
+
+    from hitrobot_server.bus.core import Bus
+    from hitrobot_server.record.recorder import Recorder
+    from hitrobot_server.types.registry import TypeRegistry
+    from hitrobot_server.wire.encoded import Seed
+
+    src = bb.ScanSource("/scan")
+    ops = [src.frame(i) for i in range(64)]
+    msgs = [orjson.loads(op)["msg"] for op in ops]
+
+    async def publish_all(bus: Bus) -> float:
+        t0 = time.process_time()
+        for i in range(count):
+            op = ops[i % 64]
+            bus.publish("/scan", msgs[i % 64], seed=Seed(len(op), "/scan", op))
+            if i % 50 == 49:
+                await asyncio.sleep(0)  # the loop's timers run (the recorder's hand-off)
+        return time.process_time() - t0
+
+    plain, tapped = [], []
+    with tempfile.TemporaryDirectory(prefix="bench-record-loop-") as tmp:
+        for r in range(rounds):
+            bus = Bus(TypeRegistry.default())
+            bus.advertise("/scan", "sensor_msgs/LaserScan", "bench", "/bench")
+            plain.append(await publish_all(bus))
+            recorder = Recorder(bus, Path(tmp) / f"loop_{r}.mcap", max_queued_bytes=2**31)
+            recorder.start()
+            t0 = time.process_time()
+            await publish_all(bus)
+            await recorder.stop()  # until the feeder thread has handed everything over
+            tapped.append(time.process_time() - t0)
+            assert recorder.dropped == 0, recorder.dropped
+    per = [(b - a) / count * 1e6 for a, b in zip(plain, tapped, strict=True)]
+    print(f"loop process CPU per recorded message ({count:,} LaserScans x {rounds} rounds): "
+          f"publish alone {statistics.median(plain) / count * 1e6:.1f} us, "
+          f"the recorder adds {' / '.join(f'{x:.1f}' for x in per)} us "
+          f"(median {statistics.median(per):.1f} us)")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="1 round, smaller counts")
     parser.add_argument("--rounds", type=int, default=None, help="rounds (default 3, quick 1)")
     parser.add_argument("--server-args", default="", metavar="ARGS",
                         help="more flags for each hitrobot-server")
+    parser.add_argument("--loop", action="store_true",
+                        help="only the tap's CPU per message, in this process")
     args = parser.parse_args()
+    if args.loop:
+        asyncio.run(loop_cost(2000 if args.quick else 5000, args.rounds or 3))
+        return 0
     cfg = bb.config(args.quick)
     bb.SERVER_ARGS.extend(shlex.split(args.server_args))
     asyncio.run(main_async(cfg, args.rounds or (1 if args.quick else 3)))

@@ -88,9 +88,10 @@ class RecordingControl:
             if self.recorder is None:
                 continue
             if not self.recorder.alive:
-                async with self._busy:
-                    recorder, self.recorder = self.recorder, None
-                    if recorder is not None:
+                async with self._busy:  # /record/stop may have ended it meanwhile
+                    recorder = self.recorder
+                    if recorder is not None and not recorder.alive:
+                        self.recorder = None
                         cause = (os.strerror(recorder.disk_error) if recorder.disk_error
                                  else f"its writer process ended (exit code "
                                       f"{recorder.exit_code})")
