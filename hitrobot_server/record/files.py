@@ -45,6 +45,9 @@ def check_writable(path: Path, *, exclusive: bool, min_free: int = MIN_FREE) -> 
     which."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"cannot record to {path}: {exc.strerror or exc}") from None
+    try:
         vfs = os.statvfs(path.parent)
         free = vfs.f_bavail * vfs.f_frsize
         if free < min_free:

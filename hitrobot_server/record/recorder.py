@@ -48,17 +48,28 @@ READ_ONLY_SERVICES = "/rosapi/"
 
 def known_bytes(message: Message) -> tuple[int, Any]:
     """The message as the writer takes it, without encoding anything: its CDR if someone made
-    it, else the client's own ``publish`` op if the bus carries that text, else the message."""
+    it, else the client's own ``publish`` op when its ``msg`` is the message as it is (the bus
+    carries that text), else the message."""
     if message.cdr_bytes is not None:
         return CDR, message.cdr_bytes
     wire = message.wire
     if wire.__class__ is Encoded:
-        text = wire.publish_op_json()  # type: ignore[attr-defined]
+        text = wire.client_json()  # type: ignore[attr-defined]
     elif wire.__class__ is Seed:
         text = wire.publish_json  # type: ignore[attr-defined]
     else:
         text = None
     return (JSON, text) if text is not None else (MSG, message.msg)
+
+
+def item_of(message: Message, log_time: float | None = None) -> Item:
+    """What the writer takes of a bus message (:func:`known_bytes`), logged at its own stamp
+    or at ``log_time`` (seconds)."""
+    topic = message.topic
+    stamp = int(message.stamp * 1e9)
+    kind, data = known_bytes(message)
+    when = stamp if log_time is None else int(log_time * 1e9)
+    return Item(topic.name, topic.type_name, topic.latched, when, stamp, message.seq, kind, data)
 
 
 def estimate_size(value: Any, depth: int = 0) -> int:
@@ -221,13 +232,9 @@ class Recorder:
                   ITEM_OVERHEAD + len(data))
 
     def _enqueue(self, message: Message, log_time: float | None = None) -> None:
-        topic = message.topic
-        stamp = int(message.stamp * 1e9)
-        kind, data = known_bytes(message)
-        size = ITEM_OVERHEAD + (len(data) if kind != MSG else estimate_size(data))
-        when = stamp if log_time is None else int(log_time * 1e9)
-        self._put(Item(topic.name, topic.type_name, topic.latched, when, stamp, message.seq,
-                       kind, data), size)
+        item = item_of(message, log_time)
+        self._put(item, ITEM_OVERHEAD + (len(item.data) if item.kind != MSG
+                                         else estimate_size(item.data)))
 
     def _put(self, item: Item, size: int) -> None:
         counters = self._counters

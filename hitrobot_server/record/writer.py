@@ -39,7 +39,6 @@ from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 from .. import __version__
 from ..bus.cdr import codec_for
 from ..types import jsoncodec
-from ..types.convert import from_json
 from ..types.registry import TypeRegistry
 from .files import DiskFile, enforce_budget, open_file, split_name
 from .profile import PROFILE, ROS_DISTRO, channel_metadata, ros2_type_name, schema_text
@@ -50,8 +49,8 @@ WRITER_NICENESS = 5  # the event loop first; the disk keeps up or messages are d
 BUDGET_PERIOD = 2.0  # seconds between looks at the disk budget
 
 CDR, JSON, MSG = 0, 1, 2
-"""What an :class:`Item`'s ``data`` is: ROS 2 CDR; a rosbridge ``publish`` op as JSON whose
-``msg`` is the canonical message; the canonical message itself."""
+"""What an :class:`Item`'s ``data`` is: ROS 2 CDR; a client's ``publish`` op as JSON whose
+``msg`` is the canonical message as it is (verbatim); the canonical message itself."""
 
 
 class Item(NamedTuple):
@@ -229,11 +228,8 @@ class McapFiles:
     def _cdr(self, item: Item) -> bytes:
         if item.kind == CDR:
             return item.data
-        mtype = self.codec.types.msg(item.type_name)
-        msg = item.data
-        if item.kind == JSON:  # rosbridge's JSON form of the message, converted as a publish
-            msg = from_json(mtype, jsoncodec.loads(msg)["msg"], self.codec.types)[0]
-        return self.codec.encode(msg, mtype)
+        msg = jsoncodec.loads(item.data)["msg"] if item.kind == JSON else item.data
+        return self.codec.encode(msg, self.codec.types.msg(item.type_name))
 
     def _channel(self, item: Item) -> int:
         channel = self.channels.get(item.topic)
