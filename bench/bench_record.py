@@ -14,7 +14,9 @@ as the bus carries it) with a recorder tapping the bus, minus the same without o
 with another tree first on ``PYTHONPATH`` to measure that tree's recorder.
 
 Each round runs both servers for each client count (the order alternates between rounds, so a
-background load hits both alike); a server's CPU includes its recorder's writer process. After
+background load hits both alike). ``srv us/msg`` is the server process's CPU per delivered
+message (the event loop's process); the recorder's writer process is measured apart
+(``writer CPU``, seconds over the whole run, warm-up included). After
 each recorded run the file is read back with the ``mcap`` reader and its LaserScans counted
 (``recorded``: what reached the file of what was published).
 """
@@ -29,23 +31,33 @@ import sys
 import tempfile
 from pathlib import Path
 
+from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_bridge as bb  # noqa: E402
+from bench_workers import cpu_seconds  # noqa: E402
 
 
 def recorded_count(folder: Path, topic: str) -> int:
     """LaserScans of ``topic`` in every file of the folder (a split recording has several)."""
     total = 0
     for path in sorted(folder.glob("*.mcap")):
-        with open(path, "rb") as f:
-            summary = make_reader(f).get_summary()
+        try:
+            with open(path, "rb") as f:
+                summary = make_reader(f).get_summary()
+        except McapError:  # empty or cut (a server killed before its writer finished)
+            continue
         if summary is None or summary.statistics is None:
             continue
         ids = [i for i, c in summary.channels.items() if c.topic == topic]
         total += sum(summary.statistics.channel_message_counts.get(i, 0) for i in ids)
     return total
+
+
+def children_cpu(server: bb.ServerProc) -> float:
+    """CPU seconds of the server's child processes so far (the recorder's writer)."""
+    return cpu_seconds(bb.procmem.children(server.proc.pid))
 
 
 async def one_run(n: int, record: bool, cfg, folder: Path, tag: str) -> dict:
@@ -56,7 +68,9 @@ async def one_run(n: int, record: bool, cfg, folder: Path, tag: str) -> dict:
     bb.RECORD_DIR = str(out) if record else None
     server = bb.start_ours(None, tag)
     try:
+        before = children_cpu(server)
         run = await bb.fanout_run(server.port, server, n, cfg.scan_counts[n], src, topic, cfg)
+        run["writer_s"] = children_cpu(server) - before
     finally:
         server.stop()
         bb.RECORD_DIR = None
@@ -79,8 +93,8 @@ async def main_async(cfg, rounds: int) -> None:
                     print(f"  round {r + 1} {n:>2} clients {'record' if record else 'plain ':6}: "
                           f"{bb.fnum(run['rate'])} msg/s, {run['srv_us']:.1f} us/msg server CPU, "
                           f"recv {run['total']:,}/{run['expected']:,}"
-                          + (f", recorded {run['recorded']:,}/{run['count']:,}"
-                             if record else ""), flush=True)
+                          + (f", recorded {run['recorded']:,}/{run['count']:,}, writer CPU "
+                             f"{run['writer_s']:.1f} s" if record else ""), flush=True)
     rows = []
     for n in cfg.clients:
         plain, rec = results[(n, False)], results[(n, True)]
@@ -94,10 +108,12 @@ async def main_async(cfg, rounds: int) -> None:
             f"{statistics.median(ratios):.2f}",
             " / ".join(f"{x:.2f}" for x in cpu),
             ", ".join(f"{b['recorded']:,}/{b['count']:,}" for b in rec),
+            " / ".join(f"{b['writer_s']:.1f}" for b in rec),
         ])
     print("\nLaserScan fan-out (720 ranges), recording every topic vs not, side by side")
     print(bb.table(["clients", "plain msg/s", "recorded msg/s", "ratio per round",
-                    "median ratio", "srv us/msg ratio", "recorded/published"], rows))
+                    "median ratio", "srv us/msg ratio", "recorded/published",
+                    "writer CPU s"], rows))
 
 
 async def loop_cost(count: int, rounds: int) -> None:
