@@ -183,6 +183,12 @@ class McapFiles:
         if self.file is None:
             return
         self.counters.error.value = exc.errno or errno.EIO
+        if self.file.tell() < len(MCAP0_MAGIC) + 1:  # not even its header: no file at all
+            self._closed()
+            with contextlib.suppress(OSError):
+                self.current.unlink()
+            log.error("recording to %s stopped: %s", self.current, exc.strerror or exc)
+            return
         builder = RecordBuilder()
         DataEnd(0).write(builder)
         Footer(summary_start=0, summary_offset_start=0, summary_crc=0).write(builder)

@@ -3,14 +3,18 @@ messages first, the audit entries of client ops."""
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
+import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from hitrobot_server.bus.core import Bus
 from hitrobot_server.bus.topics import Origin
 from hitrobot_server.record.profile import AUDIT_TOPIC
-from hitrobot_server.record.recorder import Recorder, estimate_size, split_name
+from hitrobot_server.record.recorder import Recorder, estimate_size, item_of, split_name
+from hitrobot_server.record.writer import write_recording
 from hitrobot_server.types.registry import TypeRegistry
 
 from ..helpers import until
@@ -123,3 +127,21 @@ async def test_service_calls_and_goals_of_clients_are_audited(tmp_path):
     assert [(e.op, e.name, e.type, e.auth_level, e.address) for e in entries] == [
         ("call_service", "/robot/do", "std_srvs/srv/Trigger", "admin", "10.0.0.7"),
         ("send_action_goal", "/robot/go", "nav2_msgs/action/FollowPath", "admin", "10.0.0.7")]
+
+
+def test_write_recording_writes_encoded_messages_into_a_new_file_only(tmp_path):
+    """The black box's way in: messages as the recorder takes them (item_of), in one go."""
+    bus = make_bus()
+    items = [item_of(bus.publish("/keep", {"data": f"m{i}"})) for i in range(3)]
+    path = tmp_path / "snap.mcap"
+    assert write_recording(path, items, metadata={"cause": "test"}) == 3
+    assert [m.data for _t, m in decoded(path)] == ["m0", "m1", "m2"]
+    with open(path, "rb") as f:
+        meta = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+    assert meta["hitrobot-recording"] == {"cause": "test"}
+    with pytest.raises(FileExistsError):
+        write_recording(path, items)
+    os.symlink(tmp_path / "outside.mcap", tmp_path / "link.mcap")
+    with pytest.raises(FileExistsError):
+        write_recording(tmp_path / "link.mcap", items)
+    assert not (tmp_path / "outside.mcap").exists()
