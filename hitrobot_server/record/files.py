@@ -8,6 +8,7 @@ import contextlib
 import logging
 import os
 import stat
+from collections import deque
 from pathlib import Path
 
 log = logging.getLogger(__name__)
@@ -78,6 +79,8 @@ class DiskFile:
     def __init__(self, fd: int):
         self.fd = fd
         self.pos = 0
+        self.ends: deque[int] = deque(maxlen=32)  # where the last whole writes ended
+
 
     def write(self, data: bytes | bytearray | memoryview) -> int:
         view = memoryview(data).cast("B")
@@ -89,6 +92,7 @@ class DiskFile:
             self.cut(start)
             raise
         self.pos = start + total
+        self.ends.append(self.pos)
         return total
 
     def cut(self, offset: int) -> None:

@@ -179,7 +179,8 @@ class McapFiles:
     def cut_short(self, exc: OSError) -> None:
         """The disk refused a write: the file already ends with its last complete records (see
         :class:`DiskFile`); end it there with a footer without summary, which readers take
-        as "read the records in order" (if even that is refused, it ends without one)."""
+        as "read the records in order". When even that is refused, the last whole writes
+        (chunks) are given up one by one until the footer fits."""
         if self.file is None:
             return
         self.counters.error.value = exc.errno or errno.EIO
@@ -192,8 +193,15 @@ class McapFiles:
         builder = RecordBuilder()
         DataEnd(0).write(builder)
         Footer(summary_start=0, summary_offset_start=0, summary_crc=0).write(builder)
-        with contextlib.suppress(OSError):
-            self.file.write(builder.end() + MCAP0_MAGIC)
+        tail = builder.end() + MCAP0_MAGIC
+        ends = list(self.file.ends)[1:]  # never before the header (the first two writes)
+        for end in reversed(ends):  # the end of the last whole write, else an earlier one
+            self.file.cut(end)
+            try:
+                self.file.write(tail)
+                break
+            except OSError:
+                continue
         log.error("recording to %s stopped: %s; the file keeps what was written before",
                   self.current, exc.strerror or exc)
         self._closed()

@@ -8,6 +8,8 @@ from __future__ import annotations
 import errno
 import os
 import resource
+import subprocess
+import sys
 import time
 
 import pytest
@@ -172,3 +174,41 @@ async def test_a_recording_the_disk_stops_is_closed_and_reads_back(make_server, 
     assert path.stat().st_size <= limit
     read = texts(path)  # the stock reader reads it to its end without an error
     assert 5 <= len(read) < len(sent) and read == sent[: len(read)], (len(read), len(sent))
+
+
+_CUT_SCRIPT = """
+import random, resource, signal, sys
+from pathlib import Path
+from hitrobot_server.record.writer import MSG, Item, write_recording
+path, limit = Path(sys.argv[1]), int(sys.argv[2])
+rng = random.Random(1)
+items = [Item("/big", "std_msgs/msg/String", False, i, i, i, MSG,
+              {"data": rng.randbytes(200_000).hex()}) for i in range(9)]
+if limit:
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+try:
+    write_recording(path, items)
+except OSError as exc:
+    print(exc.errno)
+"""
+
+
+def test_a_footer_that_does_not_fit_gives_up_the_last_chunk(tmp_path):
+    """The disk stops right after a chunk and its index, with no room for the footer: the
+    index is given up (then the chunk, if need be) so that the file still ends properly."""
+    whole = tmp_path / "whole.mcap"
+    run = [sys.executable, "-c", _CUT_SCRIPT]
+    subprocess.run([*run, str(whole), "0"], check=True, timeout=120)
+    with open(whole, "rb") as f:
+        chunks = make_reader(f).get_summary().chunk_indexes
+    assert len(chunks) >= 3
+    second = chunks[1]
+    limit = second.chunk_start_offset + second.chunk_length + second.message_index_length + 20
+    cut = tmp_path / "cut.mcap"
+    done = subprocess.run([*run, str(cut), str(limit)], capture_output=True, text=True,
+                          timeout=120)
+    assert done.stdout.strip() == str(errno.EFBIG), done.stderr
+    assert cut.stat().st_size <= limit
+    read = texts(cut)  # the stock reader, to the end, without an error
+    assert read == texts(whole)[: len(read)] and len(read) >= 3  # the first chunk at least
