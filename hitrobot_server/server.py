@@ -130,7 +130,9 @@ class HitrobotServer:
         s = self.settings
         self.recording = RecordingControl(self.bus, s.store.recordings,
                                           topics=s.record.record_topics,
-                                          split_size=s.record.split_bytes)
+                                          split_size=s.record.split_bytes,
+                                          split_time=s.record.split_seconds,
+                                          max_disk=s.record.max_disk_bytes)
         if self.plan.record:  # first: an unwritable path is refused before anything starts
             self.recording.start_recording(self.plan.record)
         await self.recording.start()

@@ -244,11 +244,7 @@ class Ros2Codec:
                         return np.zeros(fixed, dtype=dtype)
                     if isinstance(v, bytes | bytearray | memoryview):
                         return np.frombuffer(v, dtype=dtype)
-                    return (
-                        np.asarray([np.nan if x is None else x for x in v], dtype=dtype)
-                        if dtype in (np.float32, np.float64) and None in v
-                        else np.asarray(v, dtype=dtype)
-                    )
+                    return np.asarray(v, dtype=dtype)  # a float array's None is NaN
 
                 return numbers
             one = self._enc_field(elem)

@@ -8,10 +8,13 @@ import asyncio
 import contextlib
 import datetime
 import logging
+import os
 from pathlib import Path
 
 from ..bus.core import Bus
 from ..bus.errors import ServiceError
+from .files import recordings
+from .names import recording_name
 from .recorder import Recorder
 
 log = logging.getLogger(__name__)
@@ -19,47 +22,40 @@ log = logging.getLogger(__name__)
 NODE = "/recorder"
 STATE_TOPIC = "/record/state"
 STATE_PERIOD = 1.0
-MAX_NAME = 64
-
-
-def recording_name(name: str) -> str:
-    """A plain ``*.mcap`` file name from a client's ``name``; ValueError says what is wrong."""
-    name = name.strip() or datetime.datetime.now(datetime.UTC).strftime("rec-%Y%m%d-%H%M%S")
-    if not name.endswith(".mcap"):
-        name += ".mcap"
-    if "/" in name or "\\" in name or "\0" in name or name.startswith("."):
-        raise ValueError(f"field 'name' must be a plain file name, not {name!r}")
-    if len(name) > MAX_NAME:
-        raise ValueError(f"field 'name' is longer than {MAX_NAME} characters")
-    return name
 
 
 def list_recordings(folder: Path) -> list[tuple[str, int]]:
     """The MCAP files of the recordings folder (name, bytes), newest first."""
-    if not folder.is_dir():
-        return []
-    files = [(p.stat(), p.name) for p in folder.iterdir()
-             if p.suffix == ".mcap" and p.is_file() and not p.name.startswith(".")]
-    files.sort(key=lambda f: f[0].st_mtime, reverse=True)
-    return [(name, stat.st_size) for stat, name in files]
+    return [(path.name, st.st_size) for path, st in recordings(folder)]
+
+
+def default_name() -> str:
+    return datetime.datetime.now(datetime.UTC).strftime("rec-%Y%m%d-%H%M%S")
 
 
 class RecordingControl:
     """The recorder services on the bus; owns the recording in progress."""
 
     def __init__(self, bus: Bus, folder: Path, *, topics: str | None = None,
-                 split_size: int = 0):
+                 split_size: int = 0, split_time: float = 0.0, max_disk: int = 0):
         self.bus = bus
         self.folder = folder
         self.topics = topics
         self.split_size = split_size
+        self.split_time = split_time
+        self.max_disk = max_disk
         self.recorder: Recorder | None = None
         self._task: asyncio.Task | None = None
         self._busy = asyncio.Lock()
 
-    def start_recording(self, path: Path) -> None:
-        """Start recording to ``path`` (raises ValueError when it cannot be written)."""
-        recorder = Recorder(self.bus, path, topics=self.topics, split_size=self.split_size)
+    def start_recording(self, path: Path, *, exclusive: bool = False) -> None:
+        """Start recording to ``path`` (raises ValueError when it cannot be written);
+        ``exclusive``: a file of that name is refused (a client's), else emptied (the
+        operator's ``--record FILE``). The disk budget covers the recordings folder and the
+        parts of this recording."""
+        recorder = Recorder(self.bus, path, topics=self.topics, split_size=self.split_size,
+                            split_time=self.split_time, max_disk=self.max_disk,
+                            budget_folder=self.folder, exclusive=exclusive)
         recorder.start()
         self.recorder = recorder
 
@@ -92,11 +88,14 @@ class RecordingControl:
             if self.recorder is None:
                 continue
             if not self.recorder.alive:
-                async with self._busy:
-                    recorder, self.recorder = self.recorder, None
-                    if recorder is not None:
-                        log.error("recording to %s stopped: its writer process ended (exit "
-                                  "code %s)", recorder.path, recorder.exit_code)
+                async with self._busy:  # /record/stop may have ended it meanwhile
+                    recorder = self.recorder
+                    if recorder is not None and not recorder.alive:
+                        self.recorder = None
+                        cause = (os.strerror(recorder.disk_error) if recorder.disk_error
+                                 else f"its writer process ended (exit code "
+                                      f"{recorder.exit_code})")
+                        log.error("recording to %s stopped: %s", recorder.path, cause)
                         await recorder.stop()
             self._publish_state()
 
@@ -115,11 +114,8 @@ class RecordingControl:
             if self.recorder is not None:
                 raise ServiceError(f"already recording to {self.recorder.path.name}")
             try:
-                name = recording_name(str(request.get("name", "")))
-                path = self.folder / name
-                if path.exists():
-                    raise ValueError(f"{name} already exists in the recordings folder")
-                self.start_recording(path)
+                name = recording_name(str(request.get("name", "")), default_name())
+                self.start_recording(self.folder / name, exclusive=True)
             except ValueError as exc:
                 raise ServiceError(str(exc)) from None
             self._publish_state()

@@ -3,7 +3,29 @@ makes its flag and TOML key, its default is the server's."""
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
+
+_SIZE = re.compile(r"(\d+(?:\.\d+)?)\s*([KMGT]?)(?:i?B)?", re.IGNORECASE)
+_TIME = re.compile(r"(\d+(?:\.\d+)?)\s*([smhd]?)", re.IGNORECASE)
+_SIZE_UNITS = {"": 1, "k": 1024, "m": 1024**2, "g": 1024**3, "t": 1024**4}
+_TIME_UNITS = {"": 1, "s": 1, "m": 60, "h": 3600, "d": 86400}
+
+
+def parse_size(text: str) -> int:
+    """Bytes of ``500M``, ``2G``, ``1.5GiB``, ``4096`` (K/M/G/T are powers of 1024)."""
+    found = _SIZE.fullmatch(text.strip())
+    if found is None:
+        raise ValueError(f"{text!r} is not a size (e.g. 500M, 2G)")
+    return int(float(found[1]) * _SIZE_UNITS[found[2].lower()])
+
+
+def parse_duration(text: str) -> float:
+    """Seconds of ``90``, ``90s``, ``10m``, ``2h``, ``1d``."""
+    found = _TIME.fullmatch(text.strip())
+    if found is None:
+        raise ValueError(f"{text!r} is not a duration (e.g. 600, 10m, 1h)")
+    return float(found[1]) * _TIME_UNITS[found[2].lower()]
 
 
 @dataclass(frozen=True)
@@ -16,11 +38,33 @@ class RecordOptions:
     record_split_size: int = field(default=0, metadata={
         "help": "start a new file (NAME_1.mcap, ...) when a recording reaches this many MiB "
         "(0 = never)"})
+    record_split_time: str | None = field(default=None, metadata={
+        "help": "start a new file when a recording's file spans this long (seconds, or e.g. "
+        "10m, 1h)"})
+    record_max_disk: str | None = field(default=None, metadata={
+        "help": "keep the recordings under this size (e.g. 500M, 2G): the oldest files are "
+        "removed first, never the one being written"})
 
     @property
     def split_bytes(self) -> int:
         return self.record_split_size * 1024 * 1024
 
+    @property
+    def split_seconds(self) -> float:
+        return parse_duration(self.record_split_time) if self.record_split_time else 0.0
+
+    @property
+    def max_disk_bytes(self) -> int:
+        return parse_size(self.record_max_disk) if self.record_max_disk else 0
+
     def check(self) -> None:
         if self.record_split_size < 0:
             raise ValueError("record_split_size must be 0 or more (MiB)")
+        try:
+            seconds, budget = self.split_seconds, self.max_disk_bytes
+        except ValueError as exc:
+            raise ValueError(f"record: {exc}") from None
+        if self.record_split_time and seconds < 1:
+            raise ValueError("record_split_time must be at least 1 second")
+        if self.record_max_disk and budget < 1024 * 1024:
+            raise ValueError("record_max_disk must be at least 1M")

@@ -1,4 +1,4 @@
-"""What a ROS 2 MCAP file says about its channels: ``ros2msg`` schemas, QoS, the audit schema.
+"""What a ROS 2 MCAP file says about its channels: ``ros2msg`` schemas, QoS, the audit topic.
 
 The message bytes are the CDR the Zenoh link produces (:class:`~hitrobot_server.bus.cdr.
 Ros2Codec`), so a channel's schema is the ROS 2 definition of the same type, concatenated with
@@ -7,8 +7,6 @@ the definitions it uses as ROS 2 tools write them (rosbags generates the text).
 
 from __future__ import annotations
 
-import json
-
 import yaml
 
 from ..bus.cdr import Ros2Codec
@@ -16,22 +14,7 @@ from ..bus.cdr import Ros2Codec
 PROFILE = "ros2"
 ROS_DISTRO = "jazzy"  # the ROS 2 definitions our CDR follows (rosbags' Jazzy store)
 AUDIT_TOPIC = "/hitrobot/audit"
-AUDIT_SCHEMA_NAME = "hitrobot/ClientOp"
-AUDIT_SCHEMA = json.dumps({
-    "$schema": "https://json-schema.org/draft/2020-12/schema",
-    "title": "A client op that changed the robot",
-    "type": "object",
-    "properties": {
-        "op": {"enum": ["publish", "call_service", "send_action_goal"]},
-        "name": {"type": "string", "description": "topic, service or action"},
-        "type": {"type": "string"},
-        "client": {"type": "string", "description": "the client's node name"},
-        "address": {"type": "string", "description": "the connection's host:port"},
-        "auth_level": {"type": ["string", "null"]},
-        "time": {"type": "number", "description": "bus clock, UNIX seconds"},
-    },
-    "required": ["op", "name", "type", "client", "address", "time"],
-}).encode()
+AUDIT_TYPE = "hitrobot_msgs/msg/AuditEntry"  # schemas/hitrobot_msgs/msg/AuditEntry.msg
 
 # The ros2 profile's required channel metadata: the offered QoS as a YAML sequence of policies
 # (the MCAP registry's spelling); a latched topic is transient local, as ROS 2 latches.

@@ -1,18 +1,21 @@
 """``--record FILE.mcap``: every bus message into an MCAP file (ROS 2 profile), off the loop.
 
-The recorder is a bus tap: on the event loop it only filters the topic and queues the message
-(a reference; the queue's feeder thread pickles it) for the writer process
-(:mod:`hitrobot_server.record.writer`), which encodes CDR and writes chunked, zstd-compressed
-MCAP with the ``mcap`` package. The queue is bounded in messages and in (estimated) bytes; when
-the disk cannot keep up, new messages are dropped, counted, and a warning is logged. The writer
-closes and flushes the current chunk at least every ``flush_period`` (0.5 s), so a recording
-whose server is killed with SIGKILL reads back to within its last second.
+The recorder is a bus tap: on the event loop it only filters the topic and appends the message
+to a batch, as bytes where it already has them (its CDR, made by whoever needed it first, or the
+client's own JSON of a publish) and as the message otherwise. Every ``BATCH_PERIOD`` (or
+``BATCH_BYTES``) the batch goes to the writer process (:mod:`hitrobot_server.record.writer`) in
+one queue put, so a message costs the loop an append, not a pickle, a lock and a pipe write of
+its own. The writer encodes what is not CDR yet and writes chunked, zstd-compressed MCAP. What
+is queued is bounded in (estimated) bytes; when the disk cannot keep up, new messages are
+dropped, counted, and a warning is logged. The writer closes and flushes the current chunk at
+least every ``flush_period`` (0.5 s), so a recording whose server is killed with SIGKILL reads
+back to within its last second. Client ops that change the robot go on ``/hitrobot/audit`` as
+``hitrobot_msgs/AuditEntry`` messages.
 """
 
 from __future__ import annotations
 
 import asyncio
-import json
 import logging
 import multiprocessing
 import time
@@ -21,21 +24,52 @@ from typing import Any
 
 import numpy as np
 
+from ..bus.cdr import codec_for
 from ..bus.core import Bus
 from ..bus.names import CLIENT_NODE_PREFIX, GlobFilter
 from ..bus.tap import ClientOp
 from ..bus.topics import Message
-from .profile import AUDIT_TOPIC
-from .writer import Counters, Item, run_writer, split_name
+from ..wire.encoded import Encoded, Seed
+from .files import check_writable, split_name
+from .profile import AUDIT_TOPIC, AUDIT_TYPE
+from .writer import CDR, JSON, MSG, Counters, Item, Plan, run_writer
 
 log = logging.getLogger(__name__)
 
 MAX_QUEUED_BYTES = 64 * 1024 * 1024
-ITEM_OVERHEAD = 1024  # each queued message counts at least this (bounds the number of them)
+ITEM_OVERHEAD = 256  # each queued message counts at least this (bounds the number of them)
 FLUSH_PERIOD = 0.5  # seconds between closed chunks (a crash loses at most about this)
+BATCH_PERIOD = 0.05  # seconds a message waits on the loop before its batch goes to the writer
+BATCH_BYTES = 1024 * 1024  # a batch this big goes at once
 WARN_PERIOD = 5.0
 READ_ONLY_SERVICES = "/rosapi/"
 """Services under this prefix only read the graph: a client calling them is not audited."""
+
+
+def known_bytes(message: Message) -> tuple[int, Any]:
+    """The message as the writer takes it, without encoding anything: its CDR if someone made
+    it, else the client's own ``publish`` op when its ``msg`` is the message as it is (the bus
+    carries that text), else the message."""
+    if message.cdr_bytes is not None:
+        return CDR, message.cdr_bytes
+    wire = message.wire
+    if wire.__class__ is Encoded:
+        text = wire.client_json()  # type: ignore[attr-defined]
+    elif wire.__class__ is Seed:
+        text = wire.publish_json  # type: ignore[attr-defined]
+    else:
+        text = None
+    return (JSON, text) if text is not None else (MSG, message.msg)
+
+
+def item_of(message: Message, log_time: float | None = None) -> Item:
+    """What the writer takes of a bus message (:func:`known_bytes`), logged at its own stamp
+    or at ``log_time`` (seconds)."""
+    topic = message.topic
+    stamp = int(message.stamp * 1e9)
+    kind, data = known_bytes(message)
+    when = stamp if log_time is None else int(log_time * 1e9)
+    return Item(topic.name, topic.type_name, topic.latched, when, stamp, message.seq, kind, data)
 
 
 def estimate_size(value: Any, depth: int = 0) -> int:
@@ -65,20 +99,30 @@ class Recorder:
         *,
         topics: str | None = None,
         split_size: int = 0,
+        split_time: float = 0.0,
+        max_disk: int = 0,
+        budget_folder: Path | None = None,
+        exclusive: bool = False,
         max_queued_bytes: int = MAX_QUEUED_BYTES,
         flush_period: float = FLUSH_PERIOD,
     ):
+        """``exclusive``: refuse a file that exists (a client's name) rather than empty it
+        (``--record FILE``, the operator's)."""
         self.bus = bus
         self.path = Path(path)
+        self.plan = Plan(self.path, exclusive, split_size, split_time, flush_period, max_disk,
+                         budget_folder)
         self.filter = GlobFilter.parse(topics)
-        self.split_size = split_size
         self.max_queued_bytes = max_queued_bytes
-        self.flush_period = flush_period
         self.dropped = 0
         self._ctx = multiprocessing.get_context("spawn")  # the server has threads: no fork
         self._counters = Counters.create(self._ctx)
         self._queue: Any = None
         self._process: Any = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._batch: list[Item] = []
+        self._batch_bytes = 0
+        self._timer: asyncio.TimerHandle | None = None
         self._allowed: dict[str, bool] = {}
         self._last_warning = float("-inf")
 
@@ -108,24 +152,29 @@ class Recorder:
     def bytes(self) -> int:
         return self._counters.bytes.value
 
+    @property
+    def disk_error(self) -> int:
+        """The errno of the disk error that ended the recording (0: none)."""
+        return self._counters.error.value
+
     # ------------------------------------------------------------------ loop side
     def start(self) -> None:
-        """Check the path (an unwritable one fails here, before anything records), start the
-        writer, then tap the bus, latched topics' current messages first."""
+        """Check the path (a folder that cannot be written, a full disk, a name taken or a
+        symlink are refused here, before anything records: ValueError), start the writer,
+        then tap the bus, latched topics' current messages first."""
         if self.path.suffix != ".mcap":
             raise ValueError(f"cannot record to {self.path}: the name must end in .mcap")
-        try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self.path.open("wb").close()
-        except OSError as exc:
-            raise ValueError(f"cannot record to {self.path}: {exc.strerror or exc}") from None
+        check_writable(self.path, exclusive=self.plan.exclusive)
         self._counters.parts.value = 1
         self._queue = self._ctx.Queue()
         self._process = self._ctx.Process(
             target=run_writer, name="mcap-writer", daemon=True,
-            args=(str(self.path), self.split_size, self.flush_period, self._queue,
-                  self._counters))
+            args=(self.plan, self._queue, self._counters))
         self._process.start()
+        try:
+            self._loop = asyncio.get_running_loop()
+        except RuntimeError:
+            self._loop = None  # no loop: each message goes at once
         self.bus.taps.append(self)
         started = self.bus.clock()
         for topic in list(self.bus.topics.values()):
@@ -139,6 +188,7 @@ class Recorder:
             return
         if self in self.bus.taps:
             self.bus.taps.remove(self)
+        self._hand_off()
         process, self._process = self._process, None
         if process.is_alive():
             self._queue.put(None)
@@ -151,17 +201,16 @@ class Recorder:
                  ", ".join(map(str, self.files)), self.messages, self.dropped, self.failed)
 
     def message(self, message: Message) -> None:
-        allowed = self._allowed.get(message.topic.name)
+        topic = message.topic
+        allowed = self._allowed.get(topic.name)
         if allowed is None:
-            allowed = self._allowed[message.topic.name] = self.filter.allows(message.topic.name)
+            allowed = self._allowed[topic.name] = self.filter.allows(topic.name)
         if allowed:
             self._enqueue(message)
         origin = message.origin
         if origin is not None and origin.node.startswith(CLIENT_NODE_PREFIX) and any(
-            not node.startswith(CLIENT_NODE_PREFIX)
-            for node, _cb in message.topic.subscribers.values()
+            not node.startswith(CLIENT_NODE_PREFIX) for node, _cb in topic.subscribers.values()
         ):  # a client's publish that reaches a server node
-            topic = message.topic
             self._audit(ClientOp.of("publish", topic.name, topic.type_name, origin,
                                     self.bus.clock()))
 
@@ -171,28 +220,48 @@ class Recorder:
         self._audit(op)
 
     def _audit(self, op: ClientOp) -> None:
-        """A client op that changes the robot, onto the audit channel."""
-        entry = json.dumps({"op": op.op, "name": op.name, "type": op.type_name,
-                            "client": op.node, "address": op.peer,
-                            "auth_level": op.auth_level, "time": op.stamp}).encode()
+        """A client op that changes the robot, onto the audit channel (CDR, made here: rare)."""
+        secs = int(op.stamp)
+        entry = {"op": op.op, "name": op.name, "type": op.type_name, "client": op.node,
+                 "address": op.peer, "auth_level": op.auth_level or "",
+                 "stamp": {"secs": secs, "nsecs": int((op.stamp - secs) * 1e9)}}
+        codec = codec_for(self.bus.types)
+        data = codec.encode(entry, self.bus.types.msg(AUDIT_TYPE))
         ns = int(op.stamp * 1e9)
-        self._put(Item(AUDIT_TOPIC, "", False, ns, ns, 0, None, entry, ITEM_OVERHEAD + len(entry)))
+        self._put(Item(AUDIT_TOPIC, AUDIT_TYPE, False, ns, ns, 0, CDR, data),
+                  ITEM_OVERHEAD + len(data))
 
     def _enqueue(self, message: Message, log_time: float | None = None) -> None:
-        topic = message.topic
-        stamp = int(message.stamp * 1e9)
-        cdr = message.cdr_bytes
-        size = ITEM_OVERHEAD + (len(cdr) if cdr is not None else estimate_size(message.msg))
-        when = stamp if log_time is None else int(log_time * 1e9)
-        self._put(Item(topic.name, topic.type_name, topic.latched, when, stamp, message.seq,
-                       None if cdr is not None else message.msg, cdr, size))
+        item = item_of(message, log_time)
+        self._put(item, ITEM_OVERHEAD + (len(item.data) if item.kind != MSG
+                                         else estimate_size(item.data)))
 
-    def _put(self, item: Item) -> None:
+    def _put(self, item: Item, size: int) -> None:
         counters = self._counters
-        if counters.queued.value - counters.taken.value + item.size <= self.max_queued_bytes:
-            counters.queued.value += item.size
-            self._queue.put_nowait(item)
+        queued = counters.queued.value - counters.taken.value + self._batch_bytes
+        if queued + size > self.max_queued_bytes:
+            self._dropped()
             return
+        self._batch.append(item)
+        self._batch_bytes += size
+        if self._batch_bytes >= BATCH_BYTES or self._loop is None:
+            self._hand_off()
+        elif self._timer is None:
+            self._timer = self._loop.call_later(BATCH_PERIOD, self._hand_off)
+
+    def _hand_off(self) -> None:
+        """The batch to the writer, in one put (its feeder thread pickles and writes it)."""
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+        if not self._batch or self._queue is None:
+            return
+        batch, size = self._batch, self._batch_bytes
+        self._batch, self._batch_bytes = [], 0
+        self._counters.queued.value += size
+        self._queue.put_nowait((batch, size))
+
+    def _dropped(self) -> None:
         self.dropped += 1
         now = time.monotonic()
         if now - self._last_warning >= WARN_PERIOD:

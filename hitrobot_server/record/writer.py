@@ -3,61 +3,67 @@
 A thread would share the GIL with the event loop: encoding a LaserScan is pure Python, and a
 thread busy with it makes every socket call of the loop wait for the GIL again (the convoy
 effect: measured 4× slower fan-out and 1.4 s probe stalls during 4000² maps). So the server only
-queues each message (a ``multiprocessing`` queue: its feeder thread pickles, which is C code),
-and this process, started with spawn at a lower priority, encodes and writes. It closes the
+hands over batches of messages, each as bytes where it has them (the CDR someone already made,
+or the client's own JSON of a publish), through a ``multiprocessing`` queue, and this process,
+started with spawn at a lower priority, encodes what is not CDR yet and writes. It closes the
 current chunk every ``flush_period`` seconds and finishes the file when told to stop or when
-the server dies.
+the server dies. A disk that refuses a write (full, a size limit) ends the recording with a
+file that reads back to its last complete chunk.
+
+:func:`write_recording` writes already-made messages into a new file in one go (the black
+box's snapshots).
 """
 
 from __future__ import annotations
 
 import contextlib
 import datetime
+import errno
 import logging
 import multiprocessing
 import os
 import queue
+import signal
 import threading
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from types import SimpleNamespace
+from typing import Any, NamedTuple
 
-from mcap.writer import CompressionType, Writer
+from mcap.data_stream import RecordBuilder
+from mcap.records import DataEnd, Footer
+from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
 from .. import __version__
-from ..bus.cdr import Ros2Codec
+from ..bus.cdr import codec_for
+from ..types import jsoncodec
 from ..types.registry import TypeRegistry
-from .profile import (
-    AUDIT_SCHEMA,
-    AUDIT_SCHEMA_NAME,
-    AUDIT_TOPIC,
-    PROFILE,
-    ROS_DISTRO,
-    channel_metadata,
-    ros2_type_name,
-    schema_text,
-)
+from .files import DiskFile, enforce_budget, open_file, split_name
+from .profile import PROFILE, ROS_DISTRO, channel_metadata, ros2_type_name, schema_text
 
 log = logging.getLogger(__name__)
 
 WRITER_NICENESS = 5  # the event loop first; the disk keeps up or messages are dropped
+BUDGET_PERIOD = 2.0  # seconds between looks at the disk budget
+
+CDR, JSON, MSG = 0, 1, 2
+"""What an :class:`Item`'s ``data`` is: ROS 2 CDR; a client's ``publish`` op as JSON whose
+``msg`` is the canonical message as it is (verbatim); the canonical message itself."""
 
 
-@dataclass(slots=True)
-class Item:
-    """One message to write (pickled across to the writer)."""
+class Item(NamedTuple):
+    """One message to write (a tuple: batches of them are pickled across to the writer)."""
 
     topic: str
-    type_name: str  # "" for the audit channel (``data`` is then its JSON)
+    type_name: str  # pkg/msg/Type
     latched: bool
     log_time: int  # ns
     publish_time: int  # ns
     seq: int
-    msg: Any  # the canonical message, or None when ``data`` is given
-    data: bytes | None  # CDR (or the audit JSON) when already encoded
-    size: int
+    kind: int  # CDR, JSON or MSG
+    data: Any
 
 
 @dataclass
@@ -71,36 +77,52 @@ class Counters:
     failed: Any
     parts: Any  # files started
     bytes: Any  # bytes in the files at the last flush
+    error: Any  # writer: the errno of the disk error that ended the recording (0: none)
 
     @classmethod
     def create(cls, ctx) -> Counters:
-        return cls(*(ctx.Value("q", 0, lock=False) for _ in range(6)))
+        return cls(*(ctx.Value("q", 0, lock=False) for _ in range(7)))
 
 
-def split_name(path: Path, index: int) -> Path:
-    """The ``index``-th file of a split recording: ``run.mcap``, ``run_1.mcap``, ..."""
-    return path if index == 0 else path.with_name(f"{path.stem}_{index}{path.suffix}")
+@dataclass(frozen=True)
+class Plan:
+    """What the writer writes: where, when it starts a new file, what budget it keeps."""
+
+    path: Path
+    exclusive: bool = True  # a file that exists is refused (a client's name), else emptied
+    split_size: int = 0  # bytes (0: never)
+    split_time: float = 0.0  # seconds of log time per file (0: never)
+    flush_period: float = 0.5
+    max_disk: int = 0  # bytes of recordings kept (0: no budget)
+    budget_folder: Path | None = None  # the recordings folder the budget also prunes
 
 
 class McapFiles:
-    """The MCAP files of one recording, written in order (split at ``split_size`` bytes)."""
+    """The MCAP files of one recording, written in order (split by size or by time)."""
 
-    def __init__(self, path: Path, split_size: int, counters: Counters, chunk_span: float):
-        self.path = path
-        self.split_size = split_size
-        self.chunk_span = int(chunk_span * 1e9)  # a chunk covers at most this much log time
+    def __init__(self, plan: Plan, counters: Counters, *, created: bool = True):
+        self.plan = plan
+        self.chunk_span = int(plan.flush_period * 1e9)  # a chunk covers at most this log time
         self.chunk_start: int | None = None  # log time of the current chunk's first message
+        self.file_start: int | None = None  # log time of the current file's first message
         self.counters = counters
-        self.codec = Ros2Codec(TypeRegistry.default())
+        self.codec = codec_for(TypeRegistry.default())
         self.latched: dict[str, Item] = {}  # each topic's latest, to open the next file with
         self.index = -1
-        self.file = None
+        self.file: DiskFile | None = None
         self.closed_bytes = 0
-        self._open()
+        self.next_budget = 0.0
+        self._open(created)
 
-    def _open(self) -> None:
+    @property
+    def current(self) -> Path:
+        return split_name(self.plan.path, self.index)
+
+    def _open(self, created: bool = False) -> None:
         self.index += 1
-        self.file = open(split_name(self.path, self.index), "wb")  # noqa: SIM115 - see finish
+        self.file = DiskFile(open_file(self.current, create=not created,
+                                       exclusive=self.plan.exclusive))
+        self.file_start = self.chunk_start = None
         self.writer = Writer(self.file, compression=CompressionType.ZSTD)
         self.writer.start(profile=PROFILE, library=f"hitrobot-server {__version__}")
         self.writer.add_metadata("hitrobot-server", {
@@ -112,17 +134,33 @@ class McapFiles:
         self.channels: dict[str, int] = {}
         self.schemas: dict[str, int] = {}
         self.counters.parts.value = self.index + 1
+        self.keep_budget()
 
     def flush(self) -> None:
-        """Close the chunk in progress and hand it to the OS; roll over when the file is full."""
+        """Close the chunk in progress and hand it to the OS; roll over when the file is full;
+        keep the disk budget."""
         self.writer.flush()
         self.chunk_start = None
         size = self.file.tell()
         self.counters.bytes.value = self.closed_bytes + size
-        if self.split_size and size >= self.split_size:
-            self.finish()
-            self._open()
-            self.write_all(self.latched.values())
+        if self.plan.split_size and size >= self.plan.split_size:
+            self.roll()
+        elif time.monotonic() >= self.next_budget:
+            self.keep_budget()
+
+    def roll(self) -> None:
+        self.finish()
+        self._open()
+        self.write_all(self.latched.values())
+
+    def keep_budget(self) -> None:
+        plan = self.plan
+        self.next_budget = time.monotonic() + BUDGET_PERIOD
+        if not plan.max_disk:
+            return
+        own = [split_name(plan.path, i) for i in range(self.index)]
+        folders = {plan.budget_folder} if plan.budget_folder is not None else set()
+        enforce_budget(folders, own, plan.max_disk, {self.current})
 
     def finish(self) -> None:
         if self.file is None:
@@ -130,25 +168,68 @@ class McapFiles:
         try:
             self.writer.finish()
         finally:
-            self.closed_bytes += self.file.tell()
-            self.counters.bytes.value = self.closed_bytes
-            self.file.close()
-            self.file = None
+            self._closed()
+
+    def _closed(self) -> None:
+        self.closed_bytes += self.file.tell()
+        self.counters.bytes.value = self.closed_bytes
+        self.file.close()
+        self.file = None
+
+    def cut_short(self, exc: OSError) -> None:
+        """The disk refused a write: the file already ends with its last complete records (see
+        :class:`DiskFile`); end it there with a footer without summary, which readers take
+        as "read the records in order". When even that is refused, the last whole writes
+        (chunks) are given up one by one until the footer fits."""
+        if self.file is None:
+            return
+        self.counters.error.value = exc.errno or errno.EIO
+        if self.file.tell() < len(MCAP0_MAGIC) + 1:  # not even its header: no file at all
+            self._closed()
+            with contextlib.suppress(OSError):
+                self.current.unlink()
+            log.error("recording to %s stopped: %s", self.current, exc.strerror or exc)
+            return
+        builder = RecordBuilder()
+        DataEnd(0).write(builder)
+        Footer(summary_start=0, summary_offset_start=0, summary_crc=0).write(builder)
+        tail = builder.end() + MCAP0_MAGIC
+        ends = list(self.file.ends)[1:]  # never before the header (the first two writes)
+        for end in reversed(ends):  # the end of the last whole write, else an earlier one
+            self.file.cut(end)
+            try:
+                self.file.write(tail)
+                break
+            except OSError:
+                continue
+        log.error("recording to %s stopped: %s; the file keeps what was written before",
+                  self.current, exc.strerror or exc)
+        self._closed()
 
     def write_all(self, items: Iterable[Item]) -> None:
         for item in list(items):
-            self.write(item)
+            self._add(item)
 
     def write(self, item: Item) -> None:
+        """Write a message of the stream: a new file when this one spans ``split_time``, a
+        new chunk when the chunk spans the flush period (a backlog still makes short ones)."""
+        t, split_ns = item.log_time, int(self.plan.split_time * 1e9)
+        if self.file_start is None:
+            self.file_start = t
+        elif split_ns and t - self.file_start >= split_ns:
+            self.roll()
+            self.file_start = t
         if self.chunk_start is None:
-            self.chunk_start = item.log_time
-        elif abs(item.log_time - self.chunk_start) >= self.chunk_span:
-            self.flush()  # a backlog (writer starting, disk slow) still makes short chunks
-            self.chunk_start = item.log_time
+            self.chunk_start = t
+        elif abs(t - self.chunk_start) >= self.chunk_span:
+            self.flush()
+            self.chunk_start = t
+        self._add(item)
+
+    def _add(self, item: Item) -> None:
         try:
             channel = self._channel(item)
-            data = item.data if item.data is not None else self.codec.encode(
-                item.msg, self.codec.types.msg(item.type_name))
+            data = self._cdr(item)
         except Exception as exc:
             self.counters.failed.value += 1
             log.warning("recording: %s cannot be encoded (%s); message skipped", item.topic, exc)
@@ -156,38 +237,76 @@ class McapFiles:
         self.writer.add_message(channel, item.log_time, data, item.publish_time, item.seq)
         self.counters.messages.value += 1
         if item.latched:
-            item.msg, item.data = None, data
-            self.latched[item.topic] = item
+            self.latched[item.topic] = item._replace(kind=CDR, data=data)
+
+    def _cdr(self, item: Item) -> bytes:
+        if item.kind == CDR:
+            return item.data
+        msg = jsoncodec.loads(item.data)["msg"] if item.kind == JSON else item.data
+        return self.codec.encode(msg, self.codec.types.msg(item.type_name))
 
     def _channel(self, item: Item) -> int:
         channel = self.channels.get(item.topic)
         if channel is not None:
             return channel
-        if not item.type_name:  # the audit channel
-            schema = self.writer.register_schema(AUDIT_SCHEMA_NAME, "jsonschema", AUDIT_SCHEMA)
-            channel = self.writer.register_channel(AUDIT_TOPIC, "json", schema)
-        else:
-            name = ros2_type_name(item.type_name)
-            schema = self.schemas.get(name)
-            if schema is None:
-                schema = self.schemas[name] = self.writer.register_schema(
-                    name, "ros2msg", schema_text(self.codec, item.type_name))
-            channel = self.writer.register_channel(
-                item.topic, "cdr", schema, channel_metadata(item.latched))
-        self.channels[item.topic] = channel
+        name = ros2_type_name(item.type_name)
+        schema = self.schemas.get(name)
+        if schema is None:
+            schema = self.schemas[name] = self.writer.register_schema(
+                name, "ros2msg", schema_text(self.codec, item.type_name))
+        channel = self.channels[item.topic] = self.writer.register_channel(
+            item.topic, "cdr", schema, channel_metadata(item.latched))
         return channel
 
 
-def run_writer(path: str, split_size: int, flush_period: float, items: Any,
-               counters: Counters) -> None:
-    """The writer process: take items until ``None``, then finish the file. If the server
+def write_recording(path: Path, items: Iterable[Item], *, metadata: dict[str, str] | None = None
+                    ) -> int:
+    """Write ``items`` (in log-time order) into a new MCAP file ``path`` (refused if it
+    exists, never through a symlink), with ``metadata`` as its ``hitrobot-recording``
+    metadata record; the messages written. Blocking: call it off the event loop."""
+    counters = Counters(*(SimpleNamespace(value=0) for _ in range(7)))
+    files = McapFiles(Plan(Path(path), flush_period=3600.0), counters, created=False)
+    try:
+        if metadata:
+            files.writer.add_metadata("hitrobot-recording", dict(metadata))
+        files.write_all(items)
+        files.finish()
+    except OSError as exc:
+        files.cut_short(exc)
+        raise
+    return counters.messages.value
+
+
+class _Batches:
+    """The writer's side of the queue: batches of items, ``None`` to stop."""
+
+    def __init__(self, items: Any, counters: Counters):
+        self.items = items
+        self.counters = counters
+
+    def take(self, timeout: float) -> list[Item] | None:
+        try:
+            batch = self.items.get(timeout=timeout)
+        except queue.Empty:
+            return []
+        if batch is None:
+            return None
+        items, size = batch
+        self.counters.taken.value += size
+        return items
+
+
+def run_writer(plan: Plan, items: Any, counters: Counters) -> None:
+    """The writer process: take batches until ``None``, then finish the file. If the server
     dies first, a watchdog thread finishes it (the main thread may then be stuck reading a
-    message the server was cut off in the middle of)."""
+    batch the server was cut off in the middle of). A disk error ends it early (exit 1)."""
     with contextlib.suppress(OSError, AttributeError):
         os.nice(WRITER_NICENESS)
-    logging.basicConfig(level=logging.WARNING, format="%(asctime)s %(levelname)s %(name)s: "
+    with contextlib.suppress(AttributeError, ValueError):  # a size limit: an error, not a kill
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: "
                         "%(message)s")
-    files = McapFiles(Path(path), split_size, counters, flush_period)
+    files = McapFiles(plan, counters)
     lock = threading.Lock()  # held while the file is touched
 
     def watch_server() -> None:
@@ -195,27 +314,24 @@ def run_writer(path: str, split_size: int, flush_period: float, items: Any,
         if server is None:
             return
         server.join()
-        with lock:
+        with lock, contextlib.suppress(OSError):
             files.finish()
         os._exit(0)
 
     threading.Thread(target=watch_server, name="watch-server", daemon=True).start()
-    next_flush = time.monotonic() + flush_period
+    batches = _Batches(items, counters)
+    next_flush = time.monotonic() + plan.flush_period
     try:
-        while True:
-            try:
-                item = items.get(timeout=max(0.0, next_flush - time.monotonic()))
-            except queue.Empty:
-                item = ...
-            if item is None:
-                break
+        while (batch := batches.take(max(0.0, next_flush - time.monotonic()))) is not None:
             with lock:
-                if item is not ...:
-                    counters.taken.value += item.size
+                for item in batch:
                     files.write(item)
                 if time.monotonic() >= next_flush:
                     files.flush()
-                    next_flush = time.monotonic() + flush_period
-    finally:
+                    next_flush = time.monotonic() + plan.flush_period
         with lock:
             files.finish()
+    except OSError as exc:
+        with lock:
+            files.cut_short(exc)
+        raise SystemExit(1) from None

@@ -107,7 +107,7 @@ class Encoded:
     """The encodings of one bus message (see the module docstring); pure apart from
     :meth:`frames`, which may start the worker-pool build of a big message's text frames."""
 
-    __slots__ = ("topic", "msg", "stamp", "_bytes", "_frames", "_size")
+    __slots__ = ("topic", "msg", "stamp", "_bytes", "_frames", "_size", "_client")
 
     def __init__(self, message: Message):
         """The encodings of ``message``, installed in its ``wire`` slot in place of the
@@ -118,6 +118,7 @@ class Encoded:
         self._bytes: dict[Key, bytes] = {}
         self._frames: dict[Key, Frames] = {}
         self._size: int | None = None
+        self._client: bytes | None = None
         seed = message.wire
         message.wire = self
         if seed is not None:
@@ -127,11 +128,16 @@ class Encoded:
     def seed(self, seed: Seed) -> None:
         self._size = seed.size
         if seed.publish_json is not None:
-            self._bytes[(Encoding.JSON, seed.topic, None)] = seed.publish_json
+            self._bytes[(Encoding.JSON, seed.topic, None)] = self._client = seed.publish_json
 
     def known(self, encoding: Encoding, topic: str = "") -> bytes | None:
         """An encoding if someone already made it."""
         return self._bytes.get((encoding, topic, None))
+
+    def client_json(self) -> bytes | None:
+        """The client's own ``publish`` op when its ``msg`` is the canonical message as it is
+        (the publisher's :class:`Seed`), or None: the recorder takes that ``msg`` as is."""
+        return self._client
 
     def size(self) -> int:
         """Estimated JSON size of the body, computed once (or given by the publisher)."""

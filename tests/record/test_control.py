@@ -34,7 +34,7 @@ async def test_start_list_download_and_stop_a_recording(make_server, tmp_path):
         await client.send({"op": "advertise", "topic": "/chatter", "type": "std_msgs/String"})
         for i in range(5):
             await client.send({"op": "publish", "topic": "/chatter", "msg": {"data": f"hi {i}"}})
-        stopped = await client.call("/record/stop")
+        stopped = await client.call("/record/stop", timeout=60)  # the writer may be starting
         assert stopped["values"]["success"], stopped
         refused = await client.call("/record/stop")
         assert not refused["result"] and refused["values"] == "not recording"
@@ -116,7 +116,7 @@ async def test_a_writer_that_dies_ends_the_recording_visibly(make_server, tmp_pa
         assert "its writer process ended" in caplog.text
         again = await client.call("/record/start", {"name": "next"})
         assert again["values"]["success"], again
-        assert (await client.call("/record/stop"))["values"]["success"]
+        assert (await client.call("/record/stop", timeout=60))["values"]["success"]
     finally:
         await client.close()
 

@@ -28,7 +28,7 @@ async def test_messages_from_another_server_are_recorded(tmp_path):
         for i in range(5):
             got = await sub.expect(op="publish", topic="/chatter", timeout=10)
             assert got["msg"]["data"] == f"from A {i}"
-        assert (await sub.call("/record/stop"))["values"]["success"]
+        assert (await sub.call("/record/stop", timeout=60))["values"]["success"]
     finally:
         for client in (pub, sub):
             if client is not None:

@@ -3,16 +3,18 @@ messages first, the audit entries of client ops."""
 
 from __future__ import annotations
 
-import json
+import os
 
 import numpy as np
+import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from hitrobot_server.bus.core import Bus
 from hitrobot_server.bus.topics import Origin
 from hitrobot_server.record.profile import AUDIT_TOPIC
-from hitrobot_server.record.recorder import Recorder, estimate_size, split_name
+from hitrobot_server.record.recorder import Recorder, estimate_size, item_of, split_name
+from hitrobot_server.record.writer import write_recording
 from hitrobot_server.types.registry import TypeRegistry
 
 from ..helpers import until
@@ -22,9 +24,7 @@ def decoded(path):
     out = []
     with open(path, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        topics = [c.topic for c in reader.get_summary().channels.values()
-                  if c.message_encoding == "cdr"]
-        for _s, channel, _m, msg in reader.iter_decoded_messages(topics=topics):
+        for _s, channel, _m, msg in reader.iter_decoded_messages():
             out.append((channel.topic, msg))
     return out
 
@@ -67,9 +67,9 @@ async def test_split_files_each_open_with_the_latched_messages(tmp_path):
     recorder = Recorder(bus, tmp_path / "run.mcap", split_size=1, flush_period=0.01)
     recorder.start()
     bus.publish("/keep", {"data": "one"})
-    await until(lambda: len(recorder.files) >= 2, "a second file", 5)
+    await until(lambda: len(recorder.files) >= 2, "a second file", 30)
     bus.publish("/keep", {"data": "two"})
-    await until(lambda: recorder.messages >= 4, "the second message written", 5)
+    await until(lambda: recorder.messages >= 4, "the second message written", 30)
     await recorder.stop()
     assert recorder.files[:2] == [tmp_path / "run.mcap", tmp_path / "run_1.mcap"]
     assert decoded(recorder.files[0])[0][1].data == "map"
@@ -90,10 +90,8 @@ async def test_client_ops_that_reach_a_node_are_audited(tmp_path):
     bus.publish("/skip", {"data": "to a client"}, origin=client)
     bus.publish("/keep", {"data": "from a node"})
     await recorder.stop()
-    with open(tmp_path / "r.mcap", "rb") as f:
-        entries = [json.loads(m.data) for _s, _c, m in
-                   make_reader(f).iter_messages(topics=[AUDIT_TOPIC])]
-    assert [(e["op"], e["name"], e["client"], e["address"]) for e in entries] == [
+    entries = [m for t, m in decoded(tmp_path / "r.mcap") if t == AUDIT_TOPIC]
+    assert [(e.op, e.name, e.client, e.address) for e in entries] == [
         ("publish", "/keep", "/hitrobot_client_1", "127.0.0.1")]
 
 
@@ -125,9 +123,25 @@ async def test_service_calls_and_goals_of_clients_are_audited(tmp_path):
                      ("send_action_goal", "/missing")):
         bus.client_called(op, name, client)
     await recorder.stop()
-    with open(tmp_path / "r.mcap", "rb") as f:
-        entries = [json.loads(m.data) for _s, _c, m in
-                   make_reader(f).iter_messages(topics=[AUDIT_TOPIC])]
-    assert [(e["op"], e["name"], e["type"], e["auth_level"], e["address"]) for e in entries] == [
+    entries = [m for t, m in decoded(tmp_path / "r.mcap") if t == AUDIT_TOPIC]
+    assert [(e.op, e.name, e.type, e.auth_level, e.address) for e in entries] == [
         ("call_service", "/robot/do", "std_srvs/srv/Trigger", "admin", "10.0.0.7"),
         ("send_action_goal", "/robot/go", "nav2_msgs/action/FollowPath", "admin", "10.0.0.7")]
+
+
+def test_write_recording_writes_encoded_messages_into_a_new_file_only(tmp_path):
+    """The black box's way in: messages as the recorder takes them (item_of), in one go."""
+    bus = make_bus()
+    items = [item_of(bus.publish("/keep", {"data": f"m{i}"})) for i in range(3)]
+    path = tmp_path / "snap.mcap"
+    assert write_recording(path, items, metadata={"cause": "test"}) == 3
+    assert [m.data for _t, m in decoded(path)] == ["m0", "m1", "m2"]
+    with open(path, "rb") as f:
+        meta = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+    assert meta["hitrobot-recording"] == {"cause": "test"}
+    with pytest.raises(FileExistsError):
+        write_recording(path, items)
+    os.symlink(tmp_path / "outside.mcap", tmp_path / "link.mcap")
+    with pytest.raises(FileExistsError):
+        write_recording(tmp_path / "link.mcap", items)
+    assert not (tmp_path / "outside.mcap").exists()

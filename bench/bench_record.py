@@ -1,0 +1,182 @@
+"""What recording every topic costs the fan-out (issue 33, item 7): the same LaserScan fan-out as
+``bench_bridge.py`` section 2, to 1, 10 and 50 subscribers, on a server without recording and
+on one with ``--record`` (every topic), run side by side (interleaved, a fresh server each run)
+in one process, and the ratio recorded / not recorded of delivered msg/s and of server CPU per
+delivered message. Prints figures only (no assertions).
+
+    .venv/bin/python bench/bench_record.py            # 3 rounds per client count
+    .venv/bin/python bench/bench_record.py --quick    # 1 round, smaller counts
+
+``--loop`` measures instead, in this process, what the recorder's tap costs the event loop's
+process per message: the CPU time (every thread of the process: the queue's feeder thread
+pickles on the loop's GIL) of publishing client LaserScans (a rosbridge publish's own JSON text,
+as the bus carries it) with a recorder tapping the bus, minus the same without one. Run it
+with another tree first on ``PYTHONPATH`` to measure that tree's recorder.
+
+Each round runs both servers for each client count (the order alternates between rounds, so a
+background load hits both alike). ``srv us/msg`` is the server process's CPU per delivered
+message (the event loop's process); the recorder's writer process is measured apart
+(``writer CPU``, seconds over the whole run, warm-up included). After
+each recorded run the file is read back with the ``mcap`` reader and its LaserScans counted
+(``recorded``: what reached the file of what was published).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import shlex
+import statistics
+import sys
+import tempfile
+from pathlib import Path
+
+from mcap.exceptions import McapError
+from mcap.reader import make_reader
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import bench_bridge as bb  # noqa: E402
+from bench_workers import cpu_seconds  # noqa: E402
+
+
+def recorded_count(folder: Path, topic: str) -> int:
+    """LaserScans of ``topic`` in every file of the folder (a split recording has several)."""
+    total = 0
+    for path in sorted(folder.glob("*.mcap")):
+        try:
+            with open(path, "rb") as f:
+                summary = make_reader(f).get_summary()
+        except McapError:  # empty or cut (a server killed before its writer finished)
+            continue
+        if summary is None or summary.statistics is None:
+            continue
+        ids = [i for i, c in summary.channels.items() if c.topic == topic]
+        total += sum(summary.statistics.channel_message_counts.get(i, 0) for i in ids)
+    return total
+
+
+def children_cpu(server: bb.ServerProc) -> float:
+    """CPU seconds of the server's child processes so far (the recorder's writer)."""
+    return cpu_seconds(bb.procmem.children(server.proc.pid))
+
+
+async def one_run(n: int, record: bool, cfg, folder: Path, tag: str) -> dict:
+    topic = f"/bench/scan_{n}"
+    src = bb.ScanSource(topic)
+    out = folder / tag
+    out.mkdir()
+    bb.RECORD_DIR = str(out) if record else None
+    server = bb.start_ours(None, tag)
+    try:
+        before = children_cpu(server)
+        run = await bb.fanout_run(server.port, server, n, cfg.scan_counts[n], src, topic, cfg)
+        run["writer_s"] = children_cpu(server) - before
+    finally:
+        server.stop()
+        bb.RECORD_DIR = None
+    run["recorded"] = recorded_count(out, topic) if record else None
+    return run
+
+
+async def main_async(cfg, rounds: int) -> None:
+    bb.machine_info()
+    results: dict[tuple[int, bool], list[dict]] = {}
+    with tempfile.TemporaryDirectory(prefix="bench-record-") as tmp:
+        folder = Path(tmp)
+        for r in range(rounds):
+            for n in cfg.clients:
+                order = (False, True) if (r + n) % 2 == 0 else (True, False)
+                for record in order:
+                    tag = f"r{r}_{n}_{'rec' if record else 'plain'}"
+                    run = await one_run(n, record, cfg, folder, tag)
+                    results.setdefault((n, record), []).append(run)
+                    print(f"  round {r + 1} {n:>2} clients {'record' if record else 'plain ':6}: "
+                          f"{bb.fnum(run['rate'])} msg/s, {run['srv_us']:.1f} us/msg server CPU, "
+                          f"recv {run['total']:,}/{run['expected']:,}"
+                          + (f", recorded {run['recorded']:,}/{run['count']:,}, writer CPU "
+                             f"{run['writer_s']:.1f} s" if record else ""), flush=True)
+    rows = []
+    for n in cfg.clients:
+        plain, rec = results[(n, False)], results[(n, True)]
+        ratios = [b["rate"] / a["rate"] for a, b in zip(plain, rec, strict=True)]
+        cpu = [b["srv_us"] / a["srv_us"] for a, b in zip(plain, rec, strict=True)]
+        rows.append([
+            n,
+            bb.fnum(statistics.median(a["rate"] for a in plain)),
+            bb.fnum(statistics.median(b["rate"] for b in rec)),
+            " / ".join(f"{x:.2f}" for x in ratios),
+            f"{statistics.median(ratios):.2f}",
+            " / ".join(f"{x:.2f}" for x in cpu),
+            ", ".join(f"{b['recorded']:,}/{b['count']:,}" for b in rec),
+            " / ".join(f"{b['writer_s']:.1f}" for b in rec),
+        ])
+    print("\nLaserScan fan-out (720 ranges), recording every topic vs not, side by side")
+    print(bb.table(["clients", "plain msg/s", "recorded msg/s", "ratio per round",
+                    "median ratio", "srv us/msg ratio", "recorded/published",
+                    "writer CPU s"], rows))
+
+
+async def loop_cost(count: int, rounds: int) -> None:
+    """CPU µs per published message with and without a recorder tap (see the docstring)."""
+    import time
+
+    import orjson
+
+    from hitrobot_server.bus.core import Bus
+    from hitrobot_server.record.recorder import Recorder
+    from hitrobot_server.types.registry import TypeRegistry
+    from hitrobot_server.wire.encoded import Seed
+
+    src = bb.ScanSource("/scan")
+    ops = [src.frame(i) for i in range(64)]
+    msgs = [orjson.loads(op)["msg"] for op in ops]
+
+    async def publish_all(bus: Bus) -> float:
+        t0 = time.process_time()
+        for i in range(count):
+            op = ops[i % 64]
+            bus.publish("/scan", msgs[i % 64], seed=Seed(len(op), "/scan", op))
+            if i % 50 == 49:
+                await asyncio.sleep(0)  # the loop's timers run (the recorder's hand-off)
+        return time.process_time() - t0
+
+    plain, tapped = [], []
+    with tempfile.TemporaryDirectory(prefix="bench-record-loop-") as tmp:
+        for r in range(rounds):
+            bus = Bus(TypeRegistry.default())
+            bus.advertise("/scan", "sensor_msgs/LaserScan", "bench", "/bench")
+            plain.append(await publish_all(bus))
+            recorder = Recorder(bus, Path(tmp) / f"loop_{r}.mcap", max_queued_bytes=2**31)
+            recorder.start()
+            t0 = time.process_time()
+            await publish_all(bus)
+            await recorder.stop()  # until the feeder thread has handed everything over
+            tapped.append(time.process_time() - t0)
+            assert recorder.dropped == 0, recorder.dropped
+    per = [(b - a) / count * 1e6 for a, b in zip(plain, tapped, strict=True)]
+    print(f"loop process CPU per recorded message ({count:,} LaserScans x {rounds} rounds): "
+          f"publish alone {statistics.median(plain) / count * 1e6:.1f} us, "
+          f"the recorder adds {' / '.join(f'{x:.1f}' for x in per)} us "
+          f"(median {statistics.median(per):.1f} us)")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="1 round, smaller counts")
+    parser.add_argument("--rounds", type=int, default=None, help="rounds (default 3, quick 1)")
+    parser.add_argument("--server-args", default="", metavar="ARGS",
+                        help="more flags for each hitrobot-server")
+    parser.add_argument("--loop", action="store_true",
+                        help="only the tap's CPU per message, in this process")
+    args = parser.parse_args()
+    if args.loop:
+        asyncio.run(loop_cost(2000 if args.quick else 5000, args.rounds or 3))
+        return 0
+    cfg = bb.config(args.quick)
+    bb.SERVER_ARGS.extend(shlex.split(args.server_args))
+    asyncio.run(main_async(cfg, args.rounds or (1 if args.quick else 3)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
