@@ -80,7 +80,7 @@ FLAG_ORDER = (
     "log_level", "robot", "world", "sim_seed", "sim_speed", "sim_mapping", "map_dir",
     "state_dir", "fresh", "bus", "zenoh_config", "zenoh_connect", "zenoh_listen",
     "zenoh_domain", "workers", "event_loop", "record", "record_topics", "record_split_size",
-    "record_dir", "demo_services",
+    "record_dir", "black_box", "black_box_max_mb", "black_box_localization", "demo_services",
 )
 
 

@@ -16,6 +16,7 @@ from .config import Settings
 from .nodes.base import Node
 from .protocol.auth import load_secret
 from .protocol.foxglove import SUBPROTOCOLS as FOXGLOVE_SUBPROTOCOLS
+from .record.blackbox_control import BlackBoxControl
 from .record.control import RecordingControl
 from .robots import RobotUnit, StartPlan, start_plan, start_planned, stop_robots
 from .session.client import ClientSession, WireProtocols
@@ -68,6 +69,7 @@ class HitrobotServer:
         self.tcp_port: int | None = None
         self._rosout: RosoutHandler | None = None
         self.recording: RecordingControl | None = None
+        self.black_box: BlackBoxControl | None = None
 
     def _options(self) -> SessionOptions:
         return self._session_options or self.settings.session.for_sessions()
@@ -120,6 +122,12 @@ class HitrobotServer:
         if self.plan.record:  # first: an unwritable path is refused before anything starts
             self.recording.start_recording(self.plan.record)
         await self.recording.start()
+        if self.plan.black_box:
+            r = s.record
+            self.black_box = BlackBoxControl(
+                self.bus, s.store.recordings, seconds=r.black_box, max_bytes=r.black_box_bytes,
+                topics=r.record_topics, localization_threshold=r.black_box_localization)
+            await self.black_box.start()
 
     async def _start_link(self) -> str:
         """Join the Zenoh network; the client tag that keeps this server's client node names
@@ -206,9 +214,14 @@ class HitrobotServer:
         for session in list(self.sessions):
             session.close()
         self.pool.shutdown()
+        if self.black_box is not None:  # the robots stopping is no incident
+            self.black_box.shutting_down()
         await stop_robots(self.nodes, self.robots)
         self.nodes.clear()
         self.robots.clear()
+        if self.black_box is not None:  # after the nodes, as the recording
+            await self.black_box.stop()
+            self.black_box = None
         if self.recording is not None:  # after the nodes: their last messages are kept
             await self.recording.stop()
             self.recording = None
