@@ -18,6 +18,7 @@ from .protocol.auth import load_secret
 from .protocol.foxglove import SUBPROTOCOLS as FOXGLOVE_SUBPROTOCOLS
 from .record.blackbox_control import BlackBoxControl
 from .record.control import RecordingControl
+from .record.replay_launcher import ReplayLauncher
 from .robots import RobotUnit, StartPlan, start_plan, start_planned, stop_robots
 from .session.client import ClientSession, WireProtocols
 from .session.foxglove.session import FoxgloveSession
@@ -70,6 +71,7 @@ class HitrobotServer:
         self._rosout: RosoutHandler | None = None
         self.recording: RecordingControl | None = None
         self.black_box: BlackBoxControl | None = None
+        self.replays: ReplayLauncher | None = None
 
     def _options(self) -> SessionOptions:
         return self._session_options or self.settings.session.for_sessions()
@@ -128,6 +130,9 @@ class HitrobotServer:
                 self.bus, s.store.recordings, seconds=r.black_box, max_bytes=r.black_box_bytes,
                 topics=r.record_topics, localization_threshold=r.black_box_localization)
             await self.black_box.start()
+        if not s.session.authenticate:  # a replay's port would serve the files to anyone
+            self.replays = ReplayLauncher(self.bus, s.store.recordings, s.transport.address)
+            await self.replays.start()
 
     async def _start_link(self) -> str:
         """Join the Zenoh network; the client tag that keeps this server's client node names
@@ -222,6 +227,9 @@ class HitrobotServer:
         if self.black_box is not None:  # after the nodes, as the recording
             await self.black_box.stop()
             self.black_box = None
+        if self.replays is not None:
+            await self.replays.stop()
+            self.replays = None
         if self.recording is not None:  # after the nodes: their last messages are kept
             await self.recording.stop()
             self.recording = None
