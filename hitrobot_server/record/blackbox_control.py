@@ -65,6 +65,7 @@ class BlackBoxControl:
                               self._list)
         self.box.start()  # first: the message that reports an incident is in the buffer
         bus.taps.append(self.watch)
+        self._publish(Incident("", "", 0.0), "")  # none yet: a console sees the box is on
         log.info("black box: the last %g s of the recorded topics (at most %d MiB)",
                  self.box.seconds, self.box.max_bytes // (1024 * 1024))
 

@@ -104,9 +104,10 @@ class IncidentWatch:
                 self._connected[name] = True
             elif level == DIAGNOSTIC_ERROR:
                 self._connected[name] = False
-                if was:
-                    robot = name.removesuffix(CONNECTION_ITEM).rstrip("/") or "the robot"
-                    self.report("link_lost", f"{robot}: {item.get('message', '')}".strip())
+                if was:  # a fleet robot's item is /NAME/Robot/Connection
+                    robot = name.removesuffix(CONNECTION_ITEM).strip("/")
+                    text = item.get("message", "") or "not connected"
+                    self.report("link_lost", f"{robot}: {text}" if robot else text)
 
     def _localization(self, message: Message) -> None:
         msg = message.msg

@@ -46,8 +46,8 @@ async def test_a_goal_that_aborts_leaves_a_black_box_file_naming_it(make_server,
             "goal_id": {"id": "away"},
             "goal": {"target_pose": {"header": {"frame_id": "map"}, "pose": {
                 "position": {"x": AWAY[0], "y": AWAY[1]}, "orientation": {"w": 1.0}}}}}})
-        incident = (await client.expect(op="publish", topic="/record/incident",
-                                        timeout=60))["msg"]
+        incident = (await client.expect(lambda m: m["msg"]["cause"] != "", op="publish",
+                                        topic="/record/incident", timeout=60))["msg"]
         assert incident["cause"] == "goal_aborted", incident
         assert "/move_base: goal 'away' aborted" in incident["detail"]
         assert "no free space near the target" in incident["detail"]

@@ -51,12 +51,12 @@ def test_a_link_lost_after_it_was_up_is_one_incident_until_it_comes_back():
     connection(bus, 0, "connected")
     connection(bus, 2, "not connected")
     connection(bus, 2, "not connected")  # still down: the same incident
-    assert reports == [("link_lost", "the robot: not connected")]
+    assert reports == [("link_lost", "not connected")]
     connection(bus, 0, "connected")
     connection(bus, 2, "the robot does not answer: timeout", name="/r1/Robot/Connection")
     connection(bus, 0, "connected", name="/r1/Robot/Connection")
     connection(bus, 2, "the robot does not answer: timeout", name="/r1/Robot/Connection")
-    assert reports[1:] == [("link_lost", "/r1: the robot does not answer: timeout")]
+    assert reports[1:] == [("link_lost", "r1: the robot does not answer: timeout")]
 
 
 def test_localization_under_its_threshold_is_an_incident_with_hysteresis():
@@ -102,13 +102,14 @@ async def test_one_incident_makes_one_file(tmp_path):
     try:
         bus.advertise(DIAG, "diagnostic_msgs/DiagnosticArray", "t", "/t")
         bus.advertise("/move_base/result", "move_base_msgs/MoveBaseActionResult", "t", "/t")
+        assert (await asyncio.wait_for(written.get(), 1))["cause"] == ""  # on, none yet
         connection(bus, 0, "connected")
         connection(bus, 2, "not connected")
         bus.publish("/move_base/result", {"status": {"goal_id": {"id": "g1"}, "status": 4,
                                                      "text": "the robot is not connected"}})
         first = await asyncio.wait_for(written.get(), 10)
         assert first["cause"] == "link_lost" and first["count"] == 1
-        assert first["detail"] == ("the robot: not connected; goal_aborted: /move_base: goal "
+        assert first["detail"] == ("not connected; goal_aborted: /move_base: goal "
                                    "'g1' aborted: the robot is not connected")
         incident = read_incident(tmp_path / first["file"])
         assert incident is not None and incident.cause == "link_lost"
