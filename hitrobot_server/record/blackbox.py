@@ -19,7 +19,7 @@ from ..bus.core import Bus
 from ..bus.names import GlobFilter
 from ..bus.tap import ClientOp
 from ..bus.topics import Message, Topic
-from .writer import Item
+from .blackbox_file import Row
 
 log = logging.getLogger(__name__)
 
@@ -95,12 +95,12 @@ class BlackBox:
         """Client ops go to a recording's audit channel; the black box keeps topics only."""
 
     # ------------------------------------------------------------------ snapshot
-    def snapshot(self) -> list[Item]:
-        """What the buffer holds now, as the writer's items, opened by each latched topic's
-        current message when it is older than the buffer (a replay then has the map)."""
+    def snapshot(self) -> list[Row]:
+        """What the buffer holds now, opened by each latched topic's current message when it
+        is older than the buffer (a replay then has the map)."""
         items = list(self._items)
         first = items[0][0] if items else self.bus.clock()
-        kept = [_item(stamp, topic, seq, cdr, stamp) for stamp, topic, seq, cdr in items]
+        kept = [_row(stamp, topic, seq, cdr, stamp) for stamp, topic, seq, cdr in items]
         opening = []
         for topic in list(self.bus.topics.values()):
             last = topic.last
@@ -110,10 +110,10 @@ class BlackBox:
                     cdr = last.cdr(self.codec)
                 except Exception:  # counted when it was published
                     continue
-                opening.append(_item(first, topic, last.seq, cdr, last.stamp))
+                opening.append(_row(first, topic, last.seq, cdr, last.stamp))
         return opening + kept
 
 
-def _item(log_time: float, topic: Topic, seq: int, cdr: bytes, stamp: float) -> Item:
-    return Item(topic.name, topic.type_name, topic.latched, int(log_time * 1e9),
-                int(stamp * 1e9), seq, None, cdr, len(cdr))
+def _row(log_time: float, topic: Topic, seq: int, cdr: bytes, stamp: float) -> Row:
+    return (topic.name, topic.type_name, topic.latched, int(log_time * 1e9), int(stamp * 1e9),
+            seq, cdr)

@@ -23,7 +23,7 @@ from pathlib import Path
 from ..bus.core import Bus
 from ..bus.errors import ServiceError
 from .blackbox import BlackBox
-from .blackbox_file import PREFIX, Incident, read_incident, write_black_box
+from .blackbox_file import PREFIX, FileWriter, Incident, read_incident
 from .control import list_recordings
 from .incidents import IncidentWatch
 
@@ -45,6 +45,7 @@ class BlackBoxControl:
         self.folder = folder
         self.box = BlackBox(bus, seconds, max_bytes, topics=topics)
         self.watch = IncidentWatch(self.report, localization_threshold=localization_threshold)
+        self.writer = FileWriter()
         self.count = 0
         self.suppressed = 0
         self._pending: list[tuple[str, str]] | None = None
@@ -63,6 +64,7 @@ class BlackBoxControl:
                               self._snapshot)
         bus.advertise_service("/record/incidents", "hitrobot_msgs/ListIncidents", self, NODE,
                               self._list)
+        self.writer.start()
         self.box.start()  # first: the message that reports an incident is in the buffer
         bus.taps.append(self.watch)
         self._publish(Incident("", "", 0.0), "")  # none yet: a console sees the box is on
@@ -88,6 +90,7 @@ class BlackBoxControl:
         with contextlib.suppress(OSError):
             await self._write(_incident(causes, time.time()))
         self.box.stop()
+        self.writer.close()
         self.bus.remove_owner(self)
         self.bus.unregister_node(NODE)
 
@@ -120,7 +123,7 @@ class BlackBoxControl:
         items = self.box.snapshot()
         async with self._writing:
             try:
-                name = await asyncio.to_thread(write_black_box, self.folder, items, incident)
+                name = await self.writer.write(self.folder, items, incident)
             except OSError as exc:
                 log.error("black box: %s not written: %s", incident.cause, exc)
                 self._publish(incident, "")

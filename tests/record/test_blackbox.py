@@ -89,7 +89,8 @@ async def test_a_snapshot_on_demand_keeps_the_latest_within_its_mb_bound(make_se
         for i in range(count):
             await client.send({"op": "publish", "topic": "/blob",
                                "msg": {"data": f"{i:06d}" + "x" * (size - 6)}})
-        reply = await client.call("/record/snapshot", {"reason": "the operator asked"})
+        reply = await client.call("/record/snapshot", {"reason": "the operator asked"},
+                                   timeout=60)  # the writer process may still be starting
         assert reply["result"] and reply["values"]["success"], reply
         contents = server.black_box.box.contents
         assert contents.bytes <= 1024 * 1024
