@@ -20,7 +20,7 @@ from pathlib import Path
 
 from hitrobot_server.bus.topics import Message
 from hitrobot_server.config import Settings
-from hitrobot_server.procmem import rss_bytes
+from hitrobot_server.procmem import children, rss_bytes
 from hitrobot_server.record.blackbox import ITEM_OVERHEAD, BlackBox
 from hitrobot_server.record.blackbox_file import Incident, write_black_box
 from hitrobot_server.server import HitrobotServer
@@ -129,9 +129,11 @@ async def main(seconds: float) -> None:
               f"{real_size(box) / 1e6:.1f} MB by sys.getsizeof; process RSS "
               f"{(after - before) / 1e6:+.1f} MB since start (server and sim included)")
 
-        for which in ("first, its process starting", "in its process", "in a thread",
+        for which in ("in its process", "in its process", "in a thread",
                       "in its process", "in a thread"):
             await snapshot(control, folder, which)
+        writers = [rss_bytes(pid) for pid in children(os.getpid())]
+        print(f"  writer process RSS: {', '.join(f'{b / 1e6:.0f} MB' for b in writers)}")
         taps[taps.index(timed)] = box
         await server.stop()
 

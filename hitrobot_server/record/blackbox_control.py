@@ -90,7 +90,7 @@ class BlackBoxControl:
         with contextlib.suppress(OSError):
             await self._write(_incident(causes, time.time()))
         self.box.stop()
-        self.writer.close()
+        await self.writer.close()
         self.bus.remove_owner(self)
         self.bus.unregister_node(NODE)
 

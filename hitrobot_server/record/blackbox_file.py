@@ -2,10 +2,9 @@
 (:class:`~hitrobot_server.record.writer.McapFiles`, so it is the same ROS 2 MCAP a recording
 is), with the incident in a metadata record; and reading that record back for the list.
 
-It is written in a process of its own (:class:`FileWriter`, started with spawn at the first
-file and kept): framing thousands of messages in a thread of the server would hold the GIL
-against the event loop (measured: 270 ms stalls for an 8 s buffer, against 46 ms without). The
-rows cross as plain tuples of bytes, which pickle in C.
+It is written in a process of its own (:class:`FileWriter`, started with the black box and
+kept): framing thousands of messages in a thread of the server holds the GIL against the event
+loop. The rows cross as plain tuples of bytes, which pickle in C, in batches.
 
 The file is written under a hidden name and renamed when whole, so the recordings list never
 shows half a file. Names start with ``blackbox-``: the list reads the metadata of those only
@@ -19,13 +18,13 @@ import contextlib
 import datetime
 import multiprocessing
 import os
+import queue
 import re
 import signal
 import threading
-from concurrent.futures import ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from mcap.reader import make_reader
 
@@ -34,6 +33,8 @@ from .writer import WRITER_NICENESS, Counters, Item, McapFiles
 PREFIX = "blackbox-"
 METADATA = "hitrobot.incident"
 CHUNK_SPAN = 1.0  # seconds of log time per chunk, as a recording's
+BATCH = 256  # rows per put to the writer process
+CLOSE_TIMEOUT = 10.0
 
 Row = tuple[str, str, bool, int, int, int, bytes]
 """One kept message: topic, type, latched, log time (ns), publish time (ns), seq, CDR."""
@@ -110,43 +111,74 @@ def _start_writer() -> None:
                          daemon=True).start()
 
 
-def _ready() -> bool:
-    return True
+def run_file_writer(jobs: Any, done: Any) -> None:
+    """The writer process: for each job (a folder and an incident, then batches of rows, then
+    an empty batch) write the file and put ``("ok", name)`` or ``("error", text)``; ``None``
+    ends it."""
+    _start_writer()
+    while (job := jobs.get()) is not None:
+        folder, incident = job
+        rows: list[Row] = []
+        while batch := jobs.get():
+            rows.extend(batch)
+        try:
+            done.put(("ok", write_black_box(folder, rows, incident)))
+        except Exception as exc:  # reported to the server, which logs it and goes on
+            done.put(("error", f"{type(exc).__name__}: {exc}"))
 
 
 class FileWriter:
     """The process that writes black-box files, one at a time. :meth:`start` has it ready
     before the first incident (a spawned process takes seconds to import what it needs, and
-    an incident, a SIGTERM above all, should not wait for that)."""
+    an incident, a SIGTERM above all, should not wait for that). Rows cross in batches: the
+    queue's feeder thread pickles each apart, so it never holds the GIL for a whole buffer
+    (one pickle of 60 s of the simulator stalled the loop for 470 ms)."""
 
     def __init__(self) -> None:
-        self._pool: ProcessPoolExecutor | None = None
+        self._ctx = multiprocessing.get_context("spawn")  # the server has threads: no fork
+        self._process: Any = None
+        self._jobs: Any = None
+        self._done: Any = None
 
-    def start(self) -> ProcessPoolExecutor:
-        if self._pool is None:
-            self._pool = ProcessPoolExecutor(
-                1, mp_context=multiprocessing.get_context("spawn"), initializer=_start_writer)
-            self._pool.submit(_ready)  # the process starts now, not at the first file
-        return self._pool
+    def start(self) -> None:
+        if self._process is not None and self._process.is_alive():
+            return
+        self._jobs, self._done = self._ctx.Queue(), self._ctx.Queue()
+        self._process = self._ctx.Process(target=run_file_writer, args=(self._jobs, self._done),
+                                          name="blackbox-writer", daemon=True)
+        self._process.start()
 
     async def write(self, folder: Path, rows: list[Row], incident: Incident) -> str:
         """The new file's name; OSError when it cannot be written."""
-        pool = self.start()
-        loop = asyncio.get_running_loop()
-        try:
-            return await loop.run_in_executor(pool, write_black_box, folder, rows, incident)
-        except BrokenProcessPool:
-            self.close()
-            raise OSError("the black box's writer process ended") from None
-        except OSError:
-            raise
-        except Exception as exc:  # the file's own errors (mcap, an encoding): not written
-            raise OSError(f"{type(exc).__name__}: {exc}") from None
+        self.start()
+        self._jobs.put((folder, incident))
+        for i in range(0, len(rows), BATCH):
+            self._jobs.put(rows[i:i + BATCH])
+        self._jobs.put([])
+        status, value = await asyncio.to_thread(self._result)
+        if status != "ok":
+            raise OSError(value)
+        return value
 
-    def close(self) -> None:
-        if self._pool is not None:
-            self._pool.shutdown(wait=False, cancel_futures=True)
-            self._pool = None
+    def _result(self) -> tuple[str, str]:
+        while True:
+            try:
+                return self._done.get(timeout=1.0)
+            except queue.Empty:
+                if not self._process.is_alive():
+                    return "error", "the black box's writer process ended"
+
+    async def close(self) -> None:
+        process, self._process = self._process, None
+        if process is None:
+            return
+        if process.is_alive():
+            self._jobs.put(None)
+        await asyncio.to_thread(process.join, CLOSE_TIMEOUT)
+        if process.is_alive():
+            process.kill()
+        self._jobs.close()
+        self._done.close()
 
 
 def read_incident(path: Path) -> Incident | None:

@@ -5,7 +5,10 @@ from __future__ import annotations
 
 import asyncio
 
+import pytest
+
 from hitrobot_server.bus.core import Bus
+from hitrobot_server.bus.errors import ServiceError
 from hitrobot_server.record.blackbox_control import BlackBoxControl
 from hitrobot_server.record.blackbox_file import read_incident
 from hitrobot_server.record.incidents import IncidentWatch
@@ -124,3 +127,26 @@ async def test_one_incident_makes_one_file(tmp_path):
     shutdown = await asyncio.wait_for(written.get(), 10)
     assert shutdown["cause"] == "shutdown" and shutdown["count"] == 2
     assert len(list(tmp_path.glob("blackbox-*.mcap"))) == 2
+
+
+async def test_a_snapshot_that_cannot_be_written_says_so(tmp_path):
+    """The recordings folder is a file: the snapshot fails with the reason, the incident topic
+    names no file, and the black box goes on (a later snapshot to a good folder works)."""
+    bus = Bus(TypeRegistry.default())
+    blocked = tmp_path / "not-a-folder"
+    blocked.write_text("")
+    control = BlackBoxControl(bus, blocked, seconds=10.0, max_bytes=1 << 20)
+    await control.start()
+    written: asyncio.Queue = asyncio.Queue()
+    bus.subscribe("/record/incident", None, "test", "/test", lambda m: written.put_nowait(m.msg))
+    try:
+        assert (await asyncio.wait_for(written.get(), 1))["cause"] == ""
+        with pytest.raises(ServiceError, match="the black box could not be written"):
+            await bus.call_service("/record/snapshot", {"reason": "r"}, timeout=60)
+        failed = await asyncio.wait_for(written.get(), 1)
+        assert failed["cause"] == "snapshot" and failed["file"] == "" and failed["count"] == 0
+        control.folder = tmp_path / "recordings"
+        reply = await bus.call_service("/record/snapshot", {"reason": "again"}, timeout=60)
+        assert reply["success"] and (control.folder / reply["path"]).is_file()
+    finally:
+        await control.stop()
