@@ -7,7 +7,9 @@ knows no robot): a bus tap that calls ``report(cause, detail)`` on the edge of e
 * ``link_lost``: the diagnostics' ``Robot/Connection`` item turning ERROR after it was OK;
 * ``localization_lost``: the robot's ``RobotBasicState`` localization quality falling under the
   threshold (``--black-box-localization``) after it was over it, with localization on;
-* ``emergency_stop``: not reported: neither the robots we drive nor the simulator report one.
+* ``emergency_stop``: the diagnostics' ``Robot/Health`` item turning ERROR with an "emergency
+  stop" among its errors (how the simulator's ``/sim/emergency_stop`` shows, as a Slamware
+  FATAL health error).
 
 Each rule fires on a change (it was fine, now it is not) and is armed again when the thing is
 fine again, so a state that stays bad makes one incident; the control's debounce folds what
@@ -27,6 +29,8 @@ ACTIONLIB_ABORTED = 4  # actionlib_msgs/GoalStatus
 ACTION_ABORTED = 6  # action_msgs/GoalStatus
 DIAGNOSTIC_OK, DIAGNOSTIC_ERROR = 0, 2
 CONNECTION_ITEM = "Robot/Connection"
+HEALTH_ITEM = "Robot/Health"
+EMERGENCY_STOP = "emergency stop"  # in a health error's text (the simulator's, Slamware's)
 LOCALIZATION_TYPE = "slamware_ros_sdk/RobotBasicState"
 HYSTERESIS = 10  # localization is fine again at the threshold plus this
 SEEN_GOALS = 256  # aborted ROS 2 goals remembered (a status list repeats them)
@@ -44,6 +48,7 @@ class IncidentWatch:
         self._rules: dict[str, Rule | None] = {}  # topic name → its rule, None for most
         self._connected: dict[str, bool] = {}  # diagnostics item → was it OK last
         self._localized: dict[str, bool] = {}  # state topic → was quality over the threshold
+        self._stopped: dict[str, bool] = {}  # health item → was the emergency stop pressed
         self._aborted: deque[tuple[str, bytes]] = deque(maxlen=SEEN_GOALS)
 
     def message(self, message: Message) -> None:
@@ -95,19 +100,26 @@ class IncidentWatch:
     def _diagnostics(self, message: Message) -> None:
         for item in message.msg["status"]:
             name = item["name"]
-            if not name.endswith(CONNECTION_ITEM):
-                continue
-            level = item["level"]
-            level = level[0] if isinstance(level, bytes | bytearray) else int(level)
-            was = self._connected.get(name)
-            if level == DIAGNOSTIC_OK:
-                self._connected[name] = True
-            elif level == DIAGNOSTIC_ERROR:
-                self._connected[name] = False
-                if was:  # a fleet robot's item is /NAME/Robot/Connection
-                    robot = name.removesuffix(CONNECTION_ITEM).strip("/")
-                    text = item.get("message", "") or "not connected"
-                    self.report("link_lost", f"{robot}: {text}" if robot else text)
+            if name.endswith(CONNECTION_ITEM):
+                self._connection(name, _level(item["level"]), item.get("message", ""))
+            elif name.endswith(HEALTH_ITEM):
+                self._health(name, _level(item["level"]), item.get("message", ""))
+
+    def _connection(self, name: str, level: int, text: str) -> None:
+        was = self._connected.get(name)
+        if level == DIAGNOSTIC_OK:
+            self._connected[name] = True
+        elif level == DIAGNOSTIC_ERROR:
+            self._connected[name] = False
+            if was:
+                self.report("link_lost", _robot_says(name, CONNECTION_ITEM,
+                                                     text or "not connected"))
+
+    def _health(self, name: str, level: int, text: str) -> None:
+        stopped = level == DIAGNOSTIC_ERROR and EMERGENCY_STOP in text.lower()
+        if stopped and not self._stopped.get(name, False):
+            self.report("emergency_stop", _robot_says(name, HEALTH_ITEM, text))
+        self._stopped[name] = stopped
 
     def _localization(self, message: Message) -> None:
         msg = message.msg
@@ -123,3 +135,13 @@ class IncidentWatch:
                             f"{name}: localization quality {quality} < {self.threshold}")
         elif quality >= min(100, self.threshold + HYSTERESIS):
             self._localized[name] = True
+
+
+def _level(level: int | bytes) -> int:
+    return level[0] if isinstance(level, bytes | bytearray) else int(level)
+
+
+def _robot_says(item: str, suffix: str, text: str) -> str:
+    """``text``, after the robot's name for a fleet robot (its item is /NAME/Robot/...)."""
+    robot = item.removesuffix(suffix).strip("/")
+    return f"{robot}: {text}" if robot else text

@@ -20,7 +20,7 @@ class RecordOptions:
     black_box: float = field(default=0.0, metadata={
         "help": "keep the last SECONDS of the recorded topics in memory (0 = off): "
         "/record/snapshot writes them to the recordings folder, and so does an incident "
-        "(robot link lost, a goal aborted, localization lost, shutdown)"})
+        "(robot link lost, a goal aborted, localization lost, an emergency stop, shutdown)"})
     black_box_max_mb: int = field(default=64, metadata={
         "help": "the black box holds at most this many MiB (the oldest messages go first)"})
     black_box_localization: int = field(default=30, metadata={

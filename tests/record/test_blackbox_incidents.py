@@ -62,6 +62,26 @@ def test_a_link_lost_after_it_was_up_is_one_incident_until_it_comes_back():
     assert reports[1:] == [("link_lost", "r1: the robot does not answer: timeout")]
 
 
+def health(bus: Bus, level: int, text: str) -> None:
+    bus.publish(DIAG, {"header": {"frame_id": ""}, "status": [
+        {"level": level, "name": "/Robot/Health", "message": text, "hardware_id": "",
+         "values": []}]})
+
+
+def test_an_emergency_stop_pressed_is_one_incident_until_it_is_released():
+    """As the simulator's /sim/emergency_stop shows on the diagnostics: a FATAL health
+    error "emergency stop pressed" (the Robot/Health item turns ERROR)."""
+    bus, reports = watched_bus()
+    health(bus, 0, "no errors")
+    health(bus, 2, "left wheel overcurrent")  # an error, not a stop
+    health(bus, 2, "left wheel overcurrent; emergency stop pressed")
+    health(bus, 2, "emergency stop pressed")  # still pressed
+    health(bus, 0, "no errors")  # released
+    health(bus, 2, "Emergency stop pressed")
+    assert reports == [("emergency_stop", "left wheel overcurrent; emergency stop pressed"),
+                       ("emergency_stop", "Emergency stop pressed")]
+
+
 def test_localization_under_its_threshold_is_an_incident_with_hysteresis():
     bus, reports = watched_bus(threshold=30)
     quality(bus, 10)  # never localized yet (starting up): no incident
@@ -110,7 +130,7 @@ async def test_one_incident_makes_one_file(tmp_path):
         connection(bus, 2, "not connected")
         bus.publish("/move_base/result", {"status": {"goal_id": {"id": "g1"}, "status": 4,
                                                      "text": "the robot is not connected"}})
-        first = await asyncio.wait_for(written.get(), 10)
+        first = await asyncio.wait_for(written.get(), 60)  # the writer process starts
         assert first["cause"] == "link_lost" and first["count"] == 1
         assert first["detail"] == ("not connected; goal_aborted: /move_base: goal "
                                    "'g1' aborted: the robot is not connected")
@@ -124,7 +144,7 @@ async def test_one_incident_makes_one_file(tmp_path):
         assert sorted(p.name for p in tmp_path.iterdir()) == [first["file"]]
     finally:
         await control.stop()
-    shutdown = await asyncio.wait_for(written.get(), 10)
+    shutdown = await asyncio.wait_for(written.get(), 60)  # the writer process starts
     assert shutdown["cause"] == "shutdown" and shutdown["count"] == 2
     assert len(list(tmp_path.glob("blackbox-*.mcap"))) == 2
 
