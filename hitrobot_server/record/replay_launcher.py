@@ -70,6 +70,7 @@ class ReplayLauncher:
             sys.executable, "-m", "hitrobot_server", "replay", str(path), "--port", "0",
             "--tcp-port", "0", "--address", self.address, "--robot", "none",
             "--state-dir", self._state_dir, "--record-dir", str(self.folder),
+            "--black-box", "0",  # a config file's black box is the live server's, not this
             stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.STDOUT)
         try:
             port = await asyncio.wait_for(self._banner(), START_TIMEOUT)
