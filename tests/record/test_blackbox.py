@@ -138,3 +138,20 @@ def test_sigterm_writes_one_shutdown_file(tmp_path):
     assert metadata["cause"] == "shutdown"
     assert [msg.data for topic, msg in decoded if topic == "/chatter"] == [
         f"hi {i}" for i in range(5)]
+
+
+async def test_a_replay_of_a_file_not_in_the_folder_is_refused(make_server, tmp_path):
+    """/record/replay starts nothing for a name outside the recordings folder or absent."""
+    folder = tmp_path / "recordings"
+    server = await make_server(record_dir=str(folder))
+    client = await WsClient.open(server.port)
+    try:
+        for name, words in (("../escape", "field 'name' must be a plain file name"),
+                            ("absent", "field 'name': no recording absent.mcap")):
+            reply = await client.call("/record/replay", {"name": name})
+            assert not reply["result"] and words in reply["values"], reply
+            status = await client.expect(op="status", id=reply["id"])
+            assert status["level"] == "error" and words in status["msg"]
+        assert server.replays is not None and server.replays.process is None
+    finally:
+        await client.close()
