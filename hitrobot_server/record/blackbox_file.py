@@ -22,6 +22,7 @@ import queue
 import re
 import signal
 import threading
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -74,7 +75,7 @@ def file_name(incident: Incident, folder: Path) -> str:
     return name
 
 
-def write_black_box(folder: Path, rows: list[Row], incident: Incident) -> str:
+def write_black_box(folder: Path, rows: Iterable[Row], incident: Incident) -> str:
     """Write ``rows`` and the incident to a new file of ``folder``; its name. Blocking: the
     file writer's process runs it (the rows are CDR already: it only frames and compresses)."""
     folder.mkdir(parents=True, exist_ok=True)
@@ -82,15 +83,15 @@ def write_black_box(folder: Path, rows: list[Row], incident: Incident) -> str:
     hidden = folder / f".{name}.part"
     files = McapFiles(hidden, 0, Counters(*(_Count() for _ in range(6))), CHUNK_SPAN)
     try:
-        files.writer.add_metadata(METADATA, incident.metadata)
-        files.write_all(Item(topic, type_name, latched, log_time, publish_time, seq, None, cdr,
-                             len(cdr))
-                        for topic, type_name, latched, log_time, publish_time, seq, cdr in rows)
-    finally:
-        files.finish()
-    try:
+        try:
+            files.writer.add_metadata(METADATA, incident.metadata)
+            for topic, type_name, latched, log_time, publish_time, seq, cdr in rows:
+                files.write(Item(topic, type_name, latched, log_time, publish_time, seq, None,
+                                 cdr, len(cdr)))
+        finally:
+            files.finish()
         os.replace(hidden, folder / name)
-    except OSError:
+    except BaseException:  # no half file left behind, not even a hidden one
         with contextlib.suppress(OSError):
             hidden.unlink()
         raise
@@ -118,13 +119,18 @@ def run_file_writer(jobs: Any, done: Any) -> None:
     _start_writer()
     while (job := jobs.get()) is not None:
         folder, incident = job
-        rows: list[Row] = []
-        while batch := jobs.get():
-            rows.extend(batch)
+        rows = _batches(jobs)  # written as they come: the process holds one batch at a time
         try:
             done.put(("ok", write_black_box(folder, rows, incident)))
         except Exception as exc:  # reported to the server, which logs it and goes on
             done.put(("error", f"{type(exc).__name__}: {exc}"))
+        for _rest in rows:  # what a failed write left in the queue is not the next job
+            pass
+
+
+def _batches(jobs: Any) -> Iterator[Row]:
+    while batch := jobs.get():
+        yield from batch
 
 
 class FileWriter:
