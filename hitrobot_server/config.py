@@ -80,8 +80,8 @@ FLAG_ORDER = (
     "log_level", "robot", "world", "sim_seed", "sim_speed", "sim_mapping", "map_dir",
     "state_dir", "fresh", "bus", "zenoh_config", "zenoh_connect", "zenoh_listen",
     "zenoh_domain", "workers", "event_loop", "record", "record_topics", "record_split_size",
-    "record_split_time", "record_max_disk", "record_dir", "demo_services", "charge_below",
-    "charge_until", "site_timezone",
+    "record_split_time", "record_max_disk", "record_dir", "black_box", "black_box_max_mb",
+    "black_box_localization", "demo_services", "charge_below", "charge_until", "site_timezone",
 )
 
 

@@ -61,6 +61,7 @@ class StartPlan:
     fleet: bool  # named robots: site nodes, one shared world, a namespace each
     demo: bool  # the tutorial servers (/add_two_ints, /fibonacci), beside a single robot
     record: Path | None  # record every bus message into this file from the start
+    black_box: bool  # --black-box: the last seconds in memory, written on an incident
     zenoh: bool  # join other servers over the Zenoh link
     worker_id: int | None  # one of --workers: shared ports, parameters in worker 0
     tcp: bool  # the raw TCP port
@@ -87,6 +88,7 @@ def start_plan(settings: Settings, *, robot: str | None = None) -> StartPlan:
         fleet=primary and bool(settings.robots),
         demo=primary and not settings.robots and settings.nodes.demo_services,
         record=Path(settings.record.record) if settings.record.record else None,
+        black_box=primary and settings.record.black_box > 0,  # where the robots are
         zenoh=settings.bus.zenoh,
         worker_id=settings.worker_id,
         tcp=bool(settings.transport.tcp_port),

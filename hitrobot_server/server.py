@@ -18,7 +18,9 @@ from .metrics import METRICS_DIR, ServerMetrics, Sources
 from .nodes.base import Node
 from .protocol.auth import load_secret
 from .protocol.foxglove import SUBPROTOCOLS as FOXGLOVE_SUBPROTOCOLS
+from .record.blackbox_control import BlackBoxControl
 from .record.control import RecordingControl
+from .record.replay_launcher import ReplayLauncher
 from .robots import RobotUnit, StartPlan, start_plan, start_planned, stop_robots
 from .session.client import ClientSession, WireProtocols
 from .session.foxglove.session import FoxgloveSession
@@ -76,6 +78,8 @@ class HitrobotServer:
             sessions=lambda: self.sessions, robots=lambda: self.robots,
             recording=lambda: self.recording, worker=self.plan.worker_id
             if self.plan.worker else None))
+        self.black_box: BlackBoxControl | None = None
+        self.replays: ReplayLauncher | None = None
 
     def _options(self) -> SessionOptions:
         return self._session_options or self.settings.session.for_sessions()
@@ -136,6 +140,15 @@ class HitrobotServer:
         if self.plan.record:  # first: an unwritable path is refused before anything starts
             self.recording.start_recording(self.plan.record)
         await self.recording.start()
+        if self.plan.black_box:
+            r = s.record
+            self.black_box = BlackBoxControl(
+                self.bus, s.store.recordings, seconds=r.black_box, max_bytes=r.black_box_bytes,
+                topics=r.record_topics, localization_threshold=r.black_box_localization)
+            await self.black_box.start()
+        if not s.session.authenticate:  # a replay's port would serve the files to anyone
+            self.replays = ReplayLauncher(self.bus, s.store.recordings, s.transport.address)
+            await self.replays.start()
 
     async def _start_link(self) -> str:
         """Join the Zenoh network; the client tag that keeps this server's client node names
@@ -232,9 +245,17 @@ class HitrobotServer:
         self.pool.shutdown()
         self.metrics.loop.stop()
         self.metrics.unshare()
+        if self.black_box is not None:  # the robots stopping is no incident
+            self.black_box.shutting_down()
         await stop_robots(self.nodes, self.robots)
         self.nodes.clear()
         self.robots.clear()
+        if self.black_box is not None:  # after the nodes, as the recording
+            await self.black_box.stop()
+            self.black_box = None
+        if self.replays is not None:
+            await self.replays.stop()
+            self.replays = None
         if self.recording is not None:  # after the nodes: their last messages are kept
             await self.recording.stop()
             self.recording = None

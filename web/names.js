@@ -54,6 +54,7 @@ export const TOPICS = Object.freeze({
   fleetRobots: '/fleet/robots',
   fleetTasks: '/fleet/tasks',
   recordState: '/record/state',
+  recordIncident: '/record/incident',
   replayState: '/replay/state',
 });
 
@@ -71,6 +72,9 @@ export const SERVICES = Object.freeze({
   recordStart: '/record/start',
   recordStop: '/record/stop',
   recordList: '/record/list',
+  recordIncidents: '/record/incidents',
+  recordSnapshot: '/record/snapshot',
+  recordReplay: '/record/replay',
   replayPause: '/replay/pause',
   replayResume: '/replay/resume',
   replaySeek: '/replay/seek',

@@ -2,6 +2,10 @@
 // Recordings (Status tab): start/stop a recording on the server (/record/start, /record/stop),
 // its size growing (/record/state), the recordings folder (/record/list) with download links
 // (/recordings/NAME on this server's port).
+// Incidents (in the same panel, when the server keeps a black box, --black-box): the files an
+// incident left, with their cause (/record/incidents, refreshed on /record/incident), the
+// black box saved on demand (/record/snapshot), and a replay in two clicks: Replay starts
+// `hitrobot-server replay` on a port of its own (/record/replay), Open replay opens it.
 // ReplayTimeline (over the map): shown when the server replays a file (`hitrobot-server
 // replay`): play/pause, a seek bar, position/duration and the speed, from /replay/state.
 /* global ROSLIB */
@@ -53,6 +57,7 @@ export class Recordings {
     parent.append(this.panel);
     new ROSLIB.Topic({ ros, name: TOPICS.recordState, messageType: 'hitrobot_msgs/RecordState' })
       .subscribe((s) => this.show(s));
+    this.incidents = new Incidents({ ros, parent: this.panel, onWritten: () => this.refresh() });
   }
 
   show(s) {
@@ -86,6 +91,84 @@ export class Recordings {
       el('a', { href: `recordings/${encodeURIComponent(name)}`, download: name, title: `Download ${name}` }, name),
       el('small', {}, ` ${formatBytes(Number(reply.sizes[i]))}`)))
       : [el('li', { class: 'empty' }, 'no recordings yet')]));
+  }
+}
+
+const CAUSES = {
+  link_lost: 'Robot link lost',
+  goal_aborted: 'Goal aborted',
+  localization_lost: 'Localization lost',
+  emergency_stop: 'Emergency stop',
+  shutdown: 'Server stopped',
+  snapshot: 'Saved by hand',
+};
+
+function clock(seconds) {
+  return new Date(seconds * 1000).toLocaleString([], { dateStyle: 'short', timeStyle: 'medium' });
+}
+
+class Incidents {
+  constructor({ ros, parent, onWritten }) {
+    this.listService = caller(ros, SERVICES.recordIncidents, 'hitrobot_msgs/ListIncidents');
+    this.snapshot = caller(ros, SERVICES.recordSnapshot, 'hitrobot_msgs/RecordSnapshot');
+    this.replay = caller(ros, SERVICES.recordReplay, 'hitrobot_msgs/ReplayRecording');
+    this.onWritten = onWritten;
+    this.list = el('ul', { class: 'incidents', id: 'incident-list' }, el('li', { class: 'empty' }, '–'));
+    this.saveButton = el('button', { type: 'button', class: 'small', id: 'black-box-save', title: 'Write the black box (the last seconds of every topic) to the recordings folder now (/record/snapshot)', onclick: () => this.onSave() }, 'Save black box');
+    this.section = el('div', { class: 'incident-section', id: 'incidents', hidden: true },
+      el('h3', {}, 'Incidents ', this.saveButton), this.list);
+    parent.append(this.section);
+    new ROSLIB.Topic({ ros, name: TOPICS.recordIncident, messageType: 'hitrobot_msgs/RecordIncident' })
+      .subscribe((m) => this.show(m));
+  }
+
+  show(m) {
+    const first = this.section.hidden;
+    this.section.hidden = false; // the server keeps a black box
+    if (!first && m.cause && m.cause !== 'snapshot') { // the first is latched: told before
+      const what = CAUSES[m.cause] || m.cause;
+      log('warning', m.file ? `${what}: ${m.detail} (black box saved: ${m.file})` : `${what}: ${m.detail} (the black box could not be saved)`);
+    }
+    this.refresh();
+    if (m.cause) this.onWritten();
+  }
+
+  async onSave() {
+    const reply = await this.snapshot({ reason: 'saved from the console' });
+    if (reply && reply.success) log('info', reply.message);
+  }
+
+  async refresh() {
+    const reply = await this.listService();
+    if (!reply) return;
+    const files = reply.files || [];
+    this.list.replaceChildren(...(files.length ? files.map((name, i) => this.row(name, reply, i))
+      : [el('li', { class: 'empty' }, 'no incidents')]));
+  }
+
+  row(name, reply, i) {
+    const cause = reply.causes[i];
+    const button = el('button', { type: 'button', class: 'small replay', title: `Serve ${name} on a port of its own, to open beside this console` }, 'Replay');
+    const li = el('li', { dataset: { name, cause } },
+      el('span', { class: 'cause' }, CAUSES[cause] || cause), ' ',
+      el('small', { class: 'when' }, clock(Number(reply.times[i]))), ' ', button,
+      el('div', { class: 'detail', title: name }, reply.details[i]));
+    button.addEventListener('click', () => this.onReplay(name, button));
+    return li;
+  }
+
+  async onReplay(name, button) {
+    button.disabled = true;
+    button.textContent = 'Starting…';
+    const reply = await this.replay({ name });
+    if (!reply || !reply.success) {
+      button.disabled = false;
+      button.textContent = 'Replay';
+      return;
+    }
+    log('info', reply.message);
+    const href = `http://${window.location.hostname}:${reply.port}/`;
+    button.replaceWith(el('a', { class: 'open-replay', href, target: '_blank', rel: 'noopener', title: `The replay of ${name}` }, 'Open replay ↗'));
   }
 }
 

@@ -45,6 +45,20 @@ class RecordOptions:
         "help": "keep the recordings under this size (e.g. 500M, 2G): the oldest files are "
         "removed first, never the one being written"})
 
+    black_box: float = field(default=0.0, metadata={
+        "help": "keep the last SECONDS of the recorded topics in memory (0 = off): "
+        "/record/snapshot writes them to the recordings folder, and so does an incident "
+        "(robot link lost, a goal aborted, localization lost, an emergency stop, shutdown)"})
+    black_box_max_mb: int = field(default=64, metadata={
+        "help": "the black box holds at most this many MiB (the oldest messages go first)"})
+    black_box_localization: int = field(default=30, metadata={
+        "help": "a localization quality under this (0-100) is a black-box incident "
+        "(0 = never)"})
+
+    @property
+    def black_box_bytes(self) -> int:
+        return self.black_box_max_mb * 1024 * 1024
+
     @property
     def split_bytes(self) -> int:
         return self.record_split_size * 1024 * 1024
@@ -68,3 +82,9 @@ class RecordOptions:
             raise ValueError("record_split_time must be at least 1 second")
         if self.record_max_disk and budget < 1024 * 1024:
             raise ValueError("record_max_disk must be at least 1M")
+        if self.black_box < 0:
+            raise ValueError("black_box must be 0 or more (seconds)")
+        if self.black_box_max_mb < 1:
+            raise ValueError("black_box_max_mb must be 1 or more (MiB)")
+        if not 0 <= self.black_box_localization <= 100:
+            raise ValueError("black_box_localization must be 0 to 100")

@@ -259,16 +259,16 @@ class McapFiles:
         return channel
 
 
-def write_recording(path: Path, items: Iterable[Item], *, metadata: dict[str, str] | None = None
-                    ) -> int:
+def write_recording(path: Path, items: Iterable[Item], *, metadata: dict[str, str] | None = None,
+                    metadata_name: str = "hitrobot-recording") -> int:
     """Write ``items`` (in log-time order) into a new MCAP file ``path`` (refused if it
-    exists, never through a symlink), with ``metadata`` as its ``hitrobot-recording``
-    metadata record; the messages written. Blocking: call it off the event loop."""
+    exists, never through a symlink), with ``metadata`` as its ``metadata_name`` metadata
+    record; the messages written. Blocking: call it off the event loop."""
     counters = Counters(*(SimpleNamespace(value=0) for _ in range(7)))
     files = McapFiles(Plan(Path(path), flush_period=3600.0), counters, created=False)
     try:
         if metadata:
-            files.writer.add_metadata("hitrobot-recording", dict(metadata))
+            files.writer.add_metadata(metadata_name, dict(metadata))
         files.write_all(items)
         files.finish()
     except OSError as exc:
