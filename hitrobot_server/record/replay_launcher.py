@@ -16,7 +16,7 @@ from pathlib import Path
 
 from ..bus.core import Bus
 from ..bus.errors import ServiceError
-from .control import recording_name
+from .names import recording_name
 
 log = logging.getLogger(__name__)
 
@@ -52,7 +52,7 @@ class ReplayLauncher:
 
     async def _replay(self, request: dict) -> dict:
         try:  # validate before anything stops or starts
-            name = recording_name(str(request.get("name", "")))
+            name = recording_name(str(request.get("name", "")), "")
         except ValueError as exc:
             raise ServiceError(str(exc)) from None
         path = self.folder / name
