@@ -9,8 +9,8 @@ No assertions.
 
 The slow reader runs twice: with a 32 kB receive buffer, and with the operating system's
 default buffers (autotuned up to megabytes, as a browser's are). With deep buffers only the
-server's window of bytes in flight (transport/flight.py) keeps the pose from waiting behind
-what the kernel already holds.
+server's window of bytes in flight (``--send-window``, transport/flight.py) keeps the pose from
+waiting behind what the kernel already holds; every run is made without and with it.
 
     .venv/bin/python bench/bench_fair.py            # 10 s per run
     .venv/bin/python bench/bench_fair.py --quick    # 4 s per run
@@ -34,6 +34,7 @@ from pathlib import Path
 from websockets.asyncio.client import connect
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import bench_bridge  # noqa: E402
 from bench_bridge import HOST, pct, start_ours, table  # noqa: E402
 
 BIG, SMALL = "/bench/cloud", "/bench/pose"
@@ -154,16 +155,19 @@ BUFFERS = {"32k": 32 * 1024, "default": None}
 
 
 async def main_async(seconds: float, buffers: list[str]) -> None:
-    server = start_ours(None, "fair")
-    try:
-        for name in buffers:
-            for frag in (16_000, None):
-                r = await run(server.port, seconds, frag, BUFFERS[name])
-                report(f"slow reader {LINK / 1e6:g} MB/s, receive buffer {name}; big "
-                       f"{BIG_BYTES // 1000} kB x {BIG_HZ} Hz (fragment_size {frag or 'none'}), "
-                       f"small x {SMALL_HZ} Hz, {seconds:g} s", r)
-    finally:
-        server.stop()
+    for window in (False, True):  # the same runs without and with --send-window
+        bench_bridge.SERVER_ARGS[:] = ["--send-window"] if window else []
+        server = start_ours(None, "fair")
+        try:
+            for name in buffers:
+                for frag in (16_000, None):
+                    r = await run(server.port, seconds, frag, BUFFERS[name])
+                    report(f"{'--send-window' if window else 'no window'}: slow reader "
+                           f"{LINK / 1e6:g} MB/s, receive buffer {name}; big "
+                           f"{BIG_BYTES // 1000} kB x {BIG_HZ} Hz (fragment_size "
+                           f"{frag or 'none'}), small x {SMALL_HZ} Hz, {seconds:g} s", r)
+        finally:
+            server.stop()
 
 
 def main() -> int:

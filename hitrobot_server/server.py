@@ -202,6 +202,7 @@ class HitrobotServer:
             reuse_port=plan.worker,
             headers=worker,
             downloads=self._downloads,
+            send_window=t.send_window,
         )
         self.port = self._ws.sockets[0].getsockname()[1] if self._ws.sockets else t.port
         if plan.tcp:

@@ -44,7 +44,7 @@ at most this often."""
 class _Ping:
     mark: int  # bytes sent when it went out: its pong says the client read that far
     at: float
-    full: bool  # the window was full: a quick pong means the window held the link back
+    full: bool  # the window was (half) full: its pong tells what the link, not the sender, did
     clean: bool  # nothing was unread before the bytes it follows: a bare round trip
 
 
@@ -91,7 +91,15 @@ class FlightWindow:
         self._unpinged += nbytes
         if self._idle_before and now - self._last_probe >= PROBE_EVERY:
             return True
-        return self._unpinged >= max(MIN_PING_EVERY, self.window // 4) or not self.open
+        # every quarter window; and when full unless the pings out will reopen it
+        return self._unpinged >= max(MIN_PING_EVERY, self.window // 4) or self.stuck
+
+    @property
+    def stuck(self) -> bool:
+        """Full, and no ping out whose pong would bring what is unread under the window: a
+        ping must go now (after the last bytes) or nothing reopens it."""
+        return not self.open and self._unpinged > 0 and (
+            not self._pings or self._unpinged >= self.window // 2)
 
     def pinged(self, now: float) -> int:
         """A ping went out after everything sent so far; returns its mark for :meth:`ponged`."""
@@ -100,7 +108,7 @@ class FlightWindow:
             self._last_probe = now
         self._idle_before = False
         self._unpinged = 0
-        self._pings.append(_Ping(self.sent, now, self.in_flight >= self.window, clean))
+        self._pings.append(_Ping(self.sent, now, self.in_flight >= self.window // 2, clean))
         return self.sent
 
     def ponged(self, mark: int, now: float) -> None:
@@ -136,8 +144,12 @@ class FlightWindow:
         window = self.window
         base = self.base_rtt if math.isfinite(self.base_rtt) else 0.0
         if self.rate > 0:  # twice the bytes the link carries in a round trip plus the target:
-            # a window-limited link's rate grows with its window, a slow reader's does not
-            window = int(GAIN * self.rate * (base + self.target))
+            # a window-limited link's rate grows with its window, a slow reader's does not. A
+            # rate seen while the sender had little to send (the window not full) says nothing
+            # of the link: it may raise the window, never lower it.
+            sized = int(GAIN * self.rate * (base + self.target))
+            if was_full or sized > window:
+                window = sized
         if was_full and (rtt < base + self.target / 2 or (drained and rtt < base + self.target)):
             # the link kept up (a quick pong, or a client that read all it was sent within the
             # target, as a busy client does in bursts): the window held it back

@@ -28,6 +28,10 @@ class TransportOptions:
         "help": "seconds between WebSocket pings to each client (0 = none)"})
     websocket_ping_timeout: float = field(default=30.0, metadata={
         "help": "seconds a client has to answer a ping before it is disconnected"})
+    send_window: bool = field(default=False, metadata={
+        "help": "keep what each WebSocket client has not yet read under a window of about "
+        "30 ms of its delivery rate (learnt from pings): a small topic stays fresh behind a "
+        "big stream on deep socket buffers, at a cost to a fast but bursty reader's throughput"})
     ssl: bool = field(default=False, metadata={
         "help": "serve wss:// and TLS on the TCP port (needs --certfile)"})
     certfile: str | None = field(default=None, metadata={

@@ -63,11 +63,14 @@ class PongWindow:
         """``nbytes`` were written to the client."""
         now = self._loop.time()
         if self.flight.on_sent(nbytes, now):
-            task = self._loop.create_task(self._ping(self.flight.pinged(now)))
-            self._pinging.add(task)
-            task.add_done_callback(self._pinging.discard)
+            self._send_ping(now)
         if not self.flight.open:
             self._room.clear()
+
+    def _send_ping(self, now: float) -> None:
+        task = self._loop.create_task(self._ping(self.flight.pinged(now)))
+        self._pinging.add(task)
+        task.add_done_callback(self._pinging.discard)
 
     async def wait_open(self) -> None:
         """Return once the client's unread bytes are under its window."""
@@ -85,9 +88,12 @@ class PongWindow:
     def _ponged(self, mark: int, done: asyncio.Future) -> None:
         if done.cancelled() or done.exception() is not None:
             return  # the connection closed first
-        self.flight.ponged(mark, self._loop.time())
+        now = self._loop.time()
+        self.flight.ponged(mark, now)
         if self.flight.open:
             self._room.set()
+        elif self.flight.stuck:  # the window shrank under what no ping covers yet
+            self._send_ping(now)
 
 
 def direct_writer(ws: ServerConnection, window: PongWindow | None = None):
@@ -132,6 +138,7 @@ async def start_websocket(
     reuse_port: bool = False,
     headers: dict[str, str] | None = None,
     downloads: Downloads | None = None,
+    send_window: bool = False,
 ) -> Server:
     """Serve WebSocket (``wss://`` with ``tls``, its handshakes bounded by the gate); with
     ``ping_interval`` > 0 each client is pinged that often and dropped when it does not answer
@@ -142,7 +149,7 @@ async def start_websocket(
     through websockets)."""
 
     async def handler(ws: ServerConnection) -> None:
-        await _serve(ws, protocols, delay_between_messages)
+        await _serve(ws, protocols, delay_between_messages, send_window)
 
     def select_subprotocol(ws: ServerConnection, offered: Sequence[Subprotocol]):
         chosen = protocols.choose(offered)
@@ -169,11 +176,12 @@ async def start_websocket(
     )
 
 
-async def _serve(ws: ServerConnection, protocols: WireProtocols, delay: float) -> None:
+async def _serve(ws: ServerConnection, protocols: WireProtocols, delay: float,
+                 send_window: bool) -> None:
     """One client connection: its session, served until either side ends it."""
     peer = ws.remote_address[0] if ws.remote_address else ""
     session = protocols.open(peer, ws.subprotocol)
-    window = PongWindow(ws)
+    window = PongWindow(ws) if send_window else None
 
     async def send_frame(data: bytes, binary: bool) -> None:
         if len(data) > CHUNK_BYTES:
@@ -182,13 +190,14 @@ async def _serve(ws: ServerConnection, protocols: WireProtocols, delay: float) -
             await ws.send(chunks, text=not binary)
         else:
             await ws.send(data, text=not binary)
-        window.sent(len(data))
+        if window is not None:
+            window.sent(len(data))
 
     try:
         await run_session(session, _read(ws, session),
                           sock=ws.transport.get_extra_info("socket") if ws.transport else None,
                           send_frame=send_frame, direct=direct_writer(ws, window), delay=delay,
-                          gate=window.wait_open)
+                          gate=window.wait_open if window is not None else None)
     finally:
         if session.close_reason:  # 1008: policy violation, with the reason
             await ws.close(1008, session.close_reason[:120])

@@ -25,6 +25,8 @@ def drive(w: FlightWindow, *, rate: float, seconds: float, frame: int = 16_000,
         for mark in [m for m in pending if m <= read_to]:
             pending.remove(mark)
             w.ponged(mark, now + rtt0)
+            if w.stuck:  # as the transport does: a ping after the last bytes
+                pending.append(w.pinged(now + rtt0))
         sends = 0
         while w.open and sends < 10_000:
             sends += 1
@@ -61,9 +63,28 @@ def test_the_window_closes_at_its_size_and_reopens_on_the_pong():
     while w.open:
         if w.on_sent(8192, 0.0):
             marks.append(w.pinged(0.0))
-    assert w.in_flight >= w.window and marks[-1] == w.sent
+    # the pings out cover all but under half a window: their pongs reopen it, no ping more
+    assert w.in_flight >= w.window and not w.stuck and w.sent - marks[-1] < w.window // 2
     w.ponged(marks[-1], 0.5)
-    assert w.open and w.in_flight == 0
+    assert w.open and w.in_flight == w.sent - marks[-1]
+
+
+def test_a_window_that_shrank_under_its_unpinged_bytes_asks_for_a_ping():
+    """The pongs of a slow reader shrink the window below what no ping covers yet: without a
+    ping now nothing would ever reopen it (no bytes go out while it is full)."""
+    w = FlightWindow(initial=1024 * 1024)
+    w.on_sent(100, 0.0)
+    w.ponged(w.pinged(0.0), 0.001)  # a bare round trip of 1 ms
+    marks = []
+    while w.open:
+        if w.on_sent(16_000, 0.01):
+            marks.append(w.pinged(0.01))
+    assert not w.stuck
+    for i, mark in enumerate(marks):  # read at 100 kB/s: the window shrinks to its minimum
+        w.ponged(mark, 0.5 + i)
+    assert w.window == MIN_WINDOW and not w.open and w.stuck
+    w.ponged(w.pinged(20.0), 20.1)
+    assert w.open and not w.stuck
 
 
 def test_a_pong_acknowledges_every_earlier_ping_and_ignores_stale_ones():

@@ -1,5 +1,6 @@
-"""What a WebSocket client has not read stays under its window: the server pings, the client's
-pongs let more through, and a pose waits behind the window, not behind megabytes.
+"""With --send-window, what a WebSocket client has not read stays under its window: the server
+pings, the client's pongs let more through, and a pose waits behind the window, not behind
+megabytes.
 
 The client is websockets' own sans-I/O ``ClientProtocol`` over a real socket, so the test
 decides when its pongs go out (an ordinary client sends them as soon as it reads a ping).
@@ -109,7 +110,7 @@ class PongWithholdingClient:
 
 
 async def test_unread_bytes_stay_under_the_window_and_a_pong_lets_the_pose_through(make_server):
-    server = await make_server()
+    server = await make_server(send_window=True)
     client = await PongWithholdingClient.open(server.port)
     pub = await WsClient.open(server.port)
     for topic in (BIG, POSE):
@@ -140,4 +141,24 @@ async def test_unread_bytes_stay_under_the_window_and_a_pong_lets_the_pose_throu
     # the pose is among the next picks from the outbox: behind a few 16 kB fragments at most,
     # not behind the megabytes still queued for the cloud
     assert await client.read_until("pose-1", max_bytes=256 * 1024) <= 96 * 1024
+    client.close()
+
+
+async def test_without_send_window_the_server_sends_no_pings(make_server):
+    """The window is opt-in: by default a client is never pinged (nor held back by pongs)."""
+    server = await make_server()
+    client = await PongWithholdingClient.open(server.port)
+    pub = await WsClient.open(server.port)
+    await pub.send({"op": "advertise", "topic": BIG, "type": "std_msgs/String"})
+    await client.send({"op": "subscribe", "topic": BIG, "type": "std_msgs/String"})
+    await client.send({"op": "call_service", "id": "ready", "service": "/rosapi/get_time"})
+    await client.read_until('"ready"', max_bytes=1 << 20)
+    client.withhold = True
+    for _ in range(5):  # 1 MB, more than a window would let out unanswered
+        await pub.send({"op": "publish", "topic": BIG, "msg": {"data": "c" * 200_000}})
+    await round_trip(pub)
+    before = client.received
+    while client.received - before < 800_000 and await client.read_some(2.0):
+        pass
+    assert client.received - before >= 800_000 and not client.pings
     client.close()
