@@ -14,13 +14,16 @@ from __future__ import annotations
 import asyncio
 import logging
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Coroutine
+from typing import Any
 
 from ...bus.core import Bus
+from ...bus.errors import BusError
 from ...bus.names import CLIENT_NODE_PREFIX
+from ...bus.params import ParamError
 from ...bus.topics import Origin
 from ...protocol import foxglove as fg
-from ..client import release_client
+from ..client import Pending, release_client
 from ..options import SessionOptions
 from ..outbox import Outbox
 from .channels import ChannelOps
@@ -62,11 +65,13 @@ class FoxgloveSession:
         # under the rosbridge clients' prefix, so diagnostics' /Bridge/Clients counts it too
         self.node = f"{CLIENT_NODE_PREFIX}{settings.client_tag}foxglove_{next(shared.client_ids)}"
         self.origin = Origin(self.node)
-        self.outbox = Outbox(settings.send_buffer_limit)
-        self.out = FoxgloveOutput(self.outbox, self.node)
+        self.pool = shared.pool
+        self.outbox = Outbox(settings.send_buffer_limit, settings.reply_buffer_limit)
+        self.out = FoxgloveOutput(self.outbox, self.node, settings.reply_buffer_limit)
         self.closed = False
-        self.close_reason = ""  # the transport closes with it (1008) when set; never set here
         self.on_close: list[Callable[[FoxgloveSession], None]] = []
+        self._tasks: set[asyncio.Task] = set()  # big decodes, cancelled when the client goes
+        self._changes: set[tuple[str, str]] = set()  # (kind, name) changed since the last sync
         self.channel_ops = ChannelOps(self)
         self.channels = self.channel_ops.channels  # channel id advertised → topic
         self.subscriptions = SubscribeOps(self, self.channels)
@@ -93,6 +98,11 @@ class FoxgloveSession:
         bus.params.watchers.append(self._param_changed)
         self._time_handle = asyncio.get_running_loop().call_soon(self._tick)
 
+    @property
+    def close_reason(self) -> str:
+        """Why the server disconnected the client (the transport closes with it, 1008)."""
+        return self.out.close_reason
+
     def _op_table(self) -> dict[str, Callable[[dict], None]]:
         """Each JSON op's handler, by the ``op`` its parser (protocol/foxglove.py) checked."""
         return {
@@ -100,7 +110,7 @@ class FoxgloveSession:
             "unsubscribe": self.subscriptions.unsubscribe,
             "advertise": self.publishing.advertise,
             "unadvertise": self.publishing.unadvertise,
-            "getParameters": self.param_ops.get,
+            "getParameters": self._get_parameters,
             "setParameters": self.param_ops.set,
             "subscribeParameterUpdates": self.param_ops.subscribe,
             "unsubscribeParameterUpdates": self.param_ops.unsubscribe,
@@ -110,48 +120,82 @@ class FoxgloveSession:
         }
 
     # ------------------------------------------------------------------ input
-    def receive(self, data: str | bytes, binary: bool = False) -> None:
-        """One WebSocket frame; every failure becomes an error status, never an exception."""
+    def receive(self, data: str | bytes, binary: bool = False) -> Pending:
+        """One WebSocket frame; every failure becomes an error status, never an exception.
+        A task when a big message is being decoded in the worker pool (the transport awaits
+        it before the next frame, so one client's frames keep their order)."""
         if self.closed or self.outbox.closed:
             return None
         try:
             if binary:
-                self._binary(fg.parse_binary(data if isinstance(data, bytes) else data.encode()))
-            else:
-                if len(data) > MAX_TEXT_BYTES:
-                    raise fg.FoxgloveError(
-                        f"text frame of {len(data)} bytes: JSON ops are at most "
-                        f"{MAX_TEXT_BYTES}; message data goes in binary frames"
-                    )
-                op = fg.parse_text(data)
-                self._handlers[op["op"]](op)
+                return self._binary(fg.parse_binary(data if isinstance(data, bytes)
+                                                    else data.encode()))
+            if len(data) > MAX_TEXT_BYTES:
+                raise fg.FoxgloveError(
+                    f"text frame of {len(data)} bytes: JSON ops are at most "
+                    f"{MAX_TEXT_BYTES} bytes; message data goes in binary frames"
+                )
+            op = fg.parse_text(data)
+            self._handlers[op["op"]](op)
         except fg.FoxgloveError as exc:
+            self.out.status(fg.ERROR, str(exc))
+        except (BusError, ParamError) as exc:  # a refusal of the bus, named by it
             self.out.status(fg.ERROR, str(exc))
         except Exception as exc:
             log.exception("foxglove client %s: frame failed", self.node)
             self.out.status(fg.ERROR, f"internal error: {exc}")
         return None
 
-    def _binary(self, frame: fg.ClientMessage | fg.ServiceCallRequest) -> None:
+    def _binary(self, frame: fg.ClientMessage | fg.ServiceCallRequest) -> Pending:
         if isinstance(frame, fg.ClientMessage):
-            self.publishing.message(frame)
-        else:
-            self.service_ops.call(frame)
+            return self.publishing.message(frame)
+        self.service_ops.call(frame)
+        return None
+
+    def _get_parameters(self, op: dict) -> None:
+        """``getParameters``, refused while this client's unread replies are over its budget
+        (each reply may be the whole parameter tree)."""
+        if self.out.full:
+            raise fg.FoxgloveError(
+                f"getParameters: too many requests in flight: {self.outbox.control_bytes} "
+                f"bytes of replies not read yet (--reply-buffer-limit {self.out.reply_limit}); "
+                "refused")
+        self.param_ops.get(op)
+
+    def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:
+        """Run a coroutine tied to this client; it is cancelled when the client goes."""
+        task = asyncio.ensure_future(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+        return task
 
     # ------------------------------------------------------------------ the bus changed
     def _changed(self, kind: str, name: str) -> None:
-        """The bus changed: sync channels, services and the graph once, after this step."""
-        if self._sync_handle is None and not self.closed:
+        """The bus changed: sync what changed of channels, services and the graph once,
+        after this step."""
+        if self.closed:
+            return
+        self._changes.add((kind, name))
+        if self._sync_handle is None:
             self._sync_handle = asyncio.get_running_loop().call_soon(self._sync)
 
     def _sync(self) -> None:
+        """Channels, services and the graph brought up to date: for the names changed since
+        the last sync (everything at the start, and after an action changed)."""
         self._sync_handle = None
         if self.closed:
             return
+        changes, self._changes = self._changes, set()
+        topics = {name for kind, name in changes if kind == "topic"}
+        services = {name for kind, name in changes if kind == "service"}
+        everything = not changes or any(kind == "action" for kind, _name in changes)
         self.shared.prune(self.bus)
-        self.channel_ops.sync_channels(self.subscriptions)
-        self.channel_ops.sync_services()
-        self.graph_ops.changed()
+        self.channel_ops.sync_channels(self.subscriptions, None if everything else topics)
+        self.channel_ops.sync_services(None if everything else services)
+        if not everything:
+            self.graph_ops.changed(topics, services)
+        elif self.graph_ops.graph is not None:
+            self.graph_ops.send()
 
     def _param_changed(self, name: str) -> None:
         if not self.closed:
@@ -179,7 +223,7 @@ class FoxgloveSession:
         if self._param_changed in self.bus.params.watchers:
             self.bus.params.watchers.remove(self._param_changed)
         self.subscriptions.close()
-        release_client(self, self.service_ops.tasks)
+        release_client(self, self.service_ops.tasks | self._tasks)
         self._handlers.clear()  # bound methods of the op groups: session ↔ ops cycles
         log.info("foxglove client %s (%s) disconnected", self.node, self.peer or "?")
 
