@@ -22,7 +22,7 @@ from websockets.protocol import State
 from websockets.typing import Subprotocol
 
 from ..session.client import ClientSession, WireProtocols
-from .connection import DIRECT_WRITE_LIMIT, keep_reading, run_session
+from .connection import DIRECT_WRITE_LIMIT, keep_reading, limit_read, run_session
 from .http import QuietHttpLog
 from .tls import HandshakeGate, peer_address
 
@@ -111,6 +111,7 @@ async def _serve(ws: ServerConnection, protocols: WireProtocols, delay: float) -
     """One client connection: its session, served until either side ends it."""
     peer = ws.remote_address[0] if ws.remote_address else ""
     session = protocols.open(peer, ws.subprotocol)
+    limit_read(ws.transport)
 
     async def send_frame(data: bytes, binary: bool) -> None:
         if len(data) > CHUNK_BYTES:
@@ -176,11 +177,13 @@ def _gated(gate: HandshakeGate) -> type[ServerConnection]:
 
 async def _read(ws: ServerConnection, session: ClientSession) -> None:
     try:
+        count = 0
         async for frame in ws:
             pending = session.receive(frame, binary=isinstance(frame, bytes))
             if pending is not None:  # a big op in the worker pool: the next frame waits for it
                 await pending
-            if not await keep_reading(session):
+            if not await keep_reading(session, count):
                 return
+            count += 1
     except ConnectionClosed:
         pass

@@ -23,14 +23,18 @@ class ChannelOps:
         self.services: dict[int, tuple[str, SrvType]] = {}  # service id → (name, type)
         self.by_service: dict[str, int] = {}  # service name → its id advertised
 
-    def sync_channels(self, subscriptions: SubscribeOps, names: Iterable[str] | None = None
-                      ) -> None:
-        """Advertise the new channels among the topics ``names`` (None: every topic),
-        unadvertise the gone (and end their subscriptions)."""
+    def topic_names(self) -> set[str]:
+        """Every topic this client was told of or that is on the bus (a whole sync)."""
+        return set(self.by_topic) | set(self.client.bus.topics)
+
+    def service_names(self) -> set[str]:
+        return set(self.by_service) | set(self.client.bus.services)
+
+    def sync_channels(self, subscriptions: SubscribeOps, names: Iterable[str]) -> None:
+        """Advertise the new channels among the topics ``names``, unadvertise the gone (and
+        end their subscriptions)."""
         c = self.client
         allowed = c.settings.topics_filter.allows
-        if names is None:
-            names = set(self.by_topic) | set(c.bus.topics)
         gone: list[int] = []
         gone_topics: set[str] = set()
         new: list[dict] = []
@@ -55,12 +59,10 @@ class ChannelOps:
         if new:
             c.out.send(fg.advertise(new))
 
-    def sync_services(self, names: Iterable[str] | None = None) -> None:
-        """The same for the services ``names`` (None: every service)."""
+    def sync_services(self, names: Iterable[str]) -> None:
+        """The same for the services ``names``."""
         c = self.client
         allowed = c.settings.services_filter.allows
-        if names is None:
-            names = set(self.by_service) | set(c.bus.services)
         gone: list[int] = []
         new: list[dict] = []
         for name in names:

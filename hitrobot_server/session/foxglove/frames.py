@@ -30,6 +30,7 @@ class FoxgloveOutput:
         self.reply_limit = reply_limit
         self.limits = ReportLimits(outbox, lambda text: self._put(_status(fg.ERROR, text)))
         self.close_reason = ""  # why the server disconnected the client, once it did
+        self._gathered: dict[str, list[str]] | None = None  # an op's refusals, while batched
 
     def send(self, obj: dict) -> None:
         """A reply or announcement: never dropped by the send bound."""
@@ -65,9 +66,22 @@ class FoxgloveOutput:
         naming the first few: an op listing 10,000 unknown ids costs one status, not 10,000."""
         if not items:
             return
+        if self._gathered is not None:
+            self._gathered.setdefault(what, []).extend(items)
+            return
         named = ", ".join(items[:LISTED])
         more = f", … ({len(items)} in all)" if len(items) > LISTED else ""
         self.status(fg.ERROR, f"{what}: {named}{more}")
+
+    def gather(self) -> None:
+        """From now on :meth:`errors` collects, until :meth:`flush` (an op run in batches
+        still gets one status per reason)."""
+        self._gathered = {}
+
+    def flush(self) -> None:
+        gathered, self._gathered = self._gathered or {}, None
+        for what, items in gathered.items():
+            self.errors(what, items)
 
     @property
     def full(self) -> bool:

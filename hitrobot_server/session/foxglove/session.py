@@ -41,6 +41,15 @@ TIME_PERIOD = 0.1
 """Seconds between two ``time`` messages (the bus clock) to each client."""
 MAX_TEXT_BYTES = 16 * 1024 * 1024
 """Largest JSON op accepted (ops are small; binary frames carry the data)."""
+BATCH = 256
+"""Entries of a listing op handled in one step of the event loop: an op of 10,000 channels
+is handled in steps of this many, other clients served in between."""
+BATCHED = {"subscribe": "subscriptions", "unsubscribe": "subscriptionIds",
+           "advertise": "channels", "unadvertise": "channelIds"}
+"""The ops that list many entries, and the field that lists them."""
+SYNC_BATCH = 16
+"""Topics (or services) synced in one step of the event loop: a type a Foxglove client is
+told of first costs its schema (a few ms)."""
 
 
 class FoxgloveSession:
@@ -81,7 +90,7 @@ class FoxgloveSession:
         self.param_ops = ParamOps(self)
         self.graph_ops = GraphOps(self)
         self._handlers = self._op_table()
-        self._sync_handle: asyncio.Handle | None = None
+        self._sync_task: asyncio.Task | None = None
         self._time_handle: asyncio.TimerHandle | None = None
         bus.register_node(self.node)
         log.info("foxglove client %s connected from %s (%s)", self.node, peer or "?", subprotocol)
@@ -93,7 +102,9 @@ class FoxgloveSession:
             self.outbox.close()
             return
         self.out.send(fg.server_info(server_name, uuid.uuid4().hex, {"ROS_DISTRO": "jazzy"}))
-        self._sync()
+        # the channels and services there are, told at once (one advertise of each)
+        self.channel_ops.sync_channels(self.subscriptions, self.channel_ops.topic_names())
+        self.channel_ops.sync_services(self.channel_ops.service_names())
         bus.watchers.append(self._changed)
         bus.params.watchers.append(self._param_changed)
         self._time_handle = asyncio.get_running_loop().call_soon(self._tick)
@@ -136,6 +147,9 @@ class FoxgloveSession:
                     f"{MAX_TEXT_BYTES} bytes; message data goes in binary frames"
                 )
             op = fg.parse_text(data)
+            field = BATCHED.get(op["op"])
+            if field is not None and len(op[field]) > BATCH:
+                return self.spawn(self._batched(op, field))
             self._handlers[op["op"]](op)
         except fg.FoxgloveError as exc:
             self.out.status(fg.ERROR, str(exc))
@@ -151,6 +165,21 @@ class FoxgloveSession:
             return self.publishing.message(frame)
         self.service_ops.call(frame)
         return None
+
+    async def _batched(self, op: dict, field: str) -> None:
+        """A long listing op in steps of :data:`BATCH` entries (the transport reads this
+        client's next frame once all are done); its refusals still make one status each."""
+        entries, handler = op[field], self._handlers[op["op"]]
+        self.out.gather()
+        try:
+            for start in range(0, len(entries), BATCH):
+                if self.closed:
+                    return
+                handler({**op, field: entries[start:start + BATCH]})
+                await asyncio.sleep(0)
+        finally:
+            if not self.closed:
+                self.out.flush()
 
     def _get_parameters(self, op: dict) -> None:
         """``getParameters``, refused while this client's unread replies are over its budget
@@ -176,26 +205,36 @@ class FoxgloveSession:
         if self.closed:
             return
         self._changes.add((kind, name))
-        if self._sync_handle is None:
-            self._sync_handle = asyncio.get_running_loop().call_soon(self._sync)
+        if self._sync_task is None:
+            self._sync_task = self.spawn(self._sync())
 
-    def _sync(self) -> None:
+    async def _sync(self) -> None:
         """Channels, services and the graph brought up to date: for the names changed since
-        the last sync (everything at the start, and after an action changed)."""
-        self._sync_handle = None
-        if self.closed:
-            return
-        changes, self._changes = self._changes, set()
-        topics = {name for kind, name in changes if kind == "topic"}
-        services = {name for kind, name in changes if kind == "service"}
-        everything = not changes or any(kind == "action" for kind, _name in changes)
-        self.shared.prune(self.bus)
-        self.channel_ops.sync_channels(self.subscriptions, None if everything else topics)
-        self.channel_ops.sync_services(None if everything else services)
-        if not everything:
-            self.graph_ops.changed(topics, services)
-        elif self.graph_ops.graph is not None:
-            self.graph_ops.send()
+        the last sync (everything after an action changed), in steps of
+        :data:`SYNC_BATCH` names (a name seen first costs its schema), other clients served in
+        between."""
+        try:
+            while self._changes and not self.closed:
+                changes, self._changes = self._changes, set()
+                everything = any(kind == "action" for kind, _name in changes)
+                ops = self.channel_ops
+                topics = ops.topic_names() if everything else \
+                    {name for kind, name in changes if kind == "topic"}
+                services = ops.service_names() if everything else \
+                    {name for kind, name in changes if kind == "service"}
+                self.shared.prune(self.bus)
+                for part in _batches(topics):
+                    ops.sync_channels(self.subscriptions, part)
+                    await asyncio.sleep(0)
+                for part in _batches(services):
+                    ops.sync_services(part)
+                    await asyncio.sleep(0)
+                if not everything:
+                    self.graph_ops.changed(topics, services)
+                elif self.graph_ops.graph is not None:
+                    self.graph_ops.send()
+        finally:
+            self._sync_task = None
 
     def _param_changed(self, name: str) -> None:
         if not self.closed:
@@ -215,9 +254,8 @@ class FoxgloveSession:
             return
         self.closed = True
         self.outbox.clear()  # freed now, not by the next full collection
-        for handle in (self._sync_handle, self._time_handle):
-            if handle is not None:
-                handle.cancel()
+        if self._time_handle is not None:
+            self._time_handle.cancel()
         if self._changed in self.bus.watchers:
             self.bus.watchers.remove(self._changed)
         if self._param_changed in self.bus.params.watchers:
@@ -226,6 +264,11 @@ class FoxgloveSession:
         release_client(self, self.service_ops.tasks | self._tasks)
         self._handlers.clear()  # bound methods of the op groups: session ↔ ops cycles
         log.info("foxglove client %s (%s) disconnected", self.node, self.peer or "?")
+
+
+def _batches(names: set[str]) -> list[list[str]]:
+    ordered = sorted(names)
+    return [ordered[i:i + SYNC_BATCH] for i in range(0, len(ordered), SYNC_BATCH)]
 
 
 def _fetch_asset(op: dict) -> None:
