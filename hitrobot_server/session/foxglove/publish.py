@@ -27,6 +27,23 @@ class ClientChannel:
     mtype: MsgType
 
 
+def flat(mtype: MsgType, types: TypeRegistry, depth: int = 0) -> bool:
+    """Whether a message of this type decodes as a copy of its bytes: no array of messages
+    or strings at any depth, so its big parts are numeric arrays that stay numpy (a LaserScan,
+    a map, an image). Such a one is decoded here, in about the time of a copy: sending it to
+    the worker pool would cost two more copies of it (pickled there and back) and the loop's
+    time to make them."""
+    memo: dict[str, bool] = types.plans["foxglove_flat"]
+    found = memo.get(mtype.name)
+    if found is None:
+        found = depth < 8 and all(
+            (f.array is None and (not f.is_msg or flat(types.msg(f.type), types, depth + 1)))
+            or (not f.is_msg and f.type != "string")
+            for f in mtype.fields)
+        memo[mtype.name] = found
+    return found
+
+
 MAX_CLIENT_CHANNELS = 1024
 """Most channels one client may advertise at once: each is a publisher on the bus that every
 other Foxglove client is told about."""
@@ -95,7 +112,8 @@ class PublishOps:
         if chan is None:
             raise fg.FoxgloveError(f"message data: unknown client channel id {frame.channel_id}"
                                    " (advertise it first)")
-        if len(frame.payload) >= OFFLOAD_BYTES and c.bus.types is TypeRegistry.default():
+        if (len(frame.payload) >= OFFLOAD_BYTES and c.bus.types is TypeRegistry.default()
+                and not flat(chan.mtype, c.bus.types)):
             return c.spawn(self._offloaded(frame, chan))
         try:
             msg = decode_cdr(c.codec, frame.payload, chan.mtype)
