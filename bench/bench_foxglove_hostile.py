@@ -81,8 +81,10 @@ async def attack(server: Server, name: str, note: str, frames, *, reads: bool = 
         if not reads:
             bad.transport.pause_reading()
         t0 = time.perf_counter()
-        for frame in frames:
+        for i, frame in enumerate(frames):
             await bad.send(frame)
+            if i % 64 == 63:  # the witness shares this loop: let it measure, not wait on us
+                await asyncio.sleep(0)
         if reads:
             await bad.send(json.dumps({"op": "getParameters", "parameterNames": ["/none"],
                                        "id": "end"}))
@@ -176,7 +178,7 @@ async def main(quick: bool) -> None:
                          "statuses limited (was +638 MB)",
                          ["{not json" if i % 2 else b"\x07junk" for i in range(200_000 // n)],
                          reads=False),
-        lambda s: attack(s, f"a {50 // n} MB LaserScan published", "decoded in the worker "
+        lambda s: attack(s, f"a {50 // n} MB LaserScan published", "flat: decoded as a copy "
                          "(was +479 MB, 0.54 s)",
                          [json.dumps({"op": "advertise", "channels": [
                              {"id": 1, "topic": "/big_scan", "encoding": "cdr",

@@ -12,7 +12,6 @@ client's identity, its input and its life.
 from __future__ import annotations
 
 import asyncio
-import gc
 import logging
 import uuid
 from collections.abc import Callable, Coroutine
@@ -21,7 +20,7 @@ from typing import Any
 from ...bus.core import Bus
 from ...bus.errors import BusError
 from ...bus.names import CLIENT_NODE_PREFIX
-from ...bus.params import ParamError
+from ...bus.params import ParamError, without_gc
 from ...bus.topics import Origin
 from ...protocol import foxglove as fg
 from ..client import Pending, release_client
@@ -271,13 +270,7 @@ def _parse_text(data: str | bytes) -> dict:
     """``fg.parse_text`` with the cyclic garbage collector paused: an op of 10,000 entries
     makes 40,000 objects, whose creation would trigger a collection walking the whole server
     (100 ms) that their reference counts make useless (as the parameter store parses)."""
-    was_enabled = gc.isenabled()
-    gc.disable()
-    try:
-        return fg.parse_text(data)
-    finally:
-        if was_enabled:
-            gc.enable()
+    return without_gc(fg.parse_text, data)
 
 
 def _batches(names: set[str]) -> list[list[str]]:
