@@ -59,7 +59,7 @@ class HitrobotServer:
         self.link = None  # the ZenohLink with --bus zenoh
         self.sessions: set[ClientSession] = set()
         self.pool = WorkerPool()  # big ops off the event loop; shut down by stop()
-        self.foxglove = FoxgloveShared.for_bus(self.bus)
+        self.foxglove = FoxgloveShared.for_bus(self.bus, self.pool)
         self.shared = Shared.for_options(self.settings.session, self.pool)
         # the wire protocols served: rosbridge by default, others by WebSocket subprotocol
         self.protocols = WireProtocols(self.new_session)

@@ -292,7 +292,15 @@ class Ros2Codec:
                     return arr.copy() if arr.size >= BIG_ARRAY else arr.tolist()
 
                 return ints
-            return lambda v: [0] * (array or 0) if v is _MISSING else np.asarray(v).tolist()
+
+            def floats(v: Any) -> Any:  # big ones stay numpy: a 50 MB scan, not 12M floats
+                if v is _MISSING:
+                    return [0] * (array or 0)
+                arr = np.asarray(v)
+                big = arr.size >= BIG_ARRAY and typ in ("float32", "float64")
+                return np.array(arr) if big else arr.tolist()
+
+            return floats
         if is_msg:
             sub = self.types.msg(typ)
             one: Build = lambda v: self._decoder(sub)(v)  # noqa: E731

@@ -42,13 +42,21 @@ from .traffic import Traffic
 DirectWrite = Callable[[list[Frame]], bool]
 
 
+def held(data: bytes | memoryview) -> int:
+    """Bytes one frame keeps alive: a memoryview keeps its whole buffer, not only the part it
+    shows (a header's view on a 50 MB message holds the 50 MB)."""
+    if data.__class__ is memoryview:
+        return max(memoryview(data.obj).nbytes, data.nbytes)  # type: ignore[union-attr]
+    return len(data)
+
+
 def nbytes(frames: Frames) -> int:
-    """Bytes a queue charges for frames: their length, or a pending set's estimate."""
+    """Bytes a queue charges for frames: what they hold, or a pending set's estimate."""
     if isinstance(frames, PendingFrames):
         return frames.size
     total = 0
     for data, _binary in frames:
-        total += len(data)
+        total += len(data) if data.__class__ is bytes else held(data)
     return total
 
 
@@ -157,7 +165,6 @@ class Outbox:
             self._wakeup.set()
             return True
         stream = self._streams.get(key)  # topic data: into its stream
-        stream = self._streams.get(key)
         if stream is None:
             stream = self._streams[key] = _Stream(key)
         stream.depth = depth

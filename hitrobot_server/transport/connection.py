@@ -45,14 +45,37 @@ def limit_unsent(sock) -> None:
         sock.setsockopt(socket.IPPROTO_TCP, _TCP_NOTSENT_LOWAT, NOTSENT_LOWAT)
 
 
-async def keep_reading(session: ClientSession) -> bool:
-    """After one input: False once the session closed; otherwise wait while the client's
-    unread replies are over budget (backpressure: no more input is read meanwhile)."""
+FRAMES_PER_STEP = 32
+"""Frames of one client handled before the event loop serves the others: frames already
+received are handed out without a wait, so 60,000 junk frames in the socket's buffer would
+otherwise be handled in one go while every other client waits."""
+
+
+READ_BYTES = 16 * 1024
+"""Most bytes taken from a client's socket in one read. The WebSocket library parses every
+frame of one read in one go: 256 kB (asyncio's default) of 16-byte junk frames is 16,000 frames
+parsed while every other client waits; 16 kB bounds that step to 1,000."""
+
+
+def limit_read(transport: asyncio.BaseTransport | None) -> None:
+    """Read at most :data:`READ_BYTES` at a time from this client (asyncio's socket
+    transports read ``max_size`` bytes per ready socket; others are left as they are)."""
+    if transport is not None and any("max_size" in vars(kind)
+                                     for kind in type(transport).__mro__):
+        transport.max_size = READ_BYTES  # type: ignore[attr-defined]
+
+
+async def keep_reading(session: ClientSession, count: int = 0) -> bool:
+    """After one input (the ``count``-th): False once the session closed; otherwise wait
+    while the client's unread replies are over budget (backpressure: no more input is read
+    meanwhile), and let the other clients in every :data:`FRAMES_PER_STEP` inputs."""
     if session.outbox.closed:
         return False
     room = session.outbox.room
     if not room.is_set():
         await room.wait()
+    elif count % FRAMES_PER_STEP == FRAMES_PER_STEP - 1:
+        await asyncio.sleep(0)
     return not session.outbox.closed
 
 

@@ -23,7 +23,7 @@ from websockets.typing import Subprotocol
 
 from ..session.client import ClientSession, WireProtocols
 from . import download
-from .connection import DIRECT_WRITE_LIMIT, keep_reading, run_session
+from .connection import DIRECT_WRITE_LIMIT, keep_reading, limit_read, run_session
 from .download import Downloads
 from .flight import FlightWindow
 from .http import QuietHttpLog
@@ -182,6 +182,7 @@ async def _serve(ws: ServerConnection, protocols: WireProtocols, delay: float,
     peer = ws.remote_address[0] if ws.remote_address else ""
     session = protocols.open(peer, ws.subprotocol)
     window = PongWindow(ws) if send_window else None
+    limit_read(ws.transport)
 
     async def send_frame(data: bytes, binary: bool) -> None:
         if len(data) > CHUNK_BYTES:
@@ -310,11 +311,13 @@ def _gated(gate: HandshakeGate, base: type[ServerConnection]) -> type[ServerConn
 
 async def _read(ws: ServerConnection, session: ClientSession) -> None:
     try:
+        count = 0
         async for frame in ws:
             pending = session.receive(frame, binary=isinstance(frame, bytes))
             if pending is not None:  # a big op in the worker pool: the next frame waits for it
                 await pending
-            if not await keep_reading(session):
+            if not await keep_reading(session, count):
                 return
+            count += 1
     except ConnectionClosed:
         pass

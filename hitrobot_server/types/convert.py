@@ -258,10 +258,17 @@ def _each(elem: Conv, value: Any, path: str, ctx: _Ctx) -> list[Any]:
     return [elem(item, f"{path}[{i}]", ctx) for i, item in enumerate(value)]
 
 
-def _float_array(length: int) -> Conv:
+def _float_array(length: int, narrow: bool = False) -> Conv:
+    """``narrow``: a float32 field, whose big float32 arrays (a CBOR typed array, CDR) stay
+    float32 rather than widened: half the memory, and a JSON text of half the length (each
+    value as the shortest text of its float32, which a float32 field reads back exactly)."""
+
     def conv(value: Any, path: str, ctx: _Ctx) -> list[float] | np.ndarray:
         if type(value) is np.ndarray:
             ctx.altered = True
+            if narrow and value.dtype == np.float32 and value.ndim == 1 and \
+                    len(value) >= BIG_ARRAY and (not length or len(value) == length):
+                return value
             value = _float_ndarray(value, path, length)
             if type(value) is np.ndarray:
                 return value
@@ -455,7 +462,7 @@ def _field_plan(field: Field, reg: TypeRegistry, owner: str = "") -> tuple[Conv,
         return _bytes_array(field.type, length, signed), _const_fill(bytes(length))
     elem, default = _scalar_plan(field.type)
     if field.type in _FLOATS:
-        conv = _float_array(length)
+        conv = _float_array(length, field.type == "float32")
     elif field.type in _INT_RANGES:
         conv = _int_array(field.type, length)
     else:

@@ -221,7 +221,7 @@ class Encoded:
             and self.size() >= OFFLOAD_BYTES
         ):
             found = builder.offloaded(
-                self.size(), publish_frames, topic, self.msg, compression, fragment_size
+                self.size(), publish_frames_taken, topic, [self.msg], compression, fragment_size
             )
         else:
             data = self.publish_png(topic) if encoding is Encoding.PNG else self.publish_json(topic)
@@ -254,10 +254,25 @@ def publish_frames(
 ) -> list[Frame]:
     """Every frame one text subscriber (``none`` or ``png``) gets for one message: what the
     worker pool builds for a big one, byte for byte what :meth:`Encoded.frames` makes."""
-    data = publish_json(topic, jsoncodec.dumps(msg))
+    # the whole op in one dump (the bytes publish_json makes): joining a head to a 50 MB
+    # body would hold both at once in the worker
+    data = jsoncodec.dumps({"op": "publish", "topic": topic, "msg": msg})
     if compression == "png":
         data = publish_png(topic, msg, data)
     return cut(data, fragment_size, frag_id)
+
+
+def publish_frames_taken(
+    topic: str, box: list[dict], compression: str, fragment_size: int | None, frag_id: str
+) -> list[Frame]:
+    """:func:`publish_frames` of the message in ``box``, taken out of it: the worker pool keeps
+    a call's arguments until its answer is sent, so a message passed as is would still be held
+    while its frames are pickled back (a 10 MB typed array widened to 20 MB of float64); taken
+    out of the box, it is freed before."""
+    msg = box.pop()
+    frames = publish_frames(topic, msg, compression, fragment_size, frag_id)
+    del msg
+    return frames
 
 
 def has_lists(mtype: MsgType, reg: TypeRegistry) -> bool:

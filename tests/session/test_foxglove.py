@@ -425,3 +425,21 @@ async def test_a_message_that_cannot_be_cdr_is_skipped_with_one_warning(hub):
     assert len(warnings) == 1 and warnings[0]["level"] == fg.WARNING
     assert "/fg/odd" in warnings[0]["message"]
     assert fox.codec.decode(data[1][13:], hub.bus.types.msg("std_msgs/Int32")) == {"data": 7}
+
+
+async def test_set_parameters_is_all_or_nothing_and_names_the_limit(hub):
+    """Issue 37: an op refused at its 7th name (past the store's 16 MB) sets none of them,
+    and says why without an 'internal error' (nor a traceback in the log)."""
+    fox = FoxClient(hub)
+    value = "v" * 990_000
+    fill = [{"name": f"/fill/p{i}", "value": value} for i in range(10)]
+    fox.send({"op": "setParameters", "id": "fill", "parameters": fill})
+    await fox.until(lambda m: isinstance(m, dict) and m.get("id") == "fill", "the fill set")
+    names = [f"/op/p{i}" for i in range(7)]
+    fox.send({"op": "setParameters", "id": "op",
+              "parameters": [{"name": n, "value": value} for n in names]})
+    err = await fox.error()
+    assert "16000000" in err["message"] and "no parameter was set" in err["message"]
+    assert "internal error" not in err["message"]
+    assert not any(hub.bus.params.has(n) for n in names)
+    assert hub.bus.params.has("/fill/p9")

@@ -8,6 +8,7 @@ from __future__ import annotations
 import asyncio
 
 import cbor2
+import numpy as np
 import pytest
 
 from hitrobot_server import procmem
@@ -87,3 +88,33 @@ async def test_a_typed_array_bomb_costs_a_few_times_its_size(server):
     await witness.check()
     await client.close()
     await witness.close()
+
+
+async def test_a_10_mb_typed_array_for_a_json_subscriber_costs_the_worker_under_10x(server):
+    """Issue 36, item 5: the worker decodes the CBOR frame and builds the subscriber's JSON
+    (random float32 values: widened to float64 their text was 5x the frame, held twice); its
+    peak stays within ten times the frame (was 17-21x)."""
+    client = await WsClient.open(server.port)
+    sub = await WsClient.open(server.port)
+    await client.send({"op": "advertise", "topic": "/arr", "type": "std_msgs/Float32MultiArray"})
+    await sub.send({"op": "subscribe", "topic": "/arr", "type": "std_msgs/Float32MultiArray"})
+    assert (await sub.call("/rosapi/get_time"))["result"] is True  # subscribed
+
+    def frame(size: int) -> bytes:
+        values = np.random.default_rng(7).random(size // 4, dtype=np.float32)
+        return cbor2.dumps({"op": "publish", "topic": "/arr",
+                            "msg": {"data": cbor2.CBORTag(85, values.tobytes())}})
+
+    await client.ws.send(frame(400_000))  # starts the worker pool
+    await sub.expect(op="publish", topic="/arr", timeout=60)
+    workers = procmem.children(server.proc.pid)
+    assert workers
+    peaks = {pid: procmem.peak_bytes(pid) for pid in workers}
+    size = 10 * MB
+    await client.ws.send(frame(size))
+    got = await sub.expect(op="publish", topic="/arr", timeout=60)
+    assert len(got["msg"]["data"]) == size // 4
+    grown = max(procmem.peak_bytes(pid) - before for pid, before in peaks.items())
+    assert grown <= 10 * size, grown / size
+    await client.close()
+    await sub.close()

@@ -3,11 +3,14 @@ of its client's session: written down in one place, like the rosbridge ``OpConte
 
 from __future__ import annotations
 
-from typing import Protocol
+import asyncio
+from collections.abc import Coroutine
+from typing import Any, Protocol
 
 from ...bus.cdr import Ros2Codec
 from ...bus.core import Bus
 from ...bus.topics import Origin
+from ..offload import WorkerPool
 from ..options import SessionOptions
 from .frames import FoxgloveOutput
 from .shared import FoxgloveShared
@@ -25,3 +28,8 @@ class FoxgloveContext(Protocol):
     origin: Origin
     subprotocol: str  # the protocol version it asked for (v1 or the SDK's)
     out: FoxgloveOutput
+    pool: WorkerPool  # the server's worker processes: big decodes off the event loop
+
+    def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:
+        """Run a coroutine that is cancelled when the client goes."""
+        ...

@@ -6,6 +6,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from ...bus.names import canonical, valid_name
+from ...bus.params import ParamError
 from ...protocol import foxglove as fg
 
 if TYPE_CHECKING:
@@ -36,11 +37,10 @@ class ParamOps:
                 raise fg.FoxgloveError(f"setParameters: parameter '{canonical(name)}' is not "
                                        "allowed by --params-glob")
         params = self.client.bus.params
-        for name, value in pairs:
-            if value is None:
-                params.delete(name)
-            else:
-                params.set(name, value)
+        try:
+            params.update(pairs)  # all or none
+        except ParamError as exc:
+            raise fg.FoxgloveError(f"setParameters: {exc}; no parameter was set") from None
         if op["id"] is not None:
             values = [fg.param_to_wire(n, params.get(n)) if params.has(n) else {"name": n}
                       for n, _v in pairs]

@@ -32,9 +32,16 @@ class ServiceOps:
             self._failed(req, f"unknown service id {req.service_id}")
             return
         name, stype = entry
-        if len(self.tasks) >= MAX_CALLS:
-            self._failed(req, f"{MAX_CALLS} calls of this client are already waiting for "
+        limit = min(MAX_CALLS, self.client.settings.max_requests_in_flight)
+        if len(self.tasks) >= limit:
+            self._failed(req, f"{limit} calls of this client are already waiting for "
                          "their answers")
+            return
+        out = self.client.out
+        if out.full:
+            self._failed(req, f"too many requests in flight: {out.outbox.control_bytes} bytes "
+                         f"of replies not read yet (--reply-buffer-limit {out.reply_limit}); "
+                         "refused")
             return
         if req.encoding != fg.ENCODING:
             self._failed(req, f"encoding {req.encoding!r:.40} is not supported "

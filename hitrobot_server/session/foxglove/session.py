@@ -14,14 +14,17 @@ from __future__ import annotations
 import asyncio
 import logging
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Coroutine
+from typing import Any
 
 from ...bus.core import Bus
+from ...bus.errors import BusError
 from ...bus.names import CLIENT_NODE_PREFIX
+from ...bus.params import ParamError, without_gc
 from ...bus.topics import Origin
 from ...protocol import foxglove as fg
 from ...protocol.foxglove_playback import CLIENT_PLAYBACK_CONTROL_REQUEST
-from ..client import release_client
+from ..client import Pending, release_client
 from ..options import SessionOptions
 from ..outbox import Outbox
 from .channels import ChannelOps
@@ -41,6 +44,15 @@ TIME_PERIOD = 0.1
 PLAYBACK_REQUEST = bytes([CLIENT_PLAYBACK_CONTROL_REQUEST])
 MAX_TEXT_BYTES = 16 * 1024 * 1024
 """Largest JSON op accepted (ops are small; binary frames carry the data)."""
+BATCH = 256
+"""Entries of a listing op handled in one step of the event loop: an op of 10,000 channels
+is handled in steps of this many, other clients served in between."""
+BATCHED = {"subscribe": "subscriptions", "unsubscribe": "subscriptionIds",
+           "advertise": "channels", "unadvertise": "channelIds"}
+"""The ops that list many entries, and the field that lists them."""
+SYNC_BATCH = 16
+"""Topics (or services) synced in one step of the event loop: a type a Foxglove client is
+told of first costs its schema (a few ms)."""
 
 
 class FoxgloveSession:
@@ -65,11 +77,13 @@ class FoxgloveSession:
         # under the rosbridge clients' prefix, so diagnostics' /Bridge/Clients counts it too
         self.node = f"{CLIENT_NODE_PREFIX}{settings.client_tag}foxglove_{next(shared.client_ids)}"
         self.origin = Origin(self.node)
-        self.outbox = Outbox(settings.send_buffer_limit)
-        self.out = FoxgloveOutput(self.outbox, self.node)
+        self.pool = shared.pool
+        self.outbox = Outbox(settings.send_buffer_limit, settings.reply_buffer_limit)
+        self.out = FoxgloveOutput(self.outbox, self.node, settings.reply_buffer_limit)
         self.closed = False
-        self.close_reason = ""  # the transport closes with it (1008) when set; never set here
         self.on_close: list[Callable[[FoxgloveSession], None]] = []
+        self._tasks: set[asyncio.Task] = set()  # big decodes, cancelled when the client goes
+        self._changes: set[tuple[str, str]] = set()  # (kind, name) changed since the last sync
         self.channel_ops = ChannelOps(self)
         self.channels = self.channel_ops.channels  # channel id advertised → topic
         self.subscriptions = SubscribeOps(self, self.channels)
@@ -80,7 +94,7 @@ class FoxgloveSession:
         self.graph_ops = GraphOps(self)
         self.playback = PlaybackOps(self)  # replay's playbackControl (helper replay)
         self._handlers = self._op_table()
-        self._sync_handle: asyncio.Handle | None = None
+        self._sync_task: asyncio.Task | None = None
         self._time_handle: asyncio.TimerHandle | None = None
         bus.register_node(self.node)
         log.info("foxglove client %s connected from %s (%s)", self.node, peer or "?", subprotocol)
@@ -93,10 +107,17 @@ class FoxgloveSession:
             return
         self.out.send(self.playback.describe(
             fg.server_info(server_name, uuid.uuid4().hex, {"ROS_DISTRO": "jazzy"})))
-        self._sync()
+        # the channels and services there are, told at once (one advertise of each)
+        self.channel_ops.sync_channels(self.subscriptions, self.channel_ops.topic_names())
+        self.channel_ops.sync_services(self.channel_ops.service_names())
         bus.watchers.append(self._changed)
         bus.params.watchers.append(self._param_changed)
         self._time_handle = asyncio.get_running_loop().call_soon(self._tick)
+
+    @property
+    def close_reason(self) -> str:
+        """Why the server disconnected the client (the transport closes with it, 1008)."""
+        return self.out.close_reason
 
     def _op_table(self) -> dict[str, Callable[[dict], None]]:
         """Each JSON op's handler, by the ``op`` its parser (protocol/foxglove.py) checked."""
@@ -105,7 +126,7 @@ class FoxgloveSession:
             "unsubscribe": self.subscriptions.unsubscribe,
             "advertise": self.publishing.advertise,
             "unadvertise": self.publishing.unadvertise,
-            "getParameters": self.param_ops.get,
+            "getParameters": self._get_parameters,
             "setParameters": self.param_ops.set,
             "subscribeParameterUpdates": self.param_ops.subscribe,
             "unsubscribeParameterUpdates": self.param_ops.unsubscribe,
@@ -115,52 +136,112 @@ class FoxgloveSession:
         }
 
     # ------------------------------------------------------------------ input
-    def receive(self, data: str | bytes, binary: bool = False) -> None:
-        """One WebSocket frame; every failure becomes an error status, never an exception."""
+    def receive(self, data: str | bytes, binary: bool = False) -> Pending:
+        """One WebSocket frame; every failure becomes an error status, never an exception.
+        A task when a big message is being decoded in the worker pool (the transport awaits
+        it before the next frame, so one client's frames keep their order)."""
         if self.closed or self.outbox.closed:
             return None
         try:
             if binary:
                 raw = data if isinstance(data, bytes) else data.encode()
-                if raw[:1] == PLAYBACK_REQUEST:  # replay's playbackControl (helper replay)
-                    self.playback.request(raw)
-                else:
-                    self._binary(fg.parse_binary(raw))
-            else:
-                if len(data) > MAX_TEXT_BYTES:
-                    raise fg.FoxgloveError(
-                        f"text frame of {len(data)} bytes: JSON ops are at most "
-                        f"{MAX_TEXT_BYTES}; message data goes in binary frames"
-                    )
-                op = fg.parse_text(data)
-                self._handlers[op["op"]](op)
+                if raw[:1] == PLAYBACK_REQUEST:  # replay's playbackControl
+                    return self.playback.request(raw)
+                return self._binary(fg.parse_binary(raw))
+            if len(data) > MAX_TEXT_BYTES:
+                raise fg.FoxgloveError(
+                    f"text frame of {len(data)} bytes: JSON ops are at most "
+                    f"{MAX_TEXT_BYTES} bytes; message data goes in binary frames"
+                )
+            op = _parse_text(data)
+            field = BATCHED.get(op["op"])
+            if field is not None and len(op[field]) > BATCH:
+                return self.spawn(self._batched(op, field))
+            self._handlers[op["op"]](op)
         except fg.FoxgloveError as exc:
+            self.out.status(fg.ERROR, str(exc))
+        except (BusError, ParamError) as exc:  # a refusal of the bus, named by it
             self.out.status(fg.ERROR, str(exc))
         except Exception as exc:
             log.exception("foxglove client %s: frame failed", self.node)
             self.out.status(fg.ERROR, f"internal error: {exc}")
         return None
 
-    def _binary(self, frame: fg.ClientMessage | fg.ServiceCallRequest) -> None:
+    def _binary(self, frame: fg.ClientMessage | fg.ServiceCallRequest) -> Pending:
         if isinstance(frame, fg.ClientMessage):
-            self.publishing.message(frame)
-        else:
-            self.service_ops.call(frame)
+            return self.publishing.message(frame)
+        self.service_ops.call(frame)
+        return None
+
+    async def _batched(self, op: dict, field: str) -> None:
+        """A long listing op in steps of :data:`BATCH` entries (the transport reads this
+        client's next frame once all are done); its refusals still make one status each."""
+        entries, handler = op[field], self._handlers[op["op"]]
+        self.out.gather()
+        try:
+            for start in range(0, len(entries), BATCH):
+                if self.closed:
+                    return
+                handler({**op, field: entries[start:start + BATCH]})
+                await asyncio.sleep(0)
+        finally:
+            if not self.closed:
+                self.out.flush()
+
+    def _get_parameters(self, op: dict) -> None:
+        """``getParameters``, refused while this client's unread replies are over its budget
+        (each reply may be the whole parameter tree)."""
+        if self.out.full:
+            raise fg.FoxgloveError(
+                f"getParameters: too many requests in flight: {self.outbox.control_bytes} "
+                f"bytes of replies not read yet (--reply-buffer-limit {self.out.reply_limit}); "
+                "refused")
+        self.param_ops.get(op)
+
+    def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:
+        """Run a coroutine tied to this client; it is cancelled when the client goes."""
+        task = asyncio.ensure_future(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+        return task
 
     # ------------------------------------------------------------------ the bus changed
     def _changed(self, kind: str, name: str) -> None:
-        """The bus changed: sync channels, services and the graph once, after this step."""
-        if self._sync_handle is None and not self.closed:
-            self._sync_handle = asyncio.get_running_loop().call_soon(self._sync)
-
-    def _sync(self) -> None:
-        self._sync_handle = None
+        """The bus changed: sync what changed of channels, services and the graph once,
+        after this step."""
         if self.closed:
             return
-        self.shared.prune(self.bus)
-        self.channel_ops.sync_channels(self.subscriptions)
-        self.channel_ops.sync_services()
-        self.graph_ops.changed()
+        self._changes.add((kind, name))
+        if self._sync_task is None:
+            self._sync_task = self.spawn(self._sync())
+
+    async def _sync(self) -> None:
+        """Channels, services and the graph brought up to date: for the names changed since
+        the last sync (everything after an action changed), in steps of
+        :data:`SYNC_BATCH` names (a name seen first costs its schema), other clients served in
+        between."""
+        try:
+            while self._changes and not self.closed:
+                changes, self._changes = self._changes, set()
+                everything = any(kind == "action" for kind, _name in changes)
+                ops = self.channel_ops
+                topics = ops.topic_names() if everything else \
+                    {name for kind, name in changes if kind == "topic"}
+                services = ops.service_names() if everything else \
+                    {name for kind, name in changes if kind == "service"}
+                self.shared.prune(self.bus)
+                for part in _batches(topics):
+                    ops.sync_channels(self.subscriptions, part)
+                    await asyncio.sleep(0)
+                for part in _batches(services):
+                    ops.sync_services(part)
+                    await asyncio.sleep(0)
+                if not everything:
+                    self.graph_ops.changed(topics, services)
+                elif self.graph_ops.graph is not None:
+                    self.graph_ops.send()
+        finally:
+            self._sync_task = None
 
     def _param_changed(self, name: str) -> None:
         if not self.closed:
@@ -180,18 +261,29 @@ class FoxgloveSession:
             return
         self.closed = True
         self.outbox.clear()  # freed now, not by the next full collection
-        for handle in (self._sync_handle, self._time_handle):
-            if handle is not None:
-                handle.cancel()
+        if self._time_handle is not None:
+            self._time_handle.cancel()
         if self._changed in self.bus.watchers:
             self.bus.watchers.remove(self._changed)
         if self._param_changed in self.bus.params.watchers:
             self.bus.params.watchers.remove(self._param_changed)
         self.subscriptions.close()
         self.playback.close()
-        release_client(self, self.service_ops.tasks)
+        release_client(self, self.service_ops.tasks | self._tasks)
         self._handlers.clear()  # bound methods of the op groups: session ↔ ops cycles
         log.info("foxglove client %s (%s) disconnected", self.node, self.peer or "?")
+
+
+def _parse_text(data: str | bytes) -> dict:
+    """``fg.parse_text`` with the cyclic garbage collector paused: an op of 10,000 entries
+    makes 40,000 objects, whose creation would trigger a collection walking the whole server
+    (100 ms) that their reference counts make useless (as the parameter store parses)."""
+    return without_gc(fg.parse_text, data)
+
+
+def _batches(names: set[str]) -> list[list[str]]:
+    ordered = sorted(names)
+    return [ordered[i:i + SYNC_BATCH] for i in range(0, len(ordered), SYNC_BATCH)]
 
 
 def _fetch_asset(op: dict) -> None:

@@ -12,6 +12,7 @@ from ...bus.core import Bus
 from ...bus.topics import Topic
 from ...protocol import foxglove as fg
 from ...types.registry import SrvType
+from ..offload import WorkerPool
 
 log = logging.getLogger(__name__)
 
@@ -24,24 +25,31 @@ class FoxgloveShared:
     """One per server: channel and service descriptions by (name, type), and client ids."""
 
     codec: Ros2Codec
+    pool: WorkerPool = field(default_factory=WorkerPool)  # the server's: big decodes
     _channels: dict[tuple[str, str], dict] = field(default_factory=dict)
     _services: dict[tuple[str, str], dict] = field(default_factory=dict)
     _ids: itertools.count = field(default_factory=lambda: itertools.count(1))
     client_ids: itertools.count = field(default_factory=lambda: itertools.count(1))
+    _prune_channels: int = 0  # twice the channels live at the last walk (the next is past it)
+    _prune_services: int = 0
 
     @classmethod
-    def for_bus(cls, bus: Bus) -> FoxgloveShared:
-        return cls(codec_for(bus.types))
+    def for_bus(cls, bus: Bus, pool: WorkerPool | None = None) -> FoxgloveShared:
+        return cls(codec_for(bus.types), pool or WorkerPool())
 
     def prune(self, bus: Bus) -> None:
         """Forget channels and services gone from the bus once there are many (clients can
-        make topics and services of any name): a returning topic then gets a new id."""
-        if len(self._channels) > MAX_REMEMBERED:
+        make topics and services of any name): a returning topic then gets a new id. A walk
+        happens only when the remembered doubled since the last, so its cost is shared out
+        over the changes that made them (not paid on every bus change while many are live)."""
+        if len(self._channels) > max(MAX_REMEMBERED, self._prune_channels):
             live = {(t.name, t.type_name) for t in list(bus.topics.values())}
             self._channels = {k: v for k, v in self._channels.items() if k in live}
-        if len(self._services) > MAX_REMEMBERED:
+            self._prune_channels = 2 * len(self._channels)
+        if len(self._services) > max(MAX_REMEMBERED, self._prune_services):
             live = {(n, s.stype.name) for n, s in list(bus.services.items())}
             self._services = {k: v for k, v in self._services.items() if k in live}
+            self._prune_services = 2 * len(self._services)
 
     def channel(self, topic: Topic) -> dict | None:
         """The channel of a topic (its id and schema), or None when it has no ROS 2 schema."""

@@ -5,7 +5,6 @@ message's CDR is encoded once (its ``Encoded``) and each subscriber gets it behi
 from __future__ import annotations
 
 import functools
-import itertools
 from typing import TYPE_CHECKING
 
 from ...bus.errors import BusError
@@ -17,40 +16,82 @@ if TYPE_CHECKING:
     from .context import FoxgloveContext
 
 
+MAX_SUBSCRIPTIONS = 4096
+"""Most subscriptions one client may hold (each message is framed once per subscription)."""
+MAX_PER_CHANNEL = 16
+"""Most subscriptions of one client to one channel: the protocol allows several, a client
+needs one; 100,000 ids on ``/scan`` would frame every scan 100,000 times."""
+
+
 class SubscribeOps:
     def __init__(self, client: FoxgloveContext, channels: dict[int, str]):
         self.client = client
         self.channels = channels  # the channels advertised to this client (id → topic)
         self.subs: dict[int, str] = {}  # subscription id → topic
+        self.per_topic: dict[str, int] = {}  # topic → how many of subs are on it
         self._bad_encodings: set[str] = set()
+        self._next_id = 1  # where an SDK client's next server-given id is looked for
 
     def subscribe(self, op: dict) -> None:
         c = self.client
         given: list[tuple[int, int]] = []
+        refused: dict[str, list[str]] = {}
         for sub_id, channel_id in op["subscriptions"]:
             topic = self.channels.get(channel_id)
-            if topic is None:
-                c.out.status(fg.ERROR, f"subscribe: unknown channel id {channel_id}")
+            why = self._refusal(sub_id, topic)
+            if why is not None:
+                named = channel_id if topic is None or sub_id is None else sub_id
+                refused.setdefault(why, []).append(str(named))
                 continue
             if sub_id is None:
-                if c.subprotocol == fg.SUBPROTOCOL_V1:
-                    c.out.status(fg.ERROR, "subscribe: field 'subscriptions[].id' is required")
-                    continue
-                sub_id = next(i for i in itertools.count(1) if i not in self.subs)
-            if sub_id in self.subs:
-                c.out.status(fg.ERROR, f"subscribe: subscription id {sub_id} is already in use")
-                continue
-            self.subs[sub_id] = topic  # before subscribing: a latched topic delivers at once
+                sub_id = self._free_id()
+            self._add(sub_id, topic)  # before subscribing: a latched topic delivers at once
             try:
                 c.bus.subscribe(topic, None, (c, sub_id), c.node,
                                 functools.partial(self._deliver, sub_id))
             except BusError as exc:  # the topic went since it was advertised
-                del self.subs[sub_id]
+                self._remove(sub_id)
                 c.out.status(fg.ERROR, f"subscribe: channel {channel_id}: {exc}")
                 continue
             given.append((sub_id, channel_id))
+        for why, items in refused.items():
+            c.out.errors(f"subscribe: {why}", items)
         if c.subprotocol == fg.SUBPROTOCOL_SDK and given:
             c.out.send(fg.subscription_response(given))
+
+    def _refusal(self, sub_id: int | None, topic: str | None) -> str | None:
+        """Why one subscription is refused (the reason groups the op's refusals), or None."""
+        if topic is None:
+            return "unknown channel id(s)"
+        if sub_id is None and self.client.subprotocol == fg.SUBPROTOCOL_V1:
+            return "field 'subscriptions[].id' is required; missing for channel(s)"
+        if sub_id is not None and sub_id in self.subs:
+            return "subscription id(s) already in use"
+        if len(self.subs) >= MAX_SUBSCRIPTIONS:
+            return (f"this client holds {MAX_SUBSCRIPTIONS} subscriptions, the most one client "
+                    "may (unsubscribe some first); refused")
+        if self.per_topic.get(topic, 0) >= MAX_PER_CHANNEL:
+            return (f"channel '{topic}' already has {MAX_PER_CHANNEL} subscriptions of this "
+                    "client, the most one channel may; refused")
+        return None
+
+    def _free_id(self) -> int:
+        while self._next_id in self.subs:
+            self._next_id += 1
+        return self._next_id
+
+    def _add(self, sub_id: int, topic: str) -> None:
+        self.subs[sub_id] = topic
+        self.per_topic[topic] = self.per_topic.get(topic, 0) + 1
+
+    def _remove(self, sub_id: int) -> str:
+        topic = self.subs.pop(sub_id)
+        left = self.per_topic[topic] - 1
+        if left:
+            self.per_topic[topic] = left
+        else:
+            del self.per_topic[topic]
+        return topic
 
     def _deliver(self, sub_id: int, message: Message) -> None:
         """Called by the bus for every message; must never block or raise."""
@@ -70,11 +111,13 @@ class SubscribeOps:
         c.out.data([(encoded.foxglove(sub_id, cdr), True)], message.topic.name)
 
     def unsubscribe(self, op: dict) -> None:
+        unknown = []
         for sub_id in op["subscriptionIds"]:
             if sub_id not in self.subs:
-                self.client.out.status(fg.ERROR, f"unsubscribe: unknown subscription id {sub_id}")
+                unknown.append(str(sub_id))
                 continue
             self._drop(sub_id)
+        self.client.out.errors("unsubscribe: unknown subscription id(s)", unknown)
 
     def keep_only(self, topics: set[str]) -> None:
         """End the subscriptions to topics no longer advertised."""
@@ -82,8 +125,13 @@ class SubscribeOps:
             if topic not in topics:
                 self._drop(sub_id)
 
+    def drop_topics(self, gone: set[str]) -> None:
+        """End the subscriptions to these topics (no longer advertised)."""
+        if gone & self.per_topic.keys():
+            self.keep_only(set(self.per_topic) - gone)
+
     def _drop(self, sub_id: int) -> None:
-        topic = self.subs.pop(sub_id)
+        topic = self._remove(sub_id)
         self.client.bus.unsubscribe(topic, (self.client, sub_id))
 
     def close(self) -> None:

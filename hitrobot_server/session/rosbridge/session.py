@@ -29,12 +29,12 @@ from ...types import jsoncodec
 from ...types.convert import ConversionError
 from ...wire.frames import FrameBuilder, json_frames
 from ..client import Pending, release_client
+from ..limits import STREAM_ERRORS_PER_SECOND, ReportLimits, over_reply_bound, replies_full
 from ..offload import WorkerPool
 from ..options import SessionOptions
 from ..outbox import Outbox, nbytes
 from .actions import ActionOps
 from .fragments import IncomingFragments
-from .limits import STREAM_ERRORS_PER_SECOND, ReportLimits
 from .publish import PublishOps, TopicNames
 from .services import ServiceOps
 from .subscribe import SubscribeOps
@@ -96,7 +96,8 @@ class Session:
         self.closed = False
         self.close_reason = ""  # why the server closed the connection, if it did
         self.fragments = IncomingFragments(self, settings, self.shared.fragments)
-        self.limits = ReportLimits(self.outbox)
+        self.limits = ReportLimits(
+            self.outbox, lambda text: self.outbox.put(json_frames(status_op("error", text))))
         self.reply_bytes = 0.0  # running mean size of its replies: what a call will cost
         self._tasks: set[asyncio.Task] = set()
         self.on_close: list[Callable[[Session], None]] = []
@@ -211,7 +212,7 @@ class Session:
         limit = self.settings.reply_buffer_limit
         queued = self.outbox.control_bytes
         calls = self.service_ops.in_flight  # this client's call_service ops not answered yet
-        if not limit or queued + calls * self.reply_bytes <= limit:
+        if not replies_full(self.outbox, limit, calls, self.reply_bytes):
             return False
         text = (f"{op.OP}: too many requests in flight: {calls} call(s) "
                 f"pending and {queued} bytes of replies not read yet "
@@ -297,11 +298,9 @@ class Session:
     def _check_replies(self) -> None:
         """Past twice ``--reply-buffer-limit`` of unread replies the client is disconnected:
         its queue is freed, and a last status (and the WebSocket close reason) says why."""
-        limit = self.settings.reply_buffer_limit
-        if not limit or self.outbox.control_bytes <= 2 * limit or self.outbox.closed:
+        reason = over_reply_bound(self.outbox, self.settings.reply_buffer_limit)
+        if reason is None:
             return
-        reason = (f"disconnected: {self.outbox.control_bytes} bytes of replies not read "
-                  f"(over twice --reply-buffer-limit {limit})")
         log.warning("client %s (%s): %s", self.node, self.peer or "?", reason)
         self.close_reason = reason
         self.outbox.abort(json_frames(status_op("error", reason)))
