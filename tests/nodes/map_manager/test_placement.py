@@ -31,9 +31,9 @@ def room() -> Grid:
 
 
 def test_the_clearance_is_the_simulated_robots():
-    assert ROBOT_RADIUS == DriveLimits().radius
-    assert SAFETY_MARGIN == CostmapConfig().safety_margin
-    assert CLEARANCE == pytest.approx(0.25)
+    assert DriveLimits().radius == ROBOT_RADIUS
+    assert CostmapConfig().safety_margin == SAFETY_MARGIN
+    assert pytest.approx(0.25) == CLEARANCE
 
 
 def test_a_free_cell_far_from_obstacles_is_accepted():
