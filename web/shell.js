@@ -49,6 +49,6 @@ export class Shell {
     this.pill.dataset.mode = value || 'unknown';
     this.pill.querySelector('.value').textContent = MODE_LABELS[value] || value || 'unknown';
     for (const b of this.buttons) b.classList.toggle('current', b.dataset.cmd === value);
-    if (value) log('info', `system mode: ${value}`);
+    if (value) log('info', `system mode: ${MODE_LABELS[value] || value}`);
   }
 }
