@@ -92,3 +92,16 @@ async def test_the_raw_tcp_snippet_runs_in_bash(ports, tmp_path):
         (tmp_path / "nc.sh").write_text(on_ports(nc_part, *ports))
         rc, out, err = await run("bash", "nc.sh", cwd=tmp_path)
         assert rc == 0 and json.loads(out.splitlines()[0])["id"] == "1", (out, err)
+
+
+def test_the_test_step_never_reinstalls_the_quick_starts_environment():
+    """Step 2 (.ci/run) under a running step 1: .ci/run makes and installs into its own venv,
+    so the server of step 1 keeps its files (it used to reinstall .venv in editable mode under
+    it, and the running console answered 404)."""
+    quick = re.search(r"python3 -m venv (\S+) && \1/bin/pip install \.", (REPO / "README.md")
+                      .read_text())
+    assert quick, "the quick start's step 1 changed: update this test"
+    ci = (REPO / ".ci" / "run").read_text()
+    made = re.findall(r"python3 -m venv (\S+)", ci)
+    assert made and quick.group(1) not in made
+    assert f"{quick.group(1)}/bin" not in ci
