@@ -16,6 +16,13 @@ from .conftest import Console, add_poi
 
 Y = 8.0
 RED, GREEN = (0xE5, 0x39, 0x35), (0x43, 0xA0, 0x47)  # FLEET_COLORS[0], [1]
+FAINT = 0.45  # fleet.js: the robots not chosen are drawn at this opacity
+ROBOT = (0x21, 0x96, 0xF3)  # COLORS.robot: the chosen robot's pose marker (RobotMarker)
+
+
+def faint(colour: tuple[int, int, int]) -> tuple[float, ...]:
+    """``colour`` at FAINT opacity over the map's white floor."""
+    return tuple(FAINT * v + (1 - FAINT) * 255 for v in colour)
 
 
 @pytest.fixture
@@ -49,12 +56,13 @@ async def test_select_a_robot_and_drive_it(fleet_console: Console):
     assert await page.locator("#fleet-robots li").count() == 2
     assert await page.get_attribute("#fleet-panel", "data-selected") == "a"
 
-    await c.frame()  # each robot in its own colour at its pose
-    img = await c.screenshot_array()
-    for colour, x in ((RED, 4.0), (GREEN, 12.0)):
+    await c.frame()  # each robot in its own colour at its pose: the chosen one (a) in full,
+    img = await c.screenshot_array()  # the other fainter (issue 34: "others drawn fainter")
+    for colours, x in (((RED, ROBOT), 4.0), ((faint(GREEN),), 12.0)):
         px, py = await c.to_client(x, Y)
         patch = img[int(py) - 4:int(py) + 5, int(px) - 12:int(px) + 13]
-        assert (np.linalg.norm(patch - np.asarray(colour), axis=2) < 60).any(), (colour, x)
+        assert any((np.linalg.norm(patch - np.asarray(colour), axis=2) < 60).any()
+                   for colour in colours), (colours, x)
 
     w = await Watcher.open(c.server.port)
     try:
@@ -174,9 +182,13 @@ async def test_the_page_follows_the_selected_robot(fleet_console: Console):
         await c.frame()
         near, far = (await scan_pixels(c, at[chosen], Y), await scan_pixels(c, at[other], Y))
         assert near > 40 and near > 3 * far, (chosen, near, far)
+        spots = {name: await c.to_client(at[name], Y) for name in at}
+        await c.frame()
         img = await c.screenshot_array()
-        assert colour_near(img, await c.to_client(at[chosen], Y), colour[chosen])  # full colour
-        assert not colour_near(img, await c.to_client(at[other], Y), colour[other], 25)  # faint
+        assert colour_near(img, spots[chosen], colour[chosen]) or \
+            colour_near(img, spots[chosen], ROBOT), chosen  # in full colour, or its pose marker
+        assert not colour_near(img, spots[other], colour[other], 25), other  # fainter
+        assert colour_near(img, spots[other], faint(colour[other])), other
     assert c.errors == []
 
 
