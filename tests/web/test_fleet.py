@@ -209,11 +209,12 @@ async def test_dispatch_to_a_chosen_robot_and_out_of_service(fleet_console: Cons
         await w.close()
     # a robot taken out of service (FleetRobot.in_service, which /fleet/set_in_service sets on a
     # server that has it) is listed and drawn as such: the page's own renderer, fed the live list
-    await page.evaluate("""() => {
+    # (read in the same turn: the next /fleet/robots, 2 Hz, redraws the list as the server has it)
+    service, text = await page.evaluate("""() => {
         const f = window.hitrobot.fleet;
         f.onRobots(f.robots.map((r) => ({ ...r, in_service: r.name !== 'b' })));
+        const item = document.querySelector('#fleet-robots li[data-robot=b]');
+        return [item.dataset.service, item.textContent];
     }""")
-    item = page.locator("#fleet-robots li[data-robot=b]")
-    assert await item.get_attribute("data-service") == "out"
-    assert "b — out of service" in await item.text_content()
+    assert service == "out" and "b — out of service" in text, (service, text)
     assert c.errors == []
