@@ -20,6 +20,7 @@ import {
   ScanLayer, SensorLayer, WaypointLayer, niceStep,
 } from './overlays.js';
 import { Patrol } from './patrol.js';
+import { placementProblem } from './placement.js';
 import { Pois } from './pois.js';
 import { Recordings, ReplayTimeline } from './recordings.js';
 import { RobotActions } from './robotpanel.js';
@@ -67,8 +68,8 @@ function buildLayers(view) {
 }
 
 /** The layers drawn from the robot's topics: walls and tracks, the graph, the dock, the
- * costmap and the planned path (which the navigator measures too). */
-function subscribeLayers({ ros, layers, editor, navigator }) {
+ * costmap and the planned path (which the navigator measures too; the chosen robot's). */
+function subscribeLayers({ ros, layers, editor, navigator, currentRobot }) {
   const topic = topicMaker(ros);
   topic(TOPICS.virtualWalls, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 500 })
     .subscribe((m) => { layers.walls.set(m); editor.showCounts(); });
@@ -79,36 +80,38 @@ function subscribeLayers({ ros, layers, editor, navigator }) {
   // the costmap overlay is computed from the very /map messages ros2d receives (no second
   // subscription): roslib emits each topic's messages on the Ros object under the topic name
   ros.on(TOPICS.map, (grid) => layers.costmap.set(grid));
-  topic(TOPICS.globalPlan, 'nav_msgs/Path', { throttle_rate: 200, queue_length: 1 })
-    .subscribe((m) => { layers.path.set(m); navigator.plan = m; });
+  const noPlan = { poses: [] };
+  currentRobot.subscribe(ros, TOPICS.globalPlan, 'nav_msgs/Path', { throttle_rate: 200, queue_length: 1 },
+    (m) => { layers.path.set(m); navigator.plan = m; }, () => layers.path.set(noPlan));
 }
 
-/** The robot's pose (into `state.pose`): its marker, the distance to go, where its sensors
- * are drawn, the pose readout, and the view when it follows the robot. */
-function followPose({ ros, view, layers, navigator, robot, state }) {
-  const topic = topicMaker(ros);
+/** The chosen robot's pose (into `state.pose`): its marker, the distance to go, where its
+ * sensors are drawn, the pose readout, and the view when it follows the robot. */
+function followPose({ ros, view, layers, navigator, robot, state, currentRobot }) {
   const poseText = document.getElementById('robot-pose');
-  topic(TOPICS.robotPose, 'geometry_msgs/Pose', { throttle_rate: 100, queue_length: 1 })
-    .subscribe((pose) => {
+  currentRobot.subscribe(ros, TOPICS.robotPose, 'geometry_msgs/Pose', { throttle_rate: 100, queue_length: 1 },
+    (pose) => {
       const yaw = yawOf(pose.orientation);
       state.pose = { x: pose.position.x, y: pose.position.y, yaw };
       robot.setPose(state.pose.x, state.pose.y, yaw);
       navigator.robot = state.pose;
       layers.sensors.setPose(state.pose);
-      poseText.textContent = `robot at ${formatPose(state.pose.x, state.pose.y, yaw)}`;
+      poseText.textContent = `${currentRobot.name || 'robot'} at ${formatPose(state.pose.x, state.pose.y, yaw)}`;
       if (state.follow) view.keepInView(state.pose.x, state.pose.y);
-    });
+    }, () => { poseText.textContent = `${currentRobot.name} at –`; });
 }
 
-/** Laser points, placed with the map→laser transform published with each scan (same stamp);
- * the robot's pose stands in if no such transform comes. */
-function followScan({ ros, layers, state }) {
+/** The chosen robot's laser points, placed with the map→laser transform of the scan's frame
+ * published with each scan (same stamp); the robot's pose stands in if no such transform comes. */
+function followScan({ ros, layers, state, currentRobot }) {
   const topic = topicMaker(ros);
   const laserPoses = [];
   let pendingScan = null;
   const sameStamp = (a, b) => a && b && a.secs === b.secs && a.nsecs === b.nsecs;
+  const frameOf = (id) => (id || '').replace(/^\//, '');
   const drawScan = (scan) => {
-    const tf = laserPoses.find((t) => sameStamp(t.stamp, scan.header.stamp));
+    const frame = frameOf(scan.header.frame_id);
+    const tf = laserPoses.find((t) => sameStamp(t.stamp, scan.header.stamp) && (!frame || t.frame === frame));
     if (tf) {
       layers.scan.set(scan, tf);
       pendingScan = null;
@@ -120,14 +123,14 @@ function followScan({ ros, layers, state }) {
     for (const t of msg.transforms || []) {
       if (!/laser/.test(t.child_frame_id || '')) continue;
       const tr = t.transform;
-      laserPoses.unshift({ stamp: t.header.stamp, x: tr.translation.x, y: tr.translation.y,
-        yaw: yawOf(tr.rotation) });
-      laserPoses.length = Math.min(laserPoses.length, 8);
+      laserPoses.unshift({ stamp: t.header.stamp, frame: frameOf(t.child_frame_id), x: tr.translation.x,
+        y: tr.translation.y, yaw: yawOf(tr.rotation) });
+      laserPoses.length = Math.min(laserPoses.length, 16);
       if (pendingScan) drawScan(pendingScan.scan);
     }
   });
-  topic(TOPICS.scan, 'sensor_msgs/LaserScan', { throttle_rate: 200, queue_length: 1 })
-    .subscribe((scan) => {
+  currentRobot.subscribe(ros, TOPICS.scan, 'sensor_msgs/LaserScan', { throttle_rate: 200, queue_length: 1 },
+    (scan) => {
       if (drawScan(scan)) return;
       pendingScan = { scan, at: Date.now() };
       setTimeout(() => {
@@ -136,16 +139,16 @@ function followScan({ ros, layers, state }) {
           pendingScan = null;
         }
       }, 500);
-    });
+    }, () => { pendingScan = null; layers.scan.set(null); });
 }
 
 /** The side panels. The drive pad, the navigator and the fleet view share the current robot. */
 function buildPanels({ ros, view, layers, navigator, currentRobot }) {
-  const pois = new Pois({ ros, layer: layers.pois });
-  const shell = new Shell({ ros });
+  const pois = new Pois({ ros, layer: layers.pois, warning: (x, y) => placementProblem(layers.costmap.grid, x, y) });
+  const shell = new Shell({ ros, robot: currentRobot });
   const teleop = new Teleop({ ros, robot: currentRobot });
-  const robotState = new RobotState({ ros });
-  const robotActions = new RobotActions({ ros, navigator });
+  const robotState = new RobotState({ ros, robot: currentRobot });
+  const robotActions = new RobotActions({ ros, navigator, robot: currentRobot });
   const patrol = new Patrol({ ros, layer: layers.waypoints });
   const maps = new SavedMaps({ ros });
   const diagnostics = new Diagnostics({ ros, sensorLayer: layers.sensors });
@@ -170,7 +173,7 @@ function buildTools({ view, state, navigator, panels, editor }) {
     else if (tool === 'poi') panels.pois.addAt(pick.x, pick.y, pick.yaw ?? 0);
     else if (tool === 'waypoint') panels.patrol.add(pick.x, pick.y);
     else editor.pick(tool, pick);
-  });
+  }, (tool, x, y) => (tool === 'poi' ? panels.pois.warning(x, y) : ''));
 }
 
 /** On and off line: nothing that sends works while the bridge is down. */
@@ -320,10 +323,10 @@ function main() {
   const navigator = new Navigator({ ros, view, robot: currentRobot });
   const robot = new RobotMarker(view);
   const editor = new MapEditor({ ros, view, walls: layers.walls, tracks: layers.tracks });
-  subscribeLayers({ ros, layers, editor, navigator });
+  subscribeLayers({ ros, layers, editor, navigator, currentRobot });
   const state = { pose: null, follow: false };
-  followPose({ ros, view, layers, navigator, robot, state });
-  followScan({ ros, layers, state });
+  followPose({ ros, view, layers, navigator, robot, state, currentRobot });
+  followScan({ ros, layers, state, currentRobot });
 
   const panels = buildPanels({ ros, view, layers, navigator, currentRobot });
   const tools = buildTools({ view, state, navigator, panels, editor });

@@ -1,13 +1,17 @@
 // The robot the console's tools act on. On a fleet server (`--robot NAME=SPEC`) the fleet
 // panel chooses it, and the panels that act on one robot (the drive pad, the goal and set-pose
 // tools, "Go" to a POI) follow it: each re-makes its own topics under /NAME/. On a
-// single-robot server none is chosen and the names stay as they are.
+// single-robot server none is chosen and the names stay as they are. What the page shows of
+// "the robot" (its pose, laser, planned path, state in the top bar, the Navigation panel) is
+// subscribed through subscribe(), so it follows the chosen robot too.
+/* global ROSLIB */
 import { robotName } from './names.js';
 
 export class CurrentRobot {
   constructor() {
     this.name = null; // no robot chosen: a single-robot server
     this.followers = [];
+    this.publishers = new Map(); // full topic name → ROSLIB.Topic
   }
 
   /** Choose robot `name`: every follower hears of it, in the order they started following
@@ -21,6 +25,28 @@ export class CurrentRobot {
   /** Call `follower(name)` whenever another robot is chosen. */
   follow(follower) {
     this.followers.push(follower);
+  }
+
+  /** Subscribe `callback` to the chosen robot's topic `name` (ROSLIB.Topic `options`), moved
+   * under the next robot's /NAME/ whenever another is chosen; `onSwitch()` runs at each move,
+   * to forget what the last robot sent. Messages from the robot left behind are dropped. */
+  subscribe(ros, name, messageType, options, callback, onSwitch = () => {}) {
+    let topic = null;
+    const open = () => {
+      if (topic) topic.unsubscribe();
+      const chosen = this.name;
+      topic = new ROSLIB.Topic({ ros, name: this.nameOf(name), messageType, ...options });
+      topic.subscribe((message) => { if (this.name === chosen) callback(message); });
+    };
+    open();
+    this.follow(() => { onSwitch(); open(); });
+  }
+
+  /** The chosen robot's topic `name` to publish on (made once per robot). */
+  publisher(ros, name, messageType) {
+    const full = this.nameOf(name);
+    if (!this.publishers.has(full)) this.publishers.set(full, new ROSLIB.Topic({ ros, name: full, messageType }));
+    return this.publishers.get(full);
   }
 
   /** `name` as the chosen robot has it. */

@@ -31,12 +31,14 @@ export function confirmAction(question, okLabel = 'OK') {
  * Show a form dialog. `validate(name)` returns '' when the name is fine, else the reason: the
  * dialog then stays open with the reason under the field and the operator's input kept.
  */
-function formDialog(id, { title, where = '', values = {}, validate = () => '' }) {
+function formDialog(id, { title, where = '', warning = '', values = {}, validate = () => '' }) {
   const dialog = document.getElementById(id);
   const form = dialog.querySelector('form');
   const error = dialog.querySelector('.form-error');
   dialog.querySelector('.title').textContent = title;
   dialog.querySelector('.where').textContent = where;
+  const warn = dialog.querySelector('.form-warning');
+  if (warn) warn.textContent = warning; // shown, not blocking: the server has the last word
   for (const [key, value] of Object.entries(values)) form.elements[key].value = value;
   error.textContent = '';
   dialog.returnValue = '';
@@ -72,8 +74,8 @@ function formDialog(id, { title, where = '', values = {}, validate = () => '' })
 }
 
 /** The POI form; resolves {name, remarks} or null when cancelled. */
-export async function poiForm({ title, name = '', remarks = '', where = '', validate }) {
-  const form = await formDialog('poi-dialog', { title, where, values: { name, remarks }, validate });
+export async function poiForm({ title, name = '', remarks = '', where = '', warning = '', validate }) {
+  const form = await formDialog('poi-dialog', { title, where, warning, values: { name, remarks }, validate });
   return form && { name: form.elements.name.value.trim(), remarks: form.elements.remarks.value.trim() };
 }
 

@@ -6,11 +6,12 @@
 import { confirmAction } from './dialogs.js';
 import { log } from './log.js';
 import { TOPICS } from './names.js';
+import { plural } from './util.js';
 
 const USAGE = { wall: 0, track: 1 }; // slamware_ros_sdk/ArtifactUsage
 const MASK = { area: 100, erase: -1 }; // map_messages/ModifyMap: BLOCKED, NOT_MASKED
 const MASKING_LAYER = 1;
-const LAYER_NAMES = ['SLAM', 'masks', 'depth camera', 'lidar'];
+const LAYER_NAMES = ["the robot's map", 'the masks', 'the depth camera obstacles', 'the lidar obstacles'];
 
 export class MapEditor {
   constructor({ ros, view, walls, tracks }) {
@@ -30,14 +31,13 @@ export class MapEditor {
       box.addEventListener('change', () => {
         const layer = Number(box.dataset.mapLayer);
         this.mapLayers.publish(new ROSLIB.Message({ layer, state: box.checked }));
-        log('info', `map layer ${LAYER_NAMES[layer]} ${box.checked ? 'on' : 'off'}`);
+        log('info', `${LAYER_NAMES[layer]} ${box.checked ? 'shown on' : 'taken off'} the map`);
       });
     }
   }
 
   showCounts() {
-    const count = (n, word) => `${n} ${word}${n === 1 ? '' : 's'}`;
-    this.counts.textContent = `${count(this.walls.lines.length, 'wall')} · ${count(this.tracks.lines.length, 'track')}`;
+    this.counts.textContent = `${plural(this.walls.lines.length, 'wall')} · ${plural(this.tracks.lines.length, 'track')}`;
   }
 
   /** A pick from one of the editing tools (see MapTools). */

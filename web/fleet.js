@@ -10,6 +10,14 @@ import { log } from './log.js';
 import { SERVICES, TOPICS } from './names.js';
 import { yawOf } from './util.js';
 
+const FAINT = 0.45; // the robots not chosen, on the map
+
+/** A robot's state in the operator's words. */
+export function stateWords(r) {
+  if (r.in_service === false) return 'out of service';
+  return { idle: 'idle', moving: 'moving', charging: 'charging', error: 'in error', offline: 'offline' }[r.state] || r.state;
+}
+
 export const FLEET_COLORS = ['#e53935', '#43a047', '#fb8c00', '#8e24aa', '#00897b', '#3949ab',
   '#6d4c41', '#c0ca33'];
 
@@ -35,6 +43,7 @@ class FleetLayer {
     this.node.removeAllChildren();
     for (const r of this.robots) {
       const at = new createjs.Container();
+      at.alpha = r.selected ? 1 : FAINT;
       at.x = r.pose.position.x;
       at.y = -r.pose.position.y;
       at.scaleX = at.scaleY = u;
@@ -43,11 +52,11 @@ class FleetLayer {
       const radius = Math.max(0.2 / u, 9);
       const g = body.graphics;
       if (r.selected) g.setStrokeStyle(3).beginStroke('#ffeb3b').drawCircle(0, 0, radius + 4).endStroke();
-      g.setStrokeStyle(2).beginStroke('#222').beginFill(r.state === 'offline' ? '#9e9e9e' : r.color)
+      g.setStrokeStyle(2).beginStroke('#222').beginFill(r.state === 'offline' || r.in_service === false ? '#9e9e9e' : r.color)
         .drawCircle(0, 0, radius).endStroke().endFill();
       g.beginFill('#fff').moveTo(radius * 0.75, 0).lineTo(-radius * 0.35, radius * 0.45)
         .lineTo(-radius * 0.1, 0).lineTo(-radius * 0.35, -radius * 0.45).closePath().endFill();
-      const label = new createjs.Text(`${r.name} · ${r.state}`, 'bold 12px sans-serif', r.color);
+      const label = new createjs.Text(`${r.name} · ${stateWords(r)}`, 'bold 12px sans-serif', r.color);
       label.x = radius + 4;
       label.y = -radius - 10;
       at.addChild(body, label);
@@ -90,6 +99,7 @@ export class Fleet {
     panel.innerHTML = `<h2>Fleet <span class="count" id="fleet-count"></span></h2>
       <ul class="fleet-robots" id="fleet-robots"></ul>
       <h2>Dispatch to a POI</h2>
+      <label class="fleet-send">send <select id="fleet-send"><option value="">the best robot (nearest idle)</option></select></label>
       <ul class="fleet-pois" id="fleet-pois"><li class="empty">no POIs</li></ul>
       <div class="fleet-reply" id="fleet-reply"></div>
       <h2>Tasks</h2>
@@ -110,11 +120,13 @@ export class Fleet {
     if (!this.selected && robots.length) this.select(robots[0].name);
     this.layer.set(robots, (n) => this.colorOf(n), this.selected);
     document.getElementById('fleet-count').textContent = String(robots.length);
+    this.showSendChoice(robots);
     const list = document.getElementById('fleet-robots');
     list.replaceChildren(...robots.map((r) => {
       const li = document.createElement('li');
       li.dataset.robot = r.name;
       li.dataset.state = r.state;
+      li.dataset.service = r.in_service === false ? 'out' : 'in';
       const label = document.createElement('label');
       const pick = document.createElement('input');
       pick.type = 'radio';
@@ -127,11 +139,27 @@ export class Fleet {
       swatch.style.cssText = `display:inline-block;width:0.8em;height:0.8em;border-radius:50%;background:${this.colorOf(r.name)}`;
       const text = document.createElement('span');
       text.className = 'fleet-state';
-      text.textContent = ` ${r.name} — ${r.state}, ${Math.round(r.battery)} %${r.task ? `, task ${r.task}` : ''}`;
+      text.textContent = ` ${r.name} — ${stateWords(r)}, ${Math.round(r.battery)} %${r.task ? `, task ${r.task}` : ''}`;
       label.append(pick, swatch, text);
       li.append(label);
       return li;
     }));
+  }
+
+  /** The "send" choice: the best robot, or one by name (kept across updates). */
+  showSendChoice(robots) {
+    const select = document.getElementById('fleet-send');
+    const names = robots.map((r) => r.name);
+    const have = [...select.options].slice(1).map((o) => o.value);
+    if (names.join('\n') === have.join('\n')) return;
+    const kept = select.value;
+    select.replaceChildren(select.options[0], ...names.map((n) => {
+      const option = document.createElement('option');
+      option.value = n;
+      option.textContent = n;
+      return option;
+    }));
+    select.value = names.includes(kept) ? kept : '';
   }
 
   /** The drive pad, the goal/set-pose tools and "Go" now act on robot `name` (under /name/):
@@ -162,7 +190,7 @@ export class Fleet {
       button.className = 'small';
       button.dataset.dispatch = p.name;
       button.textContent = 'Dispatch';
-      button.title = 'Send the nearest idle robot (/fleet/dispatch)';
+      button.title = 'Send the robot chosen above, or the best one';
       button.addEventListener('click', () => this.dispatch(p.name));
       li.append(button);
       return li;
@@ -172,7 +200,8 @@ export class Fleet {
   dispatch(poi) {
     const reply = document.getElementById('fleet-reply');
     const zero = { position: { x: 0, y: 0, z: 0 }, orientation: { x: 0, y: 0, z: 0, w: 1 } };
-    this.dispatchService.callService({ poi, pose: zero, robot: '' }, (r) => {
+    const robot = document.getElementById('fleet-send').value; // '' = the best robot
+    this.dispatchService.callService({ poi, pose: zero, robot }, (r) => {
       reply.textContent = r.message;
       reply.dataset.accepted = String(r.accepted);
       reply.dataset.robot = r.robot;

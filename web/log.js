@@ -5,7 +5,32 @@ import { el } from './util.js';
 const MAX_ENTRIES = 200;
 const list = () => document.getElementById('log');
 
-export function log(level, text) {
+/** What the server's requests are called in its replies ("add_poi: …"), in the operator's words. */
+const REQUEST_WORDS = {
+  add_poi: 'POI', modify_poi: 'POI change', delete_poi: 'POI deletion', modify_map: 'map edit',
+  save_map: 'saving the map', load_map: 'loading the map', map_layers: 'map layers',
+  do_mapping: 'mapping', navigate_to_poi: 'going to the POI', set_waypoints: 'patrol waypoints',
+  recover_localization: 'relocalization', go_home: 'going home', cancel_action: 'stop',
+};
+/** actionlib's status names as an operator says them. */
+const STATUS_WORDS = { PREEMPTED: 'cancelled', RECALLED: 'cancelled', ABORTED: 'failed',
+  REJECTED: 'refused', SUCCEEDED: 'done', PREEMPTING: 'cancelling', RECALLING: 'cancelling', LOST: 'lost' };
+
+/** A line for the Messages panel without developer-speak: a request's raw name leading a reply
+ * ("add_poi: …"), actionlib's upper-case status names, an exception's class name and the stack
+ * lines after it, "-0°". */
+export function operatorWords(text) {
+  let line = String(text).split('\n')[0].replace(/\s+at \S+ \(\S+:\d+:\d+\)/g, '');
+  line = line.replace(/^(?:[A-Z][A-Za-z]*(?:Error|Exception)): /, '');
+  line = line.replace(/^([a-z]+(?:_[a-z]+)+): /, (whole, name) =>
+    (REQUEST_WORDS[name] ? `${REQUEST_WORDS[name]}: ` : `${name.replace(/_/g, ' ')}: `));
+  line = line.replace(/\b(PREEMPTED|RECALLED|ABORTED|REJECTED|SUCCEEDED|PREEMPTING|RECALLING|LOST)\b/g,
+    (word) => STATUS_WORDS[word]);
+  return line.replace(/-0°/g, '0°');
+}
+
+export function log(level, raw) {
+  const text = operatorWords(raw);
   const time = new Date().toLocaleTimeString([], { hour12: false });
   const entry = el('li', { class: level, dataset: { level } },
     el('time', {}, time), el('span', { class: 'level' }, level), el('span', { class: 'text' }, text));

@@ -34,9 +34,10 @@ export class Navigator {
     this.serverName = serverName;
     this.actionName = actionName;
     this.useRobot(robot);
-    robot.follow(() => {
+    robot.follow((name) => {
       this.client.dispose?.();
       this.useRobot(robot);
+      this.switched(name);
     });
     // what the robot does that is not a /move_base goal, followed in the panel: a POI
     // navigation, going home, a patrol — {label, target?, cancel(), done()?, patrol?}
@@ -63,6 +64,17 @@ export class Navigator {
     this.initialPoseTopic = new ROSLIB.Topic({
       ros, name: robot.nameOf(TOPICS.initialPose), messageType: 'geometry_msgs/PoseWithCovarianceStamped',
     });
+  }
+
+  /** Another robot was chosen: what the panel showed was the last one's. */
+  switched(name) {
+    this.endActivity();
+    this.goal = null;
+    this.target = null;
+    this.planLength = null;
+    this.robotPose = null;
+    this.cancelButton.disabled = true;
+    this.show('idle', `No goal sent to ${name}`);
   }
 
   pose(x, y, yaw) {

@@ -1,6 +1,7 @@
 // Overlay layers drawn over the map, in metres (ROS y flipped, as ros2d draws). Sizes given in
 // CSS pixels stay the same on screen at any zoom: each layer is redrawn when the scale changes.
 /* global createjs */
+import { ROBOT_RADIUS, SAFETY_MARGIN } from './placement.js';
 import { degrees, yawOf } from './util.js';
 
 export const COLORS = {
@@ -342,7 +343,7 @@ export function niceStep(min) {
  * distance transform, O(cells). Virtual walls are not in /map, so they are not inflated here.
  */
 export class CostmapLayer extends Layer {
-  constructor(view, { robotRadius = 0.2, safetyMargin = 0.05, inflation = 0.6 } = {}) {
+  constructor(view, { robotRadius = ROBOT_RADIUS, safetyMargin = SAFETY_MARGIN, inflation = 0.6 } = {}) {
     super(view);
     this.robotRadius = robotRadius;
     this.safetyMargin = safetyMargin;
@@ -355,6 +356,7 @@ export class CostmapLayer extends Layer {
   }
 
   set(grid) {
+    this.grid = grid; // the latest /map (where a POI may stand is judged on it too)
     this.pending = grid;
     if (this.node.visible && !this.timer) {
       this.timer = setTimeout(() => { this.timer = null; this.compute(); }, 300);

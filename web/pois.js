@@ -10,8 +10,10 @@ import { el, formatPose, quatOfYaw, yawOf } from './util.js';
 export const POI_DEFAULT = 100; // map_messages/PointOfInterest.DEFAULT
 
 export class Pois {
-  constructor({ ros, layer }) {
+  /** `warning(x, y)`: why a POI should not stand at (x, y) ('' when it may). */
+  constructor({ ros, layer, warning = () => '' }) {
     this.layer = layer;
+    this.warning = warning;
     this.pois = [];
     const topic = (name, messageType) => new ROSLIB.Topic({ ros, name, messageType });
     this.addTopic = topic(TOPICS.addPoi, 'map_messages/PointOfInterest');
@@ -53,8 +55,10 @@ export class Pois {
   /** Ask for a name and add a POI at (x, y, yaw). */
   async addAt(x, y, yaw) {
     const n = this.pois.length + 1;
+    const problem = this.warning(x, y);
     const answer = await poiForm({ title: 'Add point of interest', name: `poi ${n}`,
-      where: `at ${formatPose(x, y, yaw)}`, validate: (name) => this.taken(name) });
+      where: `at ${formatPose(x, y, yaw)}`, warning: problem && `⚠ ${problem}: the map manager will refuse it.`,
+      validate: (name) => this.taken(name) });
     if (!answer) return;
     this.request(this.addTopic, {
       type: POI_DEFAULT,

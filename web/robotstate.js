@@ -1,7 +1,8 @@
 // The robot's state in the top bar: battery, charging and localization quality from
 // robot_basic_state, and whether the robot is connected, from /diagnostics_agg (the status
-// whose name mentions "connection").
-/* global ROSLIB */
+// whose name mentions "connection"); on a fleet server, of the robot chosen in the fleet panel,
+// whose name the robot pill shows (currentrobot.js).
+import { CurrentRobot } from './currentrobot.js';
 import { log } from './log.js';
 import { TOPICS } from './names.js';
 
@@ -18,13 +19,14 @@ function meter(id, percent, text, state) {
 }
 
 export class RobotState {
-  constructor({ ros }) {
+  constructor({ ros, robot = new CurrentRobot() }) {
     this.robotPill = document.getElementById('robot-state');
+    this.robot = robot;
     this.lastDiagnostics = 0;
-    new ROSLIB.Topic({ ros, name: TOPICS.robotBasicState, messageType: 'slamware_ros_sdk/RobotBasicState',
-      throttle_rate: 500 }).subscribe((s) => this.basic(s));
-    new ROSLIB.Topic({ ros, name: TOPICS.diagnostics, messageType: 'diagnostic_msgs/DiagnosticArray',
-      throttle_rate: 500 }).subscribe((d) => this.diagnostics(d));
+    robot.subscribe(ros, TOPICS.robotBasicState, 'slamware_ros_sdk/RobotBasicState', { throttle_rate: 500 },
+      (s) => this.basic(s), () => this.forget());
+    robot.subscribe(ros, TOPICS.diagnostics, 'diagnostic_msgs/DiagnosticArray', { throttle_rate: 500 },
+      (d) => this.diagnostics(d));
     setInterval(() => {
       // robotpresence.js says so, or app.js's followReplay
       if (document.body.classList.contains('no-robot') || document.body.classList.contains('replaying')) return;
@@ -32,6 +34,14 @@ export class RobotState {
         this.setRobot('stale', 'no diagnostics');
       }
     }, 1000);
+  }
+
+  /** Another robot was chosen: nothing is known of it until it speaks. */
+  forget() {
+    meter('battery', 0, '–', 'unknown');
+    meter('localization', 0, '–', 'unknown');
+    this.lastDiagnostics = 0;
+    this.setRobot('unknown', 'waiting…');
   }
 
   basic(s) {
@@ -69,6 +79,7 @@ export class RobotState {
 
   setRobot(state, text) {
     this.robotPill.dataset.state = state;
-    this.robotPill.querySelector('.value').textContent = text;
+    this.robotPill.dataset.robot = this.robot.name || '';
+    this.robotPill.querySelector('.value').textContent = this.robot.name ? `${this.robot.name} · ${text}` : text;
   }
 }

@@ -1,7 +1,9 @@
 // System commands on /system_shell/cmd_string (std_msgs/String) and the mode indicator from
 // /system_shell/system_mode (std_msgs/String: gmapping, navigation, busy); the answer to
-// `version` comes latched on /system_shell/version. Reboot and shutdown ask first.
+// `version` comes latched on /system_shell/version. Reboot and shutdown ask first. On a fleet
+// server, those of the robot chosen in the fleet panel (currentrobot.js).
 /* global ROSLIB */
+import { CurrentRobot } from './currentrobot.js';
 import { confirmAction } from './dialogs.js';
 import { log } from './log.js';
 import { TOPICS } from './names.js';
@@ -9,17 +11,16 @@ import { TOPICS } from './names.js';
 const MODE_LABELS = { gmapping: 'mapping', navigation: 'navigation', busy: 'switching…' };
 
 export class Shell {
-  constructor({ ros }) {
-    this.cmd = new ROSLIB.Topic({ ros, name: TOPICS.shellCommand, messageType: 'std_msgs/String' });
+  constructor({ ros, robot = new CurrentRobot() }) {
+    this.cmd = () => robot.publisher(ros, TOPICS.shellCommand, 'std_msgs/String');
     this.pill = document.getElementById('mode');
     this.buttons = [...document.querySelectorAll('#shell [data-cmd]')];
     for (const b of this.buttons) b.addEventListener('click', () => this.run(b));
-    new ROSLIB.Topic({ ros, name: TOPICS.systemMode, messageType: 'std_msgs/String' })
-      .subscribe((msg) => this.showMode(msg.data));
+    robot.subscribe(ros, TOPICS.systemMode, 'std_msgs/String', {}, (msg) => this.showMode(msg.data),
+      () => this.showMode(''));
     this.version = document.getElementById('version');
     this.versionAsked = false;
-    new ROSLIB.Topic({ ros, name: TOPICS.version, messageType: 'std_msgs/String' })
-      .subscribe((msg) => this.showVersion(msg.data));
+    robot.subscribe(ros, TOPICS.version, 'std_msgs/String', {}, (msg) => this.showVersion(msg.data));
   }
 
   showVersion(text) {
@@ -38,7 +39,7 @@ export class Shell {
 
   send(command) {
     if (command === 'version') this.versionAsked = true;
-    this.cmd.publish(new ROSLIB.Message({ data: command }));
+    this.cmd().publish(new ROSLIB.Message({ data: command }));
     log('info', `command sent: ${command}`);
   }
 
@@ -48,6 +49,6 @@ export class Shell {
     this.pill.dataset.mode = value || 'unknown';
     this.pill.querySelector('.value').textContent = MODE_LABELS[value] || value || 'unknown';
     for (const b of this.buttons) b.classList.toggle('current', b.dataset.cmd === value);
-    log('info', `system mode: ${value}`);
+    if (value) log('info', `system mode: ${MODE_LABELS[value] || value}`);
   }
 }

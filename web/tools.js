@@ -24,10 +24,13 @@ const RECT_TOOLS = new Set(['area', 'erase']);
 const STAYING_TOOLS = new Set(['goal', 'waypoint', 'wall', 'track', 'area', 'erase', 'unline']);
 
 export class MapTools {
-  /** `onPick(tool, {x, y, yaw})`: yaw is null for a plain click (no heading dragged). */
-  constructor(view, onPick) {
+  /** `onPick(tool, {x, y, yaw})`: yaw is null for a plain click (no heading dragged).
+   * `warning(tool, x, y)`: why the tool should not be used there ('' when it may), shown in
+   * the hint while the pointer is over the spot (a POI beside an obstacle). */
+  constructor(view, onPick, warning = () => '') {
     this.view = view;
     this.onPick = onPick;
+    this.warning = warning;
     this.tool = 'move';
     this.drag = null;
     this.preview = new ArrowMarker(view, COLORS.preview, { dashed: true });
@@ -71,6 +74,19 @@ export class MapTools {
 
   setHint(text) {
     if (this.view.mapBounds || this.tool !== 'move') this.hint.textContent = text;
+    delete this.hint.dataset.warning;
+  }
+
+  /** While placing: warn in the hint when the spot under the pointer is a bad one. */
+  warnAt(spot) {
+    const problem = this.warning(this.tool, spot.x, spot.y);
+    if (problem === (this.hint.dataset.warning || '')) return;
+    if (!problem) {
+      this.setHint(HINTS[this.tool] || '');
+      return;
+    }
+    this.hint.textContent = `⚠ Not a good spot: ${problem}.`;
+    this.hint.dataset.warning = problem;
   }
 
   down(e) {
@@ -93,6 +109,7 @@ export class MapTools {
   move(e) {
     const r = this.view.clientToRos(e.clientX, e.clientY);
     this.cursor.textContent = `${r.x.toFixed(2)}, ${r.y.toFixed(2)} m`;
+    if (this.enabled && (!this.drag || this.drag.kind === 'pick')) this.warnAt(this.drag ? this.drag.at : r);
     if (!this.drag) return;
     if (this.drag.kind === 'pan') {
       const p = this.view.clientToCanvas(e.clientX, e.clientY);
@@ -111,7 +128,7 @@ export class MapTools {
     if (Math.hypot(e.clientX - d.cx, e.clientY - d.cy) >= DRAG_PX) {
       d.yaw = Math.atan2(r.y - d.at.y, r.x - d.at.x);
       this.preview.setPose(d.at.x, d.at.y, d.yaw);
-      this.setHint(`${this.tool}: ${formatPose(d.at.x, d.at.y, d.yaw)}`);
+      if (!this.hint.dataset.warning) this.setHint(`${this.tool}: ${formatPose(d.at.x, d.at.y, d.yaw)}`);
     }
   }
 

@@ -46,7 +46,8 @@ class MapManager(RobotNode):
         self.pois = PoiRegistry()
         self.layers = MapComposition(self, maps, params)
         self.sections = Sections(NodeMemory(state, "map_manager"), self.pois, self.layers)
-        self.poi_requests = PoiRequests(self, self.pois, self.sections)
+        self.poi_requests = PoiRequests(self, self.pois, self.sections,
+                                        lambda: self.layers.published)
         self.robot_map = RobotMap(self, maps, localization, params)
         self.mask_requests = MaskRequests(self, self.layers, self.sections)
         self.folders = MapFolders(self, MapStore(settings.map_store), self.robot_map,

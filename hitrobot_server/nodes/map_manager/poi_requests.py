@@ -11,6 +11,8 @@ from ...bus.topics import Message, RequestRejected
 from ..base import RobotNode
 from ..ground.memory import NotSaved
 from ..ground.names import MAP_MANAGER_GET_POIS
+from .layers import Grid
+from .placement import placement_problem
 from .pois import PoiError, PoiRegistry
 from .sections import Sections
 from .topics import PKG, POIS_TOPIC, request_topic
@@ -19,8 +21,10 @@ from .topics import PKG, POIS_TOPIC, request_topic
 class PoiRequests:
     """The POI requests on a registry, remembered in the state folder."""
 
-    def __init__(self, node: RobotNode, pois: PoiRegistry, sections: Sections):
+    def __init__(self, node: RobotNode, pois: PoiRegistry, sections: Sections,
+                 grid: Callable[[], Grid | None] = lambda: None):
         self.node, self.pois, self.sections = node, pois, sections
+        self.grid = grid  # the composed /map, where a new or moved POI must have room
         node.advertise(POIS_TOPIC, f"{PKG}/PointsOfInterest", latch=True)
 
     def listen(self) -> None:
@@ -36,6 +40,16 @@ class PoiRequests:
 
     def publish(self) -> None:
         self.node.publish(POIS_TOPIC, {"pois": self.pois.all()})
+
+    def _placed(self, poi: dict, was: dict | None) -> None:
+        """Refuse a POI on an obstacle, an unknown cell, or too near an obstacle (unless it
+        stays where it ``was``)."""
+        at = poi["pose"]["position"]
+        if was is not None and was["pose"]["position"] == at:
+            return
+        problem = placement_problem(self.grid(), at["x"], at["y"])
+        if problem:
+            raise PoiError(problem)
 
     def _request(self, message: Message, what: str, change: Callable[[], str]) -> None:
         try:
@@ -59,7 +73,7 @@ class PoiRequests:
 
     def _on_add_poi(self, message: Message) -> None:
         def add() -> str:
-            return f"added {self.pois.add(message.msg)['name']!r}"
+            return f"added {self.pois.add(message.msg, self._placed)['name']!r}"
 
         self._request(message, "add_poi", add)
 
@@ -67,7 +81,7 @@ class PoiRequests:
         msg = message.msg
 
         def modify() -> str:
-            new = self.pois.modify(msg["old_name"], msg["poi"])
+            new = self.pois.modify(msg["old_name"], msg["poi"], self._placed)
             return f"modified {msg['old_name']!r} (now {new['name']!r})"
 
         self._request(message, "modify_poi", modify)

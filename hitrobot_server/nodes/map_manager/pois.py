@@ -10,7 +10,11 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable
 from typing import Any
+
+Check = Callable[[dict, dict | None], None]
+"""A last check of a valid POI (and the one it replaces) before it is stored; raises PoiError."""
 
 POI_TYPES = {
     100: "DEFAULT",
@@ -85,23 +89,27 @@ class PoiRegistry:
     def all(self) -> list[dict]:
         return copy.deepcopy(list(self._pois.values()))
 
-    def add(self, poi: dict) -> dict:
+    def add(self, poi: dict, check: Check | None = None) -> dict:
         clean = normalize(poi)
         if clean["name"] in self._pois:
             raise PoiError(f"a POI named {clean['name']!r} already exists")
         if len(self._pois) >= MAX_POIS:
             raise PoiError(f"there are already {MAX_POIS} POIs")
+        if check:
+            check(clean, None)
         self._pois[clean["name"]] = clean
         self.revision += 1
         return copy.deepcopy(clean)
 
-    def modify(self, old_name: str, poi: dict) -> dict:
+    def modify(self, old_name: str, poi: dict, check: Check | None = None) -> dict:
         if old_name not in self._pois:
             raise PoiError(f"there is no POI named {old_name!r}")
         clean = normalize(poi)
         new_name = clean["name"]
         if new_name != old_name and new_name in self._pois:
             raise PoiError(f"cannot rename {old_name!r}: a POI named {new_name!r} already exists")
+        if check:
+            check(clean, self._pois[old_name])
         self._pois = {(new_name if k == old_name else k): (clean if k == old_name else v)
                       for k, v in self._pois.items()}
         self.revision += 1

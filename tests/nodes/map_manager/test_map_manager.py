@@ -63,7 +63,7 @@ async def test_poi_crud_and_refusals(make_server, tmp_path):
     await asyncio.sleep(0.2)
     assert len(w.messages[f"{MM}/pois"]) == count  # nothing changed, nothing republished
     await request(w, f"{MM}/modify_poi", "map_messages/ModifyPOI",
-                  {"poi": poi("desk 2", 11.0, 2.0, kind=300, remarks="moved"),
+                  {"poi": poi("desk 2", 11.5, 2.0, kind=300, remarks="moved"),
                    "old_name": "desk"}, "mod")
     await request(w, f"{MM}/delete_poi", "map_messages/DeletePointOfInterest",
                   {"name": "door"}, "del")
@@ -72,7 +72,7 @@ async def test_poi_crud_and_refusals(make_server, tmp_path):
     pois = reply["values"]["poi_list"]["pois"]
     assert [p["name"] for p in pois] == ["dock", "desk 2"]
     assert pois[1]["type"] == 300 and pois[1]["remarks"] == "moved"
-    assert pois[1]["pose"]["position"]["x"] == 11.0
+    assert pois[1]["pose"]["position"]["x"] == 11.5
     # a late subscriber gets the latched list
     late = await Watcher.open(_server.port)
     await late.subscribe(f"{MM}/pois")
@@ -106,7 +106,7 @@ async def test_save_restart_load_round_trips_map_masks_and_pois(make_server, tmp
     server, w = await start(make_server, tmp_path)
     await w.subscribe(f"{NS}/map", "nav_msgs/OccupancyGrid")
     robot_map = await w.until(lambda: w.latest(f"{NS}/map"), 10, "the robot's map")
-    await request(w, f"{MM}/add_poi", POI_T, poi("kitchen", 20.0, 3.0, 1.0, kind=200,
+    await request(w, f"{MM}/add_poi", POI_T, poi("kitchen", 19.0, 3.0, 1.0, kind=200,
                                                    remarks="Küche"), "a1")
     await request(w, f"{MM}/add_poi", POI_T, poi("office B", 10.0, 12.5), "a2")
     ok = await modify_map(w, "mask", rect(8.3, 8.8, 9.4, 9.4), BLOCKED)
