@@ -105,13 +105,14 @@ class Recorder:
         exclusive: bool = False,
         max_queued_bytes: int = MAX_QUEUED_BYTES,
         flush_period: float = FLUSH_PERIOD,
+        max_chunks: int = 0,
     ):
         """``exclusive``: refuse a file that exists (a client's name) rather than empty it
-        (``--record FILE``, the operator's)."""
+        (``--record FILE``, the operator's); ``max_chunks``: per file (0: writer.MAX_CHUNKS)."""
         self.bus = bus
         self.path = Path(path)
         self.plan = Plan(self.path, exclusive, split_size, split_time, flush_period, max_disk,
-                         budget_folder)
+                         budget_folder, max_chunks)
         self.filter = GlobFilter.parse(topics)
         self.max_queued_bytes = max_queued_bytes
         self.dropped = 0

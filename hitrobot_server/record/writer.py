@@ -84,6 +84,13 @@ class Counters:
         return cls(*(ctx.Value("q", 0, lock=False) for _ in range(7)))
 
 
+MAX_CHUNKS = 7200
+"""Chunks in one file before the recording goes on in a new part (NAME_1.mcap, ...): the MCAP
+writer keeps every chunk's index in memory until the file's summary is written, so an open file
+grows the writer process (about 30 MB an hour of 0.5 s chunks on 50 channels). 7,200 chunks is
+an hour at the flush period; a recording of a day is 24 parts, the writer's memory flat."""
+
+
 @dataclass(frozen=True)
 class Plan:
     """What the writer writes: where, when it starts a new file, what budget it keeps."""
@@ -95,6 +102,7 @@ class Plan:
     flush_period: float = 0.5
     max_disk: int = 0  # bytes of recordings kept (0: no budget)
     budget_folder: Path | None = None  # the recordings folder the budget also prunes
+    max_chunks: int = 0  # chunks per file (0: MAX_CHUNKS); see MAX_CHUNKS
 
 
 class McapFiles:
@@ -123,6 +131,7 @@ class McapFiles:
         self.file = DiskFile(open_file(self.current, create=not created,
                                        exclusive=self.plan.exclusive))
         self.file_start = self.chunk_start = None
+        self.chunks = 0  # closed in this file
         self.writer = Writer(self.file, compression=CompressionType.ZSTD)
         self.writer.start(profile=PROFILE, library=f"hitrobot-server {__version__}")
         self.writer.add_metadata("hitrobot-server", {
@@ -140,10 +149,13 @@ class McapFiles:
         """Close the chunk in progress and hand it to the OS; roll over when the file is full;
         keep the disk budget."""
         self.writer.flush()
+        if self.chunk_start is not None:
+            self.chunks += 1
         self.chunk_start = None
         size = self.file.tell()
         self.counters.bytes.value = self.closed_bytes + size
-        if self.plan.split_size and size >= self.plan.split_size:
+        if (self.plan.split_size and size >= self.plan.split_size) or (
+                self.chunks >= (self.plan.max_chunks or MAX_CHUNKS)):
             self.roll()
         elif time.monotonic() >= self.next_budget:
             self.keep_budget()

@@ -25,11 +25,11 @@ from hitrobot_server.types.registry import TypeRegistry
 from ..helpers import WsClient, until
 
 
-def texts(path) -> list[str]:
+def texts(path, topic: str = "/big") -> list[str]:
     """The ``std_msgs/String`` data of every message, read by the stock ROS 2 reader."""
     with open(path, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        return [m.data for _s, c, _m, m in reader.iter_decoded_messages() if c.topic == "/big"]
+        return [m.data for _s, c, _m, m in reader.iter_decoded_messages() if c.topic == topic]
 
 
 def make_bus() -> Bus:
@@ -77,6 +77,24 @@ async def test_split_by_time_follows_the_messages_log_time(tmp_path):
     await recorder.stop()
     assert [p.name for p in recorder.files] == ["run.mcap", "run_1.mcap", "run_2.mcap"]
     assert [texts(p) for p in recorder.files] == [["m0", "m1"], ["m2"], ["m3", "m4"]]
+
+
+async def test_a_long_recording_goes_on_in_a_new_part_after_max_chunks(tmp_path):
+    """The writer's memory of an open file (its chunk index) is bounded: after max_chunks
+    chunks the recording goes on in a new part, which opens with the latched messages."""
+    bus = make_bus()
+    bus.advertise("/latched", "std_msgs/String", "node", "/node", latch=True)
+    recorder = Recorder(bus, tmp_path / "long.mcap", flush_period=0.05, max_chunks=2)
+    recorder.start()
+    t0 = 1_700_000_000.0
+    bus.publish("/latched", {"data": "kept"}, stamp=t0)
+    for i in range(6):  # a chunk each: 0.1 s of log time apart, flushed every 0.05 s
+        bus.publish("/big", {"data": f"m{i}"}, stamp=t0 + 0.1 * (i + 1))
+    await recorder.stop()
+    assert [p.name for p in recorder.files][:2] == ["long.mcap", "long_1.mcap"]
+    assert len(recorder.files) >= 3
+    assert [t for p in recorder.files for t in texts(p)] == [f"m{i}" for i in range(6)]
+    assert all(texts(p, "/latched") == ["kept"] for p in recorder.files)  # each part opens so
 
 
 async def test_the_budget_removes_the_oldest_recordings_never_the_one_written(tmp_path):
