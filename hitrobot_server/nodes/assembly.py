@@ -148,7 +148,7 @@ NODE_CLASSES: tuple[type[Node], ...] = (
     LocomotionNode, SimControlsNode,
 )
 """Every node class the assembly makes (rosapi's names are the bus's site-wide ones)."""
-BESIDE_THE_NODES = ("/record", "/recorder", "/replay")
+BESIDE_THE_NODES = ("/record", "/recorder", "/replay", "/replay_launcher", "/black_box")
 """Global names served beside the nodes, by the recorder and the player (``record/``, which
 the nodes may not import; a test checks these are still theirs)."""
 

@@ -5,13 +5,13 @@ decompression bombs (refused fast, in bounded memory); and its paused start."""
 from __future__ import annotations
 
 import os
+import re
+import signal
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
-from typing import Any
 
 import pytest
 import zstandard
@@ -127,25 +127,37 @@ def bomb_file(path: Path, chunks: list[tuple[bytes, int]]) -> Path:
     return path
 
 
+# A small process runs the replay and reports its peak RSS (wait4): measured from pytest
+# itself, the figure would include the child's copy of pytest's memory before its exec, which
+# Linux counts in the child's ru_maxrss (hundreds of MiB late in a whole run).
+MEASURE = """
+import os, subprocess, sys
+child = subprocess.Popen(sys.argv[1:], stdout=subprocess.DEVNULL)
+_pid, status, usage = os.wait4(child.pid, 0)
+sys.stderr.write(f"\\npeak-rss-kib {usage.ru_maxrss}\\n")
+sys.exit(os.waitstatus_to_exitcode(status))
+"""
+
+
 def run_measured(path: Path, *extra: str, timeout: float = 60) -> tuple[int, str, float, int]:
-    """Run ``replay`` to its exit: code, stderr, seconds, peak RSS in MiB (its own, by wait4)."""
+    """Run ``replay`` to its exit: code, stderr, seconds, peak RSS in MiB (its own, by wait4
+    in a small parent of its own)."""
     t0 = time.monotonic()
     with tempfile.TemporaryFile("w+") as err:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "hitrobot_server", "replay", str(path), "--port", "0",
-             "--tcp-port", "-1", "--address", "127.0.0.1", *extra],
-            stdout=subprocess.DEVNULL, stderr=err, text=True)
-        done: list[tuple[int, int, Any]] = []
-        waiter = threading.Thread(target=lambda: done.append(os.wait4(proc.pid, 0)))
-        waiter.start()  # wait4 (the child's own peak RSS) has no timeout: a thread joined with one
-        waiter.join(timeout)
-        if not done:
-            proc.kill()
-            waiter.join(10)
-        _pid, status, usage = done[0]
-        proc.returncode = os.waitstatus_to_exitcode(status)
+            [sys.executable, "-c", MEASURE, sys.executable, "-m", "hitrobot_server", "replay",
+             str(path), "--port", "0", "--tcp-port", "-1", "--address", "127.0.0.1", *extra],
+            stdout=subprocess.DEVNULL, stderr=err, text=True, start_new_session=True)
+        try:
+            proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(10)
         err.seek(0)
-        return proc.returncode, err.read(), time.monotonic() - t0, usage.ru_maxrss >> 10
+        text = err.read()
+        peak = re.search(r"peak-rss-kib (\d+)", text)
+        assert peak is not None, text
+        return proc.returncode, text, time.monotonic() - t0, int(peak.group(1)) >> 10
 
 
 @pytest.mark.parametrize("case", ["claims_2GiB", "many_chunks", "liar"])

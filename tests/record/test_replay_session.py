@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import logging
 
 import pytest
 from mcap.reader import make_reader
@@ -78,7 +79,10 @@ def channels(path) -> dict[str, str]:
 
 
 @pytest.mark.timeout(300)  # a fleet's session recorded, then replayed: ~100 s on a busy CI box
-async def test_a_recorded_session_replays_every_topic(make_server, tmp_path):
+async def test_a_recorded_session_replays_every_topic(make_server, tmp_path, caplog):
+    # the server's log at the CLI's default level (info), so /rosout carries its lines as a
+    # real server's does (pytest leaves the package's loggers at warning)
+    caplog.set_level(logging.INFO, logger="hitrobot_server")
     path = await record_session(make_server, tmp_path)
     recorded = channels(path)
     missing = EXPECTED_TYPES - set(recorded.values())
