@@ -8,7 +8,7 @@ import pytest
 
 from hitrobot_server.bus.namespace import check_robot_name
 from hitrobot_server.nodes.assembly import BESIDE_THE_NODES, NODE_CLASSES, reserved_names
-from hitrobot_server.record import control, player
+from hitrobot_server.record import blackbox_control, control, player, replay_launcher
 
 FROZEN = frozenset({  # bus/namespace.py's RESERVED, as it was hard-coded (issue 32)
     "tf", "tf_static", "rosout", "rosapi", "map", "map_manager", "fleet", "diagnostics_agg",
@@ -37,7 +37,8 @@ def test_every_node_class_declares_absolute_names():
 
 def test_the_names_beside_the_nodes_are_still_the_recorders_and_the_players():
     theirs = {name.strip("/").split("/")[0] for name in (
-        control.NODE, control.STATE_TOPIC, player.NODE, player.STATE_TOPIC)}
+        control.NODE, control.STATE_TOPIC, player.NODE, player.STATE_TOPIC,
+        blackbox_control.NODE, replay_launcher.NODE)}
     assert theirs == {name.strip("/") for name in BESIDE_THE_NODES}
 
 
