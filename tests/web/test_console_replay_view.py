@@ -21,10 +21,11 @@ async def test_the_replay_view_says_one_thing_and_keeps_the_map_bright(browser, 
         await page.goto(f"http://127.0.0.1:{server.port}/")
         await page.wait_for_selector(f"{BAR}[data-paused=false]", timeout=20_000)
         # the robot presence poll (every 2 s) has answered "no robot" by then
-        await page.wait_for_function("document.body.classList.contains('no-robot')",
+        await page.wait_for_function("() => document.body.classList.contains('no-robot')",
                                      timeout=10_000)
         await page.wait_for_function(
-            "document.getElementById('hint').textContent.includes('— playing')", timeout=10_000)
+            "() => document.getElementById('hint').textContent.includes('— playing')",
+            timeout=10_000)
         hint = await page.locator("#hint").inner_text()
         assert hint.startswith("Replaying shift.mcap — playing ") and "/ 0:10.0" in hint, hint
         assert await page.locator("#robot-state .value").inner_text() == "replaying shift.mcap"
@@ -37,7 +38,8 @@ async def test_the_replay_view_says_one_thing_and_keeps_the_map_bright(browser, 
 
         await page.click(f"{BAR} .play")
         await page.wait_for_function(
-            "document.getElementById('hint').textContent.includes('— paused')", timeout=10_000)
+            "() => document.getElementById('hint').textContent.includes('— paused')",
+            timeout=10_000)
         assert "No robot" not in await page.locator("body").inner_text()
     finally:
         server.stop()
