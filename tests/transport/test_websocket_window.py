@@ -167,7 +167,7 @@ async def test_without_send_window_the_server_sends_no_pings(make_server):
 async def test_a_client_that_never_pongs_gets_its_data_after_a_second(make_server):
     """A client library that answers no ping is held at its first window for FIRST_GIVE_UP
     seconds, then served as without a window (the fair outbox and the kernel's queue)."""
-    server = await make_server()
+    server = await make_server(send_window=True)
     client = await PongWithholdingClient.open(server.port)
     client.withhold = True  # from the start: no pong ever
     pub = await WsClient.open(server.port)
@@ -184,4 +184,24 @@ async def test_a_client_that_never_pongs_gets_its_data_after_a_second(make_serve
     while client.received - before < 1_800_000 and loop.time() < deadline:
         await client.read_some(deadline - loop.time())
     assert client.received - before >= 1_800_000 and client.pings
+    client.close()
+
+
+async def test_the_window_is_on_by_default(make_server):
+    """Without any flag a client reading a big stream is pinged (its window learns from the
+    pongs); --no-send-window is the test above."""
+    server = await make_server()
+    client = await PongWithholdingClient.open(server.port)
+    pub = await WsClient.open(server.port)
+    await pub.send({"op": "advertise", "topic": BIG, "type": "std_msgs/String"})
+    await client.send({"op": "subscribe", "topic": BIG, "type": "std_msgs/String"})
+    await client.send({"op": "call_service", "id": "ready", "service": "/rosapi/get_time"})
+    await client.read_until('"ready"', max_bytes=1 << 20)
+    for _ in range(3):
+        await pub.send({"op": "publish", "topic": BIG, "msg": {"data": "c" * 200_000}})
+    await round_trip(pub)
+    before = client.received
+    while client.received - before < 590_000 and await client.read_some(2.0):
+        pass
+    assert client.received - before >= 590_000 and client.pings
     client.close()
