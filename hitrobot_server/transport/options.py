@@ -30,9 +30,10 @@ class TransportOptions:
         "help": "seconds a client has to answer a ping before it is disconnected"})
     send_window: bool = field(default=True, metadata={
         "help": "keep what each WebSocket client has not yet read under a window learnt from "
-        "pings (a slow reader: about 60 ms of its delivery rate; a fast one: 200 ms or more), so "
-        "a small topic stays fresh behind a big stream on deep socket buffers; a client that "
-        "answers no ping for 5 s is not held back (--no-send-window: off for all)"})
+        "pings (a slow reader: about 60 ms of its delivery rate; one with quick pongs: up to "
+        "250 ms), so a small topic stays fresh behind a big stream on deep socket buffers; a "
+        "client that answers no ping is not held back (after 1 s; 5 s once it has answered "
+        "one)"})
     ssl: bool = field(default=False, metadata={
         "help": "serve wss:// and TLS on the TCP port (needs --certfile)"})
     certfile: str | None = field(default=None, metadata={
