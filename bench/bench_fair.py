@@ -9,9 +9,9 @@ No assertions.
 
 The slow reader runs twice: with a 32 kB receive buffer, and with the operating system's
 default buffers (autotuned up to megabytes, as a browser's are). With deep buffers only the
-server's window of bytes in flight (on by default, ``--no-send-window`` turns it off;
-transport/flight.py) keeps the pose from waiting behind what the kernel already holds; every
-run is made with and without it, the two servers interleaved.
+server's window of bytes in flight (``--send-window``, transport/flight.py) keeps the pose from
+waiting behind what the kernel already holds; every run is made with and without it, the two
+servers interleaved.
 
     .venv/bin/python bench/bench_fair.py            # 10 s per run
     .venv/bin/python bench/bench_fair.py --quick    # 4 s per run
@@ -154,8 +154,8 @@ def report(title: str, r: dict) -> None:
 BUFFERS = {"32k": 32 * 1024, "default": None}
 
 
-VARIANTS = {"window": [], "--no-send-window": ["--no-send-window"]}
-"""The server's send window on (its default) and off; each case runs on both, interleaved."""
+VARIANTS = {"--send-window": ["--send-window"], "--no-send-window": ["--no-send-window"]}
+"""The server's send window on and off; each case runs on both, interleaved."""
 
 
 async def main_async(seconds: float, buffers: list[str]) -> None:
