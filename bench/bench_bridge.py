@@ -273,8 +273,10 @@ async def close_all(clients) -> None:
 class ServerProc:
     """A server in a child process on an ephemeral loopback port, with its CPU time."""
 
-    def __init__(self, argv: list[str], pattern: str, label: str):
+    def __init__(self, argv: list[str], pattern: str, label: str, tree: str | None = None):
         env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+        if tree is not None:
+            env["PYTHONPATH"] = str(Path(tree).resolve())
         self.label = label
         self.proc = subprocess.Popen(
             argv,
@@ -282,7 +284,7 @@ class ServerProc:
             stderr=subprocess.STDOUT,
             text=True,
             env=env,
-            cwd=ROOT,
+            cwd=tree or ROOT,
         )
         self.output: list[str] = []
         deadline = time.monotonic() + 30
@@ -341,7 +343,10 @@ RECORD_DIR: str | None = None  # set by --record
 _record_runs = itertools.count()
 
 
-def start_ours(profile_dir: str | None, tag: str) -> ServerProc:
+def start_ours(profile_dir: str | None, tag: str, extra: list[str] | tuple = (),
+               tree: str | None = None) -> ServerProc:
+    """hitrobot-server with the bench's flags, ``extra`` flags after them; ``tree``: run the
+    package from that source tree instead of this one (e.g. main's, for a before/after run)."""
     args = [
         "-m",
         "hitrobot_server",
@@ -356,13 +361,14 @@ def start_ours(profile_dir: str | None, tag: str) -> ServerProc:
         "--robot",  # the bridge alone: no simulator competing for the core
         "none",
         *SERVER_ARGS,
+        *extra,
     ]
     if RECORD_DIR:  # --record: every server also records everything it carries
         args += ["--record", str(Path(RECORD_DIR) / f"{tag}_{next(_record_runs)}.mcap")]
     if profile_dir:
         Path(profile_dir).mkdir(parents=True, exist_ok=True)
         args = ["-m", "cProfile", "-o", str(Path(profile_dir) / f"{tag}.prof"), *args]
-    return ServerProc([sys.executable, *args], r"ws://[\d.]+:(\d+)", "hitrobot-server")
+    return ServerProc([sys.executable, *args], r"ws://[\d.]+:(\d+)", "hitrobot-server", tree)
 
 
 def start_ceiling() -> ServerProc:
@@ -820,30 +826,88 @@ def fanout_table(title: str, runs: list[dict]) -> None:
     )
 
 
-async def fanout_section(kind: str, cfg) -> list[dict]:
-    """Each client count ``cfg.fanout_reps`` times on a fresh server; the median run is kept."""
-    runs = []
+class Variant:
+    """One server under test in section 2/4: ours (with ``extra`` flags, from ``tree``) or the
+    ceiling."""
+
+    def __init__(self, label: str, ceiling: bool = False, extra: tuple = (),
+                 tree: str | None = None):
+        self.label, self.ceiling, self.extra, self.tree = label, ceiling, tuple(extra), tree
+
+    def start(self, cfg, tag: str) -> ServerProc:
+        if self.ceiling:
+            return start_ceiling()
+        return start_ours(cfg.profile, f"{tag}_{self.label}", self.extra, self.tree)
+
+
+async def fanout_section(variants: list[Variant], cfg) -> dict[str, list[dict]]:
+    """Each client count ``cfg.fanout_reps`` times per variant, each run on a fresh server, the
+    variants interleaved (a, b, ..., a, b, ...: a busy machine's load falls on all alike); the
+    median run of each is kept."""
+    out: dict[str, list[dict]] = {v.label: [] for v in variants}
     for n in cfg.clients:
         topic = f"/bench/scan_{n}"
         src = ScanSource(topic)
-        reps = []
+        reps: dict[str, list[dict]] = {v.label: [] for v in variants}
         for rep in range(cfg.fanout_reps):
-            server = (
-                start_ours(cfg.profile, f"fanout_{n}_{rep}") if kind == "ours" else start_ceiling()
-            )
-            try:
-                reps.append(
-                    await fanout_run(server.port, server, n, cfg.scan_counts[n], src, topic, cfg)
-                )
-            finally:
-                server.stop()
-        reps.sort(key=lambda r: r["rate"])
-        run = dict(reps[len(reps) // 2])
-        run["range"] = f"{fnum(reps[0]['rate'])}-{fnum(reps[-1]['rate'])}" if len(reps) > 1 else "-"
-        run["total_all"] = sum(r["total"] for r in reps)
-        run["expected_all"] = sum(r["expected"] for r in reps)
-        runs.append(run)
-    return runs
+            for v in variants:
+                server = v.start(cfg, f"fanout_{n}_{rep}")
+                try:
+                    reps[v.label].append(await fanout_run(
+                        server.port, server, n, cfg.scan_counts[n], src, topic, cfg))
+                finally:
+                    server.stop()
+        for v in variants:
+            runs = sorted(reps[v.label], key=lambda r: r["rate"])
+            run = dict(runs[len(runs) // 2])
+            run["range"] = (f"{fnum(runs[0]['rate'])}-{fnum(runs[-1]['rate'])}"
+                            if len(runs) > 1 else "-")
+            run["total_all"] = sum(r["total"] for r in runs)
+            run["expected_all"] = sum(r["expected"] for r in runs)
+            out[v.label].append(run)
+    return out
+
+
+def ceiling_ratios(label: str, ours: list[dict], ceiling: list[dict]) -> list[str]:
+    """Prints ``label``'s delivered rate and server CPU per message against the ceiling's;
+    returns summary lines."""
+    rows, lines = [], []
+    for o, c in zip(ours, ceiling, strict=True):
+        ratio = o["rate"] / c["rate"] if c["rate"] else float("nan")
+        cpu_ratio = c["srv_us"] / o["srv_us"] if o["srv_us"] else float("nan")
+        rows.append([o["clients"], fnum(o["rate"]), fnum(c["rate"]), f"{ratio:.2f}",
+                     f"{o['srv_us']:.1f}", f"{c['srv_us']:.1f}", f"{cpu_ratio:.2f}",
+                     f"{o['frame']:.0f}", f"{c['frame']:.0f}"])
+        lines.append(f"{label}/ceiling {o['clients']:>2} clients: {ratio:.2f} "
+                     f"({fnum(o['rate'])} vs {fnum(c['rate'])} msg/s); server CPU per message "
+                     f"{o['srv_us']:.1f} vs {c['srv_us']:.1f} us, ratio {cpu_ratio:.2f}")
+    print(f"\n  {label} vs ceiling (delivered msg/s, all clients)")
+    print(table(["clients", label, "ceiling", "ratio", f"{label} srv us/msg",
+                 "ceiling srv us/msg", "CPU ratio", f"{label} frame B", "ceiling frame B"],
+                rows))
+    print("  CPU ratio = ceiling's server CPU per delivered message / ours: the same "
+          "comparison, less\n  sensitive to other load on the machine than the rate.")
+    return lines
+
+
+def compare_table(base: str, other: str, a: list[dict], b: list[dict]) -> list[str]:
+    """Prints ``other``'s delivered rate against ``base``'s (same run, interleaved); returns
+    summary lines."""
+    rows, lines = [], []
+    for x, y in zip(a, b, strict=True):
+        ratio = y["rate"] / x["rate"] if x["rate"] else float("nan")
+        rows.append([x["clients"], fnum(x["rate"]), fnum(y["rate"]), f"{ratio:.2f}",
+                     f"{x['total_all']:,}/{x['expected_all']:,}",
+                     f"{y['total_all']:,}/{y['expected_all']:,}",
+                     f"{x['srv_us']:.1f}", f"{y['srv_us']:.1f}"])
+        lines.append(f"{other} vs {base}, {x['clients']:>2} clients: {ratio:.2f} "
+                     f"({fnum(y['rate'])} vs {fnum(x['rate'])} msg/s; received "
+                     f"{y['total_all']:,}/{y['expected_all']:,} vs "
+                     f"{x['total_all']:,}/{x['expected_all']:,})")
+    print(f"\n  {other} vs {base} (delivered msg/s, all clients; runs interleaved)")
+    print(table(["clients", base, other, "ratio", f"{base} received", f"{other} received",
+                 f"{base} us/msg", f"{other} us/msg"], rows))
+    return lines
 
 
 # ======================================================================= 3. big map
@@ -1511,15 +1575,26 @@ async def run(cfg, sections: set[str]) -> None:
             f"ping-pong p50 {r1['ping_p50']:.3f} ms, p99 {r1['ping_p99']:.3f} ms"
         )
 
-    ours = ceiling = None
+    variants = []
     if "2" in sections:
-        ours = await fanout_section("ours", cfg)
+        variants.append(Variant("ours"))
+        if cfg.compare is not None:
+            variants.append(Variant(cfg.compare_label, extra=cfg.compare,
+                                    tree=cfg.compare_tree))
+    if "4" in sections:
+        variants.append(Variant("ceiling", ceiling=True))
+    runs = await fanout_section(variants, cfg) if variants else {}
+    ours = runs.get("ours")
+    if ours:
         size = ours[0]["frame"]
-        fanout_table(
-            f"\n[2] fan-out: sensor_msgs/LaserScan, 720 float ranges (~{size / 1e3:.1f} "
-            "kB frames) published at max rate, hitrobot-server",
-            ours,
-        )
+        for v in variants:
+            if v.ceiling:
+                continue
+            fanout_table(
+                f"\n[2] fan-out: sensor_msgs/LaserScan, 720 float ranges (~{size / 1e3:.1f} "
+                f"kB frames) published at max rate, hitrobot-server ({v.label})",
+                runs[v.label],
+            )
         print(
             "  msg/s = frames received by all clients / (last frame received - first publish "
             "sent); MB/s = payload bytes, all clients.\n  dropped = expected - received (a "
@@ -1538,6 +1613,19 @@ async def run(cfg, sections: set[str]) -> None:
                 f"{fnum(r['per_client'])}/client, {fnum(r['mbps'], 1)} MB/s, "
                 f"received {r['total_all']:,}/{r['expected_all']:,} (all runs)"
             )
+        if cfg.compare is not None:
+            summary += compare_table("ours", cfg.compare_label, ours, runs[cfg.compare_label])
+
+    ceiling = runs.get("ceiling")
+    if ceiling:
+        fanout_table(
+            "\n[4] ceiling: the same LaserScan frames and counts, bare websockets server "
+            "(broadcast() of the received\n    pre-encoded bytes, no parsing)",
+            ceiling,
+        )
+        for v in variants:
+            if not v.ceiling:
+                summary += ceiling_ratios(v.label, runs[v.label], ceiling)
 
     if "3" in sections:
         maps = await map_section(cfg)
@@ -1549,58 +1637,6 @@ async def run(cfg, sections: set[str]) -> None:
                 f"{fnum(best['total'])} ms (best of {len(rs)}), wire "
                 f"{best['wire'] / 1e6:.2f} MB, late joiner {fnum(best['late_total'])}"
                 f" ms; other clients stalled up to {fnum(best['stall'])} ms"
-            )
-
-    if "4" in sections:
-        ceiling = await fanout_section("ceiling", cfg)
-        fanout_table(
-            "\n[4] ceiling: the same LaserScan frames and counts, bare websockets server "
-            "(broadcast() of the received\n    pre-encoded bytes, no parsing)",
-            ceiling,
-        )
-        if ours:
-            rows = []
-            for o, c in zip(ours, ceiling, strict=True):
-                ratio = o["rate"] / c["rate"] if c["rate"] else float("nan")
-                cpu_ratio = c["srv_us"] / o["srv_us"] if o["srv_us"] else float("nan")
-                rows.append(
-                    [
-                        o["clients"],
-                        fnum(o["rate"]),
-                        fnum(c["rate"]),
-                        f"{ratio:.2f}",
-                        f"{o['srv_us']:.1f}",
-                        f"{c['srv_us']:.1f}",
-                        f"{cpu_ratio:.2f}",
-                        f"{o['frame']:.0f}",
-                        f"{c['frame']:.0f}",
-                    ]
-                )
-                summary.append(
-                    f"ours/ceiling {o['clients']:>2} clients: {ratio:.2f} "
-                    f"({fnum(o['rate'])} vs {fnum(c['rate'])} msg/s); server CPU per message "
-                    f"{o['srv_us']:.1f} vs {c['srv_us']:.1f} us, ratio {cpu_ratio:.2f}"
-                )
-            print("\n  ours vs ceiling (delivered msg/s, all clients)")
-            print(
-                table(
-                    [
-                        "clients",
-                        "ours",
-                        "ceiling",
-                        "ratio",
-                        "ours srv us/msg",
-                        "ceiling srv us/msg",
-                        "CPU ratio",
-                        "our frame B",
-                        "ceiling frame B",
-                    ],
-                    rows,
-                )
-            )
-            print(
-                "  CPU ratio = ceiling's server CPU per delivered message / ours: the same "
-                "comparison, less\n  sensitive to other load on the machine than the rate."
             )
 
     if "5" in sections:
@@ -1649,6 +1685,20 @@ def main() -> int:
         help="run every hitrobot-server with --record (into a temporary folder), to compare "
         "the figures with and without recording",
     )
+    parser.add_argument(
+        "--compare",
+        metavar="ARGS",
+        help="sections 2/4: also run a second hitrobot-server with these extra flags (e.g. "
+        "'--no-send-window'), interleaved with the first, and print the two side by side",
+    )
+    parser.add_argument(
+        "--compare-tree",
+        metavar="DIR",
+        help="sections 2/4: the second server runs from this source tree (e.g. a checkout of "
+        "main: before/after in one run); with or without --compare",
+    )
+    parser.add_argument("--clients", default="1,10,50",
+                        help="section 2/4 subscriber counts, e.g. 1 (default 1,10,50)")
     parser.add_argument("--ceiling-server", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--probe-client", type=int, metavar="PORT", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -1663,6 +1713,13 @@ def main() -> int:
         resource.setrlimit(resource.RLIMIT_NOFILE, (max(soft, min(hard, 8192)), hard))
     cfg = config(args.quick)
     cfg.profile = args.profile_server
+    cfg.clients = tuple(int(n) for n in args.clients.split(","))
+    cfg.compare = (shlex.split(args.compare or "")
+                   if args.compare is not None or args.compare_tree else None)
+    cfg.compare_tree = args.compare_tree
+    cfg.compare_label = " ".join(
+        ([f"tree {Path(args.compare_tree).name}"] if args.compare_tree else [])
+        + (cfg.compare or [])) or "other"
     SERVER_ARGS.extend(shlex.split(args.server_args))
     global RECORD_DIR
     with tempfile.TemporaryDirectory(prefix="bench-record-") as folder:

@@ -10,7 +10,8 @@ No assertions.
 The slow reader runs twice: with a 32 kB receive buffer, and with the operating system's
 default buffers (autotuned up to megabytes, as a browser's are). With deep buffers only the
 server's window of bytes in flight (``--send-window``, transport/flight.py) keeps the pose from
-waiting behind what the kernel already holds; every run is made without and with it.
+waiting behind what the kernel already holds; every run is made with and without it, the two
+servers interleaved.
 
     .venv/bin/python bench/bench_fair.py            # 10 s per run
     .venv/bin/python bench/bench_fair.py --quick    # 4 s per run
@@ -34,7 +35,6 @@ from pathlib import Path
 from websockets.asyncio.client import connect
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import bench_bridge  # noqa: E402
 from bench_bridge import HOST, pct, start_ours, table  # noqa: E402
 
 BIG, SMALL = "/bench/cloud", "/bench/pose"
@@ -142,8 +142,8 @@ def report(title: str, r: dict) -> None:
         ages = sorted(got["small"])
         rows.append([
             name, f"{len(ages)}/{r['ticks']}", f"{100 * len(ages) / r['ticks']:.1f}%",
-            f"{1000 * pct(ages, 0.5):.0f}" if ages else "-",
-            f"{1000 * pct(ages, 0.99):.0f}" if ages else "-",
+            f"{1000 * pct(ages, 50):.0f}" if ages else "-",
+            f"{1000 * pct(ages, 99):.0f}" if ages else "-",
             f"{got['big']}/{r['big_sent']}", f"{got['big_bytes'] / r['elapsed'] / 1e6:.2f}",
         ])
     print(f"\n{title}")
@@ -154,20 +154,35 @@ def report(title: str, r: dict) -> None:
 BUFFERS = {"32k": 32 * 1024, "default": None}
 
 
+VARIANTS = {"--send-window": ["--send-window"], "--no-send-window": ["--no-send-window"]}
+"""The server's send window on and off; each case runs on both, interleaved."""
+
+
 async def main_async(seconds: float, buffers: list[str]) -> None:
-    for window in (False, True):  # the same runs without and with --send-window
-        bench_bridge.SERVER_ARGS[:] = ["--send-window"] if window else []
-        server = start_ours(None, "fair")
-        try:
-            for name in buffers:
-                for frag in (16_000, None):
-                    r = await run(server.port, seconds, frag, BUFFERS[name])
-                    report(f"{'--send-window' if window else 'no window'}: slow reader "
-                           f"{LINK / 1e6:g} MB/s, receive buffer {name}; big "
-                           f"{BIG_BYTES // 1000} kB x {BIG_HZ} Hz (fragment_size "
+    servers = {name: start_ours(None, "fair", flags) for name, flags in VARIANTS.items()}
+    summary = []
+    try:
+        for buf in buffers:
+            for frag in (16_000, None):
+                for name, server in servers.items():
+                    r = await run(server.port, seconds, frag, BUFFERS[buf])
+                    report(f"{name}: slow reader {LINK / 1e6:g} MB/s, receive buffer {buf}; "
+                           f"big {BIG_BYTES // 1000} kB x {BIG_HZ} Hz (fragment_size "
                            f"{frag or 'none'}), small x {SMALL_HZ} Hz, {seconds:g} s", r)
-        finally:
+                    ages = sorted(r["slow"]["small"])
+                    summary.append([
+                        name, buf, frag or "none",
+                        f"{100 * len(ages) / r['ticks']:.1f}%",
+                        f"{1000 * pct(ages, 50):.0f}" if ages else "-",
+                        f"{1000 * pct(ages, 99):.0f}" if ages else "-",
+                        f"{r['fast']['big_bytes'] / r['elapsed'] / 1e6:.2f}"])
+    finally:
+        for server in servers.values():
             server.stop()
+    print("\nsummary: the slow reader's small topic (age on arrival) and the fast reader's "
+          "big MB/s")
+    print(table(["server", "receive buffer", "fragment_size", "slow delivered", "age p50 ms",
+                 "age p99 ms", "fast big MB/s"], summary))
 
 
 def main() -> int:

@@ -14,6 +14,15 @@ second, each sample over at least :data:`RATE_SPAN` seconds of pongs) times the 
 trip seen plus :data:`TARGET` seconds of queue. A link that keeps up (a round trip well under
 the target with the window full) doubles the window; a slow reader's window shrinks to about
 :data:`TARGET` seconds of what it reads. Between :data:`MIN_WINDOW` and :data:`MAX_WINDOW`.
+
+On top of the window, a client that showed no standing queue lately (a quick pong within the
+last :data:`QUICK_SPAN` seconds) may have up to :data:`BURST` seconds of its rate unread
+(:meth:`room`): a fast reader that reads in bursts, or whose process waits for a busy CPU, has a
+late pong now and then but quick ones in between, and keeps its rate through its pauses. A slow
+reader's pongs are all late once its queue has built up: it gets the window alone. A client that
+answers no ping for :data:`GIVE_UP` seconds (a client library that never pongs) is not held at
+all until its next pong: it gets what a client without the window gets (the kernel's short
+unsent queue, the fair outbox).
 """
 
 from __future__ import annotations
@@ -38,6 +47,15 @@ RATE_MEMORY = 1.0
 PROBE_EVERY = 0.1
 """After an idle spell, a ping goes with the first bytes (a round trip with no queue before it)
 at most this often."""
+BURST = 0.25
+"""Seconds of its delivery rate a client with no standing queue may have unread."""
+QUICK_SPAN = 0.25
+"""A pong this recent under the bare round trip plus the target: no standing queue."""
+GIVE_UP = 5.0
+"""Seconds a ping may go unanswered before the window stops holding the client back."""
+FIRST_GIVE_UP = 1.0
+"""The same for a client that never answered one (a client library that does not pong loses
+a second at most, once)."""
 
 
 @dataclass(slots=True)
@@ -66,6 +84,7 @@ class FlightWindow:
         self._pongs: deque[tuple[float, int]] = deque()  # (time, acked) of recent pongs
         self._rates: deque[tuple[float, float]] = deque()  # (time, bytes/s) samples
         self.base_rtt = math.inf  # the lowest bare round trip seen
+        self._quick_at = -math.inf  # when a pong last came back within base rtt + target
 
     @property
     def in_flight(self) -> int:
@@ -75,6 +94,22 @@ class FlightWindow:
     def open(self) -> bool:
         """Room for more: what the client has not read is under the window."""
         return self.in_flight < self.window
+
+    def room(self, now: float) -> bool:
+        """Room for more under the window, or under the burst allowance of a client with no
+        standing queue (see module doc), or a silent client's (:meth:`silent`)."""
+        if self.in_flight < self.window:
+            return True
+        if now - self._quick_at < QUICK_SPAN and self.in_flight < self.rate * BURST:
+            return True
+        return self.silent(now)
+
+    def silent(self, now: float) -> bool:
+        """The oldest ping out has gone unanswered for :data:`GIVE_UP` seconds
+        (:data:`FIRST_GIVE_UP` before any pong): a client that does not pong, which the window
+        stops holding back until its next pong."""
+        limit = GIVE_UP if self.acked else FIRST_GIVE_UP
+        return bool(self._pings) and now - self._pings[0].at >= limit
 
     @property
     def rate(self) -> float:
@@ -123,6 +158,8 @@ class FlightWindow:
             rtt = now - ping.at
             if ping.clean:
                 self.base_rtt = min(self.base_rtt, rtt)
+            if rtt < (self.base_rtt if math.isfinite(self.base_rtt) else 0.0) + self.target:
+                self._quick_at = now
             self._resize(rtt, ping.full, drained=self.in_flight <= self.window // 4)
 
     def _sample_rate(self, now: float) -> None:

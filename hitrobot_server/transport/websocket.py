@@ -25,7 +25,7 @@ from ..session.client import ClientSession, WireProtocols
 from . import download
 from .connection import DIRECT_WRITE_LIMIT, keep_reading, limit_read, run_session
 from .download import Downloads
-from .flight import FlightWindow
+from .flight import FIRST_GIVE_UP, FlightWindow
 from .http import QuietHttpLog
 from .tls import HandshakeGate, peer_address
 
@@ -57,14 +57,15 @@ class PongWindow:
 
     @property
     def open(self) -> bool:
-        return self.flight.open
+        """Room for more (:meth:`~.flight.FlightWindow.room`)."""
+        return self.flight.room(self._loop.time())
 
     def sent(self, nbytes: int) -> None:
         """``nbytes`` were written to the client."""
         now = self._loop.time()
         if self.flight.on_sent(nbytes, now):
             self._send_ping(now)
-        if not self.flight.open:
+        if not self.open:
             self._room.clear()
 
     def _send_ping(self, now: float) -> None:
@@ -73,10 +74,14 @@ class PongWindow:
         task.add_done_callback(self._pinging.discard)
 
     async def wait_open(self) -> None:
-        """Return once the client's unread bytes are under its window."""
-        while not self.flight.open:
+        """Return once the client's unread bytes are under its window (or it went silent)."""
+        while not self.open:
             self._room.clear()
-            await self._room.wait()
+            timer = self._loop.call_later(FIRST_GIVE_UP, self._room.set)  # to look for silence
+            try:
+                await self._room.wait()
+            finally:
+                timer.cancel()
 
     async def _ping(self, mark: int) -> None:
         try:
@@ -90,7 +95,7 @@ class PongWindow:
             return  # the connection closed first
         now = self._loop.time()
         self.flight.ponged(mark, now)
-        if self.flight.open:
+        if self.open:
             self._room.set()
         elif self.flight.stuck:  # the window shrank under what no ping covers yet
             self._send_ping(now)

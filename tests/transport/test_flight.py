@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 from hitrobot_server.transport.flight import (
+    FIRST_GIVE_UP,
+    GIVE_UP,
     INITIAL_WINDOW,
     MAX_WINDOW,
     MIN_PING_EVERY,
@@ -121,3 +123,46 @@ def test_a_reader_that_slows_down_gets_a_smaller_window():
     fast = w.window
     drive(w, rate=1_000_000, seconds=4.0, start=1.0, pending=pings)
     assert w.window < fast / 4 and w.window <= 1_000_000 * 0.1
+
+
+def test_a_fast_reader_that_pauses_keeps_its_rate():
+    """A client that reads 100 MB/s but stops for 80 ms in every 250 (a busy process, a loop
+    that also publishes): late pongs now and then, but no standing queue. The window leaves it
+    what it can read, about what a sender without a window delivers."""
+    w, pings, read_to, read = FlightWindow(), [], 0, 0
+    for step in range(3000):  # 3 s by the millisecond
+        now = step / 1000
+        if step % 250 >= 80:  # reading: 100 kB a millisecond, a pong for each ping read
+            read_to = min(w.sent, read_to + 100_000)
+            for mark in [m for m in pings if m <= read_to]:
+                pings.remove(mark)
+                w.ponged(mark, now)
+                if w.stuck:
+                    pings.append(w.pinged(now))
+        sends = 0
+        while w.room(now) and sends < 1000:  # the sender always has more (a flood)
+            sends += 1
+            if w.on_sent(16_000, now):
+                pings.append(w.pinged(now))
+        if step == 1000:
+            read = read_to
+    assert (read_to - read) / 2.0 >= 0.95 * 100e6 * 170 / 250  # 95 % of what it can read
+
+
+def test_a_client_that_does_not_pong_is_not_held_after_give_up():
+    """A WebSocket client that does not answer pings would be stuck at its first window: after
+    FIRST_GIVE_UP seconds (GIVE_UP once it has answered one) of silence the window stops
+    holding it back, and its next pong arms it again."""
+    w = FlightWindow(initial=MIN_WINDOW)
+    marks = []
+    while w.open:
+        if w.on_sent(8192, 0.0):
+            marks.append(w.pinged(0.0))
+    assert not w.room(FIRST_GIVE_UP / 2)
+    assert w.room(FIRST_GIVE_UP)  # the transport then sends as it would without a window
+    w.ponged(marks[-1], 1.0)  # it answers after all: armed again
+    while w.open:
+        if w.on_sent(8192, 1.0):
+            w.pinged(1.0)
+    assert not w.room(1.0 + FIRST_GIVE_UP) and not w.room(1.0 + GIVE_UP / 2)
+    assert w.room(1.0 + GIVE_UP)

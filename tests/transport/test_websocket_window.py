@@ -1,6 +1,6 @@
-"""With --send-window, what a WebSocket client has not read stays under its window: the server
-pings, the client's pongs let more through, and a pose waits behind the window, not behind
-megabytes.
+"""With the send window (--send-window), what a WebSocket client has not read stays under its
+window: the server pings, the client's pongs let more through, and a pose waits behind the
+window, not behind megabytes.
 
 The client is websockets' own sans-I/O ``ClientProtocol`` over a real socket, so the test
 decides when its pongs go out (an ordinary client sends them as soon as it reads a ping).
@@ -15,7 +15,7 @@ from websockets.client import ClientProtocol
 from websockets.frames import Frame, Opcode
 from websockets.uri import parse_uri
 
-from hitrobot_server.transport.flight import INITIAL_WINDOW, TARGET
+from hitrobot_server.transport.flight import FIRST_GIVE_UP, INITIAL_WINDOW, TARGET
 
 from ..helpers import WsClient, round_trip
 
@@ -145,8 +145,9 @@ async def test_unread_bytes_stay_under_the_window_and_a_pong_lets_the_pose_throu
 
 
 async def test_without_send_window_the_server_sends_no_pings(make_server):
-    """The window is opt-in: by default a client is never pinged (nor held back by pongs)."""
-    server = await make_server()
+    """Without the window (the default; --no-send-window) a client is never pinged (nor held
+    back by pongs)."""
+    server = await make_server(send_window=False)
     client = await PongWithholdingClient.open(server.port)
     pub = await WsClient.open(server.port)
     await pub.send({"op": "advertise", "topic": BIG, "type": "std_msgs/String"})
@@ -162,3 +163,27 @@ async def test_without_send_window_the_server_sends_no_pings(make_server):
         pass
     assert client.received - before >= 800_000 and not client.pings
     client.close()
+
+
+async def test_a_client_that_never_pongs_gets_its_data_after_a_second(make_server):
+    """A client library that answers no ping is held at its first window for FIRST_GIVE_UP
+    seconds, then served as without a window (the fair outbox and the kernel's queue)."""
+    server = await make_server(send_window=True)
+    client = await PongWithholdingClient.open(server.port)
+    client.withhold = True  # from the start: no pong ever
+    pub = await WsClient.open(server.port)
+    await pub.send({"op": "advertise", "topic": BIG, "type": "std_msgs/String"})
+    await client.send({"op": "subscribe", "topic": BIG, "type": "std_msgs/String"})
+    await client.send({"op": "call_service", "id": "ready", "service": "/rosapi/get_time"})
+    await client.read_until('"ready"', max_bytes=1 << 20)
+    for _ in range(10):  # 2 MB, far more than a first window
+        await pub.send({"op": "publish", "topic": BIG, "msg": {"data": "c" * 200_000}})
+    await round_trip(pub)
+    before = client.received
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + FIRST_GIVE_UP + 5.0
+    while client.received - before < 1_800_000 and loop.time() < deadline:
+        await client.read_some(deadline - loop.time())
+    assert client.received - before >= 1_800_000 and client.pings
+    client.close()
+
