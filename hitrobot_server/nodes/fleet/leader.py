@@ -20,9 +20,9 @@ dispatcher is kept; with none, the live server with the smallest Zenoh id claims
 * **Take-over** (the dispatcher's server killed: its tokens go with it): the follower that
   claims continues from its copy. Queued tasks stay queued (their bids are dropped: the free
   robots take them). No robot counts as free until it reports again. A running task whose robot
-  reports within :data:`~.member.OFFLINE_AFTER` s continues on that robot from the leg it was on;
-  one whose robot does not (it went down with the dispatcher) fails with that reason — it is
-  never started again elsewhere, so a task id runs at most once.
+  reports twice more (each within :data:`~.member.OFFLINE_AFTER` s) continues on that robot
+  from the leg it was on; one whose robot does not (it went down with the dispatcher) fails
+  with that reason — it is never started again elsewhere, so a task id runs at most once.
 """
 
 from __future__ import annotations
@@ -63,9 +63,15 @@ class Leadership:
         self.fleet, self.group = fleet, group
         self.leading = group is None  # no link: always
         self.leader = ""
+        self.taking_over = False  # no task is handed out until the running ones are settled
         self.replica: Replica | None = None
         self._services: dict[str, tuple[str, Handler]] = {}
         self._topics: dict[str, tuple[str, bool]] = {}
+
+    @property
+    def assigning(self) -> bool:
+        """Tasks may be handed out: this server dispatches and is not taking over."""
+        return self.leading and not self.taking_over
 
     def attach(self, board: Board) -> None:
         if self.group is not None:
@@ -169,6 +175,7 @@ class Leadership:
                 if task.goal is not None:
                     task.goal.cancel()
         if self.leading and not was:
+            self.taking_over = True
             self.fleet.spawn(self._take_over())
         elif leader and not self.leading:
             self.replica.follow()
@@ -184,6 +191,14 @@ class Leadership:
     # ------------------------------------------------------------------ take-over
     async def _take_over(self) -> None:
         """Continue the queue from the copy (see the module's docstring)."""
+        try:
+            await self._settle_running()
+        finally:
+            self.taking_over = False
+        self.fleet.changed()
+        self.fleet.kick()
+
+    async def _settle_running(self) -> None:
         fleet, board = self.fleet, self.fleet.board
         stale = {name: msg for name, (_heard, msg) in fleet.members.items()}
         for name, msg in stale.items():  # none is free until it reports again
@@ -193,15 +208,23 @@ class Leadership:
             if task.state == QUEUED:
                 task.reserved = ""
         fleet.publish_tasks()
-        heard = await asyncio.gather(*(fleet.wait_member(
-            name, lambda msg, old=msg: msg is not old, OFFLINE_AFTER) for name, msg in
-            stale.items()))
-        alive = {name for name, msg in zip(stale, heard, strict=True) if msg is not None}
+        heard = await asyncio.gather(*(self._reports_again(name, msg) for name, msg in
+                                       stale.items()))
+        alive = {name for name, again in zip(stale, heard, strict=True) if again}
         for task in running:
             if task.state == RUNNING:
                 self._resume(task, task.assigned in alive)
-        fleet.changed()
-        fleet.kick()
+
+    async def _reports_again(self, robot: str, last: dict) -> bool:
+        """Two reports after ``last`` within :data:`OFFLINE_AFTER` s: its server is alive (one
+        could be the last its dead server sent, still on its way)."""
+        for _ in range(2):
+            msg = await self.fleet.wait_member(robot, lambda m, old=last: m is not old,
+                                               OFFLINE_AFTER)
+            if msg is None:
+                return False
+            last = msg
+        return True
 
     def _resume(self, task: Task, alive: bool) -> None:
         robot = task.assigned

@@ -180,7 +180,7 @@ class FleetNode(RobotNode):
         while True:
             await self._wake.wait()
             self._wake.clear()
-            if not self.lead.leading:
+            if not self.lead.assigning:
                 continue
             self.dispatcher.charge_policy()
             for robot in self.free():
