@@ -84,6 +84,8 @@ class Leadership:
 
     # ------------------------------------------------------------------ what a leader offers
     def service(self, name: str, type_name: str, handler: Handler) -> None:
+        if self.group is not None:  # every change a service makes reaches a follower first
+            handler = self.acknowledged(handler)
         self._services[name] = (type_name, handler)
         if self.leading:
             self._offer_service(name)
@@ -117,12 +119,15 @@ class Leadership:
 
     # ------------------------------------------------------------------ acknowledgements
     def acknowledged(self, handler: Handler) -> Handler:
-        """``handler`` (a dispatch) answered once its task is durable and replicated."""
+        """``handler`` answered once what it changed is on disk and copied (a refusal
+        changed nothing: it is answered at once)."""
 
         async def answer(request: dict) -> dict:
             reply = await handler(request)
-            if reply.get("accepted"):
-                reply["message"] += await self.settled()
+            if reply.get("accepted", reply.get("success", True)):
+                missing = await self.settled()
+                if missing and isinstance(reply.get("message"), str):
+                    reply["message"] += missing
             return reply
 
         return answer
