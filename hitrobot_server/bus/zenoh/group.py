@@ -3,11 +3,13 @@ the others follow, and a follower takes over when the leader's liveliness goes.
 
 Liveliness tokens (outside rmw_zenoh's ``@ros2_lv`` space, so rosapi never lists them):
 ``@hitrobot/<domain>/<group>/member/<zid>`` for every process taking part and
-``@hitrobot/<domain>/<group>/leader/<zid>`` for the one leading. Election: a live leader is
-kept (a process joining later never takes its place); with none, the live member with the
-smallest id claims. Two leaders that did not see each other when they claimed (a network that
-joins later) settle on the smaller id; the other steps down. A process killed loses its tokens
-when its peers' links to it close, so its followers elect again at once.
+``@hitrobot/<domain>/<group>/leader/<claimed>/<zid>`` for the one leading (``claimed``: when it
+claimed, in ns since the epoch). Election: a live leader is kept (a process joining later
+never takes its place); with none, the live member with the smallest id claims, once it has
+waited :data:`CLAIM_WAIT` s for the others' tokens. Two leaders that did not see each other when
+they claimed (a link that came up late) settle on the earlier claim; the other steps down. A
+process killed loses its tokens when its peers' links to it close, so its followers elect
+again at once.
 
 Queries: the leader's changes go to ``hitrobot/<domain>/<group>/replica/*`` (each follower's
 queryable applies one and answers; the leader's id rides as the query's attachment, and a
@@ -20,6 +22,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import time
 from typing import Any
 
 import zenoh
@@ -32,6 +35,9 @@ log = logging.getLogger(__name__)
 
 SURVEY_TIMEOUT = 3.0
 """Seconds the first look at the group's tokens may take (it ends when every peer answered)."""
+CLAIM_WAIT = 1.0
+"""Seconds a process that sees no other member waits for their tokens before it claims (its
+links to the other servers may still be coming up)."""
 
 
 class ZenohGroup:
@@ -44,8 +50,11 @@ class ZenohGroup:
         self.tokens = f"@hitrobot/{peer.domain}/{name}"
         self.data = f"hitrobot/{peer.domain}/{name}"
         self.members: set[str] = set()
-        self.leaders: set[str] = set()
+        self.leaders: dict[str, int] = {}  # zid -> when it claimed
         self.leader = ""
+        self._claimed = 0
+        self._heard = asyncio.Event()  # a token of another process came or went
+        self._joined = False  # the first look is over: every change decides again
         self._member: GroupMember | None = None
         self._held: list[Any] = []  # member token, replica queryable, liveliness subscriber
         self._leading: list[Any] = []  # leader token and snapshot queryable, while leading
@@ -62,7 +71,19 @@ class ZenohGroup:
                                                     history=True),
         ]
         self.members.add(self.me)
-        surveyed = self.peer.loop.create_future()
+        await self._survey()
+        if self.members == {self.me}:
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._heard.wait(), CLAIM_WAIT)
+            await self._survey()
+        self._joined = True
+        self._decide()
+
+    async def _survey(self) -> None:
+        """The group's tokens as they are now (the query ends when every peer answered)."""
+        session, loop = self.peer.session, self.peer.loop
+        assert session is not None and loop is not None
+        surveyed = loop.create_future()
 
         def on_reply(reply: zenoh.Reply) -> None:
             if reply.ok is not None:
@@ -75,38 +96,42 @@ class ZenohGroup:
                                  zenoh.handlers.Callback(on_reply, on_end),
                                  timeout=SURVEY_TIMEOUT)
         await surveyed
-        self._decide()
 
     async def leave(self) -> None:
         self._step_down()
         for held in self._held:
             with contextlib.suppress(zenoh.ZError):
                 held.undeclare()
-        self._held, self._member = [], None
+        self._held, self._member, self._joined = [], None, False
 
     def _on_token(self, sample: zenoh.Sample) -> None:
         self.peer.hop(self._token, str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)
 
     def _token(self, key: str, alive: bool) -> None:
-        kind, _, zid = key.removeprefix(f"{self.tokens}/").partition("/")
-        table = {"member": self.members, "leader": self.leaders}.get(kind)
-        if table is None or not zid or zid == self.me or self._member is None:
+        kind, _, rest = key.removeprefix(f"{self.tokens}/").partition("/")
+        claimed, _, zid = rest.rpartition("/")
+        if not zid or zid == self.me or self._member is None:
             return
-        if alive == (zid in table):
-            return
-        if alive:
-            table.add(zid)
+        if kind == "member" and alive != (zid in self.members):
+            (self.members.add if alive else self.members.discard)(zid)
+        elif kind == "leader" and claimed.isdigit() and alive != (zid in self.leaders):
+            if alive:
+                self.leaders[zid] = int(claimed)
+            else:
+                self.leaders.pop(zid)
         else:
-            table.discard(zid)
-        self._decide()
+            return
+        self._heard.set()
+        if self._joined:
+            self._decide()
 
     def _decide(self) -> None:
         """Follow a live leader; with none, the smallest live member claims."""
-        others = self.leaders - {self.me}
+        first = min(((c, z) for z, c in self.leaders.items()), default=None)
         leading = bool(self._leading)
-        if others and not (leading and self.me < min(others)):
+        if first is not None and not (leading and (self._claimed, self.me) < first):
             self._step_down()
-            self._set_leader(min(others))
+            self._set_leader(first[1])
         elif leading:
             self._set_leader(self.me)
         elif self.me == min(self.members):
@@ -117,10 +142,12 @@ class ZenohGroup:
     def _claim(self) -> None:
         session = self.peer.session
         assert session is not None
+        self._claimed = time.time_ns()
         # the snapshot's queryable before the token: whoever sees the token can fetch
         self._leading = [
             session.declare_queryable(f"{self.data}/snapshot/{self.me}", self._on_snapshot),
-            session.liveliness().declare_token(f"{self.tokens}/leader/{self.me}"),
+            session.liveliness().declare_token(
+                f"{self.tokens}/leader/{self._claimed}/{self.me}"),
         ]
         log.info("zenoh: %s leads the group '%s'", self.me[:8], self.name)
         self._set_leader(self.me)
