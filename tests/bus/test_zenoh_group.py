@@ -11,13 +11,10 @@ import pytest
 
 from hitrobot_server.bus.core import Bus
 from hitrobot_server.bus.errors import ServiceError
+from hitrobot_server.bus.zenoh.link import ZenohLink
 from hitrobot_server.types.registry import TypeRegistry
 
 from ..integration.test_zenoh_scale_out import free_port
-
-pytest.importorskip("zenoh")
-
-from hitrobot_server.bus.zenoh.link import ZenohLink  # noqa: E402 - after the extra's check
 
 
 class Member:
