@@ -27,7 +27,7 @@ def lists(w: Watcher, since: int) -> list[list[dict]]:
 async def dispatch(w: Watcher, x: float, robot: str) -> int:
     reply = (await w.call("/fleet/dispatch", {"poi": "", "pose": pose(x, Y), "robot": robot},
                           timeout=20))["values"]
-    assert reply["accepted"] and "not copied" not in reply["message"], reply
+    assert reply["accepted"] and "copied to" not in reply["message"], reply
     return reply["task"]
 
 

@@ -8,9 +8,10 @@ dispatcher is kept; with none, the live server with the smallest Zenoh id claims
 
 * **The dispatcher** offers the ``/fleet/*`` services, publishes ``/fleet/robots`` and
   ``/fleet/tasks``, hands out tasks and fires the schedules. Every change of its board is copied
-  to the followers (:mod:`.replica`). A dispatch is acknowledged once it is in the dispatcher's
-  site folder and, when a follower is live, applied (and on disk) at one of them at least; when
-  none answers within :data:`~.replica.REPLICA_TIMEOUT` the reply says so. A task is handed to
+  to the followers (:mod:`.replica`). A dispatch (any ``/fleet/*`` change) is acknowledged
+  once it is in the dispatcher's site folder and applied (and on disk) at every live follower,
+  so whichever takes over has it; when one does not answer within
+  :data:`~.replica.REPLICA_TIMEOUT` s the reply says how many have it. A task is handed to
   a robot only once its assignment (running, on that robot) is on disk and copied the same way:
   the record that keeps a take-over from running it twice.
 * **A follower** offers nothing of its own: a ``/fleet/*`` call from its clients misses locally
@@ -139,8 +140,8 @@ class Leadership:
         if self.replica is None:
             return ""
         acks, asked = await self.replica.settled()
-        if asked and not acks:
-            return " (not copied to another server: none answered)"
+        if acks < asked:  # whichever follower takes over must have it: all of them
+            return f" (copied to {acks} of the {asked} other servers only)"
         return ""
 
     async def kept(self) -> None:
