@@ -24,11 +24,17 @@ dispatcher is kept; with none, the live server with the smallest Zenoh id claims
   reports twice more (each within :data:`~.member.OFFLINE_AFTER` s) continues on that robot
   from the leg it was on; one whose robot does not (it went down with the dispatcher) fails
   with that reason — it is never started again elsewhere, so a task id runs at most once.
+  No task is handed out (and a dispatch is queued, not started) until that is settled.
+* **A restart**: a server that finds a dispatcher follows it and takes its board in place of
+  its own folder's. One that claims at its start with open tasks in its folder hands none out
+  for :data:`RESTART_SETTLE` s, in case a dispatcher shows up (then it follows and its queue is
+  replaced; two dispatchers that meet keep the earlier claim).
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 from collections.abc import Awaitable, Callable, Coroutine
 from typing import Any, Protocol
@@ -42,6 +48,11 @@ from .site import Site
 from .tasks import FAILED, QUEUED, RUNNING, Task
 
 log = logging.getLogger(__name__)
+
+RESTART_SETTLE = 5.0
+"""Seconds a server that claims at its start, with open tasks from its own folder, waits before
+it hands any out: its links to the others may still be coming up (Zenoh retries a connection
+every 1 to 4 s), and a dispatcher among them would make its folder's queue a stale one."""
 
 Handler = Callable[[dict], Awaitable[dict]]
 
@@ -65,6 +76,9 @@ class Leadership:
         self.leading = group is None  # no link: always
         self.leader = ""
         self.taking_over = False  # no task is handed out until the running ones are settled
+        self._term = 0  # counts this server's turns as dispatcher
+        self._followed = False  # a dispatcher's board was taken in this run
+        self._role_changed = asyncio.Event()
         self.replica: Replica | None = None
         self._services: dict[str, tuple[str, Handler]] = {}
         self._topics: dict[str, tuple[str, bool]] = {}
@@ -171,6 +185,7 @@ class Leadership:
         was, self.leader = self.leading, leader
         self.leading = leader == self.group.me
         self.replica.lead(self.leading)
+        self._role_changed.set()
         log.info("fleet: %s", "this server dispatches" if self.leading else
                  f"following the dispatcher {leader[:8]}" if leader else "no dispatcher yet",
                  extra={"ros_node": self.fleet.name})
@@ -182,8 +197,10 @@ class Leadership:
                     task.goal.cancel()
         if self.leading and not was:
             self.taking_over = True
-            self.fleet.spawn(self._take_over())
+            self._term += 1
+            self.fleet.spawn(self._take_over(self._term))
         elif leader and not self.leading:
+            self._followed = True
             self.replica.follow()
 
     async def apply(self, payload: bytes) -> None:
@@ -195,14 +212,21 @@ class Leadership:
         return self.replica.snapshot()
 
     # ------------------------------------------------------------------ take-over
-    async def _take_over(self) -> None:
+    async def _take_over(self, term: int) -> None:
         """Continue the queue from the copy (see the module's docstring)."""
         try:
-            await self._settle_running()
+            if not self._followed and any(t.open for t in self.fleet.board.tasks.values()):
+                self._role_changed.clear()  # a stale queue unless no dispatcher shows up
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(self._role_changed.wait(), RESTART_SETTLE)
+            if term == self._term and self.leading:
+                await self._settle_running()
         finally:
-            self.taking_over = False
-        self.fleet.changed()
-        self.fleet.kick()
+            if term == self._term:
+                self.taking_over = False
+        if term == self._term and self.leading:
+            self.fleet.changed()
+            self.fleet.kick()
 
     async def _settle_running(self) -> None:
         fleet, board = self.fleet, self.fleet.board

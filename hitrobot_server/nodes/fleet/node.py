@@ -152,7 +152,10 @@ class FleetNode(RobotNode):
         return out
 
     def free(self) -> list[dict]:
-        """Robots that may start a task now: heard from, in service, idle (or on the dock)."""
+        """Robots that may start a task now: heard from, in service, idle (or on the dock);
+        none while this server does not hand out tasks (see .leader)."""
+        if not self.lead.assigning:
+            return []
         return [r for r in self.robots() if r["state"] in (IDLE, CHARGING) and r["in_service"]
                 and r["name"] not in self._busy]
 
