@@ -76,6 +76,8 @@ class ZenohGroup:
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(self._heard.wait(), CLAIM_WAIT)
             await self._survey()
+        if self._member is None:  # left meanwhile
+            return
         self._joined = True
         self._decide()
 
