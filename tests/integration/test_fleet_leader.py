@@ -33,8 +33,9 @@ async def dispatch(w: Watcher, x: float, robot: str) -> int:
 
 async def test_one_queue_across_servers_and_take_over_after_kill_9(tmp_path):
     port = free_port()
-    one = zenoh_server(listen=port, robot="a=sim@4,8",
-                       extra=("--map-dir", str(tmp_path / "one"), "--sim-speed", "1.5"))
+    one_args = ("--map-dir", str(tmp_path / "one"), "--state-dir", str(tmp_path / "s1"),
+                "--sim-speed", "1.5")
+    one = zenoh_server(listen=port, robot="a=sim@4,8", extra=one_args)
     two = w1 = w2 = None
     try:
         w1 = await Watcher.open(one.port)
@@ -83,7 +84,27 @@ async def test_one_queue_across_servers_and_take_over_after_kill_9(tmp_path):
         assert all(counts[i] == 1 for i in [first, on_a, *on_b]), counts
         assert max(counts.values()) == 1, counts
         # a new dispatch on the new dispatcher: ids go on from the copied board
-        assert await dispatch(w2, 13.0, "b") > max(on_b)
+        last = await dispatch(w2, 13.0, "b")
+        assert last > max(on_b)
+
+        # server one back with its folder (a's task running, b's two queued: a stale queue):
+        # it follows the dispatcher, its clients see the dispatcher's list, nothing runs again
+        one.stop()
+        await w1.close()
+        one = zenoh_server(listen=port, robot="a=sim@4,8", extra=one_args)
+        w1 = await Watcher.open(one.port)
+        for topic in ("/fleet/robots", TASKS):
+            await w1.subscribe(topic)
+        await w1.until(lambda: tasks(w1).get(on_a, {}).get("state") == "failed", 20,
+                       "server one following server two")
+        await w1.until(lambda: names(w1) == {"a", "b"}, 30, "a back, on the dispatcher's list")
+        again = await dispatch(w1, 6.0, "a")  # through server one, to server two's queue
+        assert again == last + 1
+        await w1.until(lambda: tasks(w1).get(again, {}).get("state") == "succeeded", 40,
+                       "a's new task done, seen from server one")
+        history = (await w1.call("/fleet/history", {"robot": "", "limit": 0}))["values"]
+        counts = Counter(t["id"] for t in history["tasks"])
+        assert max(counts.values()) == 1 and counts[again] == 1, counts
         print(f"take-over: the new dispatcher's first /fleet/tasks {took:.2f} s after kill -9, "
               f"the dead robot's task failed after {settled:.2f} s")
     finally:
