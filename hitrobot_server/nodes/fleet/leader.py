@@ -150,10 +150,11 @@ class Leadership:
     async def settled(self) -> str:
         """Wait until the board's changes are on disk and at a follower; "" when they are,
         else what is missing (said in the reply)."""
+        copied = self.replica.pending() if self.replica is not None else None
         await self.fleet.board.memory.durable()
-        if self.replica is None:
+        if copied is None:
             return ""
-        acks, asked = await self.replica.settled()
+        acks, asked = await asyncio.shield(copied)
         if acks < asked:  # whichever follower takes over must have it: all of them
             return f" (copied to {acks} of the {asked} other servers only)"
         return ""

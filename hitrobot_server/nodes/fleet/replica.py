@@ -54,6 +54,7 @@ class Replica:
         self.leading = False
         self._next: asyncio.Future[Sent] | None = None  # the send that carries the puts so far
         self._in_flight: asyncio.Future[Sent] | None = None
+        self._last: Sent = (0, 0)  # how the last send went
         self._wake: asyncio.Event | None = None
         self._history_sent = -1  # id of the last history record sent (-1: send it whole)
         self._fetching: asyncio.Task | None = None
@@ -82,17 +83,23 @@ class Replica:
                 log.warning("fleet: the queue was not copied to the other servers: %s", exc)
                 sent = (0, 1)
             future.set_result(sent)
+            self._last = sent
             if self._in_flight is future:
                 self._in_flight = None
 
-    async def settled(self) -> Sent:
-        """Wait until every change so far was sent: (followers that have it, followers)."""
+    def pending(self) -> asyncio.Future[Sent]:
+        """The send that carries every change so far: (followers that applied it, followers
+        asked); done already when they were all sent."""
         future = self._next or self._in_flight
-        return await asyncio.shield(future) if future is not None else (0, 0)
+        if future is None:
+            future = asyncio.get_running_loop().create_future()
+            future.set_result(self._last)
+        return future
 
     def lead(self, leading: bool) -> None:
         self.leading = leading
         self._history_sent = -1
+        self._last = (0, 0)
 
     def _change(self) -> bytes:
         self.seq += 1
