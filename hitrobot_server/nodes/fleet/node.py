@@ -89,7 +89,7 @@ class FleetNode(RobotNode):
 
     async def start(self) -> None:
         self._wake = asyncio.Event()
-        self.spawn(self.lead.join())  # over Zenoh: dispatch or follow (see .leader)
+        await self.lead.join()  # over Zenoh: dispatch or follow, before clients come (.leader)
         self.schedules.catch_up()
         self.every(PERIOD, self._tick, needs_robot=False)
         self.spawn(self._assign_loop())
