@@ -7,6 +7,7 @@ message that came from another process is never sent back out (no echo, no ping-
 
 from __future__ import annotations
 
+from collections.abc import Awaitable
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -33,6 +34,39 @@ class RemoteGraph:
     nodes: set[str] = field(default_factory=set)
 
 
+class GroupMember(Protocol):
+    """What one process's part of a :class:`Group` answers: its role changes, the leader's
+    changes (as a follower) and its whole state (as the leader, for a follower catching up)."""
+
+    def role(self, leader: str) -> None:
+        """The group's leader is now ``leader`` (this process's id when it leads; "" while
+        none is elected)."""
+
+    def apply(self, payload: bytes) -> Awaitable[None]:
+        """Apply a change the leader sent (a follower); raise to refuse it."""
+
+    def snapshot(self) -> bytes:
+        """The leader's whole state, for a follower that joins or missed a change."""
+
+
+class Group(Protocol):
+    """One role shared by the processes of a site: the first to claim it leads, the others
+    follow and take over when it dies (its liveliness goes with it)."""
+
+    me: str  # this process's id
+
+    async def join(self, member: GroupMember) -> None:
+        """Take part; returns once this process knows who leads (or that it leads)."""
+
+    async def leave(self) -> None: ...
+
+    async def replicate(self, payload: bytes, timeout: float) -> tuple[int, int]:
+        """Send a change to every follower: (followers that applied it, followers asked)."""
+
+    async def fetch(self, timeout: float) -> bytes:
+        """The leader's snapshot (``ServiceError`` when it does not answer)."""
+
+
 class BusLink(Protocol):
     def changed(self, kind: str, name: str) -> None:
         """``kind`` is topic, service, action or node; ``name`` what changed locally."""
@@ -50,3 +84,6 @@ class BusLink(Protocol):
         """A proxy whose handler runs the goal in the process that provides the action."""
 
     def graph(self) -> RemoteGraph: ...
+
+    def group(self, name: str) -> Group:
+        """The site-wide role ``name`` shared with the other processes."""

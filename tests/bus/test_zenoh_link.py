@@ -18,7 +18,7 @@ def test_zenoh_link_implements_bus_link():
     wanted = {name: fn for name, fn in vars(BusLink).items()
               if inspect.isfunction(fn) and not name.startswith("_")}
     assert set(wanted) == {"changed", "published", "remote_type", "remote_service",
-                           "remote_action", "graph"}
+                           "remote_action", "graph", "group"}
     for name, fn in wanted.items():
         mine = getattr(ZenohLink, name)
         assert list(inspect.signature(mine).parameters) == list(

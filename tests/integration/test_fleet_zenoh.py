@@ -15,6 +15,16 @@ def pose(x: float, y: float) -> dict:
     return {"position": {"x": x, "y": y, "z": 0.0}, "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}}
 
 
+async def close_all(watchers, servers) -> None:
+    """The watchers, then the servers (the last started first); None for one never made."""
+    for w in watchers:
+        if w is not None:
+            await w.close()
+    for server in servers:
+        if server is not None:
+            server.stop()
+
+
 def names(w: Watcher) -> set[str]:
     latest = w.latest("/fleet/robots")
     return {r["name"] for r in latest["robots"] if r["state"] == "idle"} if latest else set()
@@ -58,9 +68,4 @@ async def test_two_servers_one_fleet(tmp_path):
                                  {"poi": "", "pose": pose(5.0, Y), "robot": "zed"}))["values"]
         assert not refused["accepted"] and "unknown robot 'zed'" in refused["message"]
     finally:
-        for w in (w1, w2):
-            if w is not None:
-                await w.close()
-        if two is not None:
-            two.stop()
-        one.stop()
+        await close_all((w1, w2), (two, one))

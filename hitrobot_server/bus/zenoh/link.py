@@ -7,12 +7,13 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from ..core import Bus
-from ..link import RemoteGraph
+from ..link import Group, RemoteGraph
 from ..services import Action, Service
 from ..topics import Message
 from .actions import ActionServer
 from .config import session_config
 from .graph import RemoteEntities
+from .group import ZenohGroup
 from .keys import NODE
 from .peer import Peer
 from .remote_actions import RemoteActions
@@ -96,3 +97,6 @@ class ZenohLink:
 
     def graph(self) -> RemoteGraph:
         return self.remote.graph()
+
+    def group(self, name: str) -> Group:
+        return ZenohGroup(self.peer, name)

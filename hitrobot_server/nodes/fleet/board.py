@@ -25,8 +25,8 @@ KEEP_FINISHED = 20
 
 
 class Board:
-    def __init__(self, state: StateBinding | None):
-        self.memory = NodeMemory(state, "fleet")
+    def __init__(self, state: StateBinding | None, memory: NodeMemory | None = None):
+        self.memory = memory or NodeMemory(state, "fleet")
         self.tasks: dict[int, Task] = {}  # open, then the last finished
         self.history: list[dict] = []  # finished task records, oldest first
         self.schedules: dict[int, Schedule] = {}

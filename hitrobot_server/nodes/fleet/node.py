@@ -20,8 +20,10 @@ from ...state import StateBinding
 from ..base import RobotNode
 from .board import Board
 from .dispatch import Dispatcher
+from .leader import Leadership
 from .member import CHARGING, IDLE, MEMBERS, OFFLINE, OFFLINE_AFTER, PERIOD, PKG
 from .policy import ChargePolicy
+from .replica import NotedMemory
 from .runner import TaskFailed, TaskRunner
 from .scheduling import ScheduleServices
 from .tasks import (
@@ -55,7 +57,9 @@ class FleetNode(RobotNode):
         self.policy = policy or ChargePolicy()
         self.clock = clock or time.time
         self.members: dict[str, tuple[float, dict]] = {}  # name → (heard at, FleetRobot)
-        self.board = Board(state)
+        self.lead = Leadership(self, bus.link.group("fleet") if bus.link is not None else None)
+        self.board = Board(state, NotedMemory(state, "fleet", self.lead.changed))
+        self.lead.attach(self.board)
         self._restored = self.board.restore()
         self._busy: set[str] = set()  # robots running a task
         self._wake: asyncio.Event | None = None
@@ -72,7 +76,7 @@ class FleetNode(RobotNode):
         self.site_map: dict | None = None  # the site's /map: targets are checked on it
         self.subscribe(SITE_MAP, "nav_msgs/OccupancyGrid", self._on_map)
         for name, kind, handler in (
-                ("dispatch", "Dispatch", self.dispatcher.dispatch),
+                ("dispatch", "Dispatch", self.lead.acknowledged(self.dispatcher.dispatch)),
                 ("cancel", "CancelTask", self._cancel), ("pause", "CancelTask", self._pause),
                 ("resume", "CancelTask", self._resume),
                 ("history", "FleetHistory", self._history),
@@ -85,12 +89,15 @@ class FleetNode(RobotNode):
 
     async def start(self) -> None:
         self._wake = asyncio.Event()
+        await self.lead.join()  # over Zenoh: dispatch or follow, before clients come (.leader)
         self.schedules.catch_up()
         self.every(PERIOD, self._tick, needs_robot=False)
         self.spawn(self._assign_loop())
         self.kick()
 
     async def _tick(self) -> None:
+        if not self.lead.leading:
+            return
         self.publish(ROBOTS, {"robots": self.robots()})
         await self.schedules.fire_due()
 
@@ -145,12 +152,16 @@ class FleetNode(RobotNode):
         return out
 
     def free(self) -> list[dict]:
-        """Robots that may start a task now: heard from, in service, idle (or on the dock)."""
+        """Robots that may start a task now: heard from, in service, idle (or on the dock);
+        none while this server does not hand out tasks (see .leader)."""
+        if not self.lead.assigning:
+            return []
         return [r for r in self.robots() if r["state"] in (IDLE, CHARGING) and r["in_service"]
                 and r["name"] not in self._busy]
 
     def publish_tasks(self) -> None:
-        self.publish(TASKS, {"tasks": [t.msg() for t in self.board.tasks.values()]})
+        if self.lead.leading:
+            self.publish(TASKS, {"tasks": [t.msg() for t in self.board.tasks.values()]})
 
     def changed(self) -> None:
         """A task changed: persist it, publish the list."""
@@ -172,6 +183,8 @@ class FleetNode(RobotNode):
         while True:
             await self._wake.wait()
             self._wake.clear()
+            if not self.lead.assigning:
+                continue
             self.dispatcher.charge_policy()
             for robot in self.free():
                 task = self.dispatcher.next_for(robot)
@@ -190,6 +203,7 @@ class FleetNode(RobotNode):
     async def _run(self, task: Task, robot: str) -> None:
         reason = ""
         try:
+            await self.lead.kept()  # the assignment is kept before the robot moves
             await self.runner.run(task, robot, self.publish_tasks)
         except TaskFailed as exc:
             reason = str(exc) or "failed"
@@ -286,7 +300,14 @@ class FleetNode(RobotNode):
             text += f"; its queued tasks {', '.join(map(str, moved))} go to others"
         return {"success": True, "message": text}
 
+    def service(self, name: str, type_name: str, handler) -> None:
+        self.lead.service(name, type_name, handler)  # offered while this server dispatches
+
+    def advertise(self, topic: str, type_name: str, latch: bool = False) -> None:
+        self.lead.advertise(topic, type_name, latch)
+
     async def stop(self) -> None:
+        await self.lead.leave()
         for task in self.board.tasks.values():
             if task.goal is not None:
                 with contextlib.suppress(Exception):
