@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import os
 import shlex
 import statistics
 import sys
@@ -140,24 +141,59 @@ async def loop_cost(count: int, rounds: int) -> None:
                 await asyncio.sleep(0)  # the loop's timers run (the recorder's hand-off)
         return time.process_time() - t0
 
-    plain, tapped = [], []
+    plain, tapped, writer = [], [], []
     with tempfile.TemporaryDirectory(prefix="bench-record-loop-") as tmp:
         for r in range(rounds):
             bus = Bus(TypeRegistry.default())
             bus.advertise("/scan", "sensor_msgs/LaserScan", "bench", "/bench")
             plain.append(await publish_all(bus))
+            children = children_rusage()
             recorder = Recorder(bus, Path(tmp) / f"loop_{r}.mcap", max_queued_bytes=2**31)
             recorder.start()
+            started = await writer_started()
             t0 = time.process_time()
             await publish_all(bus)
             await recorder.stop()  # until the feeder thread has handed everything over
             tapped.append(time.process_time() - t0)
+            writer.append(children_rusage() - children - started)
             assert recorder.dropped == 0, recorder.dropped
+            assert recorder.messages == count, (recorder.messages, count)
     per = [(b - a) / count * 1e6 for a, b in zip(plain, tapped, strict=True)]
     print(f"loop process CPU per recorded message ({count:,} LaserScans x {rounds} rounds): "
           f"publish alone {statistics.median(plain) / count * 1e6:.1f} us, "
           f"the recorder adds {' / '.join(f'{x:.1f}' for x in per)} us "
           f"(median {statistics.median(per):.1f} us)")
+    per = [w / count * 1e6 for w in writer]
+    print(f"writer process CPU per recorded message (its start excluded): "
+          f"{' / '.join(f'{x:.1f}' for x in per)} us (median {statistics.median(per):.1f} us)")
+
+
+def children_rusage() -> float:
+    """CPU seconds of this process's children that have ended (the writers joined so far)."""
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+async def writer_started(timeout: float = 30.0) -> float:
+    """The CPU seconds the writer process took to start: polled until it stops growing (it
+    then waits for its first batch)."""
+    import time
+
+    def writers() -> list[int]:  # not multiprocessing's resource tracker, also a child
+        return [pid for pid in bb.procmem.children(os.getpid())
+                if b"spawn_main" in Path(f"/proc/{pid}/cmdline").read_bytes()]
+
+    pids = writers()
+    last, stable, deadline = -1.0, 0, time.monotonic() + timeout
+    while stable < 3 and time.monotonic() < deadline:
+        await asyncio.sleep(0.1)
+        pids = pids or writers()
+        now = cpu_seconds(pids)
+        stable = stable + 1 if now == last and now > 0 else 0
+        last = now
+    return last
 
 
 def main() -> int:

@@ -121,7 +121,7 @@ class Recorder:
         self._queue: Any = None
         self._process: Any = None
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._batch: list[Item] = []
+        self._batch: list[tuple] = []  # Items as plain tuples
         self._batch_bytes = 0
         self._timer: asyncio.TimerHandle | None = None
         self._allowed: dict[str, bool] = {}
@@ -243,7 +243,7 @@ class Recorder:
         if queued + size > self.max_queued_bytes:
             self._dropped()
             return
-        self._batch.append(item)
+        self._batch.append(tuple(item))  # a plain tuple pickles in 1 µs, a NamedTuple in 12
         self._batch_bytes += size
         if self._batch_bytes >= BATCH_BYTES or self._loop is None:
             self._hand_off()

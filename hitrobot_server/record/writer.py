@@ -54,7 +54,8 @@ CDR, JSON, MSG = 0, 1, 2
 
 
 class Item(NamedTuple):
-    """One message to write (a tuple: batches of them are pickled across to the writer)."""
+    """One message to write. Batches cross to the writer as plain tuples: pickle takes a
+    NamedTuple apart in Python (12 µs a message, on the server's GIL), a tuple in C (1 µs)."""
 
     topic: str
     type_name: str  # pkg/msg/Type
@@ -305,7 +306,7 @@ class _Batches:
             return None
         items, size = batch
         self.counters.taken.value += size
-        return items
+        return [Item._make(item) for item in items]
 
 
 def run_writer(plan: Plan, items: Any, counters: Counters) -> None:

@@ -1,0 +1,223 @@
+"""ROS 2 CDR written straight from a canonical (ROS 1 shaped) message, without rosbags objects.
+
+:class:`~hitrobot_server.bus.cdr.Ros2Codec` first made a rosbags object of every message and
+had rosbags serialise it: for a 720-range LaserScan that is a dataclass per nested message, a
+``numpy.asarray`` per float list and rosbags' size pass, about 40 µs, paid by the recorder's
+writer for every client publish. Here each type gets, once, a plan of small writers that append
+to one ``bytearray``: scalars with ``struct``, a list of numbers with one ``struct.pack``,
+numpy arrays and bytes by their buffer. The bytes are rosbags' own (tests/bus/test_cdr_fast.py
+compares them type by type): the same field conversions as the codec's rosbags path (a missing
+field or a ``None`` scalar is zero, a time is ``secs``/``nsecs`` or ``sec``/``nanosec``), the
+same ``struct`` codes as rosbags' primitives, and every value padded to its own size from the
+start of the body, which is where rosbags' generated code pads. Anything this plan does not
+convert exactly as the reference does makes it raise, and the codec then takes the rosbags path,
+so a bad message still fails with the reference's error.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from rosbags.interfaces import Nodetype
+
+from ..types.registry import NUMPY_DTYPES
+
+HEADER = b"\x00\x01\x00\x00"  # CDR little-endian encapsulation
+MISSING = object()
+TIMES = frozenset({"builtin_interfaces/msg/Time", "builtin_interfaces/msg/Duration"})
+ZERO = {"string": "", "bool": False, "float32": 0.0, "float64": 0.0}
+# rosbags.serde.primitives' codes (``byte`` is signed there, ``char`` unsigned)
+CODES = {"bool": "?", "byte": "b", "char": "B", "int8": "b", "uint8": "B", "int16": "h",
+         "uint16": "H", "int32": "i", "uint32": "I", "int64": "q", "uint64": "Q",
+         "float32": "f", "float64": "d"}
+# numbers a list packs with one struct call exactly as numpy.asarray converts them (bool is
+# left to numpy: struct's "?" takes any object's truth, numpy does not)
+LIST_CODES = {t: c for t, c in CODES.items() if t != "bool"}
+_PADS = tuple(bytes(n) for n in range(8))
+_LENGTH = struct.Struct("<i")
+_TIME = struct.Struct("<iI")
+
+Write = Callable[[bytearray, Any], None]
+Encode = Callable[[Any], bytes]
+
+
+class Unsupported(Exception):
+    """A field this plan does not write (wstring, float128): the type takes the rosbags path."""
+
+
+def _pad(out: bytearray, align: int) -> None:
+    pad = (4 - len(out)) % align  # from the start of the body, after the 4-byte header
+    if pad:
+        out += _PADS[pad]
+
+
+def _string(out: bytearray, v: Any) -> None:
+    raw = v.encode()
+    _pad(out, 4)
+    out += _LENGTH.pack(len(raw) + 1)
+    out += raw
+    out += b"\0"
+
+
+class DirectEncoder:
+    """Compiled CDR writers of the types of one rosbags store (the codec's ROS 2 store)."""
+
+    def __init__(self, fielddefs: Callable[[str], list[tuple[str, Any]]]):
+        self._fields = fielddefs  # a type's (name, desc) fields, made known to the store
+        self._writers: dict[str, Write] = {}
+
+    def encoder(self, name: str) -> Encode | None:
+        """The CDR encoder of type ``name``, or None when it holds a field not written here."""
+        try:
+            write = self._message(name)
+        except Unsupported:
+            return None
+
+        def encode(msg: Any) -> bytes:
+            out = bytearray(HEADER)
+            write(out, msg)
+            return bytes(out)
+
+        return encode
+
+    def _message(self, name: str) -> Write:
+        write = self._writers.get(name)
+        if write is not None:
+            return write
+        plan = [(fname, self._field(desc)) for fname, desc in self._fields(name)]
+
+        def write(out: bytearray, msg: Any) -> None:
+            if not isinstance(msg, dict):
+                msg = {}
+            get = msg.get
+            for fname, field in plan:
+                field(out, get(fname, MISSING))
+
+        self._writers[name] = write
+        return write
+
+    def _field(self, desc: Any) -> Write:
+        kind = desc[0]
+        if kind == Nodetype.NAME:
+            return self._name(desc[1])
+        if kind == Nodetype.BASE:
+            return _scalar(desc[1][0])
+        elem, length = desc[1]
+        fixed = length if kind == Nodetype.ARRAY else None
+        if elem[0] == Nodetype.BASE:
+            typ = elem[1][0]
+            if typ == "string":
+                return _strings(fixed)
+            if typ not in CODES:
+                raise Unsupported(typ)
+            return _numbers(typ, fixed)
+        return _messages(self._field(elem), fixed)
+
+    def _name(self, sub: str) -> Write:
+        if sub in TIMES:
+            return _time
+        inner = self._message(sub)
+
+        def nested(out: bytearray, v: Any) -> None:
+            inner(out, {} if v is MISSING else v)
+
+        return nested
+
+
+def _time(out: bytearray, v: Any) -> None:
+    if v is MISSING:
+        sec = nanosec = 0
+    else:
+        sec = int(v.get("secs", v.get("sec", 0)))
+        nanosec = int(v.get("nsecs", v.get("nanosec", 0)))
+    _pad(out, 4)
+    out += _TIME.pack(sec, nanosec)
+
+
+def _scalar(typ: str) -> Write:
+    if typ == "string":
+
+        def string(out: bytearray, v: Any) -> None:
+            _string(out, "" if v is MISSING or v is None else v)
+
+        return string
+    if typ not in CODES:
+        raise Unsupported(typ)
+    pack = struct.Struct("<" + CODES[typ]).pack
+    size = struct.calcsize(CODES[typ])
+    zero = ZERO.get(typ, 0)
+
+    def scalar(out: bytearray, v: Any) -> None:
+        if size > 1:
+            _pad(out, size)
+        out += pack(zero if v is MISSING or v is None else v)
+
+    return scalar
+
+
+def _strings(fixed: int | None) -> Write:
+    def strings(out: bytearray, v: Any) -> None:
+        values = [""] * (fixed or 0) if v is MISSING else list(v)
+        if fixed is None:
+            _pad(out, 4)
+            out += _LENGTH.pack(len(values))
+        elif len(values) != fixed:
+            raise ValueError("unexpected array length")
+        for text in values:
+            _string(out, text)
+
+    return strings
+
+
+def _numbers(typ: str, fixed: int | None) -> Write:
+    dtype = NUMPY_DTYPES[typ]
+    size = np.dtype(dtype).itemsize
+    code = LIST_CODES.get(typ)
+
+    def data_of(v: Any) -> Any:
+        """The elements' bytes, converted as the codec's rosbags path converts them."""
+        if v is MISSING:
+            return bytes(size * (fixed or 0))
+        if code is not None and v.__class__ is list:
+            try:
+                return struct.pack(f"<{len(v)}{code}", *v)
+            except (struct.error, TypeError, ValueError, OverflowError):
+                pass  # None (NaN in a float array), strings, ...: numpy's conversion
+        if isinstance(v, bytes | bytearray | memoryview):
+            arr = np.frombuffer(v, dtype=dtype)
+        else:
+            arr = np.asarray(v, dtype=dtype)
+        if arr.ndim != 1:
+            raise ValueError("not a one-dimensional array")
+        return arr.view(np.uint8).data  # raises for a strided array, as rosbags' write does
+
+    def numbers(out: bytearray, v: Any) -> None:
+        data = data_of(v)
+        count = len(data) // size
+        if fixed is None:
+            _pad(out, 4)
+            out += _LENGTH.pack(count)
+        elif count != fixed:
+            raise ValueError("unexpected array length")
+        if count and size > 1:
+            _pad(out, size)
+        out += data
+
+    return numbers
+
+
+def _messages(one: Write, fixed: int | None) -> Write:
+    def messages(out: bytearray, v: Any) -> None:
+        values = [MISSING] * (fixed or 0) if v is MISSING else list(v)
+        if fixed is None:
+            _pad(out, 4)
+            out += _LENGTH.pack(len(values))
+        elif len(values) != fixed:
+            raise ValueError("unexpected array length")
+        for item in values:
+            one(out, item)
+
+    return messages
