@@ -209,6 +209,11 @@ class Ros2Codec:
                 pass
         return bytes(self.store.serialize_cdr(self._encoder(name)(msg), name))
 
+    def direct(self, mtype: MsgType) -> bool:
+        """:meth:`encode` writes this type directly with no message per array element, so
+        its CDR costs about a copy of the message's arrays (see ``DirectEncoder.flat``)."""
+        return self._direct.flat(mtype.name)
+
     def decode(self, data: bytes, mtype: MsgType) -> dict:
         """A canonical (ROS 1 shaped) message from ROS 2 CDR bytes of the same type."""
         self._ensure(mtype.name)

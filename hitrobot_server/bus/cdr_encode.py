@@ -68,6 +68,7 @@ class DirectEncoder:
     def __init__(self, fielddefs: Callable[[str], list[tuple[str, Any]]]):
         self._fields = fielddefs  # a type's (name, desc) fields, made known to the store
         self._writers: dict[str, Write] = {}
+        self._flat: dict[str, bool] = {}
 
     def encoder(self, name: str) -> Encode | None:
         """The CDR encoder of type ``name``, or None when it holds a field not written here."""
@@ -83,18 +84,48 @@ class DirectEncoder:
 
         return encode
 
+    def flat(self, name: str) -> bool:
+        """Written here with no message per array element (a Path's poses, a MarkerArray's
+        markers): its CDR then costs about what copying its arrays does, whatever its size."""
+        found = self._flat.get(name)
+        if found is None:
+            found = self._flat[name] = all(self._flat_field(d) for _n, d in self._fields(name))
+        return found
+
+    def _flat_field(self, desc: Any) -> bool:
+        if desc[0] == Nodetype.NAME:
+            return desc[1] in TIMES or self.flat(desc[1])
+        if desc[0] == Nodetype.BASE:
+            return desc[1][0] == "string" or desc[1][0] in CODES
+        elem = desc[1][0]
+        return elem[0] == Nodetype.BASE and (elem[1][0] == "string" or elem[1][0] in CODES)
+
     def _message(self, name: str) -> Write:
         write = self._writers.get(name)
         if write is not None:
             return write
-        plan = [(fname, self._field(desc)) for fname, desc in self._fields(name)]
+        plan: list[tuple[str | None, Any]] = []  # (field, writer) or (None, a run's writer)
+        run: list[tuple[str, str]] = []  # consecutive number fields: one struct call
+        for fname, desc in self._fields(name):
+            if desc[0] == Nodetype.BASE and desc[1][0] in CODES:
+                run.append((fname, desc[1][0]))
+                continue
+            if run:
+                plan.append((None, _numbers_run(run)))
+                run = []
+            plan.append((fname, self._field(desc)))
+        if run:
+            plan.append((None, _numbers_run(run)))
 
         def write(out: bytearray, msg: Any) -> None:
             if not isinstance(msg, dict):
                 msg = {}
             get = msg.get
             for fname, field in plan:
-                field(out, get(fname, MISSING))
+                if fname is None:
+                    field(out, get)
+                else:
+                    field(out, get(fname, MISSING))
 
         self._writers[name] = write
         return write
@@ -103,8 +134,10 @@ class DirectEncoder:
         kind = desc[0]
         if kind == Nodetype.NAME:
             return self._name(desc[1])
-        if kind == Nodetype.BASE:
-            return _scalar(desc[1][0])
+        if kind == Nodetype.BASE:  # numbers are written in runs (_numbers_run)
+            if desc[1][0] != "string":
+                raise Unsupported(desc[1][0])
+            return _scalar_string
         elem, length = desc[1]
         fixed = length if kind == Nodetype.ARRAY else None
         if elem[0] == Nodetype.BASE:
@@ -137,25 +170,32 @@ def _time(out: bytearray, v: Any) -> None:
     out += _TIME.pack(sec, nanosec)
 
 
-def _scalar(typ: str) -> Write:
-    if typ == "string":
+def _scalar_string(out: bytearray, v: Any) -> None:
+    _string(out, "" if v is MISSING or v is None else v)
 
-        def string(out: bytearray, v: Any) -> None:
-            _string(out, "" if v is MISSING or v is None else v)
 
-        return string
-    if typ not in CODES:
-        raise Unsupported(typ)
-    pack = struct.Struct("<" + CODES[typ]).pack
-    size = struct.calcsize(CODES[typ])
-    zero = ZERO.get(typ, 0)
+def _numbers_run(fields: list[tuple[str, str]]) -> Callable[[bytearray, Any], None]:
+    """Consecutive number fields in one ``struct`` call: a format per place of the run's
+    start in an 8-byte word, each value padded to its size as it would be alone."""
+    formats = []
+    for start in range(8):
+        pos, fmt = start, "<"
+        for _fname, typ in fields:
+            size = struct.calcsize(CODES[typ])
+            pad = -pos % size
+            fmt += "x" * pad + CODES[typ]
+            pos += pad + size
+        formats.append(struct.Struct(fmt).pack)
+    names = [(fname, ZERO.get(typ, 0)) for fname, typ in fields]
 
-    def scalar(out: bytearray, v: Any) -> None:
-        if size > 1:
-            _pad(out, size)
-        out += pack(zero if v is MISSING or v is None else v)
+    def numbers_run(out: bytearray, get: Any) -> None:
+        values = []
+        for fname, zero in names:
+            v = get(fname, MISSING)
+            values.append(zero if v is MISSING or v is None else v)
+        out += formats[(len(out) - 4) % 8](*values)
 
-    return scalar
+    return numbers_run
 
 
 def _strings(fixed: int | None) -> Write:

@@ -16,6 +16,7 @@ back to within its last second. Client ops that change the robot go on ``/hitrob
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import multiprocessing
 import time
@@ -125,6 +126,8 @@ class Recorder:
         self._batch_bytes = 0
         self._timer: asyncio.TimerHandle | None = None
         self._allowed: dict[str, bool] = {}
+        self._codec = codec_for(bus.types)
+        self._direct: dict[str, bool] = {}  # per type: its CDR made here (Ros2Codec.direct)
         self._last_warning = float("-inf")
 
     # ------------------------------------------------------------------ what it has done
@@ -226,13 +229,20 @@ class Recorder:
         entry = {"op": op.op, "name": op.name, "type": op.type_name, "client": op.node,
                  "address": op.peer, "auth_level": op.auth_level or "",
                  "stamp": {"secs": secs, "nsecs": int((op.stamp - secs) * 1e9)}}
-        codec = codec_for(self.bus.types)
-        data = codec.encode(entry, self.bus.types.msg(AUDIT_TYPE))
+        data = self._codec.encode(entry, self.bus.types.msg(AUDIT_TYPE))
         ns = int(op.stamp * 1e9)
         self._put(Item(AUDIT_TOPIC, AUDIT_TYPE, False, ns, ns, 0, CDR, data),
                   ITEM_OVERHEAD + len(data))
 
     def _enqueue(self, message: Message, log_time: float | None = None) -> None:
+        if message.cdr_bytes is None:
+            mtype = message.topic.mtype
+            direct = self._direct.get(mtype.name)
+            if direct is None:
+                direct = self._direct[mtype.name] = self._codec.direct(mtype)
+            if direct:  # the writer tries again and counts it as not encodable
+                with contextlib.suppress(Exception):
+                    message.cdr(self._codec)
         item = item_of(message, log_time)
         self._put(item, ITEM_OVERHEAD + (len(item.data) if item.kind != MSG
                                          else estimate_size(item.data)))
