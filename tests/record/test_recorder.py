@@ -145,3 +145,26 @@ def test_write_recording_writes_encoded_messages_into_a_new_file_only(tmp_path):
     with pytest.raises(FileExistsError):
         write_recording(tmp_path / "link.mcap", items)
     assert not (tmp_path / "outside.mcap").exists()
+
+
+async def test_a_flat_messages_cdr_is_made_once_on_the_loop(tmp_path):
+    """A LaserScan (arrays of numbers only) is encoded by the tap, once, and those very bytes
+    are shared (``cdr_bytes``: Zenoh and Foxglove take them too) and written; a Path (a message
+    per pose) is left to the writer, which encodes it there."""
+    bus = make_bus()
+    bus.advertise("/scan", "sensor_msgs/LaserScan", "node", "/node")
+    bus.advertise("/path", "nav_msgs/Path", "node", "/node")
+    recorder = Recorder(bus, tmp_path / "r.mcap")
+    recorder.start()
+    scan = bus.publish("/scan", {"ranges": [1.5, None, 3.0], "range_max": 30.0})
+    path = bus.publish("/path", {"poses": [{"pose": {"position": {"x": float(i)}}}
+                                           for i in range(3)]})
+    await recorder.stop()
+    assert scan.cdr_bytes is not None and path.cdr_bytes is None
+    with open(tmp_path / "r.mcap", "rb") as f:
+        raw = {c.topic: m.data for _s, c, m in make_reader(f).iter_messages()}
+    assert raw["/scan"] == scan.cdr_bytes
+    got = dict(decoded(tmp_path / "r.mcap"))
+    ranges = list(got["/scan"].ranges)
+    assert ranges[0] == 1.5 and np.isnan(ranges[1]) and ranges[2] == 3.0
+    assert [p.pose.position.x for p in got["/path"].poses] == [0.0, 1.0, 2.0]
