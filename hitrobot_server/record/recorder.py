@@ -1,21 +1,20 @@
 """``--record FILE.mcap``: every bus message into an MCAP file (ROS 2 profile), off the loop.
 
 The recorder is a bus tap: on the event loop it filters the topic and appends the message to a
-batch as its CDR when that is cheap, else as bytes it already has, else as the message. A flat
-type's CDR (``Ros2Codec.direct``: no message per array element, so about a copy of its arrays;
-a 720-range LaserScan in ~15 µs) is made here, once, for the Zenoh link and Foxglove too: the
-writer would otherwise parse the client's JSON again (25 µs) and encode it (15 µs) while
-competing with the loop and the clients for the same two cores, and the batch is 2.9 KB a scan
-instead of 13.7 KB of JSON. Other types go as the client's own JSON of a publish or as the
-message. Every ``BATCH_PERIOD`` (or ``BATCH_BYTES``) the batch goes to the writer process
+batch as its CDR when it has it or that is cheap, else as the client's own JSON of a publish,
+else as the message. A client's publish of a flat type (``Ros2Codec.direct``: no message per
+array element, so about a copy of its arrays; a 720-range LaserScan in ~15 µs) is encoded here,
+once, for the Zenoh link and Foxglove too: the writer would otherwise parse the client's JSON
+again (25 µs) and encode it (15 µs) while competing with the loop and the clients for the same
+two cores, and the batch carries 2.9 KB a scan instead of 13.7 KB of JSON. Every
+``BATCH_PERIOD`` (or ``BATCH_BYTES``) the batch goes to the writer process
 (:mod:`hitrobot_server.record.writer`) in one queue put, so a message costs the loop an append,
 not a pickle, a lock and a pipe write of its own. The writer encodes what is not CDR yet and
-writes chunked, zstd-compressed MCAP. What
-is queued is bounded in (estimated) bytes; when the disk cannot keep up, new messages are
-dropped, counted, and a warning is logged. The writer closes and flushes the current chunk at
-least every ``flush_period`` (0.5 s), so a recording whose server is killed with SIGKILL reads
-back to within its last second. Client ops that change the robot go on ``/hitrobot/audit`` as
-``hitrobot_msgs/AuditEntry`` messages.
+writes chunked, zstd-compressed MCAP. What is queued is bounded in (estimated) bytes; when the
+disk cannot keep up, new messages are dropped, counted, and a warning is logged. The writer
+closes and flushes the current chunk at least every ``flush_period`` (0.5 s), so a recording
+whose server is killed with SIGKILL reads back to within its last second. Client ops that change
+the robot go on ``/hitrobot/audit`` as ``hitrobot_msgs/AuditEntry`` messages.
 """
 
 from __future__ import annotations
@@ -47,6 +46,9 @@ ITEM_OVERHEAD = 256  # each queued message counts at least this (bounds the numb
 FLUSH_PERIOD = 0.5  # seconds between closed chunks (a crash loses at most about this)
 BATCH_PERIOD = 0.05  # seconds a message waits on the loop before its batch goes to the writer
 BATCH_BYTES = 1024 * 1024  # a batch this big goes at once
+LOOP_CDR_BYTES = 256 * 1024
+"""A client's publish op up to this long, of a flat type, is encoded on the loop (about a
+third of what parsing it there cost); a longer one is left to the writer (no loop stall)."""
 WARN_PERIOD = 5.0
 READ_ONLY_SERVICES = "/rosapi/"
 """Services under this prefix only read the graph: a client calling them is not audited."""
@@ -241,16 +243,20 @@ class Recorder:
 
     def _enqueue(self, message: Message, log_time: float | None = None) -> None:
         if message.cdr_bytes is None:
-            mtype = message.topic.mtype
-            direct = self._direct.get(mtype.name)
-            if direct is None:
-                direct = self._direct[mtype.name] = self._codec.direct(mtype)
-            if direct:  # the writer tries again and counts it as not encodable
-                with contextlib.suppress(Exception):
+            kind, data = known_bytes(message)
+            if kind == JSON and len(data) <= LOOP_CDR_BYTES and self._is_direct(message):
+                with contextlib.suppress(Exception):  # the writer tries again and counts it
                     message.cdr(self._codec)
         item = item_of(message, log_time)
         self._put(item, ITEM_OVERHEAD + (len(item.data) if item.kind != MSG
                                          else estimate_size(item.data)))
+
+    def _is_direct(self, message: Message) -> bool:
+        mtype = message.topic.mtype
+        direct = self._direct.get(mtype.name)
+        if direct is None:
+            direct = self._direct[mtype.name] = self._codec.direct(mtype)
+        return direct
 
     def _put(self, item: Item, size: int) -> None:
         counters = self._counters
