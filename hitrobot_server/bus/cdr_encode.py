@@ -143,11 +143,11 @@ class DirectEncoder:
         if elem[0] == Nodetype.BASE:
             typ = elem[1][0]
             if typ == "string":
-                return _strings(fixed)
+                return _each(_string, fixed, "")
             if typ not in CODES:
                 raise Unsupported(typ)
             return _numbers(typ, fixed)
-        return _messages(self._field(elem), fixed)
+        return _each(self._field(elem), fixed, MISSING)
 
     def _name(self, sub: str) -> Write:
         if sub in TIMES:
@@ -198,18 +198,26 @@ def _numbers_run(fields: list[tuple[str, str]]) -> Callable[[bytearray, Any], No
     return numbers_run
 
 
-def _strings(fixed: int | None) -> Write:
-    def strings(out: bytearray, v: Any) -> None:
-        values = [""] * (fixed or 0) if v is MISSING else list(v)
-        if fixed is None:
-            _pad(out, 4)
-            out += _LENGTH.pack(len(values))
-        elif len(values) != fixed:
-            raise ValueError("unexpected array length")
-        for text in values:
-            _string(out, text)
+def _count(out: bytearray, count: int, fixed: int | None) -> None:
+    """A sequence's element count (uint32); a fixed array's length is checked instead."""
+    if fixed is None:
+        _pad(out, 4)
+        out += _LENGTH.pack(count)
+    elif count != fixed:
+        raise ValueError("unexpected array length")
 
-    return strings
+
+def _each(one: Write, fixed: int | None, missing: Any) -> Write:
+    """An array or sequence of strings or messages, element by element (``missing``: a
+    missing array's elements)."""
+
+    def each(out: bytearray, v: Any) -> None:
+        values = [missing] * (fixed or 0) if v is MISSING else list(v)
+        _count(out, len(values), fixed)
+        for item in values:
+            one(out, item)
+
+    return each
 
 
 def _numbers(typ: str, fixed: int | None) -> Write:
@@ -237,27 +245,9 @@ def _numbers(typ: str, fixed: int | None) -> Write:
     def numbers(out: bytearray, v: Any) -> None:
         data = data_of(v)
         count = len(data) // size
-        if fixed is None:
-            _pad(out, 4)
-            out += _LENGTH.pack(count)
-        elif count != fixed:
-            raise ValueError("unexpected array length")
+        _count(out, count, fixed)
         if count and size > 1:
             _pad(out, size)
         out += data
 
     return numbers
-
-
-def _messages(one: Write, fixed: int | None) -> Write:
-    def messages(out: bytearray, v: Any) -> None:
-        values = [MISSING] * (fixed or 0) if v is MISSING else list(v)
-        if fixed is None:
-            _pad(out, 4)
-            out += _LENGTH.pack(len(values))
-        elif len(values) != fixed:
-            raise ValueError("unexpected array length")
-        for item in values:
-            one(out, item)
-
-    return messages
