@@ -16,7 +16,8 @@ with another tree first on ``PYTHONPATH`` to measure that tree's recorder.
 Each round runs both servers for each client count (the order alternates between rounds, so a
 background load hits both alike). ``srv us/msg`` is the server process's CPU per delivered
 message (the event loop's process); the recorder's writer process is measured apart
-(``writer CPU``, seconds over the whole run, warm-up included). After
+(``writer CPU``, seconds over the run, warm-up included, its own start excluded; ``writer
+us/msg``, that per LaserScan in the file: the writer's CPU per message). After
 each recorded run the file is read back with the ``mcap`` reader and its LaserScans counted
 (``recorded``: what reached the file of what was published).
 """
@@ -25,6 +26,8 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
+import os
 import shlex
 import statistics
 import sys
@@ -56,8 +59,8 @@ def recorded_count(folder: Path, topic: str) -> int:
 
 
 def children_cpu(server: bb.ServerProc) -> float:
-    """CPU seconds of the server's child processes so far (the recorder's writer)."""
-    return cpu_seconds(bb.procmem.children(server.proc.pid))
+    """CPU seconds of the server's recorder writer so far."""
+    return cpu_seconds(writer_pids(server.proc.pid))
 
 
 async def one_run(n: int, record: bool, cfg, folder: Path, tag: str) -> dict:
@@ -68,13 +71,16 @@ async def one_run(n: int, record: bool, cfg, folder: Path, tag: str) -> dict:
     bb.RECORD_DIR = str(out) if record else None
     server = bb.start_ours(None, tag)
     try:
-        before = children_cpu(server)
+        before = await writer_started(server.proc.pid) if record else 0.0
         run = await bb.fanout_run(server.port, server, n, cfg.scan_counts[n], src, topic, cfg)
         run["writer_s"] = children_cpu(server) - before
     finally:
         server.stop()
         bb.RECORD_DIR = None
     run["recorded"] = recorded_count(out, topic) if record else None
+    if record and run["recorded"] < run["count"]:  # say why: the server's last words
+        print("".join(server.output[-8:]), end="", file=sys.stderr)
+    run["writer_us"] = run["writer_s"] / run["recorded"] * 1e6 if run["recorded"] else 0.0
     return run
 
 
@@ -94,7 +100,8 @@ async def main_async(cfg, rounds: int) -> None:
                           f"{bb.fnum(run['rate'])} msg/s, {run['srv_us']:.1f} us/msg server CPU, "
                           f"recv {run['total']:,}/{run['expected']:,}"
                           + (f", recorded {run['recorded']:,}/{run['count']:,}, writer CPU "
-                             f"{run['writer_s']:.1f} s" if record else ""), flush=True)
+                             f"{run['writer_s']:.1f} s ({run['writer_us']:.0f} us/msg)"
+                             if record else ""), flush=True)
     rows = []
     for n in cfg.clients:
         plain, rec = results[(n, False)], results[(n, True)]
@@ -109,11 +116,14 @@ async def main_async(cfg, rounds: int) -> None:
             " / ".join(f"{x:.2f}" for x in cpu),
             ", ".join(f"{b['recorded']:,}/{b['count']:,}" for b in rec),
             " / ".join(f"{b['writer_s']:.1f}" for b in rec),
+            " / ".join(f"{b['writer_us']:.0f}" for b in rec),
+            " / ".join(f"{a['srv_us']:.0f}/{b['srv_us']:.0f}" for a, b in zip(plain, rec,
+                                                                        strict=True)),
         ])
     print("\nLaserScan fan-out (720 ranges), recording every topic vs not, side by side")
     print(bb.table(["clients", "plain msg/s", "recorded msg/s", "ratio per round",
                     "median ratio", "srv us/msg ratio", "recorded/published",
-                    "writer CPU s"], rows))
+                    "writer CPU s", "writer us/msg", "srv us/msg plain/rec"], rows))
 
 
 async def loop_cost(count: int, rounds: int) -> None:
@@ -140,24 +150,69 @@ async def loop_cost(count: int, rounds: int) -> None:
                 await asyncio.sleep(0)  # the loop's timers run (the recorder's hand-off)
         return time.process_time() - t0
 
-    plain, tapped = [], []
+    plain, tapped, writer = [], [], []
     with tempfile.TemporaryDirectory(prefix="bench-record-loop-") as tmp:
         for r in range(rounds):
             bus = Bus(TypeRegistry.default())
             bus.advertise("/scan", "sensor_msgs/LaserScan", "bench", "/bench")
             plain.append(await publish_all(bus))
+            children = children_rusage()
             recorder = Recorder(bus, Path(tmp) / f"loop_{r}.mcap", max_queued_bytes=2**31)
             recorder.start()
+            started = await writer_started()
             t0 = time.process_time()
             await publish_all(bus)
             await recorder.stop()  # until the feeder thread has handed everything over
             tapped.append(time.process_time() - t0)
+            writer.append(children_rusage() - children - started)
             assert recorder.dropped == 0, recorder.dropped
+            assert recorder.messages == count, (recorder.messages, count)
     per = [(b - a) / count * 1e6 for a, b in zip(plain, tapped, strict=True)]
     print(f"loop process CPU per recorded message ({count:,} LaserScans x {rounds} rounds): "
           f"publish alone {statistics.median(plain) / count * 1e6:.1f} us, "
           f"the recorder adds {' / '.join(f'{x:.1f}' for x in per)} us "
           f"(median {statistics.median(per):.1f} us)")
+    per = [w / count * 1e6 for w in writer]
+    print(f"writer process CPU per recorded message (its start excluded): "
+          f"{' / '.join(f'{x:.1f}' for x in per)} us (median {statistics.median(per):.1f} us)")
+
+
+def children_rusage() -> float:
+    """CPU seconds of this process's children that have ended (the writers joined so far)."""
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def writer_pids(parent: int) -> list[int]:
+    """The recorder's writer among ``parent``'s children (not multiprocessing's resource
+    tracker, also a child)."""
+    found = []
+    for pid in bb.procmem.children(parent):
+        with contextlib.suppress(OSError):
+            if b"spawn_main" in Path(f"/proc/{pid}/cmdline").read_bytes():
+                found.append(pid)
+    return found
+
+
+async def writer_started(parent: int | None = None, timeout: float = 30.0) -> float:
+    """The CPU seconds the writer process (a child of ``parent``, default this process) took
+    to start: polled until it stops growing (it then waits for its first batch)."""
+    import time
+
+    def writers() -> list[int]:
+        return writer_pids(os.getpid() if parent is None else parent)
+
+    pids = writers()
+    last, stable, deadline = -1.0, 0, time.monotonic() + timeout
+    while stable < 3 and time.monotonic() < deadline:
+        await asyncio.sleep(0.1)
+        pids = pids or writers()
+        now = cpu_seconds(pids)
+        stable = stable + 1 if now == last and now > 0 else 0
+        last = now
+    return last
 
 
 def main() -> int:
@@ -166,6 +221,8 @@ def main() -> int:
     parser.add_argument("--rounds", type=int, default=None, help="rounds (default 3, quick 1)")
     parser.add_argument("--server-args", default="", metavar="ARGS",
                         help="more flags for each hitrobot-server")
+    parser.add_argument("--clients", default="1,10,50", metavar="N,N",
+                        help="subscriber counts (default 1,10,50)")
     parser.add_argument("--loop", action="store_true",
                         help="only the tap's CPU per message, in this process")
     args = parser.parse_args()
@@ -173,6 +230,7 @@ def main() -> int:
         asyncio.run(loop_cost(2000 if args.quick else 5000, args.rounds or 3))
         return 0
     cfg = bb.config(args.quick)
+    cfg.clients = tuple(int(n) for n in args.clients.split(","))
     bb.SERVER_ARGS.extend(shlex.split(args.server_args))
     asyncio.run(main_async(cfg, args.rounds or (1 if args.quick else 3)))
     return 0

@@ -26,6 +26,7 @@ from ..types.registry import (
     TypeRegistry,
     replace_definitions,
 )
+from .cdr_encode import DirectEncoder, Encode
 
 _TIME = frozenset({"builtin_interfaces/msg/Time", "builtin_interfaces/msg/Duration"})
 _ZERO = {"string": "", "bool": False, "float32": 0.0, "float64": 0.0}
@@ -93,6 +94,8 @@ class Ros2Codec:
         self._definitions: dict[str, str] = {}
         self._enc: dict[str, Build] = {}
         self._dec: dict[str, Build] = {}
+        self._direct = DirectEncoder(self._fielddefs)
+        self._fast: dict[str, Encode | None] = {}
 
     # ------------------------------------------------------------------ types
     def _ensure(self, name: str) -> None:
@@ -105,6 +108,10 @@ class Ros2Codec:
             node = desc[1][0] if desc[0] in (Nodetype.ARRAY, Nodetype.SEQUENCE) else desc
             if node[0] == Nodetype.NAME:
                 self._ensure(node[1])
+
+    def _fielddefs(self, name: str) -> list[tuple[str, Any]]:
+        self._ensure(name)
+        return self.store.fielddefs[name][1]
 
     def _synthetic(self, name: str, fields: list[tuple[str, Any]]) -> str:
         if name not in self.store.fielddefs:
@@ -187,8 +194,25 @@ class Ros2Codec:
 
     # ------------------------------------------------------------------ CDR
     def encode(self, msg: dict, mtype: MsgType) -> bytes:
-        """CDR (little-endian, with the 4-byte encapsulation header) of a canonical message."""
-        return bytes(self.store.serialize_cdr(self._encoder(mtype.name)(msg), mtype.name))
+        """CDR (little-endian, with the 4-byte encapsulation header) of a canonical message:
+        written directly (:mod:`.cdr_encode`), else, for a type or a value that path does not
+        take, through a rosbags object (the reference: its error is the one raised)."""
+        name = mtype.name
+        try:
+            fast = self._fast[name]
+        except KeyError:
+            fast = self._fast[name] = self._direct.encoder(name)
+        if fast is not None:
+            try:
+                return fast(msg)
+            except Exception:  # noqa: BLE001 - the reference path below raises its own error
+                pass
+        return bytes(self.store.serialize_cdr(self._encoder(name)(msg), name))
+
+    def direct(self, mtype: MsgType) -> bool:
+        """:meth:`encode` writes this type directly with no message per array element, so
+        its CDR costs about a copy of the message's arrays (see ``DirectEncoder.flat``)."""
+        return self._direct.flat(mtype.name)
 
     def decode(self, data: bytes, mtype: MsgType) -> dict:
         """A canonical (ROS 1 shaped) message from ROS 2 CDR bytes of the same type."""

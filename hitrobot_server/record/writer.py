@@ -3,8 +3,9 @@
 A thread would share the GIL with the event loop: encoding a LaserScan is pure Python, and a
 thread busy with it makes every socket call of the loop wait for the GIL again (the convoy
 effect: measured 4× slower fan-out and 1.4 s probe stalls during 4000² maps). So the server only
-hands over batches of messages, each as bytes where it has them (the CDR someone already made,
-or the client's own JSON of a publish), through a ``multiprocessing`` queue, and this process,
+hands over batches of messages, each as bytes where it has them (the CDR it or someone else
+already made, or the client's own JSON of a publish), through a ``multiprocessing`` queue, and
+this process,
 started with spawn at a lower priority, encodes what is not CDR yet and writes. It closes the
 current chunk every ``flush_period`` seconds and finishes the file when told to stop or when
 the server dies. A disk that refuses a write (full, a size limit) ends the recording with a
@@ -54,7 +55,8 @@ CDR, JSON, MSG = 0, 1, 2
 
 
 class Item(NamedTuple):
-    """One message to write (a tuple: batches of them are pickled across to the writer)."""
+    """One message to write. Batches cross to the writer as plain tuples: pickle takes a
+    NamedTuple apart in Python (12 µs a message, on the server's GIL), a tuple in C (1 µs)."""
 
     topic: str
     type_name: str  # pkg/msg/Type
@@ -305,7 +307,7 @@ class _Batches:
             return None
         items, size = batch
         self.counters.taken.value += size
-        return items
+        return [Item._make(item) for item in items]
 
 
 def run_writer(plan: Plan, items: Any, counters: Counters) -> None:

@@ -6,16 +6,18 @@ from __future__ import annotations
 import os
 
 import numpy as np
+import orjson
 import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from hitrobot_server.bus.core import Bus
-from hitrobot_server.bus.topics import Origin
+from hitrobot_server.bus.topics import Message, Origin
 from hitrobot_server.record.profile import AUDIT_TOPIC
 from hitrobot_server.record.recorder import Recorder, estimate_size, item_of, split_name
 from hitrobot_server.record.writer import write_recording
 from hitrobot_server.types.registry import TypeRegistry
+from hitrobot_server.wire.encoded import Seed
 
 from ..helpers import until
 
@@ -145,3 +147,35 @@ def test_write_recording_writes_encoded_messages_into_a_new_file_only(tmp_path):
     with pytest.raises(FileExistsError):
         write_recording(tmp_path / "link.mcap", items)
     assert not (tmp_path / "outside.mcap").exists()
+
+
+def client_publish(bus: Bus, topic: str, msg: dict) -> Message:
+    """As a rosbridge client's publish reaches the bus: with its own JSON op (the Seed)."""
+    op = orjson.dumps({"op": "publish", "topic": topic, "msg": msg})
+    return bus.publish(topic, msg, seed=Seed(len(op), topic, op))
+
+
+async def test_a_flat_messages_cdr_is_made_once_on_the_loop(tmp_path):
+    """A client's LaserScan (arrays of numbers only) is encoded by the tap, once, and those
+    very bytes are shared (``cdr_bytes``: Zenoh and Foxglove take them too) and written; a
+    client's Path (a message per pose) and a node's scan are left to the writer."""
+    bus = make_bus()
+    bus.advertise("/scan", "sensor_msgs/LaserScan", "node", "/node")
+    bus.advertise("/path", "nav_msgs/Path", "node", "/node")
+    recorder = Recorder(bus, tmp_path / "r.mcap")
+    recorder.start()
+    scan = client_publish(bus, "/scan", {"ranges": [1.5, None, 3.0], "range_max": 30.0})
+    path = client_publish(bus, "/path", {"poses": [{"pose": {"position": {"x": float(i)}}}
+                                                   for i in range(3)]})
+    node_scan = bus.publish("/scan", {"ranges": [2.0]})
+    await recorder.stop()
+    assert scan.cdr_bytes is not None
+    assert path.cdr_bytes is None and node_scan.cdr_bytes is None
+    with open(tmp_path / "r.mcap", "rb") as f:
+        raw = [(c.topic, m.data) for _s, c, m in make_reader(f).iter_messages()]
+    assert raw[0] == ("/scan", scan.cdr_bytes)
+    got = decoded(tmp_path / "r.mcap")
+    ranges = list(got[0][1].ranges)
+    assert ranges[0] == 1.5 and np.isnan(ranges[1]) and ranges[2] == 3.0
+    assert list(got[2][1].ranges) == [2.0]
+    assert [p.pose.position.x for p in got[1][1].poses] == [0.0, 1.0, 2.0]
