@@ -41,7 +41,7 @@ from .robots import RobotUnit
 from .session.client import ClientSession
 from .session.foxglove.session import FoxgloveSession
 from .session.rosbridge.session import Session
-from .session.traffic import Traffic
+from .session.traffic import Traffic, counts_of
 from .wire.encoded import Encoded, Seed
 
 METRICS_DIR = "HITROBOT_METRICS_DIR"  # the environment variable the --workers parent sets
@@ -53,7 +53,8 @@ Page = tuple[int, str, bytes]  # status, content type, body
 
 
 class ClientPublishes:
-    """A bus tap: messages and bytes clients published, per topic (the op's size)."""
+    """A bus tap: messages and bytes clients published, per topic (the op's size), for at
+    most :data:`~.session.traffic.MAX_TOPICS` topics by name (the rest together)."""
 
     def __init__(self) -> None:
         self.received: dict[str, list[int]] = {}
@@ -67,7 +68,7 @@ class ClientPublishes:
             wire.size() if isinstance(wire, Encoded) else 0)
         counts = self.received.get(message.topic.name)
         if counts is None:
-            counts = self.received[message.topic.name] = [0, 0]
+            counts = counts_of(self.received, message.topic.name, lambda: [0, 0])
         counts[0] += 1
         counts[1] += size
 
@@ -246,7 +247,7 @@ class ServerMetrics:
         for topic, (n, size) in list(self.traffic.sent.items()):
             families["messages_sent"].add_metric([*worker, str(topic)], n)
             families["sent_bytes"].add_metric([*worker, str(topic)], size)
-        for topic, n in list(self.traffic.thinned.items()):
+        for topic, (n,) in list(self.traffic.thinned.items()):
             families["messages_thinned"].add_metric([*worker, str(topic)], n)
         yield from families.values()
 

@@ -36,6 +36,8 @@ async def start_tcp(
         session = new_session(address, "tcp")
 
         async def send_frame(data: bytes, binary: bool) -> None:
+            if writer.is_closing():  # uvloop raises RuntimeError on a closed transport
+                raise ConnectionResetError("the client went away")
             writer.write(data + b"\n")
             await writer.drain()
 
