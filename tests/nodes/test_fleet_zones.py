@@ -1,6 +1,7 @@
 """Mutex zones against the real server with simulated robots in one shared world: robots
 crossing a corridor zone from both ends pass it one at a time (never two inside, from their
-reported poses), three never deadlock, zones survive a restart, bad zones are refused."""
+reported poses), three never deadlock, bad zones are refused (kill -9:
+tests/integration/test_fleet_zones_restart.py)."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from .test_fleet import Y, dispatch, idle, pose, robots, task
 
 LONG = [(9.0, 6.9), (14.0, 6.9), (14.0, 9.1), (9.0, 9.1)]  # 5 m: a crossing takes a while
 CORRIDOR = [(10.0, 6.9), (13.0, 6.9), (13.0, 9.1), (10.0, 9.1)]  # 3 m of the office corridor
+LOBBY_DOOR = [(2.3, 6.4), (4.7, 6.4), (4.7, 7.6), (2.3, 7.6)]  # the lobby's (and dock's) opening
 DOOR = [(14.0, 5.9), (15.0, 5.9), (15.0, 7.0), (14.0, 7.0)]  # the open plan's east door
 SPEED = 4.0
 
@@ -31,11 +33,10 @@ def inside(points, x: float, y: float) -> bool:
     return hit
 
 
-async def start(make_server, tmp_path, *entries, state_dir=None) -> tuple[object, Watcher]:
-    kw = {"state_dir": str(state_dir)} if state_dir else {}
+async def start(make_server, tmp_path, *entries) -> tuple[object, Watcher]:
     server = await make_server(robots=tuple(RobotEntry(n, "sim", (x, y, 0.0))
                                             for n, x, y in entries),
-                               map_dir=str(tmp_path / "maps"), sim_speed=SPEED, **kw)
+                               map_dir=str(tmp_path / "maps"), sim_speed=SPEED)
     w = await Watcher.open(server.port)
     for topic in ("/fleet/robots", "/fleet/tasks", "/fleet/zones"):
         await w.subscribe(topic)
@@ -121,9 +122,35 @@ async def test_three_robots_crossing_two_zones_never_deadlock(make_server, tmp_p
         await w.close()
 
 
-async def test_zones_survive_a_restart_and_bad_zones_are_refused(make_server, tmp_path):
-    state_dir = tmp_path / "state"
-    server, w = await start(make_server, tmp_path, ("a", 6.0, Y), state_dir=state_dir)
+async def test_a_robot_going_to_charge_waits_for_a_zone_another_robot_stands_in(make_server,
+                                                                              tmp_path):
+    _server, w = await start(make_server, tmp_path, ("a", 1.0, 8.3), ("b", 3.5, 7.0))
+    try:
+        assert (await add_zone(w, "lobby", "door", LOBBY_DOOR))["success"]
+        await w.until(lambda: zones(w)["lobby"]["holders"] == ["b"], 5,
+                      "b holding the zone it stands in")
+        low = await w.call("/a/sim/set_battery", {"percent": 20.0})
+        assert low["values"]["success"], low
+        def charge() -> dict:
+            latest = w.latest("/fleet/tasks") or {"tasks": []}
+            return next((t for t in latest["tasks"] if t["kind"] == "charge"), {})
+
+        await w.until(lambda: "waiting for zone lobby (held by b)" in charge().get(
+            "message", ""), 20, "a on its way to its dock waiting for the zone")
+        assert zones(w)["lobby"]["waiting"] == ["a"]
+        a = robots(w)["a"]["pose"]["position"]
+        assert not inside(LOBBY_DOOR, a["x"], a["y"])  # stopped before the zone
+        away = await dispatch(w, target=pose(8.0, Y), robot="b")
+        assert away["robot"] == "b", away
+        await w.until(lambda: "crossing zone lobby" in charge().get("message", ""), 20,
+                      "a going on once b is out")
+        assert never_two_inside(w, LOBBY_DOOR) >= 1
+    finally:
+        await w.close()
+
+
+async def test_bad_zones_are_refused_and_stops_in_a_zone_too(make_server, tmp_path):
+    _server, w = await start(make_server, tmp_path, ("a", 6.0, Y))
     try:
         assert (await add_zone(w, "corridor_a", "corridor", CORRIDOR))["success"]
         square = [(1.0, 1.0), (2.0, 1.0), (2.0, 2.0), (1.0, 2.0)]
@@ -155,14 +182,5 @@ async def test_zones_survive_a_restart_and_bad_zones_are_refused(make_server, tm
         assert not gone["values"]["success"] and "nope" in gone["values"]["message"]
         assert (await add_zone(w, "door_e", "door", DOOR))["success"]
         assert (await w.call("/fleet/zone_remove", {"name": "door_e"}))["values"]["success"]
-    finally:
-        await w.close()
-        await server.stop()
-    _again, w = await start(make_server, tmp_path, ("a", 6.0, Y), state_dir=state_dir)
-    try:
-        await w.until(lambda: list(zones(w)) == ["corridor_a"], 5, "the zone back")
-        back = zones(w)["corridor_a"]
-        assert back["kind"] == "corridor"
-        assert [(p["x"], p["y"]) for p in back["polygon"]["points"]] == CORRIDOR
     finally:
         await w.close()

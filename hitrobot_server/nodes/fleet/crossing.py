@@ -18,10 +18,8 @@ async def cross(traffic: Traffic, task: Task, robot: str, path: dict, follow: Fo
                 changed: Callable[[], None]) -> None:
     """Follow ``path`` on ``robot`` holding each zone it passes (returns early when the task
     stops while the robot waits)."""
-    poses = path["poses"]
-    points = np.array([(p["pose"]["position"]["x"], p["pose"]["position"]["y"])
-                       for p in poses], dtype=np.float64).reshape(-1, 2)
-    runs = traffic.runs(points) if len(points) else []
+    points = path_points(path)
+    runs = traffic.runs(points)
     if not runs:
         await follow(task, robot, path, None)
         return
@@ -32,7 +30,7 @@ async def cross(traffic: Traffic, task: Task, robot: str, path: dict, follow: Fo
             low = behind.exit if behind is not None else 0
             end = traffic.spot(robot, points, max(at, low), ahead.entry) if ahead else last
             if end > at:
-                await follow(task, robot, _piece(path, at, end),
+                await follow(task, robot, piece(path, at, end),
                              _past(traffic, robot, behind, points, at, end))
             if behind is not None:
                 traffic.passed(robot, behind.zones)
@@ -63,7 +61,13 @@ async def _hold(traffic: Traffic, task: Task, robot: str, run: Run,
     return got and task.state == RUNNING
 
 
-def _piece(path: dict, start: int, end: int) -> dict:
+def path_points(path: dict) -> np.ndarray:
+    """A ``nav_msgs/Path``'s points, (N, 2)."""
+    return np.array([(p["pose"]["position"]["x"], p["pose"]["position"]["y"])
+                     for p in path["poses"]], dtype=np.float64).reshape(-1, 2)
+
+
+def piece(path: dict, start: int, end: int) -> dict:
     return {"header": path["header"], "poses": path["poses"][start:end + 1]}
 
 

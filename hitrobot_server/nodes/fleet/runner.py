@@ -14,7 +14,7 @@ from ...bus.services import STATUS_CANCELED, STATUS_SUCCEEDED
 from ...robot.model import Pose2D
 from ..ground import messages as m
 from ..ground.names import COMPUTE_PATH, FOLLOW_PATH
-from .crossing import cross
+from .crossing import cross, path_points, piece
 from .member import CHARGING
 from .policy import ChargePolicy
 from .tasks import CHARGE, RUNNING, Stop, Task
@@ -91,7 +91,7 @@ class TaskRunner:
     async def run(self, task: Task, robot: str, changed: Callable[[], None]) -> None:
         """Drive ``task`` to its end on ``robot`` (``TaskFailed`` when it cannot)."""
         if task.kind == CHARGE:
-            await self._charge(robot)
+            await self._charge(task, robot, changed)
             return
         route = task.route
         while task.leg < len(route):
@@ -144,7 +144,23 @@ class TaskRunner:
                 reason = "its motion was stopped"
             raise TaskFailed(reason or "the path was not followed")
 
-    async def _charge(self, robot: str) -> None:
+    async def _to_dock_through_zones(self, task: Task, robot: str,
+                                     changed: Callable[[], None]) -> None:
+        """A charge's way to the dock through mutex zones: driven (holding each zone) to the
+        far side of the last zone on it; ``go_home`` docks the robot from there."""
+        here = await self.wait_member(robot, lambda r: r["has_dock"], 0.0)
+        if not self.traffic.zones or here is None:
+            return
+        _length, path, _reason = await self.plan(robot, m.pose2d(here["dock"]))
+        runs = self.traffic.runs(path_points(path)) if path is not None else []
+        if runs:  # else go_home finds its own way (or says why it cannot)
+            await cross(self.traffic, task, robot, piece(path, 0, runs[-1].exit),
+                        self._follow, changed)
+
+    async def _charge(self, task: Task, robot: str, changed: Callable[[], None]) -> None:
+        await self._to_dock_through_zones(task, robot, changed)
+        if task.state != RUNNING:  # paused or cancelled while it waited for a zone
+            return
         topic = Namespace(robot).resolve(GO_HOME)
         self.advertise(topic, GO_HOME_TYPE)
         self.bus.publish(topic, {})

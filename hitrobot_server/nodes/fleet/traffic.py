@@ -89,7 +89,7 @@ class Traffic:
         return out
 
     def runs(self, points: np.ndarray) -> list[Run]:
-        near, runs, i = self.near(points), [], 0
+        near, runs, i = self.near(points) if len(points) else [], [], 0
         while i < len(near):
             if not near[i]:
                 i += 1
