@@ -112,9 +112,9 @@ class TaskRunner:
 
     async def _leg(self, task: Task, robot: str, stop: Stop,
                    changed: Callable[[], None]) -> None:
-        """Plan and drive one leg through the zones; a leg stopped on the way (another robot
-        in its way: one waiting before a zone, or coming the other way) is planned again from
-        where the robot stands, :data:`BLOCKED_RETRIES` times."""
+        """Plan and drive one leg through the zones; on a site with zones, a leg stopped on the
+        way (another robot in its way: one waiting before a zone, or one coming out of it) is
+        planned again from where the robot stands, :data:`BLOCKED_RETRIES` times."""
         for attempt in range(BLOCKED_RETRIES + 1):
             _length, path, reason = await self.plan(robot, stop.pose)
             if path is None:
@@ -123,7 +123,8 @@ class TaskRunner:
                 await cross(self.traffic, task, robot, path, self._follow, changed)
                 return
             except TaskFailed:
-                if attempt == BLOCKED_RETRIES or task.state != RUNNING:
+                if attempt == BLOCKED_RETRIES or task.state != RUNNING or \
+                        not self.traffic.zones:
                     raise
 
     async def _follow(self, task: Task, robot: str, path: dict,
