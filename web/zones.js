@@ -4,6 +4,7 @@
 // Remove button each, and draws a new one: "Draw a zone", click its corners on the map, name
 // it, Save (/fleet/zone_add). Shown on a fleet server only (one with /fleet/robots).
 /* global ROSLIB, createjs */
+import { SERVICES, TOPICS } from './names.js';
 import { Layer } from './overlays.js';
 
 export const ZONE_COLOR = '#7b1fa2'; // a free zone's outline
@@ -78,11 +79,11 @@ export class Zones {
     this.layer = new ZonesLayer(view);
     this.panel = this.buildPanel();
     const service = (name, type) => new ROSLIB.Service({ ros, name, serviceType: `hitrobot_msgs/${type}` });
-    this.addService = service('/fleet/zone_add', 'FleetZoneAdd');
-    this.removeService = service('/fleet/zone_remove', 'FleetZoneRemove');
-    new ROSLIB.Topic({ ros, name: '/fleet/zones', messageType: 'hitrobot_msgs/FleetZones' })
+    this.addService = service(SERVICES.fleetZoneAdd, 'FleetZoneAdd');
+    this.removeService = service(SERVICES.fleetZoneRemove, 'FleetZoneRemove');
+    new ROSLIB.Topic({ ros, name: TOPICS.fleetZones, messageType: 'hitrobot_msgs/FleetZones' })
       .subscribe((m) => this.onZones(m.zones));
-    new ROSLIB.Topic({ ros, name: '/fleet/robots', messageType: 'hitrobot_msgs/FleetRobots', throttle_rate: 1000 })
+    new ROSLIB.Topic({ ros, name: TOPICS.fleetRobots, messageType: 'hitrobot_msgs/FleetRobots', throttle_rate: 1000 })
       .subscribe((m) => { this.panel.hidden = m.robots.length === 0; });
     // before the map tools (a click while drawing is a corner, not a pan)
     view.canvas.parentElement.addEventListener('pointerdown', (e) => this.corner(e), true);

@@ -1,7 +1,7 @@
 """The console's mutex zones in Chromium against a server with two named simulated robots: a
 zone added over the service is drawn (its outline's pixels, its label and list text), is
-filled and says who holds it while a robot stands in it, and a zone drawn on the map by clicks
-is saved to the server and removed again."""
+filled and says who holds it while a robot stands in it and who waits for it, and a zone drawn
+on the map by clicks is saved to the server and removed again."""
 
 from __future__ import annotations
 
@@ -71,6 +71,14 @@ async def test_zones_drawn_held_and_drawn_by_clicks(zones_console: Console):
         held = await page.text_content("#zones-list li[data-zone=door_b]")
         assert "door_b (door) — held by b" in held
         assert await colour_near(c, 12.0, 7.2, HELD)
+        # a sent past b waits before the zone, and the list says so
+        sent = await w.call("/fleet/dispatch", {"poi": "", "robot": "a", "pose": {
+            "position": {"x": 15.0, "y": Y, "z": 0.0},
+            "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}}}, timeout=15)
+        assert sent["values"]["accepted"], sent
+        await page.wait_for_function("""() => document.querySelector(
+            '#zones-list li[data-zone=door_b]').textContent.includes('waiting: a')""",
+                                     timeout=30_000)
         # drawn by clicks: four corners, a name, Save
         await page.click("#zone-draw")
         for x, y in ((15.0, 7.3), (16.0, 7.3), (16.0, 8.7), (15.0, 8.7)):

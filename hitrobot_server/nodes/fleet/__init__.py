@@ -17,6 +17,9 @@ serves (all ``hitrobot_msgs``):
 * ``/fleet/schedule_add`` / ``_list`` / ``_remove``: recurring tasks (:mod:`.scheduling`).
 * ``/fleet/set_in_service`` (``SetInService``): a robot out of service takes no task; its
   queued ones go to others.
+* ``/fleet/zone_add`` / ``_list`` / ``_remove`` and the latched ``/fleet/zones``: mutex zones
+  (a door, a narrow corridor) that one robot at a time may be in (:mod:`.zoning`); the robots'
+  paths go through them by the rule of :mod:`.traffic`.
 """
 
 from .member import FleetMemberNode
