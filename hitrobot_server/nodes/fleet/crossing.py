@@ -31,7 +31,7 @@ async def cross(traffic: Traffic, task: Task, robot: str, path: dict, follow: Fo
             end = traffic.spot(robot, points, max(at, low), ahead.entry) if ahead else last
             if end > at:
                 await follow(task, robot, piece(path, at, end),
-                             _past(traffic, robot, behind, points, at, end))
+                             _past(traffic, task, robot, behind, points, at, end, changed))
             if behind is not None:
                 traffic.passed(robot, behind.zones)
             at = end
@@ -71,16 +71,22 @@ def piece(path: dict, start: int, end: int) -> dict:
     return {"header": path["header"], "poses": path["poses"][start:end + 1]}
 
 
-def _past(traffic: Traffic, robot: str, run: Run | None, points: np.ndarray, start: int,
-          end: int) -> Callable[[dict], None] | None:
+def _past(traffic: Traffic, task: Task, robot: str, run: Run | None, points: np.ndarray,
+          start: int, end: int, changed: Callable[[], None]) -> Callable[[dict], None] | None:
     """A feedback handler marking ``run`` passed once the robot is beyond its exit point."""
     if run is None:
         return None
     steps = np.hypot(*np.diff(points[start:end + 1], axis=0).T)
     exit_left = float(steps[max(0, run.exit - start):].sum())  # path left at the exit
+    told = False
 
     def on_feedback(feedback: dict) -> None:
+        nonlocal told
         if float(feedback.get("distance_to_goal", np.inf)) <= exit_left + 1e-6:
             traffic.passed(robot, run.zones)
+            if not told:
+                told = True
+                task.message = f"{robot} is past zone {', '.join(sorted(run.zones))}"
+                changed()
 
     return on_feedback
