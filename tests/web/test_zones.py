@@ -35,7 +35,8 @@ async def zones_console(make_server, browser, tmp_path):
     await page.goto(f"http://127.0.0.1:{server.port}/")
     await page.wait_for_function("""() => {
         const h = window.hitrobot;
-        return Boolean(h && h.view.mapBounds && h.ros.isConnected && h.fleet.robots.length === 2);
+        return Boolean(h && h.view.mapBounds && h.ros.isConnected && h.fleet.robots.length === 2
+            && h.fleet.robots.every((r) => r.state === 'idle'));
     }""", timeout=30_000)
     yield Console(page, server, errors)
 
