@@ -31,7 +31,7 @@ async def test_zones_survive_kill_9(tmp_path):
     try:
         w = await zones_watcher(server.port)
         added = await w.call("/fleet/zone_add", {"name": "door_b", "kind": "door",
-                                                 "polygon": polygon(OVER_B)})
+                                                 "polygon": polygon(OVER_B)}, timeout=30)
         assert added["values"]["success"], added
         await w.until(lambda: (zone(w, "door_b") or {}).get("holders") == ["b"], 5,
                       "b holding the zone it stands in")

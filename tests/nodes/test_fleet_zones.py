@@ -46,7 +46,7 @@ async def start(make_server, tmp_path, *entries) -> tuple[object, Watcher]:
 
 async def add_zone(w: Watcher, name: str, kind: str, points) -> dict:
     reply = await w.call("/fleet/zone_add", {"name": name, "kind": kind,
-                                             "polygon": polygon(points)})
+                                             "polygon": polygon(points)}, timeout=30)
     assert reply["result"], reply
     return reply["values"]
 
@@ -145,7 +145,7 @@ async def test_a_robot_going_to_charge_waits_for_a_zone_another_robot_stands_in(
 
         await w.until(lambda: "waiting for zone lobby (held by b)" in charge().get(
             "message", ""), 20, "a on its way to its dock waiting for the zone")
-        assert zones(w)["lobby"]["waiting"] == ["a"]
+        await w.until(lambda: zones(w)["lobby"]["waiting"] == ["a"], 5, "a listed waiting")
         a = robots(w)["a"]["pose"]["position"]
         assert not inside(LOBBY_DOOR, a["x"], a["y"])  # stopped before the zone
         away = await dispatch(w, target=pose(8.0, Y), robot="b")

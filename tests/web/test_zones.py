@@ -56,7 +56,7 @@ async def test_zones_drawn_held_and_drawn_by_clicks(zones_console: Console):
         # a free zone away from the robots: its outline, its label, its line in the list
         free = [(7.0, 7.2), (9.0, 7.2), (9.0, 8.8), (7.0, 8.8)]
         added = await w.call("/fleet/zone_add", {"name": "corridor_a", "kind": "corridor",
-                                                 "polygon": polygon(free)})
+                                                 "polygon": polygon(free)}, timeout=30)
         assert added["values"]["success"], added
         await page.wait_for_selector("#zones-list li[data-zone=corridor_a]")
         assert await page.locator("#zones-panel").is_visible()
@@ -66,8 +66,9 @@ async def test_zones_drawn_held_and_drawn_by_clicks(zones_console: Console):
         assert not await colour_near(c, 8.0, 8.0, ZONE, 2)  # not filled while free
         # a zone drawn over robot b: b stands in it, so it holds it
         over_b = [(11.0, 7.2), (13.0, 7.2), (13.0, 8.8), (11.0, 8.8)]
-        assert (await w.call("/fleet/zone_add", {"name": "door_b", "kind": "door",
-                                                 "polygon": polygon(over_b)}))["values"]["success"]
+        second = await w.call("/fleet/zone_add", {"name": "door_b", "kind": "door",
+                                                  "polygon": polygon(over_b)}, timeout=30)
+        assert second["values"]["success"], second
         await page.wait_for_selector("#zones-list li[data-zone=door_b][data-held=yes]")
         held = await page.text_content("#zones-list li[data-zone=door_b]")
         assert "door_b (door) — held by b" in held
