@@ -9,6 +9,7 @@ import { dialogOpen } from './dialogs.js';
 import { DockLayer } from './docklayer.js';
 import { MapEditor } from './editor.js';
 import { Fleet } from './fleet.js';
+import { Zones } from './zones.js';
 import { Inspector } from './inspector.js';
 import { log } from './log.js';
 import { SavedMaps } from './maps.js';
@@ -154,13 +155,14 @@ function buildPanels({ ros, view, layers, navigator, currentRobot }) {
   const diagnostics = new Diagnostics({ ros, sensorLayer: layers.sensors });
   showStateOnce(ros);
   const inspector = new Inspector({ ros });
+  const zones = new Zones({ ros, view }); // under the robots; shown with named robots only
   const fleet = new Fleet({ ros, view, robot: currentRobot }); // shown with named robots only
   patrol.onState = (s) => navigator.patrolState(s, () => patrol.call('stop', {}));
   pois.onGo = (poi) => {
     navigator.goToPoi(poi);
     return false; // the navigator publishes it and follows it
   };
-  return { pois, shell, teleop, robotState, robotActions, patrol, maps, diagnostics, inspector, fleet };
+  return { pois, shell, teleop, robotState, robotActions, patrol, maps, diagnostics, inspector, fleet, zones };
 }
 
 /** The map tools: what a pick on the map does with each. */

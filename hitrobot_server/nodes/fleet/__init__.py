@@ -17,6 +17,9 @@ serves (all ``hitrobot_msgs``):
 * ``/fleet/schedule_add`` / ``_list`` / ``_remove``: recurring tasks (:mod:`.scheduling`).
 * ``/fleet/set_in_service`` (``SetInService``): a robot out of service takes no task; its
   queued ones go to others.
+* ``/fleet/zone_add`` / ``_list`` / ``_remove`` and the latched ``/fleet/zones``: mutex zones
+  (a door, a narrow corridor) that one robot at a time may be in (:mod:`.zoning`); the robots'
+  paths go through them by the rule of :mod:`.traffic`.
 
 Over ``--bus zenoh`` the servers of a site keep one queue: one fleet node dispatches, the
 others forward to it, keep a copy and take over when it dies (:mod:`.leader`, :mod:`.replica`).

@@ -55,6 +55,7 @@ class Dispatcher:
         kind, stops, laps = await read_stops(fleet.bus, request)
         for stop in stops:
             check_on_map(fleet.site_map, stop)
+            fleet.traffic.check_stop(stop)
         priority = max(-100, min(100, int(request.get("priority") or 0)))
         task = Task(0, kind, stops, wanted, priority, laps, created=fleet.clock())
         bids, refusals = await self.bids(task, [robots[wanted]] if wanted else [

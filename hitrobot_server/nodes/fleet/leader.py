@@ -67,6 +67,8 @@ class Led(Site, Protocol):
     async def wait_member(self, robot: str, done: Callable[[dict], bool],
                           timeout: float) -> dict | None: ...
 
+    def took_over(self) -> None: ...
+
 
 class Leadership:
     """Whether this server's fleet node dispatches; its offers follow the role."""
@@ -226,6 +228,7 @@ class Leadership:
             if term == self._term:
                 self.taking_over = False
         if term == self._term and self.leading:
+            self.fleet.took_over()
             self.fleet.changed()
             self.fleet.kick()
 

@@ -37,6 +37,7 @@ from .tasks import (
     Refused,
     Task,
 )
+from .zoning import ZoneServices
 
 log = logging.getLogger(__name__)
 
@@ -64,8 +65,11 @@ class FleetNode(RobotNode):
         self._busy: set[str] = set()  # robots running a task
         self._wake: asyncio.Event | None = None
         self._heard: dict[str, asyncio.Event] = {}
+        self.zoning = ZoneServices(self, self.board.memory, self.advertise, self.publish)
+        self._restored += self.zoning.restore()
+        self.traffic = self.zoning.traffic
         self.runner = TaskRunner(bus, map_frame, self.policy, self.wait_member,
-                                 self._advertise_once)
+                                 self._advertise_once, self.traffic)
         self.dispatcher = Dispatcher(self)
         local = dt.datetime.now().astimezone().tzinfo  # the server's (a fixed offset)
         self.schedules = ScheduleServices(self, self.dispatcher.dispatch, zone or local)
@@ -83,6 +87,7 @@ class FleetNode(RobotNode):
                 ("set_in_service", "SetInService", self._set_in_service)):
             self.service(f"/fleet/{name}", f"{PKG}/{kind}", handler)
         self.publish_tasks()
+        self.zoning.publish()
 
     def restored(self) -> list[str]:
         return self._restored
@@ -110,6 +115,7 @@ class FleetNode(RobotNode):
         if (before.get("state") != msg["state"]
                 or self._low(before.get("battery", 100.0)) != self._low(msg["battery"])):
             self.kick()
+        self.traffic.moved(name)
         heard = self._heard.pop(name, None)
         if heard is not None:
             heard.set()
@@ -162,6 +168,10 @@ class FleetNode(RobotNode):
     def publish_tasks(self) -> None:
         if self.lead.leading:
             self.publish(TASKS, {"tasks": [t.msg() for t in self.board.tasks.values()]})
+
+    def took_over(self) -> None:
+        """This server dispatches now: the zones copied from the last dispatcher apply."""
+        self.zoning.reload()
 
     def changed(self) -> None:
         """A task changed: persist it, publish the list."""
@@ -249,6 +259,8 @@ class FleetNode(RobotNode):
             return {"success": False, "message": str(exc)}
         if task.goal is not None:
             task.goal.cancel()
+        if task.state == RUNNING:
+            self.traffic.withdraw(task.assigned)
         self._finish(task, CANCELLED, "cancelled")
         return {"success": True, "message": f"task {task.id} cancelled"}
 
@@ -263,6 +275,8 @@ class FleetNode(RobotNode):
         task.state, task.message = PAUSED, f"paused ({was})"
         if task.goal is not None:
             task.goal.cancel()
+        if was == RUNNING:
+            self.traffic.withdraw(task.assigned)
         self.changed()
         return {"success": True, "message": f"task {task.id} paused"}
 

@@ -24,6 +24,7 @@ from ..ground.memory import NodeMemory
 from .board import HISTORY, KEEP_FINISHED, Board
 from .schedules import Schedule
 from .tasks import Task
+from .zoning import SECTION as ZONES
 
 log = logging.getLogger(__name__)
 
@@ -151,7 +152,8 @@ def sections(board: Board) -> dict[str, Any]:
     return {"open": [t.record() for t in board.tasks.values() if t.open],
             "ids": [board.next_id, board.next_schedule],
             "schedules": [s.record() for s in board.schedules.values()],
-            "out_of_service": sorted(board.out_of_service)}
+            "out_of_service": sorted(board.out_of_service),
+            "zones": board.memory.get(ZONES) or []}
 
 
 def _after(history: list[dict], last: int) -> list[dict] | None:
@@ -180,6 +182,7 @@ def _apply(board: Board, change: dict) -> None:
     board.out_of_service = {str(r) for r in s["out_of_service"]}
     board.next_id, board.next_schedule = (int(i) for i in s["ids"])
     board.memory.put("history", board.history)
+    board.memory.put(ZONES, list(s.get("zones", [])))  # the traffic takes them on taking over
     board.save()
     board.save_schedules()
     board.save_service()

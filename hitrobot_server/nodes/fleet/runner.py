@@ -14,9 +14,11 @@ from ...bus.services import STATUS_CANCELED, STATUS_SUCCEEDED
 from ...robot.model import Pose2D
 from ..ground import messages as m
 from ..ground.names import COMPUTE_PATH, FOLLOW_PATH
+from .crossing import cross, path_points, piece
 from .member import CHARGING
 from .policy import ChargePolicy
-from .tasks import CHARGE, RUNNING, Task
+from .tasks import CHARGE, RUNNING, Stop, Task
+from .traffic import Traffic
 
 GO_HOME = "/slamware_ros_sdk_server_node/go_home"
 GO_HOME_TYPE = "slamware_ros_sdk/GoHomeRequest"
@@ -28,6 +30,8 @@ PLANNERS = 2
 NO_PATH_CELL = 0.25
 NO_PATH_SECONDS = 10.0
 NO_PATH_KEPT = 1000
+BLOCKED_RETRIES = 2
+"""Times a leg stopped on its way is planned again from where the robot stands."""
 
 WaitMember = Callable[[str, Callable[[dict], bool], float], Awaitable[dict | None]]
 
@@ -38,9 +42,11 @@ class TaskFailed(Exception):
 
 class TaskRunner:
     def __init__(self, bus: Bus, map_frame: str, policy: ChargePolicy,
-                 wait_member: WaitMember, advertise: Callable[[str, str], None]):
+                 wait_member: WaitMember, advertise: Callable[[str, str], None],
+                 traffic: Traffic):
         self.bus, self.map_frame, self.policy = bus, map_frame, policy
         self.wait_member, self.advertise = wait_member, advertise
+        self.traffic = traffic
         self._planning = asyncio.Semaphore(PLANNERS)
         self._no_path: dict[tuple[str, int, int], tuple[float, str]] = {}
 
@@ -85,17 +91,16 @@ class TaskRunner:
     async def run(self, task: Task, robot: str, changed: Callable[[], None]) -> None:
         """Drive ``task`` to its end on ``robot`` (``TaskFailed`` when it cannot)."""
         if task.kind == CHARGE:
-            await self._charge(robot)
+            await self._charge(task, robot, changed)
             return
         route = task.route
         while task.leg < len(route):
             if task.state != RUNNING:  # paused or cancelled meanwhile
                 return
             stop = route[task.leg]
-            _length, path, reason = await self.plan(robot, stop.pose)
-            if path is None:
-                raise TaskFailed(f"no path to {stop.name or 'the pose'}: {reason}")
-            await self._follow(task, robot, path)
+            await self._leg(task, robot, stop, changed)
+            if task.state != RUNNING:  # paused or cancelled while it waited for a zone
+                return
             if stop.dwell > 0:
                 task.message = f"{robot} at {stop.name or 'the pose'} for {stop.dwell:g} s"
                 changed()
@@ -105,11 +110,29 @@ class TaskRunner:
                 task.message = f"{robot} on leg {task.leg + 1} of {len(route)}"
                 changed()
 
-    async def _follow(self, task: Task, robot: str, path: dict) -> None:
+    async def _leg(self, task: Task, robot: str, stop: Stop,
+                   changed: Callable[[], None]) -> None:
+        """Plan and drive one leg through the zones; on a site with zones, a leg stopped on the
+        way (another robot in its way: one waiting before a zone, or one coming out of it) is
+        planned again from where the robot stands, :data:`BLOCKED_RETRIES` times."""
+        for attempt in range(BLOCKED_RETRIES + 1):
+            _length, path, reason = await self.plan(robot, stop.pose)
+            if path is None:
+                raise TaskFailed(f"no path to {stop.name or 'the pose'}: {reason}")
+            try:
+                await cross(self.traffic, task, robot, path, self._follow, changed)
+                return
+            except TaskFailed:
+                if attempt == BLOCKED_RETRIES or task.state != RUNNING or \
+                        not self.traffic.zones:
+                    raise
+
+    async def _follow(self, task: Task, robot: str, path: dict,
+                      on_feedback: Callable[[dict], None] | None) -> None:
         try:
             handle, outcome_task = self.bus.start_goal(
                 Namespace(robot).resolve(FOLLOW_PATH),
-                {"path": path, "controller_id": "", "goal_checker_id": ""})
+                {"path": path, "controller_id": "", "goal_checker_id": ""}, on_feedback)
             task.goal = handle
             outcome = await outcome_task
         except Exception as exc:
@@ -122,7 +145,23 @@ class TaskRunner:
                 reason = "its motion was stopped"
             raise TaskFailed(reason or "the path was not followed")
 
-    async def _charge(self, robot: str) -> None:
+    async def _to_dock_through_zones(self, task: Task, robot: str,
+                                     changed: Callable[[], None]) -> None:
+        """A charge's way to the dock through mutex zones: driven (holding each zone) to the
+        far side of the last zone on it; ``go_home`` docks the robot from there."""
+        here = await self.wait_member(robot, lambda r: r["has_dock"], 0.0)
+        if not self.traffic.zones or here is None:
+            return
+        _length, path, _reason = await self.plan(robot, m.pose2d(here["dock"]))
+        runs = self.traffic.runs(path_points(path)) if path is not None else []
+        if runs:  # else go_home finds its own way (or says why it cannot)
+            await cross(self.traffic, task, robot, piece(path, 0, runs[-1].exit),
+                        self._follow, changed)
+
+    async def _charge(self, task: Task, robot: str, changed: Callable[[], None]) -> None:
+        await self._to_dock_through_zones(task, robot, changed)
+        if task.state != RUNNING:  # paused or cancelled while it waited for a zone
+            return
         topic = Namespace(robot).resolve(GO_HOME)
         self.advertise(topic, GO_HOME_TYPE)
         self.bus.publish(topic, {})

@@ -11,6 +11,7 @@ from .board import Board
 from .policy import ChargePolicy
 from .runner import TaskRunner
 from .tasks import Task
+from .traffic import Traffic
 
 
 class Site(Protocol):
@@ -21,6 +22,7 @@ class Site(Protocol):
     clock: Callable[[], float]
     members: dict[str, tuple[float, dict]]
     site_map: dict | None
+    traffic: Traffic
 
     def robots(self) -> list[dict]: ...
     def free(self) -> list[dict]: ...

@@ -1,0 +1,103 @@
+"""``/fleet/zone_add`` (``hitrobot_msgs/FleetZoneAdd``), ``/fleet/zone_list``
+(``FleetZoneList``), ``/fleet/zone_remove`` (``FleetZoneRemove``) and the latched
+``/fleet/zones`` (``FleetZones``: each zone with who holds it and who waits, in order): the
+site's mutex zones, kept in the state folder (``fleet/zones``; an add or remove is answered
+once it is on disk)."""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+from collections.abc import Callable
+
+from ..ground.memory import NodeMemory, NotSaved
+from .member import PKG
+from .site import Site
+from .tasks import Refused
+from .traffic import Traffic
+from .zones import Zone, checked_zone
+
+log = logging.getLogger(__name__)
+
+ZONES = "/fleet/zones"
+SECTION = "zones"
+
+
+class ZoneServices:
+    def __init__(self, fleet: Site, memory: NodeMemory, advertise: Callable[..., None],
+                 publish: Callable[[str, dict], object]):
+        self.fleet, self.memory, self._publish = fleet, memory, publish
+        self.traffic = Traffic(self._pose_of, self.publish)
+        advertise(ZONES, f"{PKG}/FleetZones", latch=True)
+        for name, kind, handler in (("zone_add", "FleetZoneAdd", self._add),
+                                    ("zone_list", "FleetZoneList", self._list),
+                                    ("zone_remove", "FleetZoneRemove", self._remove)):
+            fleet.service(f"/fleet/{name}", f"{PKG}/{kind}", handler)
+
+    def restore(self) -> list[str]:
+        try:
+            for record in self.memory.get(SECTION) or []:
+                self.traffic.put(Zone.from_record(record))
+        except (KeyError, ValueError, TypeError) as exc:
+            self.memory.reject(SECTION, str(exc))
+        return [f"{len(self.traffic.zones)} mutex zones"] if self.traffic.zones else []
+
+    def reload(self) -> None:
+        """The zones as kept (a copy from the dispatcher we follow): the traffic takes them."""
+        kept = {}
+        for record in self.memory.get(SECTION) or []:
+            with contextlib.suppress(KeyError, ValueError, TypeError):
+                zone = Zone.from_record(record)
+                kept[zone.name] = zone
+        for name in set(self.traffic.zones) - set(kept):
+            self.traffic.remove(name)
+        for name, zone in kept.items():
+            if name not in self.traffic.zones:
+                self.traffic.put(zone)
+        for robot in self.fleet.members:
+            self.traffic.moved(robot)
+        self.publish()
+
+    def publish(self) -> None:
+        self._publish(ZONES, self.traffic.msg())
+
+    def _pose_of(self, robot: str) -> tuple[float, float] | None:
+        msg = self.fleet.members.get(robot, (0.0, None))[1]
+        if msg is None:
+            return None
+        p = msg["pose"]["position"]
+        return float(p["x"]), float(p["y"])
+
+    async def _save(self, zones: list[Zone]) -> None:
+        """Keep ``zones`` (:class:`NotSaved` when they could not be written)."""
+        self.memory.put(SECTION, [z.record() for z in zones])
+        await self.memory.durable()
+
+    async def _add(self, request: dict) -> dict:
+        try:
+            zone = checked_zone(request, self.fleet.site_map, set(self.traffic.zones))
+            await self._save([*self.traffic.zones.values(), zone])
+        except (Refused, NotSaved) as exc:
+            return {"success": False, "message": str(exc)}
+        self.traffic.put(zone)
+        for robot in self.fleet.members:  # a robot standing in it holds it
+            self.traffic.moved(robot)
+        self.publish()
+        return {"success": True, "message": f"zone '{zone.name}' ({zone.kind}) added: one "
+                "robot at a time"}
+
+    async def _list(self, _request: dict) -> dict:
+        return self.traffic.msg()
+
+    async def _remove(self, request: dict) -> dict:
+        name = str(request.get("name", ""))
+        if name not in self.traffic.zones:
+            known = ", ".join(sorted(self.traffic.zones)) or "none"
+            return {"success": False, "message": f"name: no zone '{name}' (zones: {known})"}
+        try:
+            await self._save([z for z in self.traffic.zones.values() if z.name != name])
+        except NotSaved as exc:
+            return {"success": False, "message": str(exc)}
+        self.traffic.remove(name)
+        self.publish()
+        return {"success": True, "message": f"zone '{name}' removed"}

@@ -1,0 +1,181 @@
+// The fleet's mutex zones (a door, a narrow corridor: one robot inside at a time) on the map,
+// from the latched /fleet/zones (hitrobot_msgs/FleetZones): each polygon's outline and name,
+// filled while a robot holds it, with who holds it and who waits. A panel lists them with a
+// Remove button each, and draws a new one: "Draw a zone", click its corners on the map, name
+// it, Save (/fleet/zone_add). Shown on a fleet server only (one with /fleet/robots).
+/* global ROSLIB, createjs */
+import { SERVICES, TOPICS } from './names.js';
+import { Layer } from './overlays.js';
+
+export const ZONE_COLOR = '#7b1fa2'; // a free zone's outline
+export const HELD_COLOR = '#d50000'; // a held zone's outline and fill
+const DRAFT_COLOR = '#ff6f00';
+
+/** A zone in the operator's words: "corridor_a (corridor) — held by a; waiting: b". */
+export function zoneWords(z) {
+  let text = `${z.name} (${z.kind})`;
+  text += z.holders.length ? ` — held by ${z.holders.join(', ')}` : ' — free';
+  if (z.waiting.length) text += `; waiting: ${z.waiting.join(', ')}`;
+  return text;
+}
+
+class ZonesLayer extends Layer {
+  constructor(view) {
+    super(view);
+    this.zones = [];
+    this.draft = [];
+  }
+
+  set(zones) {
+    this.zones = zones;
+    this.changed();
+  }
+
+  setDraft(points) {
+    this.draft = points;
+    this.changed();
+  }
+
+  render(view) {
+    const u = view.metresPerPixel;
+    this.node.removeAllChildren();
+    for (const z of this.zones) {
+      const pts = z.polygon.points;
+      if (pts.length < 3) continue;
+      const held = z.holders.length > 0;
+      const shape = new createjs.Shape();
+      const g = shape.graphics.setStrokeStyle(3 * u).beginStroke(held ? HELD_COLOR : ZONE_COLOR);
+      if (held) g.beginFill('rgba(213, 0, 0, 0.18)');
+      g.moveTo(pts[0].x, -pts[0].y);
+      for (const p of pts.slice(1)) g.lineTo(p.x, -p.y);
+      g.closePath().endStroke();
+      if (held) g.endFill();
+      const label = new createjs.Text(held ? `${z.name} · ${z.holders.join(', ')}` : z.name,
+        'bold 12px sans-serif', held ? HELD_COLOR : ZONE_COLOR);
+      label.x = Math.min(...pts.map((p) => p.x));
+      label.y = -Math.max(...pts.map((p) => p.y));
+      label.scaleX = label.scaleY = u;
+      label.textBaseline = 'bottom';
+      this.node.addChild(shape, label);
+    }
+    if (this.draft.length) {
+      const shape = new createjs.Shape();
+      const g = shape.graphics.setStrokeStyle(2 * u).setStrokeDash([6 * u, 4 * u]).beginStroke(DRAFT_COLOR);
+      g.moveTo(this.draft[0].x, -this.draft[0].y);
+      for (const p of this.draft.slice(1)) g.lineTo(p.x, -p.y);
+      if (this.draft.length > 2) g.closePath();
+      g.endStroke();
+      for (const p of this.draft) g.beginFill(DRAFT_COLOR).drawCircle(p.x, -p.y, 4 * u).endFill();
+      this.node.addChild(shape);
+    }
+  }
+}
+
+export class Zones {
+  constructor({ ros, view }) {
+    this.view = view;
+    this.zones = [];
+    this.draft = null; // the corners clicked so far while drawing
+    this.layer = new ZonesLayer(view);
+    this.panel = this.buildPanel();
+    const service = (name, type) => new ROSLIB.Service({ ros, name, serviceType: `hitrobot_msgs/${type}` });
+    this.addService = service(SERVICES.fleetZoneAdd, 'FleetZoneAdd');
+    this.removeService = service(SERVICES.fleetZoneRemove, 'FleetZoneRemove');
+    new ROSLIB.Topic({ ros, name: TOPICS.fleetZones, messageType: 'hitrobot_msgs/FleetZones' })
+      .subscribe((m) => this.onZones(m.zones));
+    new ROSLIB.Topic({ ros, name: TOPICS.fleetRobots, messageType: 'hitrobot_msgs/FleetRobots', throttle_rate: 1000 })
+      .subscribe((m) => { this.panel.hidden = m.robots.length === 0; });
+    // before the map tools (a click while drawing is a corner, not a pan)
+    view.canvas.parentElement.addEventListener('pointerdown', (e) => this.corner(e), true);
+  }
+
+  buildPanel() {
+    const panel = document.createElement('section');
+    panel.className = 'panel';
+    panel.id = 'zones-panel';
+    panel.hidden = true;
+    panel.innerHTML = `<h2>Mutex zones <span class="count" id="zones-count"></span></h2>
+      <ul class="zones-list" id="zones-list"><li class="empty">none</li></ul>
+      <button type="button" class="small" id="zone-draw">Draw a zone</button>
+      <div id="zone-form" hidden>
+        <p class="hint">Click the zone's corners on the map, then name it.</p>
+        <label>name <input id="zone-name" maxlength="64" placeholder="corridor_a"></label>
+        <label>kind <input id="zone-kind" maxlength="32" placeholder="corridor, door"></label>
+        <button type="button" class="small" id="zone-save">Save</button>
+        <button type="button" class="small" id="zone-cancel">Cancel</button>
+      </div>
+      <div class="zones-reply" id="zones-reply"></div>`;
+    const operate = document.querySelector('[data-tab-panel="operate"]') || document.body;
+    operate.append(panel);
+    panel.querySelector('#zone-draw').addEventListener('click', () => this.startDraft());
+    panel.querySelector('#zone-cancel').addEventListener('click', () => this.endDraft());
+    panel.querySelector('#zone-save').addEventListener('click', () => this.save());
+    return panel;
+  }
+
+  onZones(zones) {
+    this.zones = zones;
+    this.layer.set(zones);
+    document.getElementById('zones-count').textContent = String(zones.length);
+    const list = document.getElementById('zones-list');
+    if (!zones.length) {
+      list.innerHTML = '<li class="empty">none</li>';
+      return;
+    }
+    list.replaceChildren(...zones.map((z) => {
+      const li = document.createElement('li');
+      li.dataset.zone = z.name;
+      li.dataset.held = z.holders.length ? 'yes' : 'no';
+      const text = document.createElement('span');
+      text.textContent = `${zoneWords(z)} `;
+      const remove = document.createElement('button');
+      remove.type = 'button';
+      remove.className = 'small';
+      remove.dataset.removeZone = z.name;
+      remove.textContent = 'Remove';
+      remove.addEventListener('click', () => this.remove(z.name));
+      li.append(text, remove);
+      return li;
+    }));
+  }
+
+  reply(text) {
+    document.getElementById('zones-reply').textContent = text;
+  }
+
+  startDraft() {
+    this.draft = [];
+    this.panel.querySelector('#zone-form').hidden = false;
+    this.layer.setDraft([]);
+    this.reply('');
+  }
+
+  endDraft() {
+    this.draft = null;
+    this.panel.querySelector('#zone-form').hidden = true;
+    this.layer.setDraft([]);
+  }
+
+  corner(e) {
+    if (this.draft === null || e.target !== this.view.canvas || e.button !== 0) return;
+    e.stopPropagation();
+    e.preventDefault();
+    this.draft.push(this.view.clientToRos(e.clientX, e.clientY));
+    this.layer.setDraft([...this.draft]);
+  }
+
+  save() {
+    const name = document.getElementById('zone-name').value.trim();
+    const kind = document.getElementById('zone-kind').value.trim();
+    const points = (this.draft || []).map((p) => ({ x: p.x, y: p.y, z: 0 }));
+    this.addService.callService({ name, kind, polygon: { points } }, (r) => {
+      this.reply(r.message);
+      if (r.success) this.endDraft();
+    }, (err) => this.reply(`not added: ${err}`));
+  }
+
+  remove(name) {
+    this.removeService.callService({ name }, (r) => this.reply(r.message),
+      (err) => this.reply(`not removed: ${err}`));
+  }
+}
