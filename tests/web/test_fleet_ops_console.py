@@ -1,0 +1,180 @@
+"""The fleet-operations console (web/fleetops.js, the Fleet tab) in Chromium against a real server
+with two named simulated robots, driving the fleet's real services: a task dispatched from the
+form to a chosen robot with the bids shown, paused and resumed from its row, then done in the
+History; a robot taken out of service from the console and skipped by a "best" dispatch; a
+schedule added, listed and removed; refusals in the service's words; a robot set to 20 % (by
+roslibpy, as an app developer's test would) shown going to charge under the policy's
+thresholds; and no raw JSON or Python reprs anywhere on the tab."""
+
+from __future__ import annotations
+
+import asyncio
+import re
+
+import pytest
+import roslibpy
+
+from hitrobot_server.robot.options import RobotEntry
+
+from ..helpers import Watcher, connect_roslibpy
+from .conftest import Console, add_poi
+
+Y = 8.0  # the office corridor
+# what the page must never show: JSON or Python reprs, JavaScript's placeholders
+RAW = re.compile(r"[{}\[\]]|\bNone\b|\bTrue\b|\bFalse\b|undefined|NaN|\[object|"
+                 r"\b[a-z]+_[a-z_]+: |Error: ")
+
+
+@pytest.fixture
+async def ops(make_server, browser, tmp_path):
+    server = await make_server(
+        robots=(RobotEntry("a", "sim", (4.0, Y, 0.0)), RobotEntry("b", "sim", (12.0, Y, 0.0))),
+        sim_speed=2, map_dir=str(tmp_path / "maps"))
+    page = browser.pages[0] if browser.pages else await browser.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
+    page.on("console", lambda m: errors.append(f"console.{m.type}: {m.text}")
+            if m.type == "error" else None)
+    await page.goto(f"http://127.0.0.1:{server.port}/")
+    await page.wait_for_function("""() => {
+        const h = window.hitrobot;
+        return Boolean(h && h.ros.isConnected && h.fleetops.robots.length === 2
+            && h.fleetops.robots.every((r) => r.state === 'idle') && h.fleetops.policy);
+    }""", timeout=30_000)
+    await page.click(".tabs [data-tab=fleet]")
+    await page.locator("#fleetops-robots-panel").wait_for(state="visible")
+    yield Console(page, server, errors)
+
+
+async def plain_words(page) -> None:
+    text = await page.inner_text("#fleetops")
+    assert not RAW.search(text), RAW.search(text)
+
+
+async def wait_state(page, list_id: str, task: str, state: str, timeout: float = 15) -> None:
+    await page.locator(f"#{list_id} li[data-task='{task}'][data-state={state}]").wait_for(
+        timeout=timeout * 1000)
+
+
+async def test_dispatch_to_a_chosen_robot_pause_resume_and_history(ops: Console):
+    page = ops.page
+    assert await page.locator(".tabs [data-tab=fleet]").is_visible()
+    w = await Watcher.open(ops.server.port)
+    try:
+        await add_poi(w, "far", 10.0, Y)  # 6 m from a, 2 m from b: a only because it is asked
+    finally:
+        await w.close()
+    await page.locator("#fleetops-poi option[value=far]").wait_for(state="attached")
+    await page.select_option("#fleetops-poi", "far")
+    await page.select_option("#fleetops-robot", "a")
+    await page.fill("#fleetops-priority", "5")
+    await page.click("#fleetops-dispatch")
+    reply = page.locator("#fleetops-reply[data-accepted=true][data-robot=a]")
+    await reply.wait_for(timeout=15_000)
+    task = await page.get_attribute("#fleetops-reply", "data-id")
+    assert "Why a" in await reply.inner_text()
+    assert [b.split(" ")[0] for b in await page.locator("#fleetops-reply .bids li")
+            .all_inner_texts()] == ["a"]  # a named robot: its bid only
+
+    await wait_state(page, "fleetops-tasks", task, "running")
+    row = page.locator(f"#fleetops-tasks li[data-task='{task}']")
+    text = await row.inner_text()
+    assert "Go to" in text and "far" in text and "priority 5" in text, text
+    assert re.search(r"started \d\d:\d\d:\d\d", text), text
+    await row.locator("[data-action=pause]").click()
+    await wait_state(page, "fleetops-tasks", task, "paused")
+    assert await row.locator("[data-action=resume]").is_enabled()
+    assert await row.locator("[data-action=pause]").count() == 0
+    await row.locator("[data-action=resume]").click()
+    await wait_state(page, "fleetops-tasks", task, "succeeded", timeout=30)
+    assert re.search(r"finished \d\d:\d\d:\d\d", await row.inner_text())
+    assert await row.locator("button").count() == 0  # nothing to pause or cancel once done
+
+    await page.click("#fleetops-tasks-panel [data-view=history]")
+    await wait_state(page, "fleetops-history", task, "succeeded")
+    first = page.locator("#fleetops-history li").first
+    assert await first.get_attribute("data-task") == task  # newest first
+    assert "a" == await first.get_attribute("data-robot")
+    await page.select_option("#fleetops-history-robot", "b")
+    await page.locator("#fleetops-history li.empty", has_text="nothing finished yet").wait_for()
+    await plain_words(page)
+    assert ops.errors == []
+
+
+async def set_battery(port: int, robot: str, percent: float) -> dict:
+    """/NAME/sim/set_battery from roslibpy (its own thread: the server runs on this loop)."""
+    def call() -> dict:
+        ros = connect_roslibpy(port)
+        try:
+            service = roslibpy.Service(ros, f"/{robot}/sim/set_battery",
+                                       "hitrobot_msgs/SimSetBattery")
+            return dict(service.call(roslibpy.ServiceRequest({"percent": percent}), timeout=10))
+        finally:
+            ros.close()
+    return await asyncio.to_thread(call)
+
+
+async def test_service_schedules_refusals_and_charging(ops: Console):
+    page = ops.page
+    policy = await page.inner_text("#fleetops-policy")
+    assert "under 25 %" in policy and "until 90 %" in policy, policy
+    assert "Times are the site's" in await page.inner_text("#fleetops-zone")
+
+    a = page.locator("#fleetops-robots li[data-robot=a]")
+    await a.locator("[data-action=service]").click()
+    await page.locator("#fleetops-robots li[data-robot=a][data-service=out]").wait_for()
+    assert "out of service" in await a.inner_text()
+    assert await a.locator("[data-action=service]").inner_text() == "Put back in service"
+    w = await Watcher.open(ops.server.port)
+    try:
+        await add_poi(w, "near_a", 5.0, Y)
+    finally:
+        await w.close()
+    await page.locator("#fleetops-poi option[value=near_a]").wait_for(state="attached")
+    await page.select_option("#fleetops-poi", "near_a")
+    await page.click("#fleetops-dispatch")  # the best robot: a is out, so b
+    await page.locator("#fleetops-reply[data-accepted=true][data-robot=b]").wait_for(
+        timeout=15_000)
+    bids = await page.locator("#fleetops-reply .bids li").all_inner_texts()
+    assert [b.split(" ")[0] for b in bids] == ["b"], bids
+    await a.locator("[data-action=service]").click()
+    await page.locator("#fleetops-robots li[data-robot=a][data-service=in]").wait_for()
+
+    # schedules: refused in the service's words, added, listed, removed
+    await page.fill("#fleetops-when", "every 2 s")
+    await page.click("#fleetops-schedule")
+    refused = page.locator("#fleetops-reply[data-accepted=false]")
+    await refused.wait_for()
+    assert "Refused: when: every must be at least 10 s" in await refused.inner_text()
+    await page.fill("#fleetops-when", "every 2 h")
+    await page.click("#fleetops-schedule")
+    await page.locator("#fleetops-reply[data-accepted=true]").wait_for()
+    listed = page.locator("#fleetops-schedules li[data-schedule]")
+    await listed.wait_for()
+    text = await listed.inner_text()
+    assert "every 2 h" in text and "near_a" in text and "the best robot" in text, text
+    assert re.search(r"next \d\d:\d\d:\d\d", text), text
+    await listed.locator("[data-action=remove]").click()
+    await page.locator("#fleetops-schedules li.empty", has_text="no schedules").wait_for()
+
+    # a point off the map: refused in the service's words
+    await page.select_option("#fleetops-poi", "")
+    await page.fill("#fleetops-x", "-0.4")
+    await page.fill("#fleetops-y", "-0.4")
+    await page.click("#fleetops-dispatch")
+    await page.locator("#fleetops-reply[data-accepted=false]",
+                       has_text="Refused:").wait_for(timeout=15_000)
+    assert await page.inner_text("#fleetops-reply .headline") == \
+        "Refused: (-0.4, -0.4) is off the map"
+
+    # a at 20 %: the policy sends it to its dock, and the console says so
+    got = await set_battery(ops.server.port, "a", 20.0)
+    assert got["success"], got
+    await page.locator("#fleetops-robots li[data-robot=a][data-charge=going]").wait_for(
+        timeout=10_000)
+    text = await a.inner_text()
+    assert "going to charge" in text and "20 %" in text, text
+    charge = page.locator("#fleetops-tasks li[data-state=running]", has_text="Charge")
+    assert "its dock" in await charge.inner_text()
+    await plain_words(page)
+    assert ops.errors == []
