@@ -25,7 +25,8 @@ export function showReply(box, { ok, message, robot = '', id = 0 }) {
   box.dataset.id = String(id); // the task's or the schedule's (0: refused)
   box.replaceChildren(el('div', { class: 'headline' }, ok ? head : `Refused: ${head}`));
   if (!bids) return;
-  box.append(el('div', { class: 'why' }, `Why ${robot || 'this robot'}: each robot's estimated finish time`),
+  const winner = robot || (head.match(/queued for (\S+)/) || [])[1] || 'this robot';
+  box.append(el('div', { class: 'why' }, `Why ${winner}: each robot's estimated finish time`),
     el('ul', { class: 'bids' }, ...bids.split('; ').map((b) => el('li', {}, b))));
 }
 
@@ -107,7 +108,14 @@ export class TaskForm {
     };
   }
 
+  /** The reply box while a request is on its way (the last reply is not taken for this one's). */
+  asking() {
+    for (const key of ['accepted', 'robot', 'id']) delete this.reply.dataset[key];
+    this.reply.replaceChildren(el('div', { class: 'headline' }, 'asking the fleet…'));
+  }
+
   async dispatch() {
+    this.asking();
     const { reply, error } = await this.dispatchService(this.request());
     if (error) return this.refused(`the server did not answer: ${error}`);
     showReply(this.reply, { ok: reply.accepted, message: reply.message, robot: reply.robot, id: reply.task });
@@ -116,6 +124,7 @@ export class TaskForm {
   }
 
   async schedule() {
+    this.asking();
     const { reply, error } = await this.schedules.add({ when: this.when.value, ...this.request() });
     if (error) return this.refused(`the server did not answer: ${error}`);
     showReply(this.reply, { ok: reply.success, message: reply.message, id: reply.id });
