@@ -15,9 +15,8 @@ import pytest
 import roslibpy
 from playwright.async_api import TimeoutError as PlaywrightTimeout
 
-from hitrobot_server.robot.options import RobotEntry
-
 from ..helpers import Watcher, connect_roslibpy
+from . import test_fleet
 from .conftest import Console, add_poi
 
 Y = 8.0  # the office corridor
@@ -26,25 +25,17 @@ RAW = re.compile(r"[{}\[\]]|\bNone\b|\bTrue\b|\bFalse\b|undefined|NaN|\[object|"
                  r"\b[a-z]+_[a-z_]+: |Error: ")
 
 
+fleet_console = test_fleet.fleet_console  # a and b idle on the map, the page ready
+
+
 @pytest.fixture
-async def ops(make_server, browser, tmp_path):
-    server = await make_server(
-        robots=(RobotEntry("a", "sim", (4.0, Y, 0.0)), RobotEntry("b", "sim", (16.0, Y, 0.0))),
-        sim_speed=3, map_dir=str(tmp_path / "maps"))
-    page = browser.pages[0] if browser.pages else await browser.new_page()
-    errors: list[str] = []
-    page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
-    page.on("console", lambda m: errors.append(f"console.{m.type}: {m.text}")
-            if m.type == "error" else None)
-    await page.goto(f"http://127.0.0.1:{server.port}/")
-    await page.wait_for_function("""() => {
-        const h = window.hitrobot;
-        return Boolean(h && h.ros.isConnected && h.fleetops.robots.length === 2
-            && h.fleetops.robots.every((r) => r.state !== 'offline') && h.fleetops.policy);
-    }""", timeout=30_000)
+async def ops(fleet_console: Console):
+    """The console of a two-robot server, its Fleet tab shown once the policy is read."""
+    page = fleet_console.page
+    await page.wait_for_function("() => Boolean(window.hitrobot.fleetops.policy)")
     await page.click(".tabs [data-tab=fleet]")
     await page.locator("#fleetops-robots-panel").wait_for(state="visible")
-    yield Console(page, server, errors)
+    return fleet_console
 
 
 async def plain_words(page) -> None:
@@ -88,7 +79,7 @@ async def test_dispatch_to_a_chosen_robot_pause_resume_and_history(ops: Console)
     assert await page.locator(".tabs [data-tab=fleet]").is_visible()
     w = await Watcher.open(ops.server.port)
     try:
-        await add_poi(w, "east", 8.0, Y)  # 4 m from a, 8 m from b
+        await add_poi(w, "east", 8.0, Y)  # 4 m from a and from b
     finally:
         await w.close()
     a = page.locator("#fleetops-robots li[data-robot=a]")
