@@ -10,8 +10,11 @@ const OPEN = ['running', 'paused', 'queued'];
 const input = (attrs) => el('input', { autocomplete: 'off', ...attrs });
 const option = (value, text) => el('option', { value }, text);
 
-/** Fill `select` with `options` ([value, text]), keeping its choice when still offered. */
+/** Fill `select` with `options` ([value, text]), keeping its choice when still offered; left
+ * alone when they are the ones it has (the lists come twice a second: an open choice stays open). */
 function refill(select, options) {
+  const have = [...select.options].map((o) => [o.value, o.textContent]);
+  if (JSON.stringify(have) === JSON.stringify(options)) return;
   const kept = select.value;
   select.replaceChildren(...options.map(([value, text]) => option(value, text)));
   if (options.some(([value]) => value === kept)) select.value = kept;
