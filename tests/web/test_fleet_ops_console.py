@@ -47,7 +47,7 @@ async def idle(page, robot: str) -> None:
     """Wait until the console lists ``robot`` idle (on a busy machine a robot's reports may
     come late, and the fleet calls it offline meanwhile)."""
     await page.locator(f"#fleetops-robots li[data-robot={robot}][data-state=idle]").wait_for(
-        timeout=20_000)
+        timeout=30_000)
 
 
 async def wait_state(page, list_id: str, task: str, state: str, timeout: float = 15) -> None:
