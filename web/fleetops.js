@@ -37,6 +37,7 @@ export class FleetOps {
     this.tasks = [];
     this.policy = null;
     this.lastTask = 0;
+    this.buttons = new Map(); // robot → its service button
     this.policyService = caller(ros, SERVICES.fleetPolicy, 'hitrobot_msgs/FleetPolicy');
     this.serviceSwitch = caller(ros, SERVICES.fleetSetInService, 'hitrobot_msgs/SetInService');
     this.policyText = el('div', { class: 'fleetops-policy', id: 'fleetops-policy' }, 'charging policy –');
@@ -95,8 +96,8 @@ export class FleetOps {
     this.lastTask = newest;
   }
 
-  /** The robots' rows, made again only when what they show changed (not at every report, so
-   * a button is not replaced under the pointer). */
+  /** The robots' rows, made again only when what they show changed; each robot keeps its one
+   * service button (moved, never replaced, so a click under way is not lost). */
   showRobots() {
     const shown = JSON.stringify(this.robots.map((r) => [r.name, r.state, Math.round(r.battery), r.task,
       r.in_service, r.message, chargeWords(r, this.tasks, this.policy)]));
@@ -105,18 +106,29 @@ export class FleetOps {
     this.list.replaceChildren(...this.robots.map((r) => this.robotRow(r)));
   }
 
+  /** Robot `name`'s service button: its words follow the robot; a click asks the other way. */
+  serviceButton(name, serving) {
+    if (!this.buttons.has(name)) {
+      this.buttons.set(name, el('button', { type: 'button', dataset: { action: 'service' },
+        onclick: (e) => this.setInService(name, e.currentTarget.dataset.serving !== 'true', e.currentTarget) }));
+    }
+    const button = this.buttons.get(name);
+    button.dataset.serving = String(serving);
+    button.className = `small${serving ? ' danger' : ''}`;
+    button.title = serving ? 'It takes no task; its waiting tasks go to the others' : 'It takes tasks again';
+    button.textContent = serving ? 'Take out of service' : 'Put back in service';
+    return button;
+  }
+
   robotRow(r) {
     const [charge, words] = chargeWords(r, this.tasks, this.policy);
     const serving = r.in_service !== false;
     const fill = el('span', { class: 'fill' });
     fill.style.width = `${Math.max(0, Math.min(100, r.battery))}%`;
     const low = this.policy && r.battery < this.policy.charge_below;
-    const button = el('button', { type: 'button', class: `small${serving ? ' danger' : ''}`, dataset: { action: 'service' },
-      title: serving ? 'It takes no task; its waiting tasks go to the others' : 'It takes tasks again',
-      onclick: (e) => this.setInService(r.name, !serving, e.target) }, serving ? 'Take out of service' : 'Put back in service');
     return el('li', { dataset: { robot: r.name, state: r.state, charge, service: serving ? 'in' : 'out' } },
       el('div', { class: 'head' }, el('span', { class: 'name' }, r.name), ' ', el('span', { class: 'state' }, stateWords(r)),
-        r.task ? el('span', { class: 'task' }, ` · task #${r.task}`) : null, button),
+        r.task ? el('span', { class: 'task' }, ` · task #${r.task}`) : null, this.serviceButton(r.name, serving)),
       el('div', { class: 'battery' }, el('span', { class: `bar${low ? ' low' : ''}` }, fill),
         el('span', { class: 'percent' }, ` ${Math.round(r.battery)} %`), words ? el('span', { class: 'charge' }, ` · ${words}`) : null),
       r.message && r.state !== 'idle' ? el('div', { class: 'message' }, r.message) : null);
