@@ -10,6 +10,7 @@ import { DockLayer } from './docklayer.js';
 import { MapEditor } from './editor.js';
 import { Fleet } from './fleet.js';
 import { Zones } from './zones.js';
+import { FleetOps } from './fleetops.js';
 import { Inspector } from './inspector.js';
 import { log } from './log.js';
 import { SavedMaps } from './maps.js';
@@ -347,6 +348,8 @@ function main() {
   // record and replay (recordings.js): a panel in the Status tab, a timeline over the map
   window.hitrobot.recordings = new Recordings({ ros, parent: document.querySelector('[data-tab-panel=status]') });
   window.hitrobot.timeline = new ReplayTimeline({ ros, parent: document.querySelector('.map-pane') });
+  // fleet operations (fleetops.js): the Fleet tab, shown on a server with named robots
+  window.hitrobot.fleetops = new FleetOps({ ros, tab: document.getElementById('fleet-tab'), parent: document.getElementById('fleetops') });
 }
 
 main();

@@ -23,6 +23,7 @@ from .dispatch import Dispatcher
 from .leader import Leadership
 from .member import CHARGING, IDLE, MEMBERS, OFFLINE, OFFLINE_AFTER, PERIOD, PKG
 from .policy import ChargePolicy
+from .policyinfo import PolicyService
 from .replica import NotedMemory
 from .runner import TaskFailed, TaskRunner
 from .scheduling import ScheduleServices
@@ -73,6 +74,7 @@ class FleetNode(RobotNode):
         self.dispatcher = Dispatcher(self)
         local = dt.datetime.now().astimezone().tzinfo  # the server's (a fixed offset)
         self.schedules = ScheduleServices(self, self.dispatcher.dispatch, zone or local)
+        PolicyService(self, zone or local, self.clock)
         self._advertised: set[str] = set()
         self.advertise(ROBOTS, f"{PKG}/FleetRobots", latch=True)
         self.advertise(TASKS, f"{PKG}/FleetTasks", latch=True)
