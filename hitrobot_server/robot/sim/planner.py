@@ -114,6 +114,10 @@ class PathSearch:
                 self._fail("no free space near the target")
                 return
             self._goal_point = tuple(float(v) for v in spec.center(*goal_cell))
+        if not costmap.regions.joined(costmap.lethal, start_cell, goal_cell):
+            # a search between two regions fails only after exploring the start's (all the map)
+            self._fail("no path to the target")
+            return
         if track_mode is TrackMode.STRICT:
             strict = self._restrict_to_tracks(blocked, start_cell, goal_cell)
             if strict is None:
