@@ -50,14 +50,17 @@ def test_no_way_around_fails_with_a_reason(world):
     assert result.reason == "no path to the target"
 
 
-def test_a_goal_in_another_region_fails_before_any_expansion(world):
+def test_a_goal_in_another_region_fails_after_one_slice(world):
     """The costmap's regions answer what a failed search used to explore the map for."""
     walls = [_wall(12.0, 0.1, 12.0, 9.1)]
     search = PathSearch(_costmap(world, walls=walls), START, (20.0, 8.0))
-    assert search.result is not None and search.result.reason == "no path to the target"
-    assert search.expansions == 0
+    assert search.advance(100) is None and search.expansions == 100
+    result = search.advance(100)
+    assert result is not None and result.reason == "no path to the target"
+    assert search.expansions == 100  # the regions told, not a search of the map
     joined = PathSearch(_costmap(world), START, (20.0, 8.0))
-    assert joined.result is None  # one region: the search runs
+    assert joined.advance(100) is None and joined.advance(100) is None  # one region: it runs
+    assert joined.expansions == 200
 
 
 def test_regions_join_cells_through_their_sides_only():
