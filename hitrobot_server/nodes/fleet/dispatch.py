@@ -82,10 +82,10 @@ class Dispatcher:
         if wanted and robots[wanted]["state"] == OFFLINE:
             raise Refused(f"robot '{wanted}' is offline")
         board.check_room(wanted)
-        self._check_client(client)
         kind, stops, laps = await read_stops(fleet.bus, request)
         for stop in stops:
             check_on_map(fleet.site_map, stop)
+        self._check_client(client)
         priority = max(-100, min(100, int(request.get("priority") or 0)))
         task = Task(0, kind, stops, wanted, priority, laps, created=fleet.clock())
         bids, refusals = await self.bids(task, [robots[wanted]] if wanted else [
