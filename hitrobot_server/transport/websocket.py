@@ -27,7 +27,6 @@ from .connection import DIRECT_WRITE_LIMIT, keep_reading, limit_read, run_sessio
 from .download import Downloads
 from .flight import FlightWindow
 from .http import QuietHttpLog
-from .sliced import SlicedConnection
 from .tls import HandshakeGate, peer_address
 
 log = logging.getLogger(__name__)
@@ -223,7 +222,7 @@ def _http_requests(http_handler: HttpHandler | None):
 
 def _connection_class(tls: HandshakeGate | None, downloads: Downloads | None
                       ) -> type[ServerConnection]:
-    base = SlicedConnection if downloads is None else _with_downloads(downloads)
+    base = ServerConnection if downloads is None else _with_downloads(downloads)
     return base if tls is None else _gated(tls, base)
 
 
@@ -232,7 +231,7 @@ def _with_downloads(downloads: Downloads) -> type[ServerConnection]:
     download goes to ``downloads`` (websockets never sees it), anything else to websockets
     as if nothing had happened. Until the first bytes say which, a timer bounds the wait."""
 
-    class SplitConnection(SlicedConnection):
+    class SplitConnection(ServerConnection):
         _peeked = b""
         _decided = False
         _held: asyncio.BaseTransport | None = None
