@@ -25,6 +25,7 @@ from .robots import RobotUnit, StartPlan, start_plan, start_planned, stop_robots
 from .session.client import ClientSession, WireProtocols
 from .session.foxglove.session import FoxgloveSession
 from .session.foxglove.shared import FoxgloveShared
+from .session.heap import HeapTrim
 from .session.offload import WorkerPool
 from .session.options import SessionOptions
 from .session.rosbridge.session import Session, Shared
@@ -58,6 +59,7 @@ class HitrobotServer:
         self.robots: list[RobotUnit] = []  # every robot: its backend and its nodes
         self.link = None  # the ZenohLink with --bus zenoh
         self.sessions: set[ClientSession] = set()
+        self.heap = HeapTrim()  # memory a big client held, given back once it left
         self.pool = WorkerPool()  # big ops off the event loop; shut down by stop()
         self.foxglove = FoxgloveShared.for_bus(self.bus, self.pool)
         self.shared = Shared.for_options(self.settings.session, self.pool)
@@ -90,6 +92,7 @@ class HitrobotServer:
         session.outbox.traffic = self.metrics.traffic
         self.sessions.add(session)
         session.on_close.append(self.sessions.discard)
+        session.on_close.append(self.heap.client_left)
         return session
 
     def new_session(self, peer: str, transport: str) -> Session:
@@ -243,6 +246,7 @@ class HitrobotServer:
             self._downloads.close()
         for session in list(self.sessions):
             session.close()
+        self.heap.close()
         self.pool.shutdown()
         self.metrics.loop.stop()
         self.metrics.unshare()

@@ -29,6 +29,7 @@ from .services import (
     Service,
     ServiceHandler,
     ServiceRegistry,
+    calling_as,
 )
 from .tap import BusTap, client_op
 from .topics import Message, Origin, Subscriber, Topic
@@ -231,15 +232,19 @@ class Bus:
             return self.link.remote_service(canonical(name))
         return found
 
-    async def call_service(self, name: str, request: dict, timeout: float | None = None) -> dict:
-        """Call a service; raises ServiceError with a user-facing reason on any failure."""
+    async def call_service(self, name: str, request: dict, timeout: float | None = None,
+                           origin: Origin | None = None) -> dict:
+        """Call a service; raises ServiceError with a user-facing reason on any failure. A
+        bridge client's session passes its ``origin``: the handler reads it with
+        :func:`~.services.service_caller`."""
         service = self.service(name)
         if service is None:
             raise ServiceError(f"service '{canonical(name)}' does not exist")
         try:
-            if timeout is not None and timeout > 0:
-                return await asyncio.wait_for(service.handler(request), timeout)
-            return await service.handler(request)
+            with calling_as(origin):
+                if timeout is not None and timeout > 0:
+                    return await asyncio.wait_for(service.handler(request), timeout)
+                return await service.handler(request)
         except TimeoutError:
             raise ServiceError(
                 f"service '{service.name}' did not answer within {timeout:g} s"

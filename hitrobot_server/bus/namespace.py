@@ -19,7 +19,7 @@ from .link import RemoteGraph
 from .names import CLIENT_NODE_PREFIX, canonical
 from .params import ParamStore
 from .services import Action, GoalHandle, Service
-from .topics import Message, Topic
+from .topics import Message, Origin, Topic
 
 SITE_WIDE = ("/tf", "/tf_static", "/rosout", "/rosapi", "/map_manager", "/fleet")
 """Names (and their subtrees) every robot shares: one TF tree (frames prefixed ``NAME/``),
@@ -180,8 +180,10 @@ class NamespacedBus:
     def service(self, name: str) -> Service | None:
         return self._bus.service(self.namespace.resolve(name))
 
-    async def call_service(self, name: str, request: dict, timeout: float | None = None) -> dict:
-        return await self._bus.call_service(self.namespace.resolve(name), request, timeout)
+    async def call_service(self, name: str, request: dict, timeout: float | None = None,
+                           origin: Origin | None = None) -> dict:
+        return await self._bus.call_service(self.namespace.resolve(name), request, timeout,
+                                            origin)
 
     def advertise_action(self, name: str, type_name: str, owner: Hashable, node: str,
                          *args: Any, **kwargs: Any) -> Action:

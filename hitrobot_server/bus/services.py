@@ -7,17 +7,40 @@ handler, so callers never know which one answers.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import uuid
-from collections.abc import Awaitable, Callable, Hashable
+from collections.abc import Awaitable, Callable, Hashable, Iterator
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from typing import Protocol
 
 from ..types.registry import ActionType, SrvType
+from .topics import Origin
 
 log = logging.getLogger(__name__)
 
 ServiceHandler = Callable[[dict], Awaitable[dict]]
+
+_caller: ContextVar[Origin | None] = ContextVar("service_caller", default=None)
+"""Who made the service call being handled: set by :meth:`~.core.Bus.call_service` for the
+call's own task only (a context variable), so handlers keep their one-argument signature."""
+
+
+def service_caller() -> Origin | None:
+    """The bridge client whose call is being handled (None: a node, or a call that came from
+    another process). A handler uses it to bound what one client may ask for."""
+    return _caller.get()
+
+
+@contextlib.contextmanager
+def calling_as(origin: Origin | None) -> Iterator[None]:
+    """Run a service handler (and what it awaits) as called by ``origin``."""
+    token = _caller.set(origin)
+    try:
+        yield
+    finally:
+        _caller.reset(token)
 
 
 @dataclass(eq=False)

@@ -4,6 +4,7 @@ the planner a move would use, in slices, so a long search never stalls the loop.
 
 from __future__ import annotations
 
+import asyncio
 import math
 from collections.abc import Callable
 
@@ -25,6 +26,7 @@ async def searched_path(costmap: Costmap, origin: Pose2D, goal: Pose2D, options:
                         alive: Callable[[], None]) -> list[Point2D]:
     """A* from ``origin`` to ``goal`` with ``move_to``'s ``options``, run in slices of
     :data:`~.sim.planner.PLAN_SLICE` expansions; ``alive`` raises to abandon it."""
+    await asyncio.sleep(0)  # a costmap just built, its regions labelled next: two turns
     search = path_search(costmap, (origin.x, origin.y), (goal.x, goal.y), options)
     result = await run_in_slices(search, alive)
     if not result.ok:

@@ -92,6 +92,7 @@ class Outbox:
         self.budget = budget  # control bytes above which the client's input is not read
         self._control: deque[_Entry] = deque()
         self._control_bytes = 0
+        self.peak_control = 0  # the most reply bytes it held at once (see session/heap.py)
         self._streams: dict[Hashable, _Stream] = {}
         self._active: deque[_Stream] = deque()  # streams with entries, in round-robin order
         self._bytes = 0
@@ -159,6 +160,8 @@ class Outbox:
         if not droppable:  # a reply, status or feedback: never dropped
             self._control.append(entry)
             self._control_bytes += size
+            if self._control_bytes > self.peak_control:
+                self.peak_control = self._control_bytes
             self._bytes += size
             if self.budget and self._control_bytes > self.budget:
                 self.room.clear()

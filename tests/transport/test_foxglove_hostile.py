@@ -8,12 +8,14 @@ back once the attacker left, and the attacker gets a clear answer."""
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import struct
 
 import numpy as np
 import pytest
 from websockets.asyncio.client import connect
+from websockets.exceptions import ConnectionClosed
 
 from hitrobot_server.bus.cdr import codec_for
 from hitrobot_server.protocol import foxglove as fg
@@ -186,6 +188,46 @@ async def test_a_client_that_never_reads_its_parameters_is_held_back(server):
     assert answered == {f"g{i}" for i in range(98)}
     await bad.close()
     await setter.close()
+
+
+async def test_the_memory_of_a_client_that_never_read_is_given_back_once_it_left(server):
+    """A 12 MB parameter tree asked for by a client that does not read: its second reply is
+    over twice its budget, so the client is told so and disconnected; the memory the replies
+    took is given back (session/heap.py trims glibc's heap after such a client)."""
+    setter = await foxglove(server.port)
+    value = "v" * 990_000  # under the 1 MB a value may have
+    await setter.send(json.dumps({"op": "setParameters", "parameters": [
+        {"name": f"/big/p{i}", "value": value} for i in range(12)]}))
+    assert await sentinel(setter, "set", timeout=30) == []
+    await setter.close()
+    witness = await RoundTrips.open(server.port)
+    mem = MemoryPeak(server.proc.pid)
+    bad = await foxglove(server.port, max_queue=1)
+    bad.transport.pause_reading()
+    for i in range(4):
+        await bad.send(json.dumps({"op": "getParameters", "parameterNames": [], "id": f"g{i}"}))
+    for _ in range(300):  # its first reply is in the socket's buffer, the second built: 30 s
+        if mem.peak - mem.base > 20 * MB:
+            break
+        await asyncio.sleep(0.1)
+    bad.transport.resume_reading()
+    last = ""
+    with contextlib.suppress(ConnectionClosed):
+        async with asyncio.timeout(30):
+            async for frame in bad:
+                if isinstance(frame, str) and '"status"' in frame:
+                    last = json.loads(frame)["message"]
+    assert "over twice --reply-buffer-limit" in last, last
+    assert await witness.stop() <= WITNESS_LIMIT, witness.times
+    grown = mem.stop()
+    assert grown < 80 * MB, grown / MB
+    returned = False
+    for _ in range(100):  # the trim runs a second after it left: 10 s at most
+        if mem.now() - mem.base < 8 * MB:
+            returned = True
+            break
+        await asyncio.sleep(0.1)
+    assert returned, (grown / MB, (mem.now() - mem.base) / MB)
 
 
 async def never_reading_flood(server, frames: list[bytes | str]):

@@ -10,8 +10,10 @@ from __future__ import annotations
 import asyncio
 import math
 
+from ...bus.services import service_caller
 from ...robot.model import Pose2D
 from ..ground import messages as m
+from .board import MAX_OPEN
 from .member import ERROR, OFFLINE
 from .policy import Bid
 from .requests import check_on_map, read_stops
@@ -22,26 +24,54 @@ BIDDING = "/bidding"
 """A task's reservation while robots bid for it (no robot is named so)."""
 CHARGE_PRIORITY = 1000
 """A charge goes before any task waiting for the same robot."""
+MAX_PER_CLIENT = 50
+"""Open tasks one bridge client may have asked for (the board bounds them in all and per
+robot)."""
 
 
 class Dispatcher:
     def __init__(self, fleet: Site):
         self.fleet = fleet
+        self._accepting = asyncio.Lock()  # one request checked and queued at a time
+        self._asked: dict[str, list[int]] = {}  # a bridge client → the tasks it asked for
 
     # ------------------------------------------------------------------ dispatch
     async def dispatch(self, request: dict) -> dict:
-        try:
-            task, text, start = await self.accept(request)
-        except Refused as exc:
-            return {"robot": "", "accepted": False, "message": str(exc), "task": 0}
+        """One request at a time (the queue's bounds hold under a burst, and a burst's
+        requests wait their turn instead of all running between two turns of the loop)."""
+        caller = service_caller()
+        client = caller.node if caller is not None else ""
+        async with self._accepting:
+            try:
+                task, text, start = await self.accept(request, client)
+            except Refused as exc:
+                return {"robot": "", "accepted": False, "message": str(exc), "task": 0}
+            if client:
+                self._asked.setdefault(client, []).append(task.id)
         if start:
             self.fleet.start_task(task, start)
         self.fleet.kick()
         return {"robot": start, "accepted": True, "task": task.id,
                 "message": f"task {task.id}: {text}"}
 
-    async def accept(self, request: dict) -> tuple[Task, str, str]:
-        """Check ``request``, take the bids, queue the task: (task, why, robot started now)."""
+    def _check_client(self, client: str) -> None:
+        """Refuse a bridge client that has :data:`MAX_PER_CLIENT` open tasks already (a node
+        or a schedule is bounded by the queue's own limits only)."""
+        if not client:
+            return
+        tasks = self.fleet.board.tasks
+        if len(self._asked) > MAX_OPEN:  # clients gone: only those with open tasks stay
+            self._asked = {c: ids for c, ids in self._asked.items()
+                           if any(i in tasks and tasks[i].open for i in ids)}
+        ids = [i for i in self._asked.get(client, []) if i in tasks and tasks[i].open]
+        self._asked[client] = ids
+        if len(ids) >= MAX_PER_CLIENT:
+            raise Refused(f"client {client} has {len(ids)} tasks queued or running; the limit "
+                          f"per client is {MAX_PER_CLIENT}")
+
+    async def accept(self, request: dict, client: str = "") -> tuple[Task, str, str]:
+        """Check ``request`` (from bridge ``client``, if one), take the bids, queue the task:
+        (task, why, robot started now)."""
         fleet, board = self.fleet, self.fleet.board
         robots = {r["name"]: r for r in fleet.robots()}
         wanted = request.get("robot", "")
@@ -56,6 +86,7 @@ class Dispatcher:
         for stop in stops:
             check_on_map(fleet.site_map, stop)
             fleet.traffic.check_stop(stop)
+        self._check_client(client)
         priority = max(-100, min(100, int(request.get("priority") or 0)))
         task = Task(0, kind, stops, wanted, priority, laps, created=fleet.clock())
         bids, refusals = await self.bids(task, [robots[wanted]] if wanted else [

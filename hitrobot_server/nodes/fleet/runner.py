@@ -57,10 +57,17 @@ class TaskRunner:
         again for :data:`NO_PATH_SECONDS` (a search that fails explores the whole map)."""
         loop = asyncio.get_running_loop()
         key = (robot, round(target.x / NO_PATH_CELL), round(target.y / NO_PATH_CELL))
-        async with self._planning:  # checked inside: the plans queued behind one learn of it
-            known = self._no_path.get(key)
-            if known is not None and loop.time() - known[0] < NO_PATH_SECONDS:
-                return math.inf, None, known[1]
+
+        def known() -> tuple[float, str] | None:
+            found = self._no_path.get(key)
+            return found if found is not None and loop.time() - found[0] < NO_PATH_SECONDS \
+                else None
+
+        if (found := known()) is not None:  # at once: a burst does not queue for the planners
+            return math.inf, None, found[1]
+        async with self._planning:  # checked again: the plans queued behind one learn of it
+            if (found := known()) is not None:
+                return math.inf, None, found[1]
             length, path, reason = await self._plan(robot, target, start)
         if path is None:
             if len(self._no_path) >= NO_PATH_KEPT:

@@ -11,12 +11,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..model import Line, Point2D
 from .grid import GridSpec, distance_field, rasterize_polygons, rasterize_segments
+from .regions import Regions
 
 
 @dataclass(frozen=True, slots=True)
@@ -40,13 +41,15 @@ class Costmap:
     """``lethal[row, col]``: the robot centre may not be there. ``cost``: multiplier >= 1 on the
     length of a step into the cell. ``track``: cells on a virtual track (for track modes).
     ``parkable``: cells with room to stop in, clear of the inflated zone by ``park_margin``
-    (where a goal that cannot be stood on is moved to)."""
+    (where a goal that cannot be stood on is moved to). ``regions``: which free cells join,
+    labelled on first use."""
 
     spec: GridSpec
     lethal: np.ndarray
     cost: np.ndarray
     track: np.ndarray
     parkable: np.ndarray
+    regions: Regions = field(default_factory=Regions, compare=False, repr=False)
 
     def lethal_at(self, points: np.ndarray) -> np.ndarray:
         """Per point ``(n, 2)``: whether the robot centre may not be there (outside = lethal)."""

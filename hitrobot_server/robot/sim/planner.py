@@ -79,6 +79,7 @@ class PathSearch:
     ) -> None:
         self.result: PlanResult | None = None
         self.expansions = 0
+        self._regions_checked = False
         self._costmap = costmap
         self._spec = spec = costmap.spec
         self._start_point = start
@@ -153,6 +154,8 @@ class PathSearch:
         """Expand up to ``budget`` cells; the result once the search has finished."""
         if self.result is not None:
             return self.result
+        if self.expansions and not self._joined():
+            return self.result
         heap, g_of, parent = self._heap, self._g, self._parent
         blocked, closed, cost = self._blocked, self._closed, self._cost
         width, goal = self._width, self._goal
@@ -186,6 +189,19 @@ class PathSearch:
         if not heap:
             self._fail("no path to the target")
         return self.result
+
+    def _joined(self) -> bool:
+        """Once a search has outgrown its first slice: whether its start and goal are in one
+        region of the costmap (labelled once per costmap). A search between two regions would
+        explore all of the start's, often the whole map, to fail; a short one never asks."""
+        if self._regions_checked:
+            return True
+        self._regions_checked = True
+        start = divmod(self._start, self._width)[::-1]
+        if self._costmap.regions.joined(self._costmap.lethal, start, self._goal_xy):
+            return True
+        self._fail("no path to the target")
+        return False
 
     def _h(self, x: int, y: int) -> float:
         ax = abs(x - self._goal_xy[0])

@@ -60,7 +60,8 @@ class ServiceOps:
                     request: dict) -> None:
         c = self.client
         try:
-            response = await c.bus.call_service(name, request, c.settings.call_service_timeout)
+            response = await c.bus.call_service(name, request, c.settings.call_service_timeout,
+                                               c.origin)
             payload = c.codec.encode(response, stype.response)
         except BusError as exc:
             c.out.send(fg.service_call_failure(req.service_id, req.call_id, str(exc)))

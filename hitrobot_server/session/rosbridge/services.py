@@ -122,7 +122,7 @@ class ServiceOps:
         """The call itself, answered with the provider's values (or its failure)."""
         c = self.client
         try:
-            values = await c.bus.call_service(name, request, timeout)
+            values = await c.bus.call_service(name, request, timeout, c.origin)
         except ServiceError as exc:
             if exc.values is not None:  # the provider's own failure values, as rosbridge
                 c.send({**reply, "values": exc.values, "result": False}, fragment_size=frag)

@@ -4,6 +4,7 @@ import pytest
 from hitrobot_server.robot.model import Line, Point2D, Rect
 from hitrobot_server.robot.sim.costmap import CostmapConfig, build_costmap, densify
 from hitrobot_server.robot.sim.planner import PathSearch, TrackMode, plan
+from hitrobot_server.robot.sim.regions import label_regions
 
 START = (5.0, 8.0)
 
@@ -47,6 +48,34 @@ def test_no_way_around_fails_with_a_reason(world):
     result = plan(_costmap(world, walls=walls), START, (20.0, 8.0))
     assert not result.ok
     assert result.reason == "no path to the target"
+
+
+def test_a_goal_in_another_region_fails_after_one_slice(world):
+    """The costmap's regions answer what a failed search used to explore the map for."""
+    walls = [_wall(12.0, 0.1, 12.0, 9.1)]
+    search = PathSearch(_costmap(world, walls=walls), START, (20.0, 8.0))
+    assert search.advance(100) is None and search.expansions == 100
+    result = search.advance(100)
+    assert result is not None and result.reason == "no path to the target"
+    assert search.expansions == 100  # the regions told, not a search of the map
+    joined = PathSearch(_costmap(world), START, (20.0, 8.0))
+    assert joined.advance(100) is None and joined.advance(100) is None  # one region: it runs
+    assert joined.expansions == 200
+
+
+def test_regions_join_cells_through_their_sides_only():
+    free = np.array([[1, 1, 0, 1],
+                     [0, 1, 0, 1],
+                     [1, 0, 1, 1],
+                     [1, 0, 0, 0]], dtype=bool)
+    labels = label_regions(free)
+    assert (labels == 0).tolist() == (~free).tolist()
+    groups = {}
+    for (row, col), value in np.ndenumerate(labels):
+        if value:
+            groups.setdefault(int(value), set()).add((row, col))
+    assert sorted(map(sorted, groups.values())) == sorted(map(sorted, [
+        {(0, 0), (0, 1), (1, 1)}, {(0, 3), (1, 3), (2, 3), (2, 2)}, {(2, 0), (3, 0)}]))
 
 
 def test_blocked_area_acts_like_an_obstacle(world):
