@@ -9,6 +9,8 @@ import os
 import time
 from pathlib import Path
 
+import pytest
+
 from ..helpers import ServerProcess, Watcher
 from ..nodes.test_fleet import Y, pose
 
@@ -84,6 +86,7 @@ async def witness(w: Watcher, stop: asyncio.Event) -> float:
     return worst
 
 
+@pytest.mark.serial  # the server's CPU share and the witness's bound: run alone (tests/run.py)
 async def test_unreachable_dispatches_are_refused_and_cost_nothing_after(tmp_path):
     server = ServerProcess(*ROBOTS, "--map-dir", str(tmp_path / "m"), robot=FIRST)
     try:
