@@ -6,7 +6,10 @@ import tempfile
 
 import pytest
 
-from .helpers import ServerProcess, WsClient, servers
+from hitrobot_server.config import Settings
+from hitrobot_server.server import HitrobotServer
+
+from .helpers import ServerProcess, WsClient
 
 _XDG: str | None = None
 
@@ -30,8 +33,20 @@ def pytest_unconfigure(config: pytest.Config) -> None:
 async def make_server(tmp_path_factory):
     """Start real servers on ephemeral loopback ports, each with its own temporary state
     folder (never the user's); stopped after the test."""
-    async with servers(tmp_path_factory) as make:
-        yield make
+    started: list[HitrobotServer] = []
+
+    async def make(**overrides) -> HitrobotServer:
+        kw = {"port": 0, "tcp_port": -1, "address": "127.0.0.1", "unregister_timeout": 0.2,
+              "robot": "none", "state_dir": str(tmp_path_factory.mktemp("state"))}
+        kw.update(overrides)
+        server = HitrobotServer(Settings.of(**kw))
+        await server.start()
+        started.append(server)
+        return server
+
+    yield make
+    for server in started:
+        await server.stop()
 
 
 @pytest.fixture

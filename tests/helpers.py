@@ -12,39 +12,12 @@ import sys
 import tempfile
 import time
 from abc import ABC, abstractmethod
-from collections.abc import AsyncIterator, Awaitable, Callable
-from contextlib import asynccontextmanager
+from collections.abc import Callable
 
 import cbor2
 import orjson
 import roslibpy
 from websockets.asyncio.client import connect
-
-from hitrobot_server.config import Settings
-from hitrobot_server.server import HitrobotServer
-
-
-@asynccontextmanager
-async def servers(tmp_path_factory) -> AsyncIterator[Callable[..., Awaitable[HitrobotServer]]]:
-    """``make(**settings)`` starts a real server on an ephemeral loopback port with its own
-    temporary state folder (never the user's); every server made is stopped on the way out.
-    The ``make_server`` fixtures wrap it (tests/web's on the browser tests' shared loop)."""
-    started: list[HitrobotServer] = []
-
-    async def make(**overrides) -> HitrobotServer:
-        kw = {"port": 0, "tcp_port": -1, "address": "127.0.0.1", "unregister_timeout": 0.2,
-              "robot": "none", "state_dir": str(tmp_path_factory.mktemp("state"))}
-        kw.update(overrides)
-        server = HitrobotServer(Settings.of(**kw))
-        await server.start()
-        started.append(server)
-        return server
-
-    try:
-        yield make
-    finally:
-        for server in started:
-            await server.stop()
 
 
 def connect_roslibpy(port: int) -> roslibpy.Ros:

@@ -1,13 +1,12 @@
 """Playwright (async) driving Debian's Chromium against a real hitrobot-server with the simulator.
 
 Browsers cannot be downloaded here, so Playwright launches ``/usr/bin/chromium`` (``apt-get
-install chromium``; .ci/run does it): one browser per test process, a fresh context per test.
-The console's libraries come from ``npm ci --prefix web``.
+install chromium``; .ci/run does it) with a fresh profile per test. The console's libraries
+come from ``npm ci --prefix web``.
 """
 
 from __future__ import annotations
 
-import inspect
 import io
 import math
 import os
@@ -17,13 +16,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import pytest_asyncio
 from PIL import Image
 
-from ..helpers import Watcher, servers
+from ..helpers import Watcher
 
-WEB_TESTS = Path(__file__).resolve().parent
-REPO = WEB_TESTS.parents[1]
+REPO = Path(__file__).resolve().parents[2]
 ARTIFACTS = REPO / "test-artifacts"
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = [
@@ -89,18 +86,8 @@ class Console:
         await self.page.mouse.up()
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The browser tests run on one event loop per test process, so one Playwright driver and
-    one Chromium serve them all (starting both took seconds per test); each test still gets
-    a fresh browser context, a fresh server and fresh temporary folders."""
-    for item in items:
-        if (isinstance(item, pytest.Function) and item.path.is_relative_to(WEB_TESTS)
-                and inspect.iscoroutinefunction(item.obj)):
-            item.add_marker(pytest.mark.asyncio(loop_scope="session"), append=False)
-
-
-@pytest_asyncio.fixture(scope="session", loop_scope="session")
-async def chromium():
+@pytest.fixture
+async def browser(tmp_path):
     if not CHROMIUM.exists():
         raise RuntimeError("Chromium is not installed: `apt-get install -y chromium` "
                            "(.ci/run does this)")
@@ -110,32 +97,17 @@ async def chromium():
     from playwright.async_api import async_playwright
 
     async with async_playwright() as pw:
-        browser = await pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS,
-                                           headless=True)
+        context = await pw.chromium.launch_persistent_context(
+            str(tmp_path / "chromium-profile"), executable_path=str(CHROMIUM),
+            args=CHROMIUM_ARGS, headless=True, viewport=VIEWPORT,
+        )
         try:
-            yield browser
+            yield context
         finally:
-            await browser.close()
+            await context.close()
 
 
-@pytest_asyncio.fixture(loop_scope="session")
-async def browser(chromium):
-    """A fresh browser context (its own cookies, storage and cache) of the shared Chromium."""
-    context = await chromium.new_context(viewport=VIEWPORT)
-    try:
-        yield context
-    finally:
-        await context.close()
-
-
-@pytest_asyncio.fixture(loop_scope="session")
-async def make_server(tmp_path_factory):
-    """tests/conftest.py's ``make_server`` on the browser tests' shared loop."""
-    async with servers(tmp_path_factory) as make:
-        yield make
-
-
-@pytest_asyncio.fixture(loop_scope="session")
+@pytest.fixture
 async def console(make_server, browser, tmp_path):
     server = await make_server(robot="sim", sim_speed=4, map_dir=str(tmp_path / "maps"))
     page = browser.pages[0] if browser.pages else await browser.new_page()
@@ -159,7 +131,7 @@ async def console(make_server, browser, tmp_path):
     yield result
 
 
-@pytest_asyncio.fixture(loop_scope="session")
+@pytest.fixture
 async def watcher(console):
     w = await Watcher.open(console.server.port)
     yield w

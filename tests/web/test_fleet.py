@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest_asyncio
+import pytest
 
 from hitrobot_server.robot.options import RobotEntry
 
@@ -25,7 +25,7 @@ def faint(colour: tuple[int, int, int]) -> tuple[float, ...]:
     return tuple(FAINT * v + (1 - FAINT) * 255 for v in colour)
 
 
-@pytest_asyncio.fixture(loop_scope="session")
+@pytest.fixture
 async def fleet_console(make_server, browser, tmp_path):
     server = await make_server(
         robots=(RobotEntry("a", "sim", (4.0, Y, 0.0)), RobotEntry("b", "sim", (12.0, Y, 0.0))),
