@@ -9,6 +9,8 @@ import os
 import time
 from pathlib import Path
 
+import pytest
+
 from ..helpers import ServerProcess, Watcher
 from ..nodes.test_fleet import Y, pose
 from ..witness import RoundTrips
@@ -74,6 +76,7 @@ async def test_history_and_open_tasks_survive_kill_9(tmp_path):
         server.stop()
 
 
+@pytest.mark.serial  # the server's CPU share and the witness's bound: run alone (tests/run.py)
 async def test_unreachable_dispatches_are_refused_and_cost_nothing_after(tmp_path):
     # at the simulator's own speed: the robots stand still, the witness measures the dispatches
     server = ServerProcess("--robot", "b=sim@12,8", "--map-dir", str(tmp_path / "m"), robot=FIRST)

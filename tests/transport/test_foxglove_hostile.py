@@ -30,6 +30,7 @@ from ..witness import MemoryPeak, RoundTrips
 MB = 2**20
 WITNESS_LIMIT = 0.5  # seconds: the bound on the witness's round trip
 BUDGET = 1_000_000  # --reply-buffer-limit of the server
+pytestmark = pytest.mark.serial  # the witness's 500 ms bound: run alone (tests/run.py)
 
 
 @pytest.fixture
