@@ -47,6 +47,7 @@ from .profile import PROFILE, ROS_DISTRO, channel_metadata, ros2_type_name, sche
 log = logging.getLogger(__name__)
 
 WRITER_NICENESS = 5  # the event loop first; the disk keeps up or messages are dropped
+DRAIN_GRACE = 5.0  # seconds a writer whose server died has to write what the pipe still holds
 BUDGET_PERIOD = 2.0  # seconds between looks at the disk budget
 
 CDR, JSON, MSG = 0, 1, 2
@@ -312,8 +313,10 @@ class _Batches:
 
 def run_writer(plan: Plan, items: Any, counters: Counters) -> None:
     """The writer process: take batches until ``None``, then finish the file. If the server
-    dies first, a watchdog thread finishes it (the main thread may then be stuck reading a
-    batch the server was cut off in the middle of). A disk error ends it early (exit 1)."""
+    dies first, the batches it had already handed over are written (the pipe still holds
+    them) and the file finished; a watchdog thread finishes it after ``DRAIN_GRACE`` if the
+    main thread is stuck reading a batch the server was cut off in the middle of. A disk
+    error ends it early (exit 1)."""
     with contextlib.suppress(OSError, AttributeError):
         os.nice(WRITER_NICENESS)
     with contextlib.suppress(AttributeError, ValueError):  # a size limit: an error, not a kill
@@ -322,12 +325,15 @@ def run_writer(plan: Plan, items: Any, counters: Counters) -> None:
                         "%(message)s")
     files = McapFiles(plan, counters)
     lock = threading.Lock()  # held while the file is touched
+    gone, drained = threading.Event(), threading.Event()
 
     def watch_server() -> None:
         server = multiprocessing.parent_process()
         if server is None:
             return
         server.join()
+        gone.set()
+        drained.wait(DRAIN_GRACE)
         with lock, contextlib.suppress(OSError):
             files.finish()
         os._exit(0)
@@ -337,6 +343,8 @@ def run_writer(plan: Plan, items: Any, counters: Counters) -> None:
     next_flush = time.monotonic() + plan.flush_period
     try:
         while (batch := batches.take(max(0.0, next_flush - time.monotonic()))) is not None:
+            if not batch and gone.is_set():
+                break  # the server is gone and what it handed over is written
             with lock:
                 for item in batch:
                     files.write(item)
@@ -345,6 +353,7 @@ def run_writer(plan: Plan, items: Any, counters: Counters) -> None:
                     next_flush = time.monotonic() + plan.flush_period
         with lock:
             files.finish()
+        drained.set()
     except OSError as exc:
         with lock:
             files.cut_short(exc)

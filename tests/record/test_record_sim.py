@@ -13,6 +13,7 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
+import pytest
 import roslibpy
 import yaml
 from mcap.exceptions import McapError
@@ -100,6 +101,7 @@ def running(pid: int) -> bool:
         return False
 
 
+@pytest.mark.serial  # the writer (at a lower priority) keeps within 1 s of live: run alone
 def test_a_recording_cut_by_sigkill_reads_back_to_its_last_second(tmp_path):
     path = tmp_path / "killed.mcap"
     server = record_server(tmp_path, path)
@@ -150,6 +152,7 @@ def test_an_unwritable_recording_path_is_refused_at_start(tmp_path):
     assert "ws://" not in done.stdout
 
 
+@pytest.mark.serial  # the writer (at a lower priority) has caught up when the server dies
 def test_a_killed_server_leaves_its_writer_to_finish_the_file(tmp_path):
     path = tmp_path / "finished.mcap"
     server = record_server(tmp_path, path)

@@ -62,7 +62,8 @@ async def test_the_servers_state_follows_the_robots_identity(tmp_path):
             restored = (await bound(second.port))
             assert await pois(restored) == ["dock"]
             x, y = (MASK[0] + MASK[2]) / 2, (MASK[1] + MASK[3]) / 2
-            await restored.until(lambda: cell(restored.latest("/map"), x, y) == BLOCKED, 10,
+            await restored.until(lambda: (grid := restored.latest("/map")) is not None
+                                 and cell(grid, x, y) == BLOCKED, 10,
                                  "the mask back")
             # the wall is the robot's own: it kept it, the server did not push it
             await restored.until(lambda: lines_of(restored, "virtual_walls"), 10, "the wall")

@@ -66,7 +66,7 @@ class FleetNode(RobotNode):
         self._busy: set[str] = set()  # robots running a task
         self._wake: asyncio.Event | None = None
         self._heard: dict[str, asyncio.Event] = {}
-        self.zoning = ZoneServices(self, self.board.memory, self.advertise, self.publish)
+        self.zoning = ZoneServices(self, self.board.memory, self.advertise, self._publish_led)
         self._restored += self.zoning.restore()
         self.traffic = self.zoning.traffic
         self.runner = TaskRunner(bus, map_frame, self.policy, self.wait_member,
@@ -166,6 +166,12 @@ class FleetNode(RobotNode):
             return []
         return [r for r in self.robots() if r["state"] in (IDLE, CHARGING) and r["in_service"]
                 and r["name"] not in self._busy]
+
+    def _publish_led(self, topic: str, msg: dict) -> None:
+        """Publish a site-wide topic only while this server dispatches (a follower does not
+        offer it: .leader)."""
+        if self.lead.leading:
+            self.publish(topic, msg)
 
     def publish_tasks(self) -> None:
         if self.lead.leading:
