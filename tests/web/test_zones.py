@@ -6,11 +6,9 @@ on the map by clicks is saved to the server and removed again."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
-
-from hitrobot_server.robot.options import RobotEntry
 
 from ..helpers import Watcher
+from . import test_fleet
 from .conftest import Console
 
 Y = 8.0
@@ -22,23 +20,7 @@ def polygon(points) -> dict:
     return {"points": [{"x": x, "y": y, "z": 0.0} for x, y in points]}
 
 
-@pytest.fixture
-async def zones_console(make_server, browser, tmp_path):
-    server = await make_server(
-        robots=(RobotEntry("a", "sim", (4.0, Y, 0.0)), RobotEntry("b", "sim", (12.0, Y, 0.0))),
-        sim_speed=3, map_dir=str(tmp_path / "maps"))
-    page = browser.pages[0] if browser.pages else await browser.new_page()
-    errors: list[str] = []
-    page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
-    page.on("console", lambda m: errors.append(f"console.{m.type}: {m.text}")
-            if m.type == "error" else None)
-    await page.goto(f"http://127.0.0.1:{server.port}/")
-    await page.wait_for_function("""() => {
-        const h = window.hitrobot;
-        return Boolean(h && h.view.mapBounds && h.ros.isConnected && h.fleet.robots.length === 2
-            && h.fleet.robots.every((r) => r.state === 'idle'));
-    }""", timeout=30_000)
-    yield Console(page, server, errors)
+zones_console = test_fleet.fleet_console  # a and b idle on the map, the page ready
 
 
 async def colour_near(c: Console, x: float, y: float, colour, radius: int = 3) -> bool:
