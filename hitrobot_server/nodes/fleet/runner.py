@@ -32,6 +32,9 @@ NO_PATH_SECONDS = 10.0
 NO_PATH_KEPT = 1000
 BLOCKED_RETRIES = 2
 """Times a leg stopped on its way is planned again from where the robot stands."""
+BLOCKED_WAIT = 2.0
+"""Seconds before a leg with no path is planned again on a site with zones (another robot may
+stand on the way or on the spot, waiting before a zone or coming out of it)."""
 
 WaitMember = Callable[[str, Callable[[dict], bool], float], Awaitable[dict | None]]
 
@@ -121,11 +124,23 @@ class TaskRunner:
                    changed: Callable[[], None]) -> None:
         """Plan and drive one leg through the zones; on a site with zones, a leg stopped on the
         way (another robot in its way: one waiting before a zone, or one coming out of it) is
-        planned again from where the robot stands, :data:`BLOCKED_RETRIES` times."""
+        planned again from where the robot stands, :data:`BLOCKED_RETRIES` times, and so is a
+        leg that finds no path there (after :data:`BLOCKED_WAIT`, not from the cache of places
+        found unreachable: a robot in the way moves on)."""
         for attempt in range(BLOCKED_RETRIES + 1):
-            _length, path, reason = await self.plan(robot, stop.pose)
+            if attempt == 0:
+                _length, path, reason = await self.plan(robot, stop.pose)
+            else:
+                async with self._planning:
+                    _length, path, reason = await self._plan(robot, stop.pose, None)
             if path is None:
-                raise TaskFailed(f"no path to {stop.name or 'the pose'}: {reason}")
+                if attempt == BLOCKED_RETRIES or task.state != RUNNING or \
+                        not self.traffic.zones:
+                    raise TaskFailed(f"no path to {stop.name or 'the pose'}: {reason}")
+                await asyncio.sleep(BLOCKED_WAIT)
+                if task.state != RUNNING:
+                    return
+                continue
             try:
                 await cross(self.traffic, task, robot, path, self._follow, changed)
                 return
