@@ -134,7 +134,6 @@ class Recorder:
         self._timer: asyncio.TimerHandle | None = None
         self._allowed: dict[str, bool] = {}
         self._codec = codec_for(bus.types)
-        self._direct: dict[str, bool] = {}  # per type: its CDR made here (Ros2Codec.direct)
         self._last_warning = float("-inf")
 
     # ------------------------------------------------------------------ what it has done
@@ -244,19 +243,13 @@ class Recorder:
     def _enqueue(self, message: Message, log_time: float | None = None) -> None:
         if message.cdr_bytes is None:
             kind, data = known_bytes(message)
-            if kind == JSON and len(data) <= LOOP_CDR_BYTES and self._is_direct(message):
+            if kind == JSON and len(data) <= LOOP_CDR_BYTES and \
+                    self._codec.direct(message.topic.mtype):
                 with contextlib.suppress(Exception):  # the writer tries again and counts it
                     message.cdr(self._codec)
         item = item_of(message, log_time)
         self._put(item, ITEM_OVERHEAD + (len(item.data) if item.kind != MSG
                                          else estimate_size(item.data)))
-
-    def _is_direct(self, message: Message) -> bool:
-        mtype = message.topic.mtype
-        direct = self._direct.get(mtype.name)
-        if direct is None:
-            direct = self._direct[mtype.name] = self._codec.direct(mtype)
-        return direct
 
     def _put(self, item: Item, size: int) -> None:
         counters = self._counters
