@@ -8,21 +8,32 @@ far its client has read (WebSocket: a ping, which every client answers once it h
 it, RFC 6455 §5.5.2) keeps what is unread under a window, and what does not fit waits in the
 outbox, where the scheduler still picks among it.
 
-The window is sized from what the pongs show (sans-I/O: the transport reports bytes sent,
-pings and pongs with their times): the client's delivery rate (the best rate seen over the last
-second, each sample over at least :data:`RATE_SPAN` seconds of pongs) times the lowest round
-trip seen plus :data:`TARGET` seconds of queue. A link that keeps up (a round trip well under
-the target with the window full) doubles the window; a slow reader's window shrinks to about
-:data:`TARGET` seconds of what it reads. Between :data:`MIN_WINDOW` and :data:`MAX_WINDOW`.
+Sans-I/O: the transport reports bytes sent, pings and pongs with their times, and how late its
+own loop runs. A pong's round trip is how old the bytes before its ping were when the client
+read them.
 
-On top of the window, a client that showed no standing queue lately (a quick pong within the
-last :data:`QUICK_SPAN` seconds) may have up to :data:`BURST` seconds of its rate unread
-(:meth:`room`): a fast reader that reads in bursts, or whose process waits for a busy CPU, has a
-late pong now and then but quick ones in between, and keeps its rate through its pauses. A slow
-reader's pongs are all late once its queue has built up: it gets the window alone. A client that
-answers no ping for :data:`GIVE_UP` seconds (a client library that never pongs) is not held at
-all until its next pong: it gets what a client without the window gets (the kernel's short
-unsent queue, the fair outbox).
+**When it holds.** A client is held (*armed*) once it shows a standing queue: every pong of
+the last :data:`ARM_SPAN` seconds came back more than :data:`ARM_AGE` late (beyond the server
+loop's own lateness), or a ping has waited longer than both for its pong. A slow link does
+that within a second of being flooded; a fast reader whose process is busy now and then (one
+process reading fifty sockets, a page that also draws) has quick pongs in between and is never
+held, so a flood reaches it as it would without the window: the deep buffers that cost the slow
+reader freshness give the bursty fast reader its throughput. A held client is let go when
+every pong of :data:`DISARM_SPAN` seconds came back within :data:`DISARM_AGE`.
+
+**How big.** The client's delivery rate, averaged over the pongs of the last
+:data:`RATE_SPAN` seconds, times the bare round trip plus the server loop's recent lateness (a
+busy server gets to each client once a turn) plus :data:`TARGET` seconds of queue, between
+:data:`MIN_WINDOW` and :data:`MAX_WINDOW`. A slow reader's rate is its link's however much it
+is sent: its unread bytes settle at about :data:`TARGET` seconds of what it reads. A reader
+that answers within less than that reads more than the window per target: its window grows with
+each pong until it no longer binds. The average spans several of a bursty reader's reads (a
+browser that reads 256 kB at once, then waits for the link to bring more), whose single reads
+would show many times its rate.
+
+A client that answers no ping for :data:`GIVE_UP` seconds (a client library that never pongs)
+is not held at all until its next pong: it gets what a client without the window gets (the
+kernel's short unsent queue, the fair outbox).
 """
 
 from __future__ import annotations
@@ -32,25 +43,30 @@ from collections import deque
 from dataclasses import dataclass
 
 TARGET = 0.03
-"""Seconds of delivery the unread bytes may stand for beyond the bare round trip."""
+"""Seconds of delivery an armed client's unread bytes may stand for, beyond the bare round trip
+and the server loop's lateness."""
 MIN_WINDOW = 48 * 1024
 MAX_WINDOW = 16 * 1024 * 1024
 INITIAL_WINDOW = 256 * 1024
 MIN_PING_EVERY = 16 * 1024
-GAIN = 2
-"""The window is this many times the delivery rate's worth of (round trip + target): room for
-a link that the window held back to show a higher rate (a slow reader's rate stays put)."""
-RATE_SPAN = 0.02
-"""A rate sample spans at least this long (pongs that arrive in one read are one sample)."""
-RATE_MEMORY = 1.0
-"""Seconds a rate sample counts toward the estimate (the link may have become slower since)."""
+RATE_SPAN = 0.25
+"""The delivery rate is the bytes read over at least this long (while there are fewer seconds
+of pongs, over what there is, from :data:`FIRST_SPAN` on)."""
+FIRST_SPAN = 0.02
+ARM_AGE = 0.1
+ARM_SPAN = 0.3
+"""A client is held once all its pongs over ``ARM_SPAN`` s came back over ``ARM_AGE`` s late."""
+DISARM_AGE = 0.025
+DISARM_SPAN = 2.0
+"""A held client is let go once all its pongs over ``DISARM_SPAN`` s came back within
+``DISARM_AGE`` s (beyond the server loop's lateness): a held slow reader's pongs are up to about
+twice :data:`TARGET` late, so it is not let go now and then only to queue seconds again."""
+WATCH_EVERY = 0.1
+"""Seconds between the pings to a client not held: they watch for a standing queue at the cost
+of ten pongs a second, where pinging every quarter window would cost a fast reader hundreds."""
 PROBE_EVERY = 0.1
 """After an idle spell, a ping goes with the first bytes (a round trip with no queue before it)
 at most this often."""
-BURST = 0.25
-"""Seconds of its delivery rate a client with no standing queue may have unread."""
-QUICK_SPAN = 0.25
-"""A pong this recent under the bare round trip plus the target: no standing queue."""
 GIVE_UP = 5.0
 """Seconds a ping may go unanswered before the window stops holding the client back."""
 FIRST_GIVE_UP = 1.0
@@ -62,7 +78,6 @@ a second at most, once)."""
 class _Ping:
     mark: int  # bytes sent when it went out: its pong says the client read that far
     at: float
-    full: bool  # the window was (half) full: its pong tells what the link, not the sender, did
     clean: bool  # nothing was unread before the bytes it follows: a bare round trip
 
 
@@ -75,16 +90,20 @@ class FlightWindow:
         self.min_window = min_window
         self.max_window = max_window
         self.window = max(min_window, min(initial, max_window))
+        self.armed = False  # the window holds this client (a standing queue was seen)
         self.sent = 0  # bytes sent, all told
         self.acked = 0  # bytes the client has confirmed reading
+        self.rate = 0.0  # the client's delivery rate (bytes/s) as the pongs show it
+        self.base_rtt = math.inf  # the lowest bare round trip seen
         self._unpinged = 0  # bytes sent since the last ping
         self._idle_before = True  # nothing was in flight when the current bytes began
         self._last_probe = -math.inf
+        self._last_ping = -math.inf
         self._pings: deque[_Ping] = deque()
-        self._pongs: deque[tuple[float, int]] = deque()  # (time, acked) of recent pongs
-        self._rates: deque[tuple[float, float]] = deque()  # (time, bytes/s) samples
-        self.base_rtt = math.inf  # the lowest bare round trip seen
-        self._quick_at = -math.inf  # when a pong last came back within base rtt + target
+        self._pongs: deque[tuple[float, int]] = deque()  # (time, acked) for the rate
+        self._lag = 0.0  # the server loop's lateness at the last pong
+        self._late_since = math.inf  # since when every pong came back over ARM_AGE late
+        self._quick_since = math.inf  # since when every pong came back within DISARM_AGE
 
     @property
     def in_flight(self) -> int:
@@ -92,17 +111,13 @@ class FlightWindow:
 
     @property
     def open(self) -> bool:
-        """Room for more: what the client has not read is under the window."""
-        return self.in_flight < self.window
+        """Room for more: the client is not held, or what it has not read is under the
+        window."""
+        return not self.armed or self.in_flight < self.window
 
     def room(self, now: float) -> bool:
-        """Room for more under the window, or under the burst allowance of a client with no
-        standing queue (see module doc), or a silent client's (:meth:`silent`)."""
-        if self.in_flight < self.window:
-            return True
-        if now - self._quick_at < QUICK_SPAN and self.in_flight < self.rate * BURST:
-            return True
-        return self.silent(now)
+        """Room for more (:attr:`open`), or a silent client's (:meth:`silent`)."""
+        return self.open or self.silent(now)
 
     def silent(self, now: float) -> bool:
         """The oldest ping out has gone unanswered for :data:`GIVE_UP` seconds
@@ -110,11 +125,6 @@ class FlightWindow:
         stops holding back until its next pong."""
         limit = GIVE_UP if self.acked else FIRST_GIVE_UP
         return bool(self._pings) and now - self._pings[0].at >= limit
-
-    @property
-    def rate(self) -> float:
-        """The client's delivery rate (bytes/s) as the pongs show it; 0 before any sample."""
-        return max((r for _, r in self._rates), default=0.0)
 
     def on_sent(self, nbytes: int, now: float) -> bool:
         """``nbytes`` went out; True when a ping should follow them now."""
@@ -126,6 +136,11 @@ class FlightWindow:
         self._unpinged += nbytes
         if self._idle_before and now - self._last_probe >= PROBE_EVERY:
             return True
+        if not self.armed:  # enough pongs to see a standing queue and the rate, no more
+            if self.acked and self._pings and \
+                    now - self._pings[0].at > ARM_AGE + ARM_SPAN + self._lag:
+                self.armed = True  # a ping unanswered that long is a standing queue too
+            return now - self._last_ping >= WATCH_EVERY
         # every quarter window; and when full unless the pings out will reopen it
         return self._unpinged >= max(MIN_PING_EVERY, self.window // 4) or self.stuck
 
@@ -143,52 +158,57 @@ class FlightWindow:
             self._last_probe = now
         self._idle_before = False
         self._unpinged = 0
-        self._pings.append(_Ping(self.sent, now, self.in_flight >= self.window // 2, clean))
+        self._last_ping = now
+        self._pings.append(_Ping(self.sent, now, clean))
         return self.sent
 
-    def ponged(self, mark: int, now: float) -> None:
+    def ponged(self, mark: int, now: float, lag: float = 0.0) -> None:
         """The pong of the ping with ``mark`` came back: the client has read up to it (and up
-        to every earlier ping). Updates the rate and the window."""
+        to every earlier ping). Updates the rate, whether the client is held, and the window.
+        ``lag``: how late the server's own loop ran lately (its busiest turn)."""
+        rtt = -1.0
         while self._pings and self._pings[0].mark <= mark:
             ping = self._pings.popleft()
             if ping.mark <= self.acked:
                 continue
             self.acked = ping.mark
-            self._sample_rate(now)
             rtt = now - ping.at
             if ping.clean:
                 self.base_rtt = min(self.base_rtt, rtt)
-            if rtt < (self.base_rtt if math.isfinite(self.base_rtt) else 0.0) + self.target:
-                self._quick_at = now
-            self._resize(rtt, ping.full, drained=self.in_flight <= self.window // 4)
+        if rtt < 0:
+            return
+        self._lag = lag
+        self._sample_rate(now)
+        base = self.base_rtt if math.isfinite(self.base_rtt) else 0.0
+        allowance = base + lag + self.target
+        self._judge(rtt, now, lag)
+        if self.rate > 0:
+            self.window = max(self.min_window, min(int(self.rate * allowance), self.max_window))
+
+    def _judge(self, rtt: float, now: float, lag: float) -> None:
+        """Arm on a standing queue, let go of a client that keeps up (see module doc). A pong
+        the server's own busy loop made late says nothing of the client."""
+        if rtt > ARM_AGE + lag:
+            self._late_since = min(self._late_since, now)
+        else:
+            self._late_since = math.inf
+        if rtt < DISARM_AGE + lag:
+            self._quick_since = min(self._quick_since, now)
+        else:
+            self._quick_since = math.inf
+        if not self.armed and now - self._late_since >= ARM_SPAN:
+            self.armed = True
+            self._quick_since = math.inf
+        elif self.armed and now - self._quick_since >= DISARM_SPAN:
+            self.armed = False
 
     def _sample_rate(self, now: float) -> None:
+        """The bytes read since the newest pong at least :data:`RATE_SPAN` old (else the
+        oldest kept, if :data:`FIRST_SPAN` old), per second."""
         pongs = self._pongs
         pongs.append((now, self.acked))
-        while len(pongs) > 2 and now - pongs[1][0] > RATE_MEMORY:
-            pongs.popleft()
-        since = None
-        for at, acked in reversed(pongs):
-            if now - at >= RATE_SPAN:
-                since = (at, acked)
-                break
-        if since is not None:
-            self._rates.append((now, (self.acked - since[1]) / (now - since[0])))
-        while self._rates and now - self._rates[0][0] > RATE_MEMORY:
-            self._rates.popleft()
-
-    def _resize(self, rtt: float, was_full: bool, drained: bool) -> None:
-        window = self.window
-        base = self.base_rtt if math.isfinite(self.base_rtt) else 0.0
-        if self.rate > 0:  # twice the bytes the link carries in a round trip plus the target:
-            # a window-limited link's rate grows with its window, a slow reader's does not. A
-            # rate seen while the sender had little to send (the window not full) says nothing
-            # of the link: it may raise the window, never lower it.
-            sized = int(GAIN * self.rate * (base + self.target))
-            if was_full or sized > window:
-                window = sized
-        if was_full and (rtt < base + self.target / 2 or (drained and rtt < base + self.target)):
-            # the link kept up (a quick pong, or a client that read all it was sent within the
-            # target, as a busy client does in bursts): the window held it back
-            window = max(window, 2 * self.window)
-        self.window = max(self.min_window, min(window, self.max_window))
+        while len(pongs) > 2 and now - pongs[1][0] >= RATE_SPAN:
+            pongs.popleft()  # the second is old enough to measure from: the first is not needed
+        at, acked = pongs[0]
+        if now - at >= FIRST_SPAN:
+            self.rate = (self.acked - acked) / (now - at)

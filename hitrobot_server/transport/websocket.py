@@ -13,6 +13,7 @@ from __future__ import annotations
 import asyncio
 import inspect
 import logging
+import weakref
 from collections.abc import Awaitable, Callable, Sequence
 
 from websockets.asyncio.server import Server, ServerConnection, broadcast, serve
@@ -39,6 +40,68 @@ HttpHandler = Callable[[ServerConnection, Request], Response | Awaitable[Respons
 CHUNK_BYTES = 1024 * 1024
 
 
+class LoopLag:
+    """How late this event loop runs a timer: the longest lateness over the last
+    :data:`LAG_MEMORY` seconds. A busy server gets to each client once per turn of its loop,
+    however fast the client reads: its window must cover that turn, or the window (not the
+    client) sets its rate. Runs while some window uses it."""
+
+    PERIOD = 0.01
+    LAG_MEMORY = 0.5
+
+    def __init__(self, loop: asyncio.AbstractEventLoop):
+        self._loop = loop
+        self._users = 0
+        self._timer: asyncio.TimerHandle | None = None
+        self._due = 0.0
+        self._worst = [0.0, 0.0]  # this half-memory's worst, the last one's
+        self._turned = 0.0
+
+    @property
+    def lag(self) -> float:
+        return max(self._worst)
+
+    def use(self) -> None:
+        self._users += 1
+        if self._timer is None:
+            self._turned = self._loop.time()
+            self._arm(self._turned)
+
+    def release(self) -> None:
+        self._users -= 1
+        if self._users <= 0 and self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+            self._worst = [0.0, 0.0]
+
+    def _arm(self, now: float) -> None:
+        self._due = now + self.PERIOD
+        self._timer = self._loop.call_at(self._due, self._tick)
+
+    def _tick(self) -> None:
+        now = self._loop.time()
+        late = now - self._due
+        if now - self._turned >= self.LAG_MEMORY / 2:
+            self._worst = [0.0, self._worst[0]]
+            self._turned = now
+        if late > self._worst[0]:
+            self._worst[0] = late
+        self._arm(now)
+
+
+_LAGS: weakref.WeakKeyDictionary[asyncio.AbstractEventLoop, LoopLag] = (
+    weakref.WeakKeyDictionary())
+
+
+def loop_lag() -> LoopLag:
+    """The running loop's :class:`LoopLag` (one per loop, shared by its windows)."""
+    loop = asyncio.get_running_loop()
+    found = _LAGS.get(loop)
+    if found is None:
+        found = _LAGS[loop] = LoopLag(loop)
+    return found
+
+
 class PongWindow:
     """One client's :class:`~.flight.FlightWindow`, fed by WebSocket pings and their pongs.
 
@@ -51,9 +114,15 @@ class PongWindow:
         self.ws = ws
         self.flight = FlightWindow()
         self._loop = asyncio.get_running_loop()
+        self._lag = loop_lag()
+        self._lag.use()
         self._room = asyncio.Event()
         self._room.set()
         self._pinging: set[asyncio.Task] = set()
+
+    def close(self) -> None:
+        """The connection is over: the loop's lag watch may stop."""
+        self._lag.release()
 
     @property
     def open(self) -> bool:
@@ -94,7 +163,7 @@ class PongWindow:
         if done.cancelled() or done.exception() is not None:
             return  # the connection closed first
         now = self._loop.time()
-        self.flight.ponged(mark, now)
+        self.flight.ponged(mark, now, self._lag.lag)
         if self.open:
             self._room.set()
         elif self.flight.stuck:  # the window shrank under what no ping covers yet
@@ -205,6 +274,8 @@ async def _serve(ws: ServerConnection, protocols: WireProtocols, delay: float,
                           send_frame=send_frame, direct=direct_writer(ws, window), delay=delay,
                           gate=window.wait_open if window is not None else None)
     finally:
+        if window is not None:
+            window.close()
         if session.close_reason:  # 1008: policy violation, with the reason
             await ws.close(1008, session.close_reason[:120])
         else:
