@@ -371,12 +371,58 @@ def start_ours(profile_dir: str | None, tag: str, extra: list[str] | tuple = (),
     return ServerProc([sys.executable, *args], r"ws://[\d.]+:(\d+)", "hitrobot-server", tree)
 
 
+CEILING_LIB = ["websockets"]  # --ceiling-lib
+
+
 def start_ceiling() -> ServerProc:
     return ServerProc(
-        [sys.executable, str(Path(__file__).resolve()), "--ceiling-server"],
+        [sys.executable, str(Path(__file__).resolve()), "--ceiling-server", CEILING_LIB[0]],
         r"ceiling ws://[\d.]+:(\d+)",
         "ceiling server",
     )
+
+
+def picows_ceiling_main() -> None:
+    """The same bare broadcast on picows (a Cython WebSocket layer), to see what a faster
+    WebSocket layer would leave of the transport's share (issue 38 item 3). Not a dependency:
+    ``pip install picows`` to run it."""
+    from picows import WSListener, WSMsgType, ws_create_server
+
+    subs: set = set()
+
+    class Peer(WSListener):
+        def on_ws_connected(self, transport) -> None:
+            self.transport = transport
+
+        def on_ws_frame(self, transport, frame) -> None:
+            kind = frame.msg_type
+            if kind == WSMsgType.TEXT:
+                data = frame.get_payload_as_bytes()
+                if data.startswith(b'{"op":"publish"'):
+                    for peer in subs:
+                        peer.transport.send(WSMsgType.TEXT, data)
+                elif orjson.loads(data).get("op") == "subscribe":
+                    subs.add(self)
+            elif kind == WSMsgType.PING:
+                transport.send_pong(frame.get_payload_as_bytes())
+            elif kind == WSMsgType.CLOSE:
+                transport.send_close(frame.get_close_code())
+                transport.disconnect()
+
+        def on_ws_disconnected(self, transport) -> None:
+            subs.discard(self)
+
+    async def main() -> None:
+        server = await ws_create_server(lambda request: Peer(), HOST, 0)
+        port = server.sockets[0].getsockname()[1]
+        print(f"ceiling ws://{HOST}:{port}", flush=True)
+        stop = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, stop.set)
+        await stop.wait()
+
+    asyncio.run(main())
 
 
 def ceiling_server_main() -> None:
@@ -1699,12 +1745,16 @@ def main() -> int:
     )
     parser.add_argument("--clients", default="1,10,50",
                         help="section 2/4 subscriber counts, e.g. 1 (default 1,10,50)")
-    parser.add_argument("--ceiling-server", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--ceiling-lib", choices=("websockets", "picows"), default="websockets",
+                        help="section 4's bare server: websockets (ours is built on it) or "
+                        "picows (pip install picows; what a faster WebSocket layer gives)")
+    parser.add_argument("--ceiling-server", metavar="LIB", help=argparse.SUPPRESS)
     parser.add_argument("--probe-client", type=int, metavar="PORT", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.ceiling_server:
-        ceiling_server_main()
+        (picows_ceiling_main if args.ceiling_server == "picows" else ceiling_server_main)()
         return 0
+    CEILING_LIB[0] = args.ceiling_lib
     if args.probe_client:
         probe_client_main(args.probe_client, limit=300.0)
         return 0

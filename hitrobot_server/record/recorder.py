@@ -8,13 +8,15 @@ once, for the Zenoh link and Foxglove too: the writer would otherwise parse the 
 again (25 µs) and encode it (15 µs) while competing with the loop and the clients for the same
 two cores, and the batch carries 2.9 KB a scan instead of 13.7 KB of JSON. Every
 ``BATCH_PERIOD`` (or ``BATCH_BYTES``) the batch goes to the writer process
-(:mod:`hitrobot_server.record.writer`) in one queue put, so a message costs the loop an append,
-not a pickle, a lock and a pipe write of its own. The writer encodes what is not CDR yet and
-writes chunked, zstd-compressed MCAP. What is queued is bounded in (estimated) bytes; when the
-disk cannot keep up, new messages are dropped, counted, and a warning is logged. The writer
-closes and flushes the current chunk at least every ``flush_period`` (0.5 s), so a recording
-whose server is killed with SIGKILL reads back to within its last second. Client ops that change
-the robot go on ``/hitrobot/audit`` as ``hitrobot_msgs/AuditEntry`` messages.
+(:mod:`hitrobot_server.record.writer`) as one pickle down a pipe, written by the loop itself
+when the pipe takes it (:class:`PipeFeed`): a message costs the loop an append, not a pickle
+and a pipe write of its own, and no feeder thread contends with the loop for the interpreter
+lock, as a ``multiprocessing.Queue``'s did. The writer encodes what is not CDR yet and writes
+chunked, zstd-compressed MCAP. What is queued is bounded in (estimated) bytes; when the disk
+cannot keep up, new messages are dropped, counted, and a warning is logged. The writer closes
+and flushes the current chunk at least every ``flush_period`` (0.5 s), so a recording whose
+server is killed with SIGKILL reads back to within its last second. Client ops that change the
+robot go on ``/hitrobot/audit`` as ``hitrobot_msgs/AuditEntry`` messages.
 """
 
 from __future__ import annotations
@@ -23,6 +25,9 @@ import asyncio
 import contextlib
 import logging
 import multiprocessing
+import os
+import pickle
+import struct
 import time
 from pathlib import Path
 from typing import Any
@@ -126,7 +131,7 @@ class Recorder:
         self.dropped = 0
         self._ctx = multiprocessing.get_context("spawn")  # the server has threads: no fork
         self._counters = Counters.create(self._ctx)
-        self._queue: Any = None
+        self._feed: PipeFeed | None = None
         self._process: Any = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._batch: list[tuple] = []  # Items as plain tuples
@@ -176,15 +181,17 @@ class Recorder:
             raise ValueError(f"cannot record to {self.path}: the name must end in .mcap")
         check_writable(self.path, exclusive=self.plan.exclusive)
         self._counters.parts.value = 1
-        self._queue = self._ctx.Queue()
+        reading, writing = self._ctx.Pipe(duplex=False)
         self._process = self._ctx.Process(
             target=run_writer, name="mcap-writer", daemon=True,
-            args=(self.plan, self._queue, self._counters))
+            args=(self.plan, reading, self._counters))
         self._process.start()
+        reading.close()  # the writer's end: the pipe ends (EOF) when the server's does
         try:
             self._loop = asyncio.get_running_loop()
         except RuntimeError:
             self._loop = None  # no loop: each message goes at once
+        self._feed = PipeFeed(writing, self._loop)
         self.bus.taps.append(self)
         started = self.bus.clock()
         for topic in list(self.bus.topics.values()):
@@ -200,12 +207,12 @@ class Recorder:
             self.bus.taps.remove(self)
         self._hand_off()
         process, self._process = self._process, None
-        if process.is_alive():
-            self._queue.put(None)
-        else:  # nobody reads the queue any more: do not wait for it to be written
-            self._queue.cancel_join_thread()
-        self._queue.close()
-        await asyncio.to_thread(self._queue.join_thread)
+        feed = self._feed
+        if feed is not None:
+            if process.is_alive():  # what is queued, then the end; a dead writer reads nothing
+                feed.send(pickle.dumps(None))
+                await feed.drain(process.is_alive)
+            feed.close()
         await asyncio.to_thread(process.join)
         log.info("recording finished: %s (%d messages, %d dropped, %d not encodable)",
                  ", ".join(map(str, self.files)), self.messages, self.dropped, self.failed)
@@ -269,12 +276,12 @@ class Recorder:
         if self._timer is not None:
             self._timer.cancel()
             self._timer = None
-        if not self._batch or self._queue is None:
+        if not self._batch or self._feed is None:
             return
         batch, size = self._batch, self._batch_bytes
         self._batch, self._batch_bytes = [], 0
         self._counters.queued.value += size
-        self._queue.put_nowait((batch, size))
+        self._feed.send(pickle.dumps((batch, size), pickle.HIGHEST_PROTOCOL))
 
     def _dropped(self) -> None:
         self.dropped += 1
@@ -283,3 +290,87 @@ class Recorder:
             self._last_warning = now
             log.warning("recording to %s cannot keep up: %d messages dropped so far",
                         self.path, self.dropped)
+
+
+class PipeFeed:
+    """The server's end of the pipe to the writer, in ``multiprocessing.Connection``'s framing
+    (the writer reads it with ``recv_bytes``). With a loop, written by the loop without
+    blocking: what the pipe does not take now waits here and goes when the pipe is writable.
+    Without one (a recorder used outside a loop), written at once, blocking."""
+
+    def __init__(self, conn: Any, loop: asyncio.AbstractEventLoop | None):
+        self._conn = conn
+        self._loop = loop
+        self._fd = conn.fileno()
+        self._pending = bytearray()
+        self._drained: asyncio.Future | None = None
+        self.broken = False  # the writer's end is gone: what is sent is dropped
+        if loop is not None:
+            os.set_blocking(self._fd, False)
+
+    @staticmethod
+    def frame(payload: bytes) -> bytes:
+        """The length header ``Connection.recv_bytes`` expects, then the payload."""
+        n = len(payload)
+        head = struct.pack("!i", n) if n <= 0x7FFFFFFF else struct.pack("!iQ", -1, n)
+        return head + payload
+
+    def send(self, payload: bytes) -> None:
+        if self.broken:
+            return
+        if self._loop is None:
+            try:
+                self._conn.send_bytes(payload)
+            except OSError:
+                self.broken = True
+            return
+        data = self.frame(payload)
+        if self._pending:
+            self._pending += data
+            return
+        try:
+            written = os.write(self._fd, data)
+        except BlockingIOError:
+            written = 0
+        except OSError:
+            self._break()
+            return
+        if written < len(data):
+            self._pending += memoryview(data)[written:]
+            self._loop.add_writer(self._fd, self._write_pending)
+
+    def _write_pending(self) -> None:
+        try:
+            written = os.write(self._fd, self._pending)
+        except BlockingIOError:
+            return
+        except OSError:
+            self._break()
+            return
+        del self._pending[:written]
+        if not self._pending:
+            self._idle()
+
+    def _break(self) -> None:
+        self.broken = True
+        self._pending.clear()
+        self._idle()
+
+    def _idle(self) -> None:
+        if self._loop is not None:
+            self._loop.remove_writer(self._fd)
+        if self._drained is not None and not self._drained.done():
+            self._drained.set_result(None)
+
+    async def drain(self, alive: Any) -> None:
+        """Until everything is written, or the writer (``alive()`` False) is gone."""
+        while self._pending and not self.broken and alive():
+            self._drained = asyncio.get_running_loop().create_future()
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(asyncio.shield(self._drained), 1.0)
+
+    def close(self) -> None:
+        if self._loop is not None and self._pending:
+            self._loop.remove_writer(self._fd)
+        self._pending.clear()
+        self._conn.close()

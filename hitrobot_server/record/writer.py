@@ -23,7 +23,7 @@ import errno
 import logging
 import multiprocessing
 import os
-import queue
+import pickle
 import signal
 import threading
 import time
@@ -293,7 +293,8 @@ def write_recording(path: Path, items: Iterable[Item], *, metadata: dict[str, st
 
 
 class _Batches:
-    """The writer's side of the queue: batches of items, ``None`` to stop."""
+    """The writer's end of the pipe (recorder.PipeFeed): pickled batches of items, ``None``
+    to stop; the end of the pipe (the server gone, all it wrote read) stops it too."""
 
     def __init__(self, items: Any, counters: Counters):
         self.items = items
@@ -301,9 +302,11 @@ class _Batches:
 
     def take(self, timeout: float) -> list[Item] | None:
         try:
-            batch = self.items.get(timeout=timeout)
-        except queue.Empty:
-            return []
+            if not self.items.poll(timeout):
+                return []
+            batch = pickle.loads(self.items.recv_bytes())
+        except (EOFError, OSError):
+            return None
         if batch is None:
             return None
         items, size = batch
