@@ -53,7 +53,7 @@ RATE_SPAN = 0.25
 """The delivery rate is the bytes read over at least this long (while there are fewer seconds
 of pongs, over what there is, from :data:`FIRST_SPAN` on)."""
 FIRST_SPAN = 0.02
-ARM_AGE = 0.1
+ARM_AGE = 0.5
 ARM_SPAN = 0.3
 """A client is held once all its pongs over ``ARM_SPAN`` s came back over ``ARM_AGE`` s late."""
 DISARM_AGE = 0.025

@@ -105,7 +105,7 @@ def test_a_slow_bursty_reader_is_held_and_its_small_messages_stay_fresh():
     unbounded sender would queue seconds. Its link stays full."""
     w = FlightWindow()
     reader = Reader(w, rate=2_000_000)
-    reader.run(1.0)
+    reader.run(ARM_AGE + ARM_SPAN + 0.5)
     assert w.armed
     reader.run(3.0)  # what the socket buffers took before it was held drains first
     settled, read_before = len(reader.ages), reader.read_to
