@@ -19,7 +19,8 @@ that within a second of being flooded; a fast reader whose process is busy now a
 process reading fifty sockets, a page that also draws) has quick pongs in between and is never
 held, so a flood reaches it as it would without the window: the deep buffers that cost the slow
 reader freshness give the bursty fast reader its throughput. A held client is let go when
-every pong of :data:`DISARM_SPAN` seconds came back within :data:`DISARM_AGE`.
+every pong of :data:`DISARM_SPAN` seconds came back within :data:`DISARM_AGE`, its window
+half empty.
 
 **How big.** The client's delivery rate, averaged over the pongs of the last
 :data:`RATE_SPAN` seconds, times the bare round trip plus the server loop's recent lateness (a
@@ -56,11 +57,12 @@ FIRST_SPAN = 0.02
 ARM_AGE = 0.5
 ARM_SPAN = 0.3
 """A client is held once all its pongs over ``ARM_SPAN`` s came back over ``ARM_AGE`` s late."""
-DISARM_AGE = 0.025
+DISARM_AGE = 0.01
 DISARM_SPAN = 2.0
 """A held client is let go once all its pongs over ``DISARM_SPAN`` s came back within
-``DISARM_AGE`` s (beyond the server loop's lateness): a held slow reader's pongs are up to about
-twice :data:`TARGET` late, so it is not let go now and then only to queue seconds again."""
+``DISARM_AGE`` s (beyond the server loop's lateness) with under half its window unread: a held
+slow reader's pongs are up to about twice :data:`TARGET` late and its window full, so it is not
+let go now and then only to queue seconds again."""
 WATCH_EVERY = 0.1
 """Seconds between the pings to a client not held: they watch for a standing queue at the cost
 of ten pongs a second, where pinging every quarter window would cost a fast reader hundreds."""
@@ -192,7 +194,7 @@ class FlightWindow:
             self._late_since = min(self._late_since, now)
         else:
             self._late_since = math.inf
-        if rtt < DISARM_AGE + lag:
+        if rtt < DISARM_AGE + lag and self.in_flight < self.window // 2:
             self._quick_since = min(self._quick_since, now)
         else:
             self._quick_since = math.inf

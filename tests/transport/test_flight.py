@@ -138,6 +138,7 @@ def test_a_held_reader_that_speeds_up_is_let_go():
     reader.run(2.0)
     assert w.armed
     slow_window = w.window
+    reader.kernel = 512 * 1024  # a link that got fast: what is queued is read within ms
     reader.run(DISARM_SPAN + 1.0, rate=200e6)
     assert not w.armed and w.window > 4 * slow_window
 
