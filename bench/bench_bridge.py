@@ -414,15 +414,21 @@ def picows_ceiling_main() -> None:
 
     async def main() -> None:
         server = await ws_create_server(lambda request: Peer(), HOST, 0)
-        port = server.sockets[0].getsockname()[1]
-        print(f"ceiling ws://{HOST}:{port}", flush=True)
-        stop = asyncio.Event()
-        loop = asyncio.get_running_loop()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, stop.set)
-        await stop.wait()
+        await serve_until_signalled(server)
 
     asyncio.run(main())
+
+
+async def serve_until_signalled(server) -> None:
+    """Print the ceiling's address (what ``start_ceiling`` waits for) and serve until
+    SIGINT/SIGTERM."""
+    port = server.sockets[0].getsockname()[1]
+    print(f"ceiling ws://{HOST}:{port}", flush=True)
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+    await stop.wait()
 
 
 def ceiling_server_main() -> None:
@@ -451,13 +457,7 @@ def ceiling_server_main() -> None:
         async with serve(
             handler, HOST, 0, max_size=None, compression=None, ping_interval=None, max_queue=64
         ) as server:
-            port = server.sockets[0].getsockname()[1]
-            print(f"ceiling ws://{HOST}:{port}", flush=True)
-            stop = asyncio.Event()
-            loop = asyncio.get_running_loop()
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                loop.add_signal_handler(sig, stop.set)
-            await stop.wait()
+            await serve_until_signalled(server)
 
     asyncio.run(main())
 

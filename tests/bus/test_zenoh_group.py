@@ -66,6 +66,12 @@ async def test_first_leads_the_other_follows_and_takes_over():
         # a's earlier claim wins when they meet)
         assert ma.leaders == [a.zid]
 
+        # b's token may reach a a moment after a's reached b: until then a has no follower
+        # and replicates to no one (nothing is sent); on a busy machine that moment is long
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + 10.0
+        while not ga.members - {a.zid} and loop.time() < deadline:
+            await asyncio.sleep(0.02)
         assert await ga.replicate(b"change 1", 5.0) == (1, 1)
         assert mb.applied == [b"change 1"]
         assert await gb.replicate(b"not mine", 5.0) == (0, 1)  # a follower sends nothing
