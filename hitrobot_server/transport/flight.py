@@ -15,12 +15,12 @@ read them.
 **When it holds.** A client is held (*armed*) once it shows a standing queue: every pong of
 the last :data:`ARM_SPAN` seconds came back more than :data:`ARM_AGE` late (beyond the server
 loop's own lateness), or a ping has waited longer than both for its pong. A slow link does
-that within a second of being flooded; a fast reader whose process is busy now and then (one
-process reading fifty sockets, a page that also draws) has quick pongs in between and is never
-held, so a flood reaches it as it would without the window: the deep buffers that cost the slow
-reader freshness give the bursty fast reader its throughput. A held client is let go when
-every pong of :data:`DISARM_SPAN` seconds came back within :data:`DISARM_AGE`, its window
-half empty.
+that about a second after it is flooded. A fast reader whose process is busy now and then (one
+process reading fifty sockets, a page that also draws) has quick pongs in between, and a queue
+under half a second is not held at all. So a flood reaches such a reader as it would without
+the window: the deep buffers that cost the slow reader freshness give the bursty fast reader
+its throughput. A held client is let go when every pong of :data:`DISARM_SPAN` seconds came
+back within :data:`DISARM_AGE`, its window half empty.
 
 **How big.** The client's delivery rate, averaged over the pongs of the last
 :data:`RATE_SPAN` seconds, times the bare round trip plus the server loop's recent lateness (a
@@ -32,9 +32,10 @@ each pong until it no longer binds. The average spans several of a bursty reader
 browser that reads 256 kB at once, then waits for the link to bring more), whose single reads
 would show many times its rate.
 
-A client that answers no ping for :data:`GIVE_UP` seconds (a client library that never pongs)
-is not held at all until its next pong: it gets what a client without the window gets (the
-kernel's short unsent queue, the fair outbox).
+A client that never answered a ping (a client library that does not pong) is never held: it
+gets what a client without the window gets (the kernel's short unsent queue, the fair outbox).
+A held client that stops answering is let out after :data:`GIVE_UP` seconds, until its next
+pong.
 """
 
 from __future__ import annotations

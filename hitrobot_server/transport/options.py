@@ -29,8 +29,8 @@ class TransportOptions:
     websocket_ping_timeout: float = field(default=30.0, metadata={
         "help": "seconds a client has to answer a ping before it is disconnected"})
     send_window: bool = field(default=True, metadata={
-        "help": "hold a WebSocket client that shows a standing queue (its pongs 0.1 s late for "
-        "0.3 s) to about 30 ms of its delivery rate unread, learnt from pings, so a small "
+        "help": "hold a WebSocket client that shows a standing queue (its pongs over 0.5 s late "
+        "for 0.3 s) to about 30 ms of its delivery rate unread, learnt from pings, so a small "
         "topic stays fresh behind a big stream on deep socket buffers; a client that reads "
         "what it is sent is never held, one that answers no ping never (--no-send-window: "
         "never hold)"})
