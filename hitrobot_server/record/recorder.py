@@ -272,7 +272,7 @@ class Recorder:
             self._timer = self._loop.call_later(BATCH_PERIOD, self._hand_off)
 
     def _hand_off(self) -> None:
-        """The batch to the writer, in one put (its feeder thread pickles and writes it)."""
+        """The batch to the writer: one pickle down the pipe (:class:`PipeFeed`)."""
         if self._timer is not None:
             self._timer.cancel()
             self._timer = None

@@ -4,9 +4,9 @@ A thread would share the GIL with the event loop: encoding a LaserScan is pure P
 thread busy with it makes every socket call of the loop wait for the GIL again (the convoy
 effect: measured 4× slower fan-out and 1.4 s probe stalls during 4000² maps). So the server only
 hands over batches of messages, each as bytes where it has them (the CDR it or someone else
-already made, or the client's own JSON of a publish), through a ``multiprocessing`` queue, and
-this process,
-started with spawn at a lower priority, encodes what is not CDR yet and writes. It closes the
+already made, or the client's own JSON of a publish), pickled down a pipe the server's loop
+writes (recorder.PipeFeed), and this process, started with spawn at a lower priority, encodes
+what is not CDR yet and writes. It closes the
 current chunk every ``flush_period`` seconds and finishes the file when told to stop or when
 the server dies. A disk that refuses a write (full, a size limit) ends the recording with a
 file that reads back to its last complete chunk.
