@@ -8,9 +8,10 @@ delivered message. Prints figures only (no assertions).
     .venv/bin/python bench/bench_record.py --quick    # 1 round, smaller counts
 
 ``--loop`` measures instead, in this process, what the recorder's tap costs the event loop's
-process per message: the CPU time (every thread of the process: the queue's feeder thread
-pickles on the loop's GIL) of publishing client LaserScans (a rosbridge publish's own JSON text,
-as the bus carries it) with a recorder tapping the bus, minus the same without one. Run it
+process per message: the CPU time (every thread of the process; the batches are pickled and
+written down the pipe by the loop itself) of publishing client LaserScans (a rosbridge
+publish's own JSON text, as the bus carries it) with a recorder tapping the bus, minus the
+same without one. Run it
 with another tree first on ``PYTHONPATH`` to measure that tree's recorder.
 
 Each round runs both servers for each client count (the order alternates between rounds, so a
@@ -162,7 +163,7 @@ async def loop_cost(count: int, rounds: int) -> None:
             started = await writer_started()
             t0 = time.process_time()
             await publish_all(bus)
-            await recorder.stop()  # until the feeder thread has handed everything over
+            await recorder.stop()  # until the pipe has taken everything
             tapped.append(time.process_time() - t0)
             writer.append(children_rusage() - children - started)
             assert recorder.dropped == 0, recorder.dropped
