@@ -29,6 +29,7 @@ import os
 import pickle
 import struct
 import time
+from collections import deque
 from pathlib import Path
 from typing import Any
 
@@ -292,28 +293,42 @@ class Recorder:
                         self.path, self.dropped)
 
 
+PIPE_BYTES = 1024 * 1024
+"""The pipe's buffer is asked for this size (Linux ``F_SETPIPE_SZ``; 64 kB otherwise): a batch
+then goes in one write while the writer keeps up, and the loop does not come back for it."""
+_SETPIPE_SZ = 1031  # fcntl.F_SETPIPE_SZ (named in the fcntl module from Python 3.10, Linux)
+
+
 class PipeFeed:
     """The server's end of the pipe to the writer, in ``multiprocessing.Connection``'s framing
     (the writer reads it with ``recv_bytes``). With a loop, written by the loop without
-    blocking: what the pipe does not take now waits here and goes when the pipe is writable.
-    Without one (a recorder used outside a loop), written at once, blocking."""
+    blocking: what the pipe does not take now waits here, as views of the frames (never copied
+    or moved), and goes when the pipe is writable. Without one (a recorder used outside a
+    loop), written at once, blocking."""
 
     def __init__(self, conn: Any, loop: asyncio.AbstractEventLoop | None):
         self._conn = conn
         self._loop = loop
         self._fd = conn.fileno()
-        self._pending = bytearray()
+        self._pending: deque[memoryview] = deque()
         self._drained: asyncio.Future | None = None
         self.broken = False  # the writer's end is gone: what is sent is dropped
+        with contextlib.suppress(OSError, ImportError):
+            import fcntl
+
+            fcntl.fcntl(self._fd, _SETPIPE_SZ, PIPE_BYTES)
         if loop is not None:
             os.set_blocking(self._fd, False)
 
     @staticmethod
-    def frame(payload: bytes) -> bytes:
-        """The length header ``Connection.recv_bytes`` expects, then the payload."""
-        n = len(payload)
-        head = struct.pack("!i", n) if n <= 0x7FFFFFFF else struct.pack("!iQ", -1, n)
-        return head + payload
+    def header(n: int) -> bytes:
+        """The length header ``Connection.recv_bytes`` expects before ``n`` bytes."""
+        return struct.pack("!i", n) if n <= 0x7FFFFFFF else struct.pack("!iQ", -1, n)
+
+    @property
+    def waiting(self) -> int:
+        """Bytes handed over that the pipe has not taken yet."""
+        return sum(len(part) for part in self._pending)
 
     def send(self, payload: bytes) -> None:
         if self.broken:
@@ -324,32 +339,34 @@ class PipeFeed:
             except OSError:
                 self.broken = True
             return
-        data = self.frame(payload)
+        parts = [memoryview(self.header(len(payload))), memoryview(payload)]
         if self._pending:
-            self._pending += data
+            self._pending.extend(parts)
             return
-        try:
-            written = os.write(self._fd, data)
-        except BlockingIOError:
-            written = 0
-        except OSError:
-            self._break()
-            return
-        if written < len(data):
-            self._pending += memoryview(data)[written:]
+        self._pending.extend(parts)
+        self._write_pending()
+        if self._pending and not self.broken:
             self._loop.add_writer(self._fd, self._write_pending)
 
     def _write_pending(self) -> None:
-        try:
-            written = os.write(self._fd, self._pending)
-        except BlockingIOError:
-            return
-        except OSError:
-            self._break()
-            return
-        del self._pending[:written]
-        if not self._pending:
-            self._idle()
+        pending = self._pending
+        while pending:
+            try:
+                written = os.writev(self._fd, list(pending)[:64])
+            except BlockingIOError:
+                return
+            except OSError:
+                self._break()
+                return
+            while written and pending:
+                first = pending[0]
+                if written >= len(first):
+                    written -= len(first)
+                    pending.popleft()
+                else:
+                    pending[0] = first[written:]
+                    written = 0
+        self._idle()
 
     def _break(self) -> None:
         self.broken = True

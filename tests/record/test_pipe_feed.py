@@ -26,7 +26,7 @@ def test_frames_bigger_than_the_pipe_arrive_whole_and_in_order():
         feed = PipeFeed(writing, asyncio.get_running_loop())
         for payload in payloads:
             feed.send(payload)  # never blocks: what the pipe does not take waits in the feed
-        pending = bool(feed._pending)
+        pending = feed.waiting > 0
         thread = threading.Thread(target=reader)
         thread.start()
         await asyncio.wait_for(feed.drain(lambda: True), 10.0)
