@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import itertools
 import logging
 import multiprocessing
 import os
@@ -296,7 +297,6 @@ class Recorder:
 PIPE_BYTES = 1024 * 1024
 """The pipe's buffer is asked for this size (Linux ``F_SETPIPE_SZ``; 64 kB otherwise): a batch
 then goes in one write while the writer keeps up, and the loop does not come back for it."""
-_SETPIPE_SZ = 1031  # fcntl.F_SETPIPE_SZ (named in the fcntl module from Python 3.10, Linux)
 
 
 class PipeFeed:
@@ -313,10 +313,10 @@ class PipeFeed:
         self._pending: deque[memoryview] = deque()
         self._drained: asyncio.Future | None = None
         self.broken = False  # the writer's end is gone: what is sent is dropped
-        with contextlib.suppress(OSError, ImportError):
+        with contextlib.suppress(OSError, ImportError, AttributeError):  # Linux only
             import fcntl
 
-            fcntl.fcntl(self._fd, _SETPIPE_SZ, PIPE_BYTES)
+            fcntl.fcntl(self._fd, fcntl.F_SETPIPE_SZ, PIPE_BYTES)
         if loop is not None:
             os.set_blocking(self._fd, False)
 
@@ -339,20 +339,18 @@ class PipeFeed:
             except OSError:
                 self.broken = True
             return
-        parts = [memoryview(self.header(len(payload))), memoryview(payload)]
-        if self._pending:
-            self._pending.extend(parts)
-            return
-        self._pending.extend(parts)
-        self._write_pending()
-        if self._pending and not self.broken:
-            self._loop.add_writer(self._fd, self._write_pending)
+        waiting = bool(self._pending)  # then the loop writes it when the pipe takes more
+        self._pending.extend((memoryview(self.header(len(payload))), memoryview(payload)))
+        if not waiting:
+            self._write_pending()
+            if self._pending and not self.broken:
+                self._loop.add_writer(self._fd, self._write_pending)
 
     def _write_pending(self) -> None:
         pending = self._pending
         while pending:
             try:
-                written = os.writev(self._fd, list(pending)[:64])
+                written = os.writev(self._fd, list(itertools.islice(pending, 64)))
             except BlockingIOError:
                 return
             except OSError:

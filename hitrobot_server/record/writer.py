@@ -6,10 +6,9 @@ effect: measured 4× slower fan-out and 1.4 s probe stalls during 4000² maps). 
 hands over batches of messages, each as bytes where it has them (the CDR it or someone else
 already made, or the client's own JSON of a publish), pickled down a pipe the server's loop
 writes (recorder.PipeFeed), and this process, started with spawn at a lower priority, encodes
-what is not CDR yet and writes. It closes the
-current chunk every ``flush_period`` seconds and finishes the file when told to stop or when
-the server dies. A disk that refuses a write (full, a size limit) ends the recording with a
-file that reads back to its last complete chunk.
+what is not CDR yet and writes. It closes the current chunk every ``flush_period`` seconds and
+finishes the file when told to stop or when the server dies. A disk that refuses a write (full,
+a size limit) ends the recording with a file that reads back to its last complete chunk.
 
 :func:`write_recording` writes already-made messages into a new file in one go (the black
 box's snapshots).

@@ -45,7 +45,7 @@ COUNT_EVERY = 256 * 1024
 flood to a client that has just shown a standing queue is held within this many bytes)."""
 
 
-class LoopLag:
+class WindowTick:
     """The windows' shared tick (every :data:`PERIOD` s, while some window uses it).
 
     It measures how late this event loop runs a timer: the longest lateness over the last
@@ -103,16 +103,16 @@ class LoopLag:
         self._arm(now)
 
 
-_LAGS: weakref.WeakKeyDictionary[asyncio.AbstractEventLoop, LoopLag] = (
+_TICKS: weakref.WeakKeyDictionary[asyncio.AbstractEventLoop, WindowTick] = (
     weakref.WeakKeyDictionary())
 
 
-def loop_lag() -> LoopLag:
-    """The running loop's :class:`LoopLag` (one per loop, shared by its windows)."""
+def window_tick() -> WindowTick:
+    """The running loop's :class:`WindowTick` (one per loop, shared by its windows)."""
     loop = asyncio.get_running_loop()
-    found = _LAGS.get(loop)
+    found = _TICKS.get(loop)
     if found is None:
-        found = _LAGS[loop] = LoopLag(loop)
+        found = _TICKS[loop] = WindowTick(loop)
     return found
 
 
@@ -128,8 +128,8 @@ class PongWindow:
         self.ws = ws
         self.flight = FlightWindow()
         self._loop = asyncio.get_running_loop()
-        self._lag = loop_lag()
-        self._lag.use()
+        self._tick = window_tick()
+        self._tick.use()
         self._room = asyncio.Event()
         self._room.set()
         self._pinging: set[asyncio.Task] = set()
@@ -137,25 +137,26 @@ class PongWindow:
 
     def close(self) -> None:
         """The connection is over: the loop's tick may stop."""
-        self._lag.pending.discard(self)
-        self._lag.release()
+        self._tick.pending.discard(self)
+        self._tick.release()
 
     @property
     def open(self) -> bool:
-        """Room for more (:meth:`~.flight.FlightWindow.room`)."""
+        """Room for more (:meth:`~.flight.FlightWindow.room`); a client not held has room
+        without asking the loop's clock (this runs for every write)."""
         flight = self.flight
         return not flight.armed or flight.room(self._loop.time())
 
     def sent(self, nbytes: int) -> None:
         """``nbytes`` were written to the client: counted now when it is held, else at the
-        next tick (:class:`LoopLag`)."""
+        next tick (:class:`WindowTick`)."""
         if not self.flight.armed:
             if not self._uncounted:
-                self._lag.pending.add(self)
+                self._tick.pending.add(self)
             self._uncounted += nbytes
             if self._uncounted < COUNT_EVERY:
                 return
-            self._lag.pending.discard(self)
+            self._tick.pending.discard(self)
             nbytes = 0  # counted in what was uncounted
         self.account(self._loop.time(), nbytes)
 
@@ -194,7 +195,7 @@ class PongWindow:
         if done.cancelled() or done.exception() is not None:
             return  # the connection closed first
         now = self._loop.time()
-        self.flight.ponged(mark, now, self._lag.lag)
+        self.flight.ponged(mark, now, self._tick.lag)
         if self.open:
             self._room.set()
         elif self.flight.stuck:  # the window shrank under what no ping covers yet
