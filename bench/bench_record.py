@@ -8,11 +8,11 @@ delivered message. Prints figures only (no assertions).
     .venv/bin/python bench/bench_record.py --quick    # 1 round, smaller counts
 
 ``--loop`` measures instead, in this process, what the recorder's tap costs the event loop's
-process per message: the CPU time (every thread of the process; the batches are pickled and
-written down the pipe by the loop itself) of publishing client LaserScans (a rosbridge
-publish's own JSON text, as the bus carries it) with a recorder tapping the bus, minus the
-same without one. Run it
-with another tree first on ``PYTHONPATH`` to measure that tree's recorder.
+process per message: the CPU time (every thread of the process; the batches are written down
+the pipe by the loop itself) of publishing client LaserScans (a rosbridge publish's own JSON
+text, as the bus carries it) with a recorder tapping the bus, minus the same without one; and
+the writer process's CPU per message. Run it with another tree first on ``PYTHONPATH`` to
+measure that tree's recorder.
 
 Each round runs both servers for each client count (the order alternates between rounds, so a
 background load hits both alike). ``srv us/msg`` is the server process's CPU per delivered

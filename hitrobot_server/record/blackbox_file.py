@@ -29,7 +29,8 @@ from typing import Any
 
 from mcap.reader import make_reader
 
-from .writer import CDR, WRITER_NICENESS, Item, write_recording
+from .handoff import CDR, Item
+from .writer import WRITER_NICENESS, write_recording
 
 PREFIX = "blackbox-"
 METADATA = "hitrobot.incident"

@@ -1,22 +1,27 @@
 """``--record FILE.mcap``: every bus message into an MCAP file (ROS 2 profile), off the loop.
 
 The recorder is a bus tap: on the event loop it filters the topic and appends the message to a
-batch as its CDR when it has it or that is cheap, else as the client's own JSON of a publish,
-else as the message. A client's publish of a flat type (``Ros2Codec.direct``: no message per
-array element, so about a copy of its arrays; a 720-range LaserScan in ~15 µs) is encoded here,
-once, for the Zenoh link and Foxglove too: the writer would otherwise parse the client's JSON
-again (25 µs) and encode it (15 µs) while competing with the loop and the clients for the same
-two cores, and the batch carries 2.9 KB a scan instead of 13.7 KB of JSON. Every
-``BATCH_PERIOD`` (or ``BATCH_BYTES``) the batch goes to the writer process
-(:mod:`hitrobot_server.record.writer`) as one pickle down a pipe, written by the loop itself
-when the pipe takes it (:class:`PipeFeed`): a message costs the loop an append, not a pickle
-and a pipe write of its own, and no feeder thread contends with the loop for the interpreter
+batch as bytes it already has: its CDR if someone made it, else the client's own JSON of a
+publish, else a pickle of the message. Every ``BATCH_PERIOD`` (or ``BATCH_BYTES``) the batch
+goes to the writer process (:mod:`hitrobot_server.record.writer`) down a pipe as one frame of
+the messages' own bytes (:mod:`.handoff`), written by the loop itself with ``writev`` when the
+pipe takes it (:class:`PipeFeed`): a message costs the loop a header and two appends; nothing is
+copied into a batch buffer, and no feeder thread contends with the loop for the interpreter
 lock, as a ``multiprocessing.Queue``'s did. The writer encodes what is not CDR yet and writes
-chunked, zstd-compressed MCAP. What is queued is bounded in (estimated) bytes; when the disk
-cannot keep up, new messages are dropped, counted, and a warning is logged. The writer closes
-and flushes the current chunk at least every ``flush_period`` (0.5 s), so a recording whose
-server is killed with SIGKILL reads back to within its last second. Client ops that change the
-robot go on ``/hitrobot/audit`` as ``hitrobot_msgs/AuditEntry`` messages.
+chunked, zstd-compressed MCAP.
+
+Who encodes a client's publish of a flat type (``Ros2Codec.direct``; a 720-range LaserScan:
+15 µs from the parsed message, 40 µs from the JSON with the parse): the writer, on the other
+core, while it keeps up; the loop costs the server's bottleneck, and encoding there cost the
+fan-out to one subscriber 20 % (bench/bench_record.py). Once more than ``1/BEHIND`` of the queue
+bound waits for the writer, the loop encodes it (once: Zenoh and Foxglove reuse the bytes), and
+the writer gets the kind it writes cheapest until it has caught up.
+
+What is queued is bounded in bytes; when the disk cannot keep up, new messages are dropped,
+counted, and a warning is logged. The writer closes and flushes the current chunk at least every
+``flush_period`` (0.5 s), so a recording whose server is killed with SIGKILL reads back to within
+its last second. Client ops that change the robot go on ``/hitrobot/audit`` as
+``hitrobot_msgs/AuditEntry`` messages.
 """
 
 from __future__ import annotations
@@ -34,8 +39,6 @@ from collections import deque
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from ..bus.cdr import codec_for
 from ..bus.core import Bus
 from ..bus.names import CLIENT_NODE_PREFIX, GlobFilter
@@ -43,19 +46,22 @@ from ..bus.tap import ClientOp
 from ..bus.topics import Message
 from ..wire.encoded import Encoded, Seed
 from .files import check_writable, split_name
+from .handoff import CDR, JSON, MSG, BatchBuilder, Item
 from .profile import AUDIT_TOPIC, AUDIT_TYPE
-from .writer import CDR, JSON, MSG, Counters, Item, Plan, run_writer
+from .writer import Counters, Plan, run_writer
 
 log = logging.getLogger(__name__)
 
 MAX_QUEUED_BYTES = 64 * 1024 * 1024
-ITEM_OVERHEAD = 256  # each queued message counts at least this (bounds the number of them)
+ITEM_OVERHEAD = 256  # each queued message counts its bytes and this (bounds their number)
 FLUSH_PERIOD = 0.5  # seconds between closed chunks (a crash loses at most about this)
 BATCH_PERIOD = 0.05  # seconds a message waits on the loop before its batch goes to the writer
 BATCH_BYTES = 1024 * 1024  # a batch this big goes at once
 LOOP_CDR_BYTES = 256 * 1024
-"""A client's publish op up to this long, of a flat type, is encoded on the loop (about a
-third of what parsing it there cost); a longer one is left to the writer (no loop stall)."""
+"""While the writer is behind, a client's publish op up to this long, of a flat type, is
+encoded on the loop; a longer one is left to the writer (no loop stall)."""
+BEHIND = 8
+"""The writer is behind when more than 1/BEHIND of the queue bound waits for it."""
 WARN_PERIOD = 5.0
 READ_ONLY_SERVICES = "/rosapi/"
 """Services under this prefix only read the graph: a client calling them is not audited."""
@@ -85,23 +91,6 @@ def item_of(message: Message, log_time: float | None = None) -> Item:
     kind, data = known_bytes(message)
     when = stamp if log_time is None else int(log_time * 1e9)
     return Item(topic.name, topic.type_name, topic.latched, when, stamp, message.seq, kind, data)
-
-
-def estimate_size(value: Any, depth: int = 0) -> int:
-    """A cheap estimate of a message's bytes (arrays dominate; no deep walk)."""
-    if isinstance(value, bytes | bytearray | memoryview):
-        return len(value)
-    if isinstance(value, np.ndarray):
-        return value.nbytes
-    if isinstance(value, dict):
-        return 16 + sum(estimate_size(v, depth + 1) for v in value.values()) if depth < 4 else 64
-    if isinstance(value, list | tuple):
-        if not value:
-            return 8
-        return len(value) * (estimate_size(value[0], depth + 1) if depth < 4 else 8)
-    if isinstance(value, str):
-        return len(value)
-    return 8
 
 
 class Recorder:
@@ -136,10 +125,11 @@ class Recorder:
         self._feed: PipeFeed | None = None
         self._process: Any = None
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._batch: list[tuple] = []  # Items as plain tuples
-        self._batch_bytes = 0
+        self._batch = BatchBuilder()
+        self._in_pipe = 0  # bytes counted as handed over and not yet taken, at the last look
+        self._behind = max_queued_bytes // BEHIND
         self._timer: asyncio.TimerHandle | None = None
-        self._allowed: dict[str, bool] = {}
+        self._topics: dict[str, tuple[str, int | None]] = {}  # name: (type, number if kept)
         self._codec = codec_for(bus.types)
         self._last_warning = float("-inf")
 
@@ -197,8 +187,9 @@ class Recorder:
         self.bus.taps.append(self)
         started = self.bus.clock()
         for topic in list(self.bus.topics.values()):
-            if topic.latched and topic.last is not None:
-                self._enqueue(topic.last, log_time=started)
+            if topic.latched and topic.last is not None and self.filter.allows(topic.name):
+                number = self._topic(topic.name, topic.type_name, True)[1]
+                self._enqueue(topic.last, number, log_time=started)  # type: ignore[arg-type]
         log.info("recording to %s", self.path)
 
     async def stop(self) -> None:
@@ -212,7 +203,7 @@ class Recorder:
         feed = self._feed
         if feed is not None:
             if process.is_alive():  # what is queued, then the end; a dead writer reads nothing
-                feed.send(pickle.dumps(None))
+                feed.send()  # an empty frame: the end
                 await feed.drain(process.is_alive)
             feed.close()
         await asyncio.to_thread(process.join)
@@ -221,11 +212,11 @@ class Recorder:
 
     def message(self, message: Message) -> None:
         topic = message.topic
-        allowed = self._allowed.get(topic.name)
-        if allowed is None:
-            allowed = self._allowed[topic.name] = self.filter.allows(topic.name)
-        if allowed:
-            self._enqueue(message)
+        known = self._topics.get(topic.name)
+        if known is None or known[0] != topic.type_name:
+            known = self._topic(topic.name, topic.type_name, self.filter.allows(topic.name))
+        if known[1] is not None:
+            self._enqueue(message, known[1])
         origin = message.origin
         if origin is not None and origin.node.startswith(CLIENT_NODE_PREFIX) and any(
             not node.startswith(CLIENT_NODE_PREFIX) for node, _cb in topic.subscribers.values()
@@ -246,44 +237,64 @@ class Recorder:
                  "stamp": {"secs": secs, "nsecs": int((op.stamp - secs) * 1e9)}}
         data = self._codec.encode(entry, self.bus.types.msg(AUDIT_TYPE))
         ns = int(op.stamp * 1e9)
-        self._put(Item(AUDIT_TOPIC, AUDIT_TYPE, False, ns, ns, 0, CDR, data),
-                  ITEM_OVERHEAD + len(data))
+        known = self._topics.get(AUDIT_TOPIC) or self._topic(AUDIT_TOPIC, AUDIT_TYPE, True)
+        self._put(known[1], CDR, False, ns, ns, 0, data)  # type: ignore[arg-type]
 
-    def _enqueue(self, message: Message, log_time: float | None = None) -> None:
-        if message.cdr_bytes is None:
+    def _topic(self, name: str, type_name: str, kept: bool) -> tuple[str, int | None]:
+        """A topic seen for the first time (or with a new type): numbered when it is kept,
+        and named to the writer in the batch, before its first message."""
+        number = None
+        if kept:
+            number = len(self._topics)
+            self._batch.define(number, name, type_name)
+        known = self._topics[name] = (type_name, number)
+        return known
+
+    def _enqueue(self, message: Message, number: int, log_time: float | None = None) -> None:
+        data = message.cdr_bytes
+        if data is not None:
+            kind = CDR
+        else:
             kind, data = known_bytes(message)
-            if kind == JSON and len(data) <= LOOP_CDR_BYTES and \
-                    self._codec.direct(message.topic.mtype):
-                with contextlib.suppress(Exception):  # the writer tries again and counts it
-                    message.cdr(self._codec)
-        item = item_of(message, log_time)
-        self._put(item, ITEM_OVERHEAD + (len(item.data) if item.kind != MSG
-                                         else estimate_size(item.data)))
+            if kind == JSON:
+                if self._in_pipe > self._behind and len(data) <= LOOP_CDR_BYTES and \
+                        self._codec.direct(message.topic.mtype):
+                    with contextlib.suppress(Exception):  # the writer tries again and counts it
+                        kind, data = CDR, message.cdr(self._codec)
+            elif kind == MSG:
+                data = pickle.dumps(data, pickle.HIGHEST_PROTOCOL)
+        stamp = int(message.stamp * 1e9)
+        self._put(number, kind, message.topic.latched,
+                  stamp if log_time is None else int(log_time * 1e9), stamp, message.seq, data)
 
-    def _put(self, item: Item, size: int) -> None:
-        counters = self._counters
-        queued = counters.queued.value - counters.taken.value + self._batch_bytes
-        if queued + size > self.max_queued_bytes:
-            self._dropped()
-            return
-        self._batch.append(tuple(item))  # a plain tuple pickles in 1 µs, a NamedTuple in 12
-        self._batch_bytes += size
-        if self._batch_bytes >= BATCH_BYTES or self._loop is None:
+    def _put(self, number: int, kind: int, latched: bool, log_time: int, publish_time: int,
+             seq: int, data: bytes) -> None:
+        size = ITEM_OVERHEAD + len(data)
+        batch = self._batch
+        if self._in_pipe + batch.size + size > self.max_queued_bytes:
+            counters = self._counters  # taken only grows: look again before dropping
+            self._in_pipe = counters.queued.value - counters.taken.value
+            if self._in_pipe + batch.size + size > self.max_queued_bytes:
+                self._dropped()
+                return
+        batch.add(number, kind, latched, log_time, publish_time, seq, data, size)
+        if batch.size >= BATCH_BYTES or self._loop is None:
             self._hand_off()
         elif self._timer is None:
             self._timer = self._loop.call_later(BATCH_PERIOD, self._hand_off)
 
     def _hand_off(self) -> None:
-        """The batch to the writer: one pickle down the pipe (:class:`PipeFeed`)."""
+        """The batch to the writer: one frame down the pipe (:class:`PipeFeed`)."""
         if self._timer is not None:
             self._timer.cancel()
             self._timer = None
-        if not self._batch or self._feed is None:
+        if not self._batch.parts or self._feed is None:
             return
-        batch, size = self._batch, self._batch_bytes
-        self._batch, self._batch_bytes = [], 0
-        self._counters.queued.value += size
-        self._feed.send(pickle.dumps((batch, size), pickle.HIGHEST_PROTOCOL))
+        parts, size = self._batch.take()
+        counters = self._counters
+        counters.queued.value += size
+        self._in_pipe = counters.queued.value - counters.taken.value
+        self._feed.send(*parts)
 
     def _dropped(self) -> None:
         self.dropped += 1
@@ -299,18 +310,22 @@ PIPE_BYTES = 1024 * 1024
 then goes in one write while the writer keeps up, and the loop does not come back for it."""
 
 
+WRITEV_PARTS = 512  # parts given to one writev (Linux takes up to 1024)
+
+
 class PipeFeed:
     """The server's end of the pipe to the writer, in ``multiprocessing.Connection``'s framing
-    (the writer reads it with ``recv_bytes``). With a loop, written by the loop without
-    blocking: what the pipe does not take now waits here, as views of the frames (never copied
-    or moved), and goes when the pipe is writable. Without one (a recorder used outside a
-    loop), written at once, blocking."""
+    (the writer reads it with ``recv_bytes``): a frame sent in parts, which are never joined.
+    With a loop, written by the loop without blocking, with ``writev``: what the pipe does not
+    take now waits here, as the parts themselves (a part cut by a short write as a view of its
+    rest), and goes when the pipe is writable. Without one (a recorder used outside a loop),
+    written at once, blocking."""
 
     def __init__(self, conn: Any, loop: asyncio.AbstractEventLoop | None):
         self._conn = conn
         self._loop = loop
         self._fd = conn.fileno()
-        self._pending: deque[memoryview] = deque()
+        self._pending: deque[bytes | memoryview] = deque()
         self._drained: asyncio.Future | None = None
         self.broken = False  # the writer's end is gone: what is sent is dropped
         with contextlib.suppress(OSError, ImportError, AttributeError):  # Linux only
@@ -330,17 +345,19 @@ class PipeFeed:
         """Bytes handed over that the pipe has not taken yet."""
         return sum(len(part) for part in self._pending)
 
-    def send(self, payload: bytes) -> None:
+    def send(self, *parts: bytes) -> None:
+        """One frame of ``parts`` (none: an empty frame); they must not change until written."""
         if self.broken:
             return
         if self._loop is None:
             try:
-                self._conn.send_bytes(payload)
+                self._conn.send_bytes(b"".join(parts))
             except OSError:
                 self.broken = True
             return
         waiting = bool(self._pending)  # then the loop writes it when the pipe takes more
-        self._pending.extend((memoryview(self.header(len(payload))), memoryview(payload)))
+        self._pending.append(self.header(sum(map(len, parts))))
+        self._pending.extend(parts)
         if not waiting:
             self._write_pending()
             if self._pending and not self.broken:
@@ -350,7 +367,7 @@ class PipeFeed:
         pending = self._pending
         while pending:
             try:
-                written = os.writev(self._fd, list(itertools.islice(pending, 64)))
+                written = os.writev(self._fd, list(itertools.islice(pending, WRITEV_PARTS)))
             except BlockingIOError:
                 return
             except OSError:
@@ -362,7 +379,7 @@ class PipeFeed:
                     written -= len(first)
                     pending.popleft()
                 else:
-                    pending[0] = first[written:]
+                    pending[0] = memoryview(first)[written:]
                     written = 0
         self._idle()
 

@@ -4,11 +4,12 @@ A thread would share the GIL with the event loop: encoding a LaserScan is pure P
 thread busy with it makes every socket call of the loop wait for the GIL again (the convoy
 effect: measured 4× slower fan-out and 1.4 s probe stalls during 4000² maps). So the server only
 hands over batches of messages, each as bytes where it has them (the CDR it or someone else
-already made, or the client's own JSON of a publish), pickled down a pipe the server's loop
-writes (recorder.PipeFeed), and this process, started with spawn at a lower priority, encodes
-what is not CDR yet and writes. It closes the current chunk every ``flush_period`` seconds and
-finishes the file when told to stop or when the server dies. A disk that refuses a write (full,
-a size limit) ends the recording with a file that reads back to its last complete chunk.
+already made, or the client's own JSON of a publish), down a pipe the server's loop writes
+(:mod:`.handoff`, recorder.PipeFeed), and this process, started with spawn at a lower
+priority, encodes what is not CDR yet and writes. It closes the current chunk every
+``flush_period`` seconds and finishes the file when told to stop or when the server dies. A disk
+that refuses a write (full, a size limit) ends the recording with a file that reads back to its
+last complete chunk.
 
 :func:`write_recording` writes already-made messages into a new file in one go (the black
 box's snapshots).
@@ -22,7 +23,6 @@ import errno
 import logging
 import multiprocessing
 import os
-import pickle
 import signal
 import threading
 import time
@@ -30,7 +30,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
-from typing import Any, NamedTuple
+from typing import Any
 
 from mcap.data_stream import RecordBuilder
 from mcap.records import DataEnd, Footer
@@ -41,6 +41,7 @@ from ..bus.cdr import codec_for
 from ..types import jsoncodec
 from ..types.registry import TypeRegistry
 from .files import DiskFile, enforce_budget, open_file, split_name
+from .handoff import CDR, JSON, Item, read_batch
 from .profile import PROFILE, ROS_DISTRO, channel_metadata, ros2_type_name, schema_text
 
 log = logging.getLogger(__name__)
@@ -48,25 +49,6 @@ log = logging.getLogger(__name__)
 WRITER_NICENESS = 5  # the event loop first; the disk keeps up or messages are dropped
 DRAIN_GRACE = 5.0  # seconds a writer whose server died has to write what the pipe still holds
 BUDGET_PERIOD = 2.0  # seconds between looks at the disk budget
-
-CDR, JSON, MSG = 0, 1, 2
-"""What an :class:`Item`'s ``data`` is: ROS 2 CDR; a client's ``publish`` op as JSON whose
-``msg`` is the canonical message as it is (verbatim); the canonical message itself."""
-
-
-class Item(NamedTuple):
-    """One message to write. Batches cross to the writer as plain tuples: pickle takes a
-    NamedTuple apart in Python (12 µs a message, on the server's GIL), a tuple in C (1 µs)."""
-
-    topic: str
-    type_name: str  # pkg/msg/Type
-    latched: bool
-    log_time: int  # ns
-    publish_time: int  # ns
-    seq: int
-    kind: int  # CDR, JSON or MSG
-    data: Any
-
 
 @dataclass
 class Counters:
@@ -292,25 +274,26 @@ def write_recording(path: Path, items: Iterable[Item], *, metadata: dict[str, st
 
 
 class _Batches:
-    """The writer's end of the pipe (recorder.PipeFeed): pickled batches of items, ``None``
-    to stop; the end of the pipe (the server gone, all it wrote read) stops it too."""
+    """The writer's end of the pipe (recorder.PipeFeed): batches (:mod:`.handoff`), an empty
+    one to stop; the end of the pipe (the server gone, all it wrote read) stops it too."""
 
     def __init__(self, items: Any, counters: Counters):
         self.items = items
         self.counters = counters
+        self.topics: dict[int, tuple[str, str]] = {}
 
     def take(self, timeout: float) -> list[Item] | None:
         try:
             if not self.items.poll(timeout):
                 return []
-            batch = pickle.loads(self.items.recv_bytes())
+            blob = self.items.recv_bytes()
         except (EOFError, OSError):
             return None
-        if batch is None:
+        if not blob:
             return None
-        items, size = batch
+        items, size = read_batch(blob, self.topics)
         self.counters.taken.value += size
-        return [Item._make(item) for item in items]
+        return items
 
 
 def run_writer(plan: Plan, items: Any, counters: Counters) -> None:

@@ -197,7 +197,8 @@ async def test_a_recording_the_disk_stops_is_closed_and_reads_back(make_server, 
 _CUT_SCRIPT = """
 import random, resource, signal, sys
 from pathlib import Path
-from hitrobot_server.record.writer import MSG, Item, write_recording
+from hitrobot_server.record.handoff import MSG, Item
+from hitrobot_server.record.writer import write_recording
 path, limit = Path(sys.argv[1]), int(sys.argv[2])
 rng = random.Random(1)
 items = [Item("/big", "std_msgs/msg/String", False, i, i, i, MSG,

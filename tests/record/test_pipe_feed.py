@@ -7,7 +7,6 @@ from __future__ import annotations
 import asyncio
 import multiprocessing
 import os
-import pickle
 import threading
 
 from hitrobot_server.record.recorder import PipeFeed
@@ -45,7 +44,7 @@ def test_a_gone_reader_breaks_the_feed_and_loses_nothing_else():
 
     async def main() -> PipeFeed:
         feed = PipeFeed(writing, asyncio.get_running_loop())
-        feed.send(pickle.dumps(("batch", 1)))
+        feed.send(b"batch", b"1")
         feed.send(b"more")  # dropped quietly: nobody reads
         await asyncio.wait_for(feed.drain(lambda: True), 5.0)
         feed.close()

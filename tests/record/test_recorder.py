@@ -14,7 +14,7 @@ from mcap_ros2.decoder import DecoderFactory
 from hitrobot_server.bus.core import Bus
 from hitrobot_server.bus.topics import Message, Origin
 from hitrobot_server.record.profile import AUDIT_TOPIC
-from hitrobot_server.record.recorder import Recorder, estimate_size, item_of, split_name
+from hitrobot_server.record.recorder import Recorder, item_of, split_name
 from hitrobot_server.record.writer import write_recording
 from hitrobot_server.types.registry import TypeRegistry
 from hitrobot_server.wire.encoded import Seed
@@ -41,7 +41,9 @@ def make_bus() -> Bus:
 
 async def test_topic_filter_and_latched_messages_first(tmp_path):
     bus = make_bus()
+    bus.advertise("/latched_elsewhere", "std_msgs/String", "node", "/node", latch=True)
     bus.publish("/latched", {"data": "before"})
+    bus.publish("/latched_elsewhere", {"data": "not asked for"})
     recorder = Recorder(bus, tmp_path / "r.mcap", topics="/keep*,/latched")
     recorder.start()
     bus.publish("/keep", {"data": "a"})
@@ -97,12 +99,6 @@ async def test_client_ops_that_reach_a_node_are_audited(tmp_path):
         ("publish", "/keep", "/hitrobot_client_1", "127.0.0.1")]
 
 
-def test_estimate_size_counts_arrays():
-    assert estimate_size({"data": np.zeros(1000, np.int8)}) >= 1000
-    assert estimate_size({"data": list(range(100))}) >= 800
-    assert estimate_size({"data": b"x" * 50}) >= 50
-
-
 async def test_service_calls_and_goals_of_clients_are_audited(tmp_path):
     bus = make_bus()
 
@@ -155,10 +151,9 @@ def client_publish(bus: Bus, topic: str, msg: dict) -> Message:
     return bus.publish(topic, msg, seed=Seed(len(op), topic, op))
 
 
-async def test_a_flat_messages_cdr_is_made_once_on_the_loop(tmp_path):
-    """A client's LaserScan (arrays of numbers only) is encoded by the tap, once, and those
-    very bytes are shared (``cdr_bytes``: Zenoh and Foxglove take them too) and written; a
-    client's Path (a message per pose) and a node's scan are left to the writer."""
+async def test_a_client_publish_goes_to_the_writer_as_its_own_json(tmp_path):
+    """While the writer keeps up, the tap encodes nothing: a client's LaserScan goes as the
+    client's JSON, a node's as the message, and the writer makes the CDR of both."""
     bus = make_bus()
     bus.advertise("/scan", "sensor_msgs/LaserScan", "node", "/node")
     bus.advertise("/path", "nav_msgs/Path", "node", "/node")
@@ -169,13 +164,46 @@ async def test_a_flat_messages_cdr_is_made_once_on_the_loop(tmp_path):
                                                    for i in range(3)]})
     node_scan = bus.publish("/scan", {"ranges": [2.0]})
     await recorder.stop()
-    assert scan.cdr_bytes is not None
-    assert path.cdr_bytes is None and node_scan.cdr_bytes is None
-    with open(tmp_path / "r.mcap", "rb") as f:
-        raw = [(c.topic, m.data) for _s, c, m in make_reader(f).iter_messages()]
-    assert raw[0] == ("/scan", scan.cdr_bytes)
+    assert scan.cdr_bytes is None and path.cdr_bytes is None and node_scan.cdr_bytes is None
     got = decoded(tmp_path / "r.mcap")
     ranges = list(got[0][1].ranges)
     assert ranges[0] == 1.5 and np.isnan(ranges[1]) and ranges[2] == 3.0
+    assert got[0][1].range_max == 30.0
     assert list(got[2][1].ranges) == [2.0]
     assert [p.pose.position.x for p in got[1][1].poses] == [0.0, 1.0, 2.0]
+
+
+def test_a_writer_behind_gets_flat_messages_encoded_on_the_loop(tmp_path):
+    """Once more than an eighth of the queue bound waits for the writer (here it is stopped),
+    the tap encodes a client's flat message itself (the writer's cheaper kind, and the bytes
+    shared: ``cdr_bytes``, which Zenoh and Foxglove take too); a Path (a message per pose)
+    is still left to the writer. Everything reads back the same."""
+    import asyncio
+    import multiprocessing
+    import signal
+
+    bus = make_bus()
+    bus.advertise("/scan", "sensor_msgs/LaserScan", "node", "/node")
+    bus.advertise("/path", "nav_msgs/Path", "node", "/node")
+    recorder = Recorder(bus, tmp_path / "r.mcap", max_queued_bytes=64 * 1024)
+    recorder.start()  # no loop here: each message is handed over at once
+    (writer,) = multiprocessing.active_children()
+    os.kill(writer.pid, signal.SIGSTOP)
+    try:
+        scans = [client_publish(bus, "/scan", {"ranges": [float(i)] * 100, "range_max": 9.0})
+                 for i in range(30)]
+        path = client_publish(bus, "/path", {"poses": [{"pose": {"position": {"x": 1.0}}}]})
+    finally:
+        os.kill(writer.pid, signal.SIGCONT)
+    asyncio.run(recorder.stop())
+    encoded = [s.cdr_bytes is not None for s in scans]
+    assert not encoded[0] and encoded[-1], encoded
+    assert encoded == sorted(encoded), "once behind, every later one (the writer never took)"
+    assert path.cdr_bytes is None
+    with open(tmp_path / "r.mcap", "rb") as f:
+        raw = [m.data for _s, c, m in make_reader(f).iter_messages() if c.topic == "/scan"]
+    assert [raw[i] for i, e in enumerate(encoded) if e] == [s.cdr_bytes for s in scans
+                                                           if s.cdr_bytes is not None]
+    got = [m for t, m in decoded(tmp_path / "r.mcap") if t == "/scan"]
+    assert [list(m.ranges) for m in got] == [[float(i)] * 100 for i in range(30)]
+    assert recorder.dropped == 0
