@@ -23,8 +23,12 @@ def test_frames_bigger_than_the_pipe_arrive_whole_and_in_order():
 
     async def main() -> bool:
         feed = PipeFeed(writing, asyncio.get_running_loop())
-        for payload in payloads:
-            feed.send(payload)  # never blocks: what the pipe does not take waits in the feed
+        for k, payload in enumerate(payloads):  # never blocks: the rest waits in the feed
+            if k % 2:
+                feed.send(payload)
+            else:  # a frame in parts (a batch's headers and messages), never joined
+                third = len(payload) // 3
+                feed.send(payload[:third], b"", payload[third:2 * third], payload[2 * third:])
         pending = feed.waiting > 0
         thread = threading.Thread(target=reader)
         thread.start()
