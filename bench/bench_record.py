@@ -7,6 +7,15 @@ delivered message. Prints figures only (no assertions).
     .venv/bin/python bench/bench_record.py            # 3 rounds per client count
     .venv/bin/python bench/bench_record.py --quick    # 1 round, smaller counts
 
+``--paired`` runs one server per client count instead, with the publisher never stopping, and
+turns recording on and off through the console's own services (``/record/start``,
+``/record/stop``, every topic, into ``--record-dir``) in segments: each pair is a recorded and a
+plain segment next to each other (the order alternating), measured after the writer has
+started, so a slow phase of the machine hits both sides of a pair alike. It prints the ratio
+per pair and its median, the scans in the files against those the publisher wrote while
+recording (approximate: frames in flight at start and stop), and what the recorder dropped (its
+``/record/stop`` reply).
+
 ``--loop`` measures instead, in this process, what the recorder's tap costs the event loop's
 process per message: the CPU time (every thread of the process; the batches are written down
 the pipe by the loop itself) of publishing client LaserScans (a rosbridge publish's own JSON
@@ -29,10 +38,12 @@ import argparse
 import asyncio
 import contextlib
 import os
+import re
 import shlex
 import statistics
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 from mcap.exceptions import McapError
@@ -127,9 +138,127 @@ async def main_async(cfg, rounds: int) -> None:
                     "writer CPU s", "writer us/msg", "srv us/msg plain/rec"], rows))
 
 
+async def call(client: bb.RawWs, service: str, args: dict, timeout: float = 15.0) -> bytes:
+    """A ``call_service`` from a bench client; its ``service_response`` (raw JSON)."""
+    op_id = f"bench:{service}:{time.monotonic_ns()}".encode()
+    got = asyncio.get_running_loop().create_future()
+
+    def hook(payload: bytes, _now: float) -> None:
+        if op_id in payload and b"service_response" in payload and not got.done():
+            got.set_result(payload)
+
+    client.on_message = hook
+    try:
+        client.send({"op": "call_service", "id": op_id.decode(), "service": service,
+                     "args": args})
+        return await asyncio.wait_for(got, timeout)
+    finally:
+        client.on_message = None
+
+
+async def paired_run(n: int, pairs: int, seconds: float, folder: Path) -> dict:
+    """One server, ``n`` subscribers, a publisher that never stops; ``pairs`` recorded and
+    plain segments of ``seconds`` each, side by side (see the docstring)."""
+    topic = f"/bench/scan_{n}"
+    src = bb.ScanSource(topic)
+    server = bb.start_ours(None, f"paired_{n}", ["--record-dir", str(folder)])
+    subs = []
+    try:
+        for k in range(0, n, 25):
+            subs += await asyncio.gather(*(bb.RawWs.open(server.port)
+                                           for _ in range(min(25, n - k))))
+        pub = await bb.RawWs.open(server.port)
+        control = await bb.RawWs.open(server.port)
+        pub.send({"op": "advertise", "topic": topic, "type": "sensor_msgs/LaserScan"})
+        for sub in subs:
+            sub.send({"op": "subscribe", "topic": topic, "type": "sensor_msgs/LaserScan"})
+        await bb.warm_up(pub, src, subs, lambda sub: sub.count)
+        sent = [0]
+        running = [True]
+
+        async def publish() -> None:
+            while running[0]:  # as fast as the server takes them
+                pub.write_frame(bb.ws_frame(src.frame(sent[0])))
+                sent[0] += 1
+                await pub.drain()
+                if sent[0] % 20 == 0:
+                    await asyncio.sleep(0)
+
+        async def segment() -> tuple[float, float]:
+            """Delivered msg/s and server CPU µs per delivered message over ``seconds``."""
+            c0, n0, t0 = server.cpu(), sum(sub.count for sub in subs), time.perf_counter()
+            await asyncio.sleep(seconds)
+            c1, n1, t1 = server.cpu(), sum(sub.count for sub in subs), time.perf_counter()
+            got = max(n1 - n0, 1)
+            return got / (t1 - t0), (c1 - c0) / got * 1e6
+
+        task = asyncio.create_task(publish())
+        plain, rec, while_recording, dropped = [], [], 0, 0
+        try:
+            await asyncio.sleep(1.0)
+            for k in range(pairs):
+                for recording in ((True, False) if k % 2 == 0 else (False, True)):
+                    if recording:
+                        reply = await call(control, "/record/start", {"name": f"seg{k}.mcap"})
+                        assert b'"success":true' in reply.replace(b" ", b""), reply
+                        first = sent[0]
+                        await asyncio.sleep(RECORD_SETTLE)  # the writer process starts
+                        rec.append(await segment())
+                        reply = await call(control, "/record/stop", {})
+                        while_recording += sent[0] - first
+                        lost = re.search(rb"\((\d+) dropped\)", reply)
+                        dropped += int(lost.group(1)) if lost else 0
+                    else:
+                        await asyncio.sleep(PLAIN_SETTLE)
+                        plain.append(await segment())
+        finally:
+            running[0] = False
+            await task
+        await bb.close_all([pub, control, *subs])
+    finally:
+        server.stop()
+    for line in server.output:
+        if "dropped" in line:
+            print("   ", line.strip(), file=sys.stderr)
+    return {"plain": plain, "rec": rec, "recorded": recorded_count(folder, topic),
+            "while_recording": while_recording, "dropped": dropped}
+
+
+RECORD_SETTLE = 2.5  # seconds from /record/start to a measured segment (the writer's spawn)
+PLAIN_SETTLE = 1.0  # seconds from /record/stop (the writer finishing) to a plain segment
+
+
+async def paired_main(clients: tuple[int, ...], pairs: int, seconds: float) -> None:
+    bb.machine_info()
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="bench-record-paired-") as tmp:
+        for n in clients:
+            folder = Path(tmp) / f"c{n}"
+            folder.mkdir()
+            run = await paired_run(n, pairs, seconds, folder)
+            ratios = [r[0] / p[0] for p, r in zip(run["plain"], run["rec"], strict=True)]
+            added = [r[1] - p[1] for p, r in zip(run["plain"], run["rec"], strict=True)]
+            print(f"  {n:>2} clients: ratio per pair {' / '.join(f'{x:.2f}' for x in ratios)}",
+                  flush=True)
+            rows.append([
+                n,
+                bb.fnum(statistics.median(p[0] for p in run["plain"])),
+                bb.fnum(statistics.median(r[0] for r in run["rec"])),
+                f"{statistics.median(ratios):.2f}",
+                f"{min(ratios):.2f}-{max(ratios):.2f}",
+                f"{statistics.median(added):+.1f}",
+                f"{run['recorded']:,}/~{run['while_recording']:,}",
+                f"{run['dropped']:,}",
+            ])
+    print(f"\nLaserScan fan-out, recording turned on and off in one server ({pairs} pairs of "
+          f"{seconds:g} s segments)")
+    print(bb.table(["clients", "plain msg/s", "recorded msg/s", "median ratio", "pair range",
+                    "srv us/msg added", "in files/~published while recording",
+                    "dropped by the recorder"], rows))
+
+
 async def loop_cost(count: int, rounds: int) -> None:
     """CPU µs per published message with and without a recorder tap (see the docstring)."""
-    import time
 
     import orjson
 
@@ -200,7 +329,6 @@ def writer_pids(parent: int) -> list[int]:
 async def writer_started(parent: int | None = None, timeout: float = 30.0) -> float:
     """The CPU seconds the writer process (a child of ``parent``, default this process) took
     to start: polled until it stops growing (it then waits for its first batch)."""
-    import time
 
     def writers() -> list[int]:
         return writer_pids(os.getpid() if parent is None else parent)
@@ -226,7 +354,16 @@ def main() -> int:
                         help="subscriber counts (default 1,10,50)")
     parser.add_argument("--loop", action="store_true",
                         help="only the tap's CPU per message, in this process")
+    parser.add_argument("--paired", action="store_true",
+                        help="one server per client count, recording turned on and off")
+    parser.add_argument("--pairs", type=int, default=6, help="--paired: pairs (default 6)")
+    parser.add_argument("--seconds", type=float, default=2.0,
+                        help="--paired: seconds a segment (default 2)")
     args = parser.parse_args()
+    if args.paired:
+        asyncio.run(paired_main(tuple(int(n) for n in args.clients.split(",")), args.pairs,
+                                args.seconds))
+        return 0
     if args.loop:
         asyncio.run(loop_cost(2000 if args.quick else 5000, args.rounds or 3))
         return 0
