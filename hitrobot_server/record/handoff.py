@@ -39,30 +39,27 @@ class Item(NamedTuple):
 
 
 class BatchBuilder:
-    """A batch in the making, on the loop: parts to write, their length, the bytes counted."""
+    """A batch in the making, on the loop: parts to write and the bytes they count."""
 
     def __init__(self) -> None:
         self.parts: list[bytes] = []
-        self.length = 0  # bytes of the parts
         self.size = 0  # bytes counted against the queue bound
 
     def define(self, number: int, name: str, type_name: str) -> None:
         data = f"{name}\n{type_name}".encode()
         self.parts += (HEAD.pack(DEFINE, 0, number, len(data), 0, 0, 0), data)
-        self.length += HEAD.size + len(data)
 
     def add(self, number: int, kind: int, latched: bool, log_time: int, publish_time: int,
             seq: int, data: bytes, size: int) -> None:
         """A message's ``data`` of ``kind`` (CDR, JSON, or MSG pickled), counted as ``size``."""
-        n = len(data)
-        self.parts += (HEAD.pack(kind, latched, number, n, log_time, publish_time, seq), data)
-        self.length += HEAD.size + n
+        self.parts += (HEAD.pack(kind, latched, number, len(data), log_time, publish_time, seq),
+                       data)
         self.size += size
 
     def take(self) -> tuple[list[bytes], int]:
         """The batch's parts (the count first) and the bytes it counts; the builder empties."""
         parts, size = [BATCH.pack(self.size), *self.parts], self.size
-        self.parts, self.length, self.size = [], 0, 0
+        self.parts, self.size = [], 0
         return parts, size
 
 

@@ -46,7 +46,7 @@ from ..bus.tap import ClientOp
 from ..bus.topics import Message
 from ..wire.encoded import Encoded, Seed
 from .files import check_writable, split_name
-from .handoff import CDR, JSON, MSG, BatchBuilder, Item
+from .handoff import CDR, JSON, MSG, BatchBuilder
 from .profile import AUDIT_TOPIC, AUDIT_TYPE
 from .writer import Counters, Plan, run_writer
 
@@ -81,16 +81,6 @@ def known_bytes(message: Message) -> tuple[int, Any]:
     else:
         text = None
     return (JSON, text) if text is not None else (MSG, message.msg)
-
-
-def item_of(message: Message, log_time: float | None = None) -> Item:
-    """What the writer takes of a bus message (:func:`known_bytes`), logged at its own stamp
-    or at ``log_time`` (seconds)."""
-    topic = message.topic
-    stamp = int(message.stamp * 1e9)
-    kind, data = known_bytes(message)
-    when = stamp if log_time is None else int(log_time * 1e9)
-    return Item(topic.name, topic.type_name, topic.latched, when, stamp, message.seq, kind, data)
 
 
 class Recorder:
@@ -130,6 +120,8 @@ class Recorder:
         self._behind = max_queued_bytes // BEHIND
         self._timer: asyncio.TimerHandle | None = None
         self._topics: dict[str, tuple[str, int | None]] = {}  # name: (type, number if kept)
+        self._numbers = itertools.count()  # a topic's number in the hand-off, never reused
+        self._audit_number: int | None = None
         self._codec = codec_for(bus.types)
         self._last_warning = float("-inf")
 
@@ -237,32 +229,31 @@ class Recorder:
                  "stamp": {"secs": secs, "nsecs": int((op.stamp - secs) * 1e9)}}
         data = self._codec.encode(entry, self.bus.types.msg(AUDIT_TYPE))
         ns = int(op.stamp * 1e9)
-        known = self._topics.get(AUDIT_TOPIC) or self._topic(AUDIT_TOPIC, AUDIT_TYPE, True)
-        self._put(known[1], CDR, False, ns, ns, 0, data)  # type: ignore[arg-type]
+        if self._audit_number is None:  # its own number: a bus topic of that name is not it
+            self._audit_number = self._number(AUDIT_TOPIC, AUDIT_TYPE)
+        self._put(self._audit_number, CDR, False, ns, ns, 0, data)
+
+    def _number(self, name: str, type_name: str) -> int:
+        """A new number for a topic, named to the writer in the batch before its first
+        message."""
+        number = next(self._numbers)
+        self._batch.define(number, name, type_name)
+        return number
 
     def _topic(self, name: str, type_name: str, kept: bool) -> tuple[str, int | None]:
-        """A topic seen for the first time (or with a new type): numbered when it is kept,
-        and named to the writer in the batch, before its first message."""
-        number = None
-        if kept:
-            number = len(self._topics)
-            self._batch.define(number, name, type_name)
-        known = self._topics[name] = (type_name, number)
+        """A topic seen for the first time (or with a new type): numbered when it is kept."""
+        known = self._topics[name] = (type_name, self._number(name, type_name) if kept else None)
         return known
 
     def _enqueue(self, message: Message, number: int, log_time: float | None = None) -> None:
-        data = message.cdr_bytes
-        if data is not None:
-            kind = CDR
-        else:
-            kind, data = known_bytes(message)
-            if kind == JSON:
-                if self._in_pipe > self._behind and len(data) <= LOOP_CDR_BYTES and \
-                        self._codec.direct(message.topic.mtype):
-                    with contextlib.suppress(Exception):  # the writer tries again and counts it
-                        kind, data = CDR, message.cdr(self._codec)
-            elif kind == MSG:
-                data = pickle.dumps(data, pickle.HIGHEST_PROTOCOL)
+        kind, data = known_bytes(message)
+        if kind == JSON:
+            if self._in_pipe > self._behind and len(data) <= LOOP_CDR_BYTES and \
+                    self._codec.direct(message.topic.mtype):
+                with contextlib.suppress(Exception):  # the writer tries again and counts it
+                    kind, data = CDR, message.cdr(self._codec)
+        elif kind == MSG:
+            data = pickle.dumps(data, pickle.HIGHEST_PROTOCOL)
         stamp = int(message.stamp * 1e9)
         self._put(number, kind, message.topic.latched,
                   stamp if log_time is None else int(log_time * 1e9), stamp, message.seq, data)

@@ -48,17 +48,9 @@ def test_topics_named_in_one_batch_serve_the_next_and_the_builder_empties():
     b.add(5, CDR, False, 1, 1, 1, b"a", 257)
     topics: dict[int, tuple[str, str]] = {}
     read_batch(_blob(b)[0], topics)
-    assert b.parts == [] and b.size == 0 and b.length == 0
+    assert b.parts == [] and b.size == 0
 
     b.add(5, CDR, False, 2, 2, 2, b"bb", 258)
     items, _ = read_batch(_blob(b)[0], topics)
     assert [(i.topic, i.data) for i in items] == [("/odom", b"bb")]
 
-
-def test_the_length_is_the_bytes_of_the_parts():
-    b = BatchBuilder()
-    b.define(0, "/t", "std_msgs/String")
-    b.add(0, CDR, False, 1, 1, 1, b"x" * 1000, 1256)
-    length = b.length
-    parts, _ = b.take()
-    assert sum(map(len, parts)) == length + 8  # and the count before them

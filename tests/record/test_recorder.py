@@ -13,8 +13,9 @@ from mcap_ros2.decoder import DecoderFactory
 
 from hitrobot_server.bus.core import Bus
 from hitrobot_server.bus.topics import Message, Origin
+from hitrobot_server.record.handoff import MSG, Item
 from hitrobot_server.record.profile import AUDIT_TOPIC
-from hitrobot_server.record.recorder import Recorder, item_of, split_name
+from hitrobot_server.record.recorder import Recorder, split_name
 from hitrobot_server.record.writer import write_recording
 from hitrobot_server.types.registry import TypeRegistry
 from hitrobot_server.wire.encoded import Seed
@@ -128,9 +129,9 @@ async def test_service_calls_and_goals_of_clients_are_audited(tmp_path):
 
 
 def test_write_recording_writes_encoded_messages_into_a_new_file_only(tmp_path):
-    """The black box's way in: messages as the recorder takes them (item_of), in one go."""
-    bus = make_bus()
-    items = [item_of(bus.publish("/keep", {"data": f"m{i}"})) for i in range(3)]
+    """The black box's way in: already-made messages, in one go."""
+    items = [Item("/keep", "std_msgs/msg/String", False, i, i, i, MSG, {"data": f"m{i}"})
+             for i in range(3)]
     path = tmp_path / "snap.mcap"
     assert write_recording(path, items, metadata={"cause": "test"}) == 3
     assert [m.data for _t, m in decoded(path)] == ["m0", "m1", "m2"]
@@ -207,3 +208,44 @@ def test_a_writer_behind_gets_flat_messages_encoded_on_the_loop(tmp_path):
     got = [m for t, m in decoded(tmp_path / "r.mcap") if t == "/scan"]
     assert [list(m.ranges) for m in got] == [[float(i)] * 100 for i in range(30)]
     assert recorder.dropped == 0
+
+
+async def test_a_topic_back_with_another_type_does_not_take_another_topics_number(tmp_path):
+    """Each topic (and each new type of one) gets a number of its own in the hand-off: a
+    topic that came back with another type and a topic seen after it stay apart."""
+    bus = make_bus()
+    recorder = Recorder(bus, tmp_path / "r.mcap")
+    recorder.start()
+    bus.publish("/keep", {"data": "a"})
+    bus.publish("/skip", {"data": "b"})
+    del bus.topics["/keep"]  # expired (no publisher, no subscriber), then advertised anew
+    bus.advertise("/keep", "std_msgs/Int32", "node", "/node")
+    bus.publish("/keep", {"data": 5})
+    bus.advertise("/new", "std_msgs/String", "node", "/node")
+    bus.publish("/new", {"data": "c"})
+    bus.publish("/keep", {"data": 6})
+    await recorder.stop()
+    with open(tmp_path / "r.mcap", "rb") as f:
+        topics = [c.topic for _s, c, _m in make_reader(f).iter_messages()]
+    assert topics == ["/keep", "/skip", "/keep", "/new", "/keep"]
+    assert [m.data for t, m in decoded(tmp_path / "r.mcap") if t == "/new"] == ["c"]
+
+
+async def test_the_audit_keeps_its_own_number_beside_a_topic_of_that_name(tmp_path):
+    """A client may publish on a topic named like the audit channel; with that topic filtered
+    out, the audit entries are still written (the filter never applied to them)."""
+    bus = make_bus()
+
+    async def serve(request):
+        return {}
+
+    bus.advertise_service("/robot/do", "std_srvs/Trigger", "node", "/robot", serve)
+    bus.advertise(AUDIT_TOPIC, "std_msgs/String", "c", "/hitrobot_client_1")
+    recorder = Recorder(bus, tmp_path / "r.mcap", topics="/keep")
+    recorder.start()
+    bus.publish(AUDIT_TOPIC, {"data": "not an audit entry"})
+    bus.client_called("call_service", "/robot/do",
+                      Origin("/hitrobot_client_1", "admin", peer="10.0.0.7"))
+    await recorder.stop()
+    entries = [m for t, m in decoded(tmp_path / "r.mcap") if t == AUDIT_TOPIC]
+    assert [(e.op, e.name) for e in entries] == [("call_service", "/robot/do")]
