@@ -28,8 +28,9 @@ from __future__ import annotations
 import asyncio
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Coroutine, Sequence
 from dataclasses import asdict, dataclass
+from typing import Any
 
 from ..bus.core import Bus
 from ..robot.backend import (
@@ -125,8 +126,145 @@ def nearest(waypoints: Sequence[Waypoint], x: float, y: float) -> int:
                key=lambda i: math.hypot(waypoints[i].x - x, waypoints[i].y - y))
 
 
+class Route:
+    """The current route, its waypoints and name, kept in the node's section of the state
+    folder (not the patrol: a restarted server does not set the robot moving on its own)."""
+
+    def __init__(self, memory: NodeMemory) -> None:
+        self.memory = memory
+        self.waypoints: list[Waypoint] = []
+        self.name = ""
+
+    def restore(self, map_frames: frozenset[str]) -> None:
+        """The route as the state folder kept it (none, and the section set aside, when it
+        no longer validates)."""
+        saved = self.memory.get("route")
+        self.waypoints, self.name = [], ""
+        if saved is None:
+            return
+        try:
+            self.waypoints = waypoints_of(saved["waypoints"], map_frames)
+            self.name = str(saved["route"])
+        except (RouteError, KeyError, TypeError) as exc:
+            self.memory.reject("route", str(exc))
+
+    def set(self, waypoints: list[Waypoint], name: str) -> None:
+        self.waypoints, self.name = waypoints, name
+        self.remember()
+
+    def remember(self) -> None:
+        self.memory.put("route", {"route": self.name,
+                                  "waypoints": [asdict(w) for w in self.waypoints]})
+
+    async def durable(self) -> None:
+        """Return once the route is on disk."""
+        await self.memory.durable()
+
+    def restored(self) -> list[str]:
+        """What came back from the state folder, for the start-up log."""
+        if self.memory.store is None or not self.waypoints:
+            return []
+        return [f"1 route ({len(self.waypoints)} waypoints)"]
+
+
+class Patrol:
+    """The patrol itself: the waypoint the robot heads to, the laps, its last word and the
+    robot's action it started. It reads ``route`` on every leg (a running patrol picks up an
+    appended waypoint), says each change through ``changed`` and runs its loop as a task of
+    ``spawn`` (the node's, stopped with it)."""
+
+    def __init__(self, motion: MotionBackend, link: Link,
+                 route: Route, changed: Callable[[], None],
+                 spawn: Callable[[Coroutine[Any, Any, None]], asyncio.Task]) -> None:
+        self.motion = motion
+        self.link = link
+        self._route = route
+        self._changed = changed
+        self._spawn = spawn
+        self.active = False
+        self.target = -1
+        self.laps = 0
+        self.text = "idle"
+        self._task: asyncio.Task | None = None
+        self._action_id: int | None = None
+
+    async def begin(self, index: int) -> str | None:
+        """Stop any patrol, send the robot to waypoint ``index`` and patrol from there; the
+        reason when the robot refuses."""
+        await self.halt("restarted")
+        w = self._route.waypoints[index]
+        try:
+            action = await self.motion.move_to([Point2D(w.x, w.y)])
+        except BackendError as exc:
+            return robot_error(exc, f"the robot refused waypoint {index}")
+        self.active, self.target, self.laps = True, index, 0
+        self.text = f"heading to waypoint {index}"
+        self._action_id = action.action_id
+        self._changed()
+        self._task = self._spawn(self._run(index, action))
+        return None
+
+    async def halt(self, text: str) -> None:
+        """Stop the patrol (if any) and the robot's action if it is still ours."""
+        task, self._task = self._task, None
+        if task is not None and task is not asyncio.current_task():
+            task.cancel()
+        if self.active:
+            action_id, self._action_id = self._action_id, None
+            if self.link.connected:
+                await cancel_if_current(self.motion, action_id, "patrol: ")
+            self._end(text)
+
+    def _end(self, text: str) -> None:
+        self.active, self.target, self.text = False, -1, text
+        self._action_id = None
+        self._changed()
+
+    async def _run(self, index: int, action: ActionInfo | None) -> None:
+        first, failures = index, 0
+        try:
+            while True:
+                waypoints = self._route.waypoints
+                if not waypoints:
+                    self._end("stopped: the route is empty")
+                    return
+                index %= len(waypoints)
+                w = waypoints[index]
+                if action is None:
+                    self.target, self.text = index, f"heading to waypoint {index}"
+                    self._changed()
+                    action = await self.motion.move_to([Point2D(w.x, w.y)])
+                    self._action_id = action.action_id
+                final = await follow(self.motion, action)
+                action = None
+                if final is None:
+                    self._end("stopped: the robot's action was replaced by another command")
+                    return
+                if final.result == ActionResult.SUCCESS:
+                    failures = 0
+                    self.text = f"reached waypoint {index}"
+                elif final.result == ActionResult.FAILED:
+                    failures += 1
+                    self.text = f"skipped waypoint {index}: {final.reason or 'unreachable'}"
+                    if failures >= len(self._route.waypoints):
+                        self._end(f"stopped: no waypoint is reachable ({final.reason})")
+                        return
+                else:
+                    self._end(f"stopped: the robot's action ended ({final.reason or 'aborted'})")
+                    return
+                index = (index + 1) % len(self._route.waypoints)
+                if index == first % len(self._route.waypoints):
+                    self.laps += 1
+                self._changed()
+        except NotConnectedError:
+            self._end("stopped: the robot disconnected")
+        except BackendError as exc:
+            self._end(f"stopped: {exc}")
+
+
 class PatrolNode(RobotNode):
-    """``planning/*``: the current route, route files and the patrol loop."""
+    """``planning/*``: the services over the current route (:class:`Route`), route files and
+    the patrol (:class:`Patrol`)."""
 
     GLOBAL_NAMES = (NS, "/patrol")
 
@@ -134,22 +272,14 @@ class PatrolNode(RobotNode):
                  localization: LocalizationBackend, settings: NodeOptions,
                  mapfiles: MapDefaults, state: StateBinding | None = None):
         super().__init__(bus, NS, link)
-        self.memory = NodeMemory(state, "patrol")
-        self.motion = motion
         self.localization = localization
         self.mapfiles = mapfiles
         self.files = NamedFiles(settings.map_store.parent / "routes")
         if removed := self.files.clean_leftovers():  # created at start-up, before any save
             log.info("routes: removed leftovers of interrupted saves: %s", ", ".join(removed))
         self.map_frames_extra = frozenset({"map", settings.slamware.map_frame.lstrip("/")})
-        self.waypoints: list[Waypoint] = []
-        self.route = ""
-        self.active = False
-        self.target = -1
-        self.laps = 0
-        self.text = "idle"
-        self._task: asyncio.Task | None = None
-        self._action_id: int | None = None
+        self.route = Route(NodeMemory(state, "patrol"))
+        self.patrol = Patrol(motion, link, self.route, self._publish, self.spawn)
         self.advertise(STATE_TOPIC, f"{PKG}/PatrolState", latch=True)
         for name, type_name, handler in [
             ("list_waypoints_files", "ListWaypointsFiles", self._list),
@@ -164,58 +294,39 @@ class PatrolNode(RobotNode):
                               ("stop_patrol", self._stop)]:
             self.service(f"{NS}/{name}", "std_srvs/Trigger", handler)
         mapfiles.defaults[ROUTE_FILE] = self._apply_default
-        self._restore()
+        self.route.restore(self.map_frames)
         self._publish()
-
-    def _restore(self) -> None:
-        """The current route as the state store kept it (not the patrol: a restarted server
-        does not set the robot moving on its own)."""
-        saved = self.memory.get("route")
-        self.waypoints, self.route = [], ""
-        if saved is None:
-            return
-        try:
-            self.waypoints = waypoints_of(saved["waypoints"], self.map_frames)
-            self.route = str(saved["route"])
-        except (RouteError, KeyError, TypeError) as exc:
-            self.memory.reject("route", str(exc))
 
     @property
     def map_frames(self) -> frozenset[str]:
         return self.map_frames_extra | {self.mapfiles.loaded.frame}
 
     async def stop(self) -> None:
-        await self._halt("stopped")
+        await self.patrol.halt("stopped")
         await super().stop()
 
     # ------------------------------------------------------------------ state
     def adopt(self, restore: bool) -> None:
         """A state folder was bound: take its route (``restore``) or write ours into it."""
         if restore:
-            self._restore()
+            self.route.restore(self.map_frames)
             self._publish()
         else:
-            self._remember()
+            self.route.remember()
 
     def restored(self) -> list[str]:
         """What came back from the state folder, for the start-up log."""
-        if self.memory.store is None or not self.waypoints:
-            return []
-        return [f"1 route ({len(self.waypoints)} waypoints)"]
-
-    def _remember(self) -> None:
-        self.memory.put("route", {"route": self.route,
-                                  "waypoints": [asdict(w) for w in self.waypoints]})
+        return self.route.restored()
 
     def _publish(self) -> None:
+        run = self.patrol
         self.publish(STATE_TOPIC, {
-            "active": self.active, "route": self.route,
-            "waypoints": [asdict(w) for w in self.waypoints],
-            "target_index": self.target, "laps": self.laps, "message": self.text})
+            "active": run.active, "route": self.route.name,
+            "waypoints": [asdict(w) for w in self.route.waypoints],
+            "target_index": run.target, "laps": run.laps, "message": run.text})
 
-    def _replace(self, waypoints: list[Waypoint], route: str) -> None:
-        self.waypoints, self.route = waypoints, route
-        self._remember()
+    def _replace(self, waypoints: list[Waypoint], name: str) -> None:
+        self.route.set(waypoints, name)
         self._publish()
 
     # ------------------------------------------------------------------ route services
@@ -224,30 +335,30 @@ class PatrolNode(RobotNode):
             waypoints = waypoints_of(request["waypoints"], self.map_frames)
         except RouteError as exc:
             return {"success": False, "message": str(exc)}
-        await self._halt("stopped: the route was replaced")
+        await self.patrol.halt("stopped: the route was replaced")
         self._replace(waypoints, "")
-        await self.memory.durable()
+        await self.route.durable()
         return {"success": True, "message": f"{len(waypoints)} waypoints set"}
 
     async def _append(self, request: dict) -> dict:
-        if len(self.waypoints) >= MAX_WAYPOINTS:
+        if len(self.route.waypoints) >= MAX_WAYPOINTS:
             return {"success": False, "waypoint_index": 0,
                     "message": f"a route has at most {MAX_WAYPOINTS} waypoints"}
         try:
             waypoint = waypoint_of(request["waypoint"], "waypoint", self.map_frames)
         except RouteError as exc:
             return {"success": False, "message": str(exc), "waypoint_index": 0}
-        self.waypoints = [*self.waypoints, waypoint]  # a running patrol picks it up
-        self._remember()
+        # a running patrol picks it up on its next leg
+        self.route.set([*self.route.waypoints, waypoint], self.route.name)
         self._publish()
-        await self.memory.durable()
-        index = len(self.waypoints) - 1
+        await self.route.durable()
+        index = len(self.route.waypoints) - 1
         return {"success": True, "message": f"waypoint {index} added", "waypoint_index": index}
 
     async def _clear(self, request: dict) -> dict:
-        await self._halt("stopped: the route was cleared")
+        await self.patrol.halt("stopped: the route was cleared")
         self._replace([], "")
-        await self.memory.durable()
+        await self.route.durable()
         return {"success": True, "message": "waypoints cleared"}
 
     async def _list(self, request: dict) -> dict:
@@ -255,18 +366,17 @@ class PatrolNode(RobotNode):
 
     async def _save(self, request: dict) -> dict:
         name = request["name"]
-        data = encode_route(self.waypoints)
+        data = encode_route(self.route.waypoints)
         try:
             await asyncio.to_thread(self.files.write, name, data)
         except FileError as exc:
             return {"success": False, "message": str(exc)}
-        self.route = name
-        self._remember()
+        self.route.set(self.route.waypoints, name)
         if await asyncio.to_thread(self.mapfiles.save_default, ROUTE_FILE, data):
             log.info("route %s is now the default route of map %s", name,
                      self.mapfiles.loaded.name)
         self._publish()
-        await self.memory.durable()
+        await self.route.durable()
         return {"success": True, "message": f"Waypoints saved to: {name}"}
 
     async def _load(self, request: dict) -> dict:
@@ -278,9 +388,9 @@ class PatrolNode(RobotNode):
             waypoints = decode_route(data, self.map_frames, f"route {name!r}")
         except (FileError, RouteError) as exc:
             return {"success": False, "message": str(exc)}
-        await self._halt("stopped: another route was loaded")
+        await self.patrol.halt("stopped: another route was loaded")
         self._replace(waypoints, name)
-        await self.memory.durable()
+        await self.route.durable()
         return {"success": True, "message": f"Waypoints loaded from: {name}"}
 
     def _apply_default(self, data: bytes) -> str:
@@ -289,109 +399,36 @@ class PatrolNode(RobotNode):
             waypoints = decode_route(data, self.map_frames, ROUTE_FILE)
         except RouteError as exc:
             raise FileError(str(exc)) from None
-        self.spawn(self._halt("stopped: a map was loaded"))
+        self.spawn(self.patrol.halt("stopped: a map was loaded"))
         self._replace(waypoints, ROUTE_FILE.removesuffix(".yaml"))
         return f"{len(waypoints)} waypoints loaded"
 
     # ------------------------------------------------------------------ patrol services
     async def _start(self, request: dict) -> dict:
-        if not self.waypoints:
+        if not self.route.waypoints:
             return {"success": False, "message": "No waypoints loaded"}
-        error = await self._begin(0)
+        error = await self.patrol.begin(0)
         if error:
             return {"success": False, "message": error}
         return {"success": True, "message": "Patrol started from waypoint 0"}
 
     async def _resume(self, request: dict) -> dict:
-        if not self.waypoints:
+        if not self.route.waypoints:
             return {"success": False, "message": "No waypoints loaded", "waypoint_index": 0}
         try:
             pose = await self.localization.get_pose()
         except BackendError as exc:
             return {"success": False, "message": robot_error(exc, "robot pose unavailable"),
                     "waypoint_index": 0}
-        index = nearest(self.waypoints, pose.x, pose.y)
-        error = await self._begin(index)
+        index = nearest(self.route.waypoints, pose.x, pose.y)
+        error = await self.patrol.begin(index)
         if error:
             return {"success": False, "message": error, "waypoint_index": index}
         return {"success": True, "message": f"Resuming from waypoint {index}",
                 "waypoint_index": index}
 
     async def _stop(self, request: dict) -> dict:
-        if not self.active:
+        if not self.patrol.active:
             return {"success": True, "message": "no patrol is running"}
-        await self._halt("stopped by request")
+        await self.patrol.halt("stopped by request")
         return {"success": True, "message": "patrol stopped"}
-
-    # ------------------------------------------------------------------ the patrol
-    async def _begin(self, index: int) -> str | None:
-        """Stop any patrol, send the robot to waypoint ``index`` and patrol from there; the
-        reason when the robot refuses."""
-        await self._halt("restarted")
-        w = self.waypoints[index]
-        try:
-            action = await self.motion.move_to([Point2D(w.x, w.y)])
-        except BackendError as exc:
-            return robot_error(exc, f"the robot refused waypoint {index}")
-        self.active, self.target, self.laps = True, index, 0
-        self.text = f"heading to waypoint {index}"
-        self._action_id = action.action_id
-        self._publish()
-        self._task = self.spawn(self._patrol(index, action))
-        return None
-
-    async def _halt(self, text: str) -> None:
-        """Stop the patrol (if any) and the robot's action if it is still ours."""
-        task, self._task = self._task, None
-        if task is not None and task is not asyncio.current_task():
-            task.cancel()
-        if self.active:
-            action_id, self._action_id = self._action_id, None
-            if self.link.connected:
-                await cancel_if_current(self.motion, action_id, "patrol: ")
-            self._end(text)
-
-    def _end(self, text: str) -> None:
-        self.active, self.target, self.text = False, -1, text
-        self._action_id = None
-        self._publish()
-
-    async def _patrol(self, index: int, action: ActionInfo | None) -> None:
-        first, failures = index, 0
-        try:
-            while True:
-                if not self.waypoints:
-                    self._end("stopped: the route is empty")
-                    return
-                index %= len(self.waypoints)
-                w = self.waypoints[index]
-                if action is None:
-                    self.target, self.text = index, f"heading to waypoint {index}"
-                    self._publish()
-                    action = await self.motion.move_to([Point2D(w.x, w.y)])
-                    self._action_id = action.action_id
-                final = await follow(self.motion, action)
-                action = None
-                if final is None:
-                    self._end("stopped: the robot's action was replaced by another command")
-                    return
-                if final.result == ActionResult.SUCCESS:
-                    failures = 0
-                    self.text = f"reached waypoint {index}"
-                elif final.result == ActionResult.FAILED:
-                    failures += 1
-                    self.text = f"skipped waypoint {index}: {final.reason or 'unreachable'}"
-                    if failures >= len(self.waypoints):
-                        self._end(f"stopped: no waypoint is reachable ({final.reason})")
-                        return
-                else:
-                    self._end(f"stopped: the robot's action ended ({final.reason or 'aborted'})")
-                    return
-                index = (index + 1) % len(self.waypoints)
-                if index == first % len(self.waypoints):
-                    self.laps += 1
-                self._publish()
-        except NotConnectedError:
-            self._end("stopped: the robot disconnected")
-        except BackendError as exc:
-            self._end(f"stopped: {exc}")
