@@ -157,7 +157,7 @@ class Route:
                                   "waypoints": [asdict(w) for w in self.waypoints]})
 
     async def durable(self) -> None:
-        """Return once the route is on disk."""
+        """Wait until the route is on disk (NotSaved when it could not be written)."""
         await self.memory.durable()
 
     def restored(self) -> list[str]:
