@@ -1,0 +1,82 @@
+"""One rule for acknowledgements: which answers wait until the change is kept.
+
+:data:`ACKS` names every service and request that changes what the site remembers, and the
+reads beside them. A ``KEPT`` one is answered only once its change is on disk (and, over
+``--bus zenoh``, applied at the other servers that keep a copy: the fleet's followers); a
+refusal changed nothing and is answered at once. ``AT_ONCE`` ones change nothing the site keeps.
+The fleet's services go through :func:`acknowledged` (one wrapper, where the fleet offers a
+service); the map manager's topic-borne requests, answered by a status, go through :func:`kept`.
+A name missing from the table is refused where it is offered: a new change cannot skip the rule.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Awaitable, Callable
+
+KEPT = "kept"
+"""Answered once the change is on disk (and at the followers)."""
+AT_ONCE = "at once"
+"""A read (or a change the site does not keep): answered as soon as it is done."""
+
+ACKS: dict[str, str] = {
+    # the fleet (nodes/fleet): the task board, its schedules, its robots out of service
+    "/fleet/dispatch": KEPT,
+    "/fleet/cancel": KEPT,
+    "/fleet/pause": KEPT,
+    "/fleet/resume": KEPT,
+    "/fleet/set_in_service": KEPT,
+    "/fleet/schedule_add": KEPT,
+    "/fleet/schedule_remove": KEPT,
+    "/fleet/zone_add": KEPT,
+    "/fleet/zone_remove": KEPT,
+    "/fleet/history": AT_ONCE,
+    "/fleet/schedule_list": AT_ONCE,
+    "/fleet/zone_list": AT_ONCE,
+    "/fleet/policy": AT_ONCE,
+    # the map manager (nodes/map_manager): POIs, layer switches, masks (the walls), loaded map
+    "add_poi": KEPT,
+    "modify_poi": KEPT,
+    "delete_poi": KEPT,
+    "map_layers": KEPT,
+    "modify_map": KEPT,
+    "load_map": KEPT,
+    "get_pois": AT_ONCE,
+}
+
+Handler = Callable[[dict], Awaitable[dict]]
+Keeping = Callable[[], Awaitable[str]]
+"""Awaits until every change so far is kept: "" when it is, else what is missing (said in the
+reply); raises ``NotSaved`` when the disk refused it."""
+
+
+def waits(name: str) -> bool:
+    """Whether ``name``'s answer waits for its change to be kept (ValueError: not listed)."""
+    try:
+        rule = ACKS[name]
+    except KeyError:
+        raise ValueError(f"{name}: not in the acknowledgement table (nodes/ground/acks.py); "
+                         "say whether its answer waits for the disk") from None
+    return rule == KEPT
+
+
+async def kept(name: str, keeping: Keeping) -> str:
+    """Wait as the table says for ``name``: "" when the change is kept (or need not be), else
+    what is missing; ``NotSaved`` when the disk refused it."""
+    return await keeping() if waits(name) else ""
+
+
+def acknowledged(name: str, handler: Handler, keeping: Keeping) -> Handler:
+    """``handler`` answered as :data:`ACKS` says for ``name``: a change that was made (its reply
+    not a refusal) is answered once :func:`kept`; the reply says what is missing, if anything."""
+    if not waits(name):
+        return handler
+
+    async def answer(request: dict) -> dict:
+        reply = await handler(request)
+        if reply.get("accepted", reply.get("success", True)):
+            missing = await kept(name, keeping)
+            if missing and isinstance(reply.get("message"), str):
+                reply["message"] += missing
+        return reply
+
+    return answer
