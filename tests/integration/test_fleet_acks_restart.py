@@ -127,7 +127,6 @@ async def test_a_fleet_change_the_disk_cannot_take_is_not_answered_as_done(tmp_p
             reply = await w.call(service, request, timeout=30)
             assert not reply["result"], (service, reply)
             assert f"not saved to the state folder: {folder.reason}" in str(reply["values"])
-            print("REPLY", service, reply)
         await w.close()
     finally:
         server.stop()
