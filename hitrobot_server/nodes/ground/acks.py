@@ -41,6 +41,9 @@ ACKS: dict[str, str] = {
     "modify_map": KEPT,
     "load_map": KEPT,
     "get_pois": AT_ONCE,
+    "save_map": AT_ONCE,  # a map folder (written whole before its answer), not the site's state
+    "do_mapping": AT_ONCE,  # the robot's: answered once the robot took it
+    "/map": AT_ONCE,  # a client's map for the robot: likewise
 }
 
 Handler = Callable[[dict], Awaitable[dict]]
