@@ -8,7 +8,8 @@ import asyncio
 
 import pytest
 
-from hitrobot_server.nodes.ground.acks import ACKS, KEPT, acknowledged, kept, waits
+from hitrobot_server.nodes.ground.acks import ACKS, KEPT
+from hitrobot_server.nodes.ground.memory import acknowledged, kept, waits
 
 from .test_fleet import Y, fleet
 

@@ -41,7 +41,6 @@ from typing import Any
 
 from ...bus.core import Bus
 from ...bus.link import Group
-from ..ground.memory import NotSaved
 from .board import Board
 from .replica import Replica
 from .takeover import TakeOver
@@ -72,6 +71,8 @@ class Leadership:
         self.leading = group is None  # no link: always
         self.leader = ""
         self.taking_over = False  # no task is handed out until the running ones are settled
+        self.assigning = self.leading
+        """Tasks may be handed out: this server dispatches and is not taking over."""
         self._term = 0  # counts this server's turns as dispatcher
         self._followed = False  # a dispatcher's board was taken in this run
         self._role_changed = asyncio.Event()
@@ -80,10 +81,9 @@ class Leadership:
         self._services: dict[str, tuple[str, Handler]] = {}
         self._topics: dict[str, tuple[str, bool]] = {}
 
-    @property
-    def assigning(self) -> bool:
-        """Tasks may be handed out: this server dispatches and is not taking over."""
-        return self.leading and not self.taking_over
+    def _set(self, leading: bool, taking_over: bool) -> None:
+        self.leading, self.taking_over = leading, taking_over
+        self.assigning = leading and not taking_over
 
     # ------------------------------------------------------------------ what a leader offers
     def service(self, name: str, type_name: str, handler: Handler) -> None:
@@ -116,18 +116,6 @@ class Leadership:
             else:
                 self.bus.unadvertise_service(name, self.owner)
 
-    # ------------------------------------------------------------------ an assignment kept
-    async def kept(self) -> None:
-        """Before a robot moves: its assignment on disk and copied (when it cannot be, that is
-        logged and the robot still goes: a disk fault does not stop the site)."""
-        try:
-            missing = await self.board.durable()
-        except NotSaved as exc:
-            missing = str(exc)
-        if missing:
-            log.warning("fleet: an assignment was not kept: %s", missing.strip(" ()"),
-                        extra={"ros_node": self.name})
-
     # ------------------------------------------------------------------ the group's member
     async def join(self) -> None:
         if self.group is None or self.replica is None:
@@ -142,7 +130,7 @@ class Leadership:
     def role(self, leader: str) -> None:
         assert self.group is not None and self.replica is not None
         was, self.leader = self.leading, leader
-        self.leading = leader == self.group.me
+        self._set(leader == self.group.me, self.taking_over)
         self.replica.lead(self.leading)
         self._role_changed.set()
         log.info("fleet: %s", "this server dispatches" if self.leading else
@@ -155,7 +143,7 @@ class Leadership:
                 if task.goal is not None:
                     task.goal.cancel()
         if self.leading and not was:
-            self.taking_over = True
+            self._set(True, True)
             self._term += 1
             self.spawn(self._take_over(self._term))
         elif leader and not self.leading:
@@ -182,6 +170,6 @@ class Leadership:
                 await self.take_over.settle_running()
         finally:
             if term == self._term:
-                self.taking_over = False
+                self._set(self.leading, False)
         if term == self._term and self.leading:
             self.took_over()

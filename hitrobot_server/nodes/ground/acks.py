@@ -1,17 +1,16 @@
-"""One rule for acknowledgements: which answers wait until the change is kept.
+"""One rule for acknowledgements: the table of which answers wait until the change is kept.
 
 :data:`ACKS` names every service and request that changes what the site remembers, and the
 reads beside them. A ``KEPT`` one is answered only once its change is on disk (and, over
 ``--bus zenoh``, applied at the other servers that keep a copy: the fleet's followers); a
 refusal changed nothing and is answered at once. ``AT_ONCE`` ones change nothing the site keeps.
-The fleet's services go through :func:`acknowledged` (one wrapper, where the fleet offers a
-service); the map manager's topic-borne requests, answered by a status, go through :func:`kept`.
-A name missing from the table is refused where it is offered: a new change cannot skip the rule.
+The rule is applied in one place, beside ``durable`` in :mod:`.memory`: the fleet's services
+through ``acknowledged`` (where the fleet offers a service), the map manager's topic-borne
+requests, answered by a status, through ``kept``. A name missing from the table is refused
+where it is offered: a new change cannot skip the rule.
 """
 
 from __future__ import annotations
-
-from collections.abc import Awaitable, Callable
 
 KEPT = "kept"
 """Answered once the change is on disk (and at the followers)."""
@@ -45,41 +44,3 @@ ACKS: dict[str, str] = {
     "do_mapping": AT_ONCE,  # the robot's: answered once the robot took it
     "/map": AT_ONCE,  # a client's map for the robot: likewise
 }
-
-Handler = Callable[[dict], Awaitable[dict]]
-Keeping = Callable[[], Awaitable[str]]
-"""Awaits until every change so far is kept: "" when it is, else what is missing (said in the
-reply); raises ``NotSaved`` when the disk refused it."""
-
-
-def waits(name: str) -> bool:
-    """Whether ``name``'s answer waits for its change to be kept (ValueError: not listed)."""
-    try:
-        rule = ACKS[name]
-    except KeyError:
-        raise ValueError(f"{name}: not in the acknowledgement table (nodes/ground/acks.py); "
-                         "say whether its answer waits for the disk") from None
-    return rule == KEPT
-
-
-async def kept(name: str, keeping: Keeping) -> str:
-    """Wait as the table says for ``name``: "" when the change is kept (or need not be), else
-    what is missing; ``NotSaved`` when the disk refused it."""
-    return await keeping() if waits(name) else ""
-
-
-def acknowledged(name: str, handler: Handler, keeping: Keeping) -> Handler:
-    """``handler`` answered as :data:`ACKS` says for ``name``: a change that was made (its reply
-    not a refusal) is answered once :func:`kept`; the reply says what is missing, if anything."""
-    if not waits(name):
-        return handler
-
-    async def answer(request: dict) -> dict:
-        reply = await handler(request)
-        if reply.get("accepted", reply.get("success", True)):
-            missing = await kept(name, keeping)
-            if missing and isinstance(reply.get("message"), str):
-                reply["message"] += missing
-        return reply
-
-    return answer

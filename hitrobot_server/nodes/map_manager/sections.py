@@ -11,8 +11,7 @@ import io
 
 import numpy as np
 
-from ..ground.acks import kept
-from ..ground.memory import NodeMemory
+from ..ground.memory import NodeMemory, kept
 from .composition import MapComposition
 from .layers import DEFAULT_STATES, LAYER_NAMES, LayerError, Mask
 from .pois import PoiError, PoiRegistry
