@@ -14,7 +14,7 @@ from collections.abc import Callable, Coroutine
 from typing import Any
 
 from ...state import StateBinding
-from ..ground.memory import NodeMemory
+from ..ground.memory import NodeMemory, NotSaved
 from .schedules import Schedule
 from .tasks import QUEUED, RUNNING, Refused, Task
 
@@ -106,6 +106,18 @@ class Board:
             raise
         missing = [await pending for pending in copies]
         return "".join(missing)
+
+    async def kept(self, what: str) -> None:
+        """:meth:`durable`, for a change nobody is answered about (an assignment, before its
+        robot moves): what is missing is logged, not raised (a disk fault does not stop the
+        site)."""
+        try:
+            missing = await self.durable()
+        except NotSaved as exc:
+            missing = str(exc)
+        if missing:
+            log.warning("fleet: %s was not kept: %s", what, missing.strip(" ()"),
+                        extra={"ros_node": "/fleet"})  # on /rosout as the fleet node's
 
     # ------------------------------------------------------------------ tasks
     def new_id(self) -> int:

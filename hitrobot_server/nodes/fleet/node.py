@@ -18,7 +18,7 @@ from collections.abc import Callable
 from ...bus.core import Bus
 from ...state import StateBinding
 from ..base import RobotNode
-from ..ground.memory import Handler, NotSaved, acknowledged
+from ..ground.memory import Handler, acknowledged
 from .board import Board
 from .dispatch import Dispatcher
 from .leader import Leadership
@@ -182,7 +182,7 @@ class FleetNode(RobotNode):
     async def _run(self, task: Task, robot: str) -> None:
         reason = ""
         try:
-            await self._kept()  # the assignment is kept before the robot moves
+            await self.board.kept("an assignment")  # before the robot moves
             await self.runner.run(task, robot, self.publish_tasks)
         except TaskFailed as exc:
             reason = str(exc) or "failed"
@@ -206,17 +206,6 @@ class FleetNode(RobotNode):
             else:
                 self._finish(task, FAILED, f"{robot} failed: {reason}")
         self.kick()
-
-    async def _kept(self) -> None:
-        """Before a robot moves: its assignment on disk and copied (when it cannot be, that is
-        logged and the robot still goes: a disk fault does not stop the site)."""
-        try:
-            missing = await self.board.durable()
-        except NotSaved as exc:
-            missing = str(exc)
-        if missing:
-            log.warning("fleet: an assignment was not kept: %s", missing.strip(" ()"),
-                        extra={"ros_node": self.name})
 
     def _finish(self, task: Task, state: str, message: str) -> None:
         task.state, task.message, task.finished = state, message, self.clock()
