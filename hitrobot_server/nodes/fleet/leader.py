@@ -8,9 +8,10 @@ dispatcher is kept; with none, the live server with the smallest Zenoh id claims
 
 * **The dispatcher** offers the ``/fleet/*`` services, publishes ``/fleet/robots`` and
   ``/fleet/tasks``, hands out tasks and fires the schedules. Every change of its board is copied
-  to the followers (:mod:`.replica`). A dispatch (any ``/fleet/*`` change) is acknowledged
-  once it is in the dispatcher's site folder and applied (and on disk) at every live follower,
-  so whichever takes over has it; when one does not answer within
+  to the followers (:mod:`.replica`). Any ``/fleet/*`` change is acknowledged (the table of
+  :mod:`..ground.acks`, as on a single server) once it is in the dispatcher's site folder and
+  applied (and on disk) at every live follower (the board's ``durable``), so whichever takes
+  over has it; when one does not answer within
   :data:`~.replica.REPLICA_TIMEOUT` s the reply says how many have it. A task is handed to
   a robot only once its assignment (running, on that robot) is on disk and copied the same way:
   the record that keeps a take-over from running it twice.
