@@ -17,7 +17,8 @@ from ...robot.model import Pose2D
 from ..ground import messages as m
 from .board import MAX_OPEN, Board
 from .member import ERROR, OFFLINE
-from .policy import Bid, Bidder, ChargePolicy, bids, metres, winner
+from .policy import Bid, Bidder, ChargePolicy, metres, winner
+from .policy import bids as offers_for
 from .requests import check_on_map, read_stops
 from .roster import Roster
 from .runner import TaskRunner
@@ -152,7 +153,7 @@ class Dispatcher:
             r["name"], task.target(), self._end_of_work(r["name"])) for r in robots))
         bidders = [Bidder(r["name"], r["battery"], self._busy_seconds(r["name"]))
                    for r in robots]
-        return bids(task, bidders, plans, self.policy)
+        return offers_for(task, bidders, plans, self.policy)
 
     def _work(self, robot: str) -> list[Task]:
         return [t for t in self.board.tasks.values() if t.open and (
