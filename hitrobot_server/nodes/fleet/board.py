@@ -10,9 +10,11 @@ and the last :data:`KEEP_FINISHED` finished.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable, Coroutine
+from typing import Any
 
 from ...state import StateBinding
-from ..ground.memory import NodeMemory
+from ..ground.memory import NodeMemory, NotSaved
 from .schedules import Schedule
 from .tasks import QUEUED, RUNNING, Refused, Task
 
@@ -24,9 +26,26 @@ HISTORY = 1000
 KEEP_FINISHED = 20
 
 
+class SignalledMemory(NodeMemory):
+    """The board's sections; each put is also told to ``on_put`` (the board's change signal)."""
+
+    def __init__(self, binding: StateBinding | None, prefix: str, on_put: Callable[[], None]):
+        super().__init__(binding, prefix)
+        self._on_put = on_put
+
+    def put(self, name: str, value: Any) -> None:
+        super().put(name, value)
+        self._on_put()
+
+
 class Board:
-    def __init__(self, state: StateBinding | None, memory: NodeMemory | None = None):
-        self.memory = memory or NodeMemory(state, "fleet")
+    """The fleet's state; its change signal (:meth:`on_change`) fires on each put of its
+    sections, and :meth:`durable` says when the changes so far are kept."""
+
+    def __init__(self, state: StateBinding | None):
+        self.memory = SignalledMemory(state, "fleet", self._changed)
+        self._listeners: list[Callable[[], None]] = []
+        self._copies: list[Callable[[], Coroutine[Any, Any, str]]] = []
         self.tasks: dict[int, Task] = {}  # open, then the last finished
         self.history: list[dict] = []  # finished task records, oldest first
         self.schedules: dict[int, Schedule] = {}
@@ -60,6 +79,45 @@ class Board:
         if self.schedules:
             phrases.append(f"{len(self.schedules)} schedules")
         return phrases
+
+    # ------------------------------------------------------------------ change, kept
+    def on_change(self, listener: Callable[[], None]) -> None:
+        """Call ``listener`` on every change of the board's sections (the zones included)."""
+        self._listeners.append(listener)
+
+    def copied_by(self, copy: Callable[[], Coroutine[Any, Any, str]]) -> None:
+        """``copy()`` (called when :meth:`durable` is) awaits the changes so far at the other
+        servers: "" when they have them, else what is missing (the replica, over Zenoh)."""
+        self._copies.append(copy)
+
+    def _changed(self) -> None:
+        for listener in self._listeners:
+            listener()
+
+    async def durable(self) -> str:
+        """Once the changes so far are on disk and copied: "" or what is missing;
+        ``NotSaved`` when the disk refused them."""
+        copies = [copy() for copy in self._copies]  # the sends carrying the changes so far
+        try:
+            await self.memory.durable()
+        except BaseException:
+            for pending in copies:
+                pending.close()
+            raise
+        missing = [await pending for pending in copies]
+        return "".join(missing)
+
+    async def kept(self, what: str) -> None:
+        """:meth:`durable`, for a change nobody is answered about (an assignment, before its
+        robot moves): what is missing is logged, not raised (a disk fault does not stop the
+        site)."""
+        try:
+            missing = await self.durable()
+        except NotSaved as exc:
+            missing = str(exc)
+        if missing:
+            log.warning("fleet: %s was not kept: %s", what, missing.strip(" ()"),
+                        extra={"ros_node": "/fleet"})  # on /rosout as the fleet node's
 
     # ------------------------------------------------------------------ tasks
     def new_id(self) -> int:

@@ -9,16 +9,21 @@ from __future__ import annotations
 
 import asyncio
 import math
+from collections.abc import Callable
 
+from ...bus.core import Bus
 from ...bus.services import service_caller
 from ...robot.model import Pose2D
 from ..ground import messages as m
-from .board import MAX_OPEN
+from .board import MAX_OPEN, Board
 from .member import ERROR, OFFLINE
-from .policy import Bid
+from .policy import Bid, Bidder, ChargePolicy, metres, winner
+from .policy import bids as offers_for
 from .requests import check_on_map, read_stops
-from .site import Site
+from .roster import Roster
+from .runner import TaskRunner
 from .tasks import CHARGE, QUEUED, RUNNING, Refused, Stop, Task
+from .traffic import Traffic
 
 BIDDING = "/bidding"
 """A task's reservation while robots bid for it (no robot is named so)."""
@@ -30,8 +35,20 @@ robot)."""
 
 
 class Dispatcher:
-    def __init__(self, fleet: Site):
-        self.fleet = fleet
+    """Takes a request to a task on the board, by the bids; hands out and charges.
+
+    Handed the parts it reads (the board, the robots, the planners, the zones' traffic) and
+    what it asks of the node: ``free`` (the robots that may start now), ``start_task``,
+    ``kick`` (look for work) and ``publish`` (``/fleet/tasks``)."""
+
+    def __init__(self, board: Board, roster: Roster, runner: TaskRunner, policy: ChargePolicy,
+                 traffic: Traffic, bus: Bus, clock: Callable[[], float],
+                 site_map: Callable[[], dict | None], *, free: Callable[[], list[dict]],
+                 start_task: Callable[[Task, str], None], kick: Callable[[], None],
+                 publish: Callable[[], None]):
+        self.board, self.roster, self.runner, self.policy = board, roster, runner, policy
+        self.traffic, self.bus, self.clock, self.site_map = traffic, bus, clock, site_map
+        self.free, self.start_task, self.kick, self.publish = free, start_task, kick, publish
         self._accepting = asyncio.Lock()  # one request checked and queued at a time
         self._asked: dict[str, list[int]] = {}  # a bridge client → the tasks it asked for
 
@@ -49,8 +66,8 @@ class Dispatcher:
             if client:
                 self._asked.setdefault(client, []).append(task.id)
         if start:
-            self.fleet.start_task(task, start)
-        self.fleet.kick()
+            self.start_task(task, start)
+        self.kick()
         return {"robot": start, "accepted": True, "task": task.id,
                 "message": f"task {task.id}: {text}"}
 
@@ -59,7 +76,7 @@ class Dispatcher:
         or a schedule is bounded by the queue's own limits only)."""
         if not client:
             return
-        tasks = self.fleet.board.tasks
+        tasks = self.board.tasks
         if len(self._asked) > MAX_OPEN:  # clients gone: only those with open tasks stay
             self._asked = {c: ids for c, ids in self._asked.items()
                            if any(i in tasks and tasks[i].open for i in ids)}
@@ -72,8 +89,8 @@ class Dispatcher:
     async def accept(self, request: dict, client: str = "") -> tuple[Task, str, str]:
         """Check ``request`` (from bridge ``client``, if one), take the bids, queue the task:
         (task, why, robot started now)."""
-        fleet, board = self.fleet, self.fleet.board
-        robots = {r["name"]: r for r in fleet.robots()}
+        board = self.board
+        robots = {r["name"]: r for r in self.roster.robots()}
         wanted = request.get("robot", "")
         if wanted and wanted not in robots:
             raise Refused(f"unknown robot '{wanted}' (robots: {', '.join(robots) or 'none'})")
@@ -82,22 +99,22 @@ class Dispatcher:
         if wanted and robots[wanted]["state"] == OFFLINE:
             raise Refused(f"robot '{wanted}' is offline")
         board.check_room(wanted)
-        kind, stops, laps = await read_stops(fleet.bus, request)
+        kind, stops, laps = await read_stops(self.bus, request)
         for stop in stops:
-            check_on_map(fleet.site_map, stop)
-            fleet.traffic.check_stop(stop)
+            check_on_map(self.site_map(), stop)
+            self.traffic.check_stop(stop)
         self._check_client(client)
         priority = max(-100, min(100, int(request.get("priority") or 0)))
-        task = Task(0, kind, stops, wanted, priority, laps, created=fleet.clock())
-        bids, refusals = await self.bids(task, [robots[wanted]] if wanted else [
+        task = Task(0, kind, stops, wanted, priority, laps, created=self.clock())
+        offers, refusals = await self.bids(task, [robots[wanted]] if wanted else [
             r for r in robots.values() if r["state"] not in (OFFLINE, ERROR) and r["in_service"]])
-        if not bids:
+        if not offers:
             raise Refused("no robot can take it: " + ("; ".join(refusals) or
                                                        "every robot is out of service"))
-        best = min(bids, key=lambda b: (b.finish, b.robot))
+        best = winner(offers)
         task.id = board.new_id()
-        why = "; ".join(b.why(fleet.policy) for b in sorted(bids, key=lambda b: b.finish))
-        free = {r["name"] for r in fleet.free()}
+        why = "; ".join(b.why(self.policy) for b in sorted(offers, key=lambda b: b.finish))
+        free = {r["name"] for r in self.free()}
         board.add(task)
         if best.charge:
             self.charge(best.robot, f"task {task.id} needs more than its battery")
@@ -105,48 +122,41 @@ class Dispatcher:
             return task, f"{best.robot} is on its way — bids: {why}", best.robot
         task.reserved = best.robot
         task.message = f"queued for {best.robot} (finishes first) — bids: {why}"
-        fleet.changed()
+        self.changed()
         return task, task.message, ""
 
     async def rebid(self, task: Task) -> None:
         """A task that failed on a robot: the others bid again (once, on that event)."""
-        robots = [r for r in self.fleet.robots() if r["state"] not in (OFFLINE, ERROR)
+        robots = [r for r in self.roster.robots() if r["state"] not in (OFFLINE, ERROR)
                   and r["in_service"] and r["name"] not in task.tried]
         task.reserved = BIDDING  # no robot takes it while the others bid
-        bids, refusals = await self.bids(task, robots)
+        offers, refusals = await self.bids(task, robots)
         task.reserved = ""
         if task.state != QUEUED:
             return
-        if not bids:
+        if not offers:
             task.message += "; no other robot can take it: " + "; ".join(refusals)
         else:
-            task.reserved = min(bids, key=lambda b: (b.finish, b.robot)).robot
-        self.fleet.changed()
-        self.fleet.kick()
+            task.reserved = winner(offers).robot
+        self.changed()
+        self.kick()
+
+    def changed(self) -> None:
+        """A task changed: kept, and the list published."""
+        self.board.save()
+        self.publish()
 
     async def bids(self, task: Task, robots: list[dict]) -> tuple[list[Bid], list[str]]:
-        """Each robot's bid (those that can plan the first leg) and why the others cannot."""
-        plans = await asyncio.gather(*(self.fleet.runner.plan(
+        """Each robot's bid (those that can plan the first leg) and why the others cannot:
+        the plans, then :func:`.policy.bids` on a snapshot of the robots."""
+        plans = await asyncio.gather(*(self.runner.plan(
             r["name"], task.target(), self._end_of_work(r["name"])) for r in robots))
-        bids, refusals = [], []
-        policy = self.fleet.policy
-        for robot, (length, path, reason) in zip(robots, plans, strict=True):
-            if path is None:
-                refusals.append(f"{robot['name']}: {reason}")
-                continue
-            first = task.stops[0].pose
-            rest = _metres(task.route[1:], (first.x, first.y))
-            metres = length + rest
-            busy = self._busy_seconds(robot["name"])
-            charge = not policy.lasts(robot["battery"], metres)
-            finish = busy + metres / policy.speed + sum(s.dwell for s in task.route)
-            if charge:
-                finish += policy.charge_time(robot["battery"])
-            bids.append(Bid(robot["name"], finish, metres, robot["battery"], charge, busy))
-        return bids, refusals
+        bidders = [Bidder(r["name"], r["battery"], self._busy_seconds(r["name"]))
+                   for r in robots]
+        return offers_for(task, bidders, plans, self.policy)
 
     def _work(self, robot: str) -> list[Task]:
-        return [t for t in self.fleet.board.tasks.values() if t.open and (
+        return [t for t in self.board.tasks.values() if t.open and (
             t.assigned == robot and t.state == RUNNING or t.state == QUEUED and
             robot in (t.reserved, t.robot))]
 
@@ -156,13 +166,13 @@ class Dispatcher:
         return work[-1].route[-1].pose if work else None
 
     def _busy_seconds(self, robot: str) -> float:
-        policy = self.fleet.policy
-        msg = self.fleet.members.get(robot, (0.0, {}))[1]
+        policy = self.policy
+        msg = self.roster.last(robot)
         here = msg.get("pose", {}).get("position", {"x": 0.0, "y": 0.0})
         at, total = (here["x"], here["y"]), 0.0
         for task in self._work(robot):
             route = task.route[task.leg:]
-            total += _metres(route, at) / policy.speed + sum(s.dwell for s in route)
+            total += metres(route, at) / policy.speed + sum(s.dwell for s in route)
             if route:
                 at = (route[-1].pose.x, route[-1].pose.y)
         return total
@@ -172,7 +182,7 @@ class Dispatcher:
         """The task ``robot`` (free) starts now, if any: its charge first; nothing else while
         its battery is below the charge threshold or a charge is not finished; a task its
         battery would not last is left for another (its bid said so)."""
-        name, board = robot["name"], self.fleet.board
+        name, board = robot["name"], self.board
         for task in board.queued():
             if task.robot not in ("", name) or task.reserved not in ("", name):
                 continue
@@ -181,7 +191,7 @@ class Dispatcher:
                     return task
                 task.message = f"{name} waits for its dock"
                 continue
-            if robot["battery"] < self.fleet.policy.charge_below:
+            if robot["battery"] < self.policy.charge_below:
                 continue
             return task
         return None
@@ -189,47 +199,43 @@ class Dispatcher:
     def _dock_taken(self, robot: dict) -> bool:
         """Another robot is charging at (or going to) ``robot``'s dock."""
         dock = robot["dock"]["position"]
-        for other in self.fleet.robots():
+        for other in self.roster.robots():
             if other["name"] == robot["name"]:
                 continue
             their = other["dock"]["position"]
             same = math.hypot(their["x"] - dock["x"], their["y"] - dock["y"]) < 0.3
             if same and any(t.kind == CHARGE and t.state == RUNNING and
-                            t.assigned == other["name"] for t in self.fleet.board.tasks.values()):
+                            t.assigned == other["name"] for t in self.board.tasks.values()):
                 return True
         return False
 
     def charge_policy(self) -> None:
         """A free robot below the threshold, with a dock and no charge open, gets one."""
-        for robot in self.fleet.free():
-            if (robot["battery"] < self.fleet.policy.charge_below and robot["has_dock"]
-                    and robot["state"] != "charging"):
+        below = self.policy.charge_below
+        for robot in self.free():
+            if robot["battery"] < below and robot["has_dock"] and robot["state"] != "charging":
                 self.charge(robot["name"], f"battery {robot['battery']:.0f} % is below "
-                            f"{self.fleet.policy.charge_below:.0f} %")
+                            f"{below:.0f} %")
 
     def charge(self, robot: str, why: str) -> None:
-        board = self.fleet.board
+        board = self.board
         if any(t.kind == CHARGE and t.open and t.robot == robot for t in board.tasks.values()):
             return
-        msg = self.fleet.members.get(robot, (0.0, {}))[1]
+        msg = self.roster.last(robot)
         dock = m.pose2d(msg["dock"]) if msg.get("has_dock") else Pose2D(0, 0, 0)
         task = Task(board.new_id(), CHARGE, [Stop("dock", dock)], robot, CHARGE_PRIORITY,
-                    created=self.fleet.clock(), message=f"to charge: {why}")
+                    created=self.clock(), message=f"to charge: {why}")
         board.add(task)
-        self.fleet.publish_tasks()
+        self.publish()
 
     def release(self, robot: str) -> list[int]:
         """A robot out of service: its reserved tasks wait for the others (re-bid when handed
         out); the ones asked of it by name stay."""
         moved = []
-        for task in self.fleet.board.queued():
+        for task in self.board.queued():
             if task.reserved == robot and not task.robot:
                 task.reserved, task.message = "", f"{robot} is out of service; waiting for " \
                     "another robot"
                 moved.append(task.id)
         return moved
 
-
-def _metres(stops: list[Stop], start: tuple[float, float]) -> float:
-    points = [start, *((s.pose.x, s.pose.y) for s in stops)]
-    return sum(math.dist(a, b) for a, b in zip(points, points[1:], strict=False))

@@ -8,9 +8,10 @@ dispatcher is kept; with none, the live server with the smallest Zenoh id claims
 
 * **The dispatcher** offers the ``/fleet/*`` services, publishes ``/fleet/robots`` and
   ``/fleet/tasks``, hands out tasks and fires the schedules. Every change of its board is copied
-  to the followers (:mod:`.replica`). A dispatch (any ``/fleet/*`` change) is acknowledged
-  once it is in the dispatcher's site folder and applied (and on disk) at every live follower,
-  so whichever takes over has it; when one does not answer within
+  to the followers (:mod:`.replica`). Any ``/fleet/*`` change is acknowledged (the table of
+  :mod:`..ground.acks`, as on a single server) once it is in the dispatcher's site folder and
+  applied (and on disk) at every live follower (the board's ``durable``), so whichever takes
+  over has it; when one does not answer within
   :data:`~.replica.REPLICA_TIMEOUT` s the reply says how many have it. A task is handed to
   a robot only once its assignment (running, on that robot) is on disk and copied the same way:
   the record that keeps a take-over from running it twice.
@@ -36,16 +37,14 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from collections.abc import Awaitable, Callable, Coroutine
-from typing import Any, Protocol
+from collections.abc import Awaitable, Callable, Coroutine, Hashable
+from typing import Any
 
+from ...bus.core import Bus
 from ...bus.link import Group
-from ..ground.memory import NotSaved
 from .board import Board
-from .member import OFFLINE_AFTER
 from .replica import Replica
-from .site import Site
-from .tasks import FAILED, QUEUED, RUNNING, Task
+from .takeover import TakeOver
 
 log = logging.getLogger(__name__)
 
@@ -57,52 +56,38 @@ every 1 to 4 s), and a dispatcher among them would make its folder's queue a sta
 Handler = Callable[[dict], Awaitable[dict]]
 
 
-class Led(Site, Protocol):
-    """What the leadership needs of the fleet node."""
-
-    name: str
-
-    def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task: ...
-
-    async def wait_member(self, robot: str, done: Callable[[dict], bool],
-                          timeout: float) -> dict | None: ...
-
-    def took_over(self) -> None: ...
-
-
 class Leadership:
-    """Whether this server's fleet node dispatches; its offers follow the role."""
+    """Whether this server's fleet node dispatches; its offers follow the role.
 
-    def __init__(self, fleet: Led, group: Group | None):
-        self.fleet, self.group = fleet, group
+    Handed the bus and the offers' ``owner`` and node ``name`` (what the bus files them
+    under), the board it copies, ``spawn`` (the node's tasks), the :class:`.TakeOver` it runs
+    when this server starts dispatching and ``took_over`` (the node's: the copy applies)."""
+
+    def __init__(self, bus: Bus, owner: Hashable, name: str, group: Group | None, board: Board,
+                 spawn: Callable[[Coroutine[Any, Any, Any]], asyncio.Task],
+                 take_over: TakeOver, took_over: Callable[[], None]):
+        self.bus, self.owner, self.name, self.group = bus, owner, name, group
+        self.board, self.spawn = board, spawn
+        self.take_over, self.took_over = take_over, took_over
         self.leading = group is None  # no link: always
         self.leader = ""
         self.taking_over = False  # no task is handed out until the running ones are settled
+        self.assigning = self.leading
+        """Tasks may be handed out: this server dispatches and is not taking over."""
         self._term = 0  # counts this server's turns as dispatcher
         self._followed = False  # a dispatcher's board was taken in this run
         self._role_changed = asyncio.Event()
-        self.replica: Replica | None = None
+        # the board's changes go to the followers
+        self.replica = Replica(board, group) if group is not None else None
         self._services: dict[str, tuple[str, Handler]] = {}
         self._topics: dict[str, tuple[str, bool]] = {}
 
-    @property
-    def assigning(self) -> bool:
-        """Tasks may be handed out: this server dispatches and is not taking over."""
-        return self.leading and not self.taking_over
-
-    def attach(self, board: Board) -> None:
-        if self.group is not None:
-            self.replica = Replica(board, self.group)
-
-    def changed(self) -> None:
-        """A put of the board (its memory's hook)."""
-        if self.replica is not None:
-            self.replica.changed()
+    def _set(self, leading: bool, taking_over: bool) -> None:
+        self.leading, self.taking_over = leading, taking_over
+        self.assigning = leading and not taking_over
 
     # ------------------------------------------------------------------ what a leader offers
     def service(self, name: str, type_name: str, handler: Handler) -> None:
-        if self.group is not None:  # every change a service makes reaches a follower first
-            handler = self.acknowledged(handler)
         self._services[name] = (type_name, handler)
         if self.leading:
             self._offer_service(name)
@@ -114,69 +99,29 @@ class Leadership:
 
     def _offer_service(self, name: str) -> None:
         type_name, handler = self._services[name]
-        f = self.fleet
-        f.bus.advertise_service(name, type_name, f, f.name, handler)
+        self.bus.advertise_service(name, type_name, self.owner, self.name, handler)
 
     def _offer_topic(self, topic: str) -> None:
         type_name, latch = self._topics[topic]
-        self.fleet.bus.advertise(topic, type_name, self.fleet, self.fleet.name, latch=latch)
+        self.bus.advertise(topic, type_name, self.owner, self.name, latch=latch)
 
     def _offer(self, leading: bool) -> None:
-        bus = self.fleet.bus
         for topic in self._topics:
             if leading:
                 self._offer_topic(topic)
             else:
-                bus.unadvertise(topic, self.fleet)
+                self.bus.unadvertise(topic, self.owner)
         for name in self._services:
             if leading:
                 self._offer_service(name)
             else:
-                bus.unadvertise_service(name, self.fleet)
-
-    # ------------------------------------------------------------------ acknowledgements
-    def acknowledged(self, handler: Handler) -> Handler:
-        """``handler`` answered once what it changed is on disk and copied (a refusal
-        changed nothing: it is answered at once)."""
-
-        async def answer(request: dict) -> dict:
-            reply = await handler(request)
-            if reply.get("accepted", reply.get("success", True)):
-                missing = await self.settled()
-                if missing and isinstance(reply.get("message"), str):
-                    reply["message"] += missing
-            return reply
-
-        return answer
-
-    async def settled(self) -> str:
-        """Wait until the board's changes are on disk and at a follower; "" when they are,
-        else what is missing (said in the reply)."""
-        copied = self.replica.pending() if self.replica is not None else None
-        await self.fleet.board.memory.durable()
-        if copied is None:
-            return ""
-        acks, asked = await asyncio.shield(copied)
-        if acks < asked:  # whichever follower takes over must have it: all of them
-            return f" (copied to {acks} of the {asked} other servers only)"
-        return ""
-
-    async def kept(self) -> None:
-        """Before a robot moves: its assignment on disk and copied (when it cannot be, that is
-        logged and the robot still goes: a disk fault does not stop the site)."""
-        try:
-            missing = await self.settled()
-        except NotSaved as exc:
-            missing = str(exc)
-        if missing:
-            log.warning("fleet: an assignment was not kept: %s", missing.strip(" ()"),
-                        extra={"ros_node": self.fleet.name})
+                self.bus.unadvertise_service(name, self.owner)
 
     # ------------------------------------------------------------------ the group's member
     async def join(self) -> None:
         if self.group is None or self.replica is None:
             return
-        self.fleet.spawn(self.replica.send_loop())
+        self.spawn(self.replica.send_loop())
         await self.group.join(self)
 
     async def leave(self) -> None:
@@ -186,22 +131,22 @@ class Leadership:
     def role(self, leader: str) -> None:
         assert self.group is not None and self.replica is not None
         was, self.leader = self.leading, leader
-        self.leading = leader == self.group.me
+        self._set(leader == self.group.me, self.taking_over)
         self.replica.lead(self.leading)
         self._role_changed.set()
         log.info("fleet: %s", "this server dispatches" if self.leading else
                  f"following the dispatcher {leader[:8]}" if leader else "no dispatcher yet",
-                 extra={"ros_node": self.fleet.name})
+                 extra={"ros_node": self.name})
         if self.leading != was:
             self._offer(self.leading)
         if was and not self.leading:  # two dispatchers met: this one's robots stop
-            for task in self.fleet.board.tasks.values():
+            for task in self.board.tasks.values():
                 if task.goal is not None:
                     task.goal.cancel()
         if self.leading and not was:
-            self.taking_over = True
+            self._set(True, True)
             self._term += 1
-            self.fleet.spawn(self._take_over(self._term))
+            self.spawn(self._take_over(self._term))
         elif leader and not self.leading:
             self._followed = True
             self.replica.follow()
@@ -218,57 +163,14 @@ class Leadership:
     async def _take_over(self, term: int) -> None:
         """Continue the queue from the copy (see the module's docstring)."""
         try:
-            if not self._followed and any(t.open for t in self.fleet.board.tasks.values()):
+            if not self._followed and any(t.open for t in self.board.tasks.values()):
                 self._role_changed.clear()  # a stale queue unless no dispatcher shows up
                 with contextlib.suppress(TimeoutError):
                     await asyncio.wait_for(self._role_changed.wait(), RESTART_SETTLE)
             if term == self._term and self.leading:
-                await self._settle_running()
+                await self.take_over.settle_running()
         finally:
             if term == self._term:
-                self.taking_over = False
+                self._set(self.leading, False)
         if term == self._term and self.leading:
-            self.fleet.took_over()
-            self.fleet.changed()
-            self.fleet.kick()
-
-    async def _settle_running(self) -> None:
-        fleet, board = self.fleet, self.fleet.board
-        stale = {name: msg for name, (_heard, msg) in fleet.members.items()}
-        for name, msg in stale.items():  # none is free until it reports again
-            fleet.members[name] = (0.0, msg)
-        running = [t for t in board.tasks.values() if t.state == RUNNING]
-        for task in board.tasks.values():
-            if task.state == QUEUED:
-                task.reserved = ""
-        fleet.publish_tasks()
-        heard = await asyncio.gather(*(self._reports_again(name, msg) for name, msg in
-                                       stale.items()))
-        alive = {name for name, again in zip(stale, heard, strict=True) if again}
-        for task in running:
-            if task.state == RUNNING:
-                self._resume(task, task.assigned in alive)
-
-    async def _reports_again(self, robot: str, last: dict) -> bool:
-        """Two reports after ``last`` within :data:`OFFLINE_AFTER` s: its server is alive (one
-        could be the last its dead server sent, still on its way)."""
-        for _ in range(2):
-            msg = await self.fleet.wait_member(robot, lambda m, old=last: m is not old,
-                                               OFFLINE_AFTER)
-            if msg is None:
-                return False
-            last = msg
-        return True
-
-    def _resume(self, task: Task, alive: bool) -> None:
-        robot = task.assigned
-        if alive:
-            self.fleet.start_task(task, robot)
-            task.message = f"{robot} goes on (the dispatcher changed)"
-            return
-        task.state, task.finished = FAILED, self.fleet.clock()
-        task.message = (f"{robot} went down with the dispatcher; not run again (a task runs "
-                        "at most once)")
-        log.warning("fleet: task %d: %s", task.id, task.message,
-                    extra={"ros_node": self.fleet.name})
-        self.fleet.board.finished(task)
+            self.took_over()

@@ -5,11 +5,21 @@ A robot's bid is its estimated finish time for the task: the time left on what i
 as the robot plans it, the others as straight lines), the dwell times, and the charge it needs
 first when its battery would not last the task (path length × :attr:`ChargePolicy.drain`, with
 :attr:`ChargePolicy.reserve` kept to reach the dock).
+
+:func:`bids` is the whole rule, a pure function of the task, a snapshot of the bidding robots
+(:class:`Bidder`), their plans of the first leg and the policy: no bus, no clock.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+
+from .tasks import Stop, Task
+
+Plan = tuple[float, object | None, str]
+"""A robot's plan of a task's first leg: its length, the path (None: none) and why not."""
 
 
 @dataclass(frozen=True)
@@ -50,3 +60,45 @@ class Bid:
         if self.busy:
             text += f", {self.busy:.0f} s of work before it"
         return text + ")"
+
+
+@dataclass(frozen=True)
+class Bidder:
+    """A robot as the bids see it: its name, its battery (%) and the seconds of work it has
+    before this task (its running and reserved tasks)."""
+
+    name: str
+    battery: float
+    busy: float
+
+
+def bids(task: Task, robots: Sequence[Bidder], plans: Sequence[Plan],
+         policy: ChargePolicy) -> tuple[list[Bid], list[str]]:
+    """Each robot's bid for ``task`` (those with a plan of the first leg, ``plans`` in the order
+    of ``robots``) and why the others cannot take it."""
+    out, refusals = [], []
+    first = task.stops[0].pose
+    rest = metres(task.route[1:], (first.x, first.y))
+    dwell = sum(s.dwell for s in task.route)
+    for robot, (length, path, reason) in zip(robots, plans, strict=True):
+        if path is None:
+            refusals.append(f"{robot.name}: {reason}")
+            continue
+        total = length + rest
+        charge = not policy.lasts(robot.battery, total)
+        finish = robot.busy + total / policy.speed + dwell
+        if charge:
+            finish += policy.charge_time(robot.battery)
+        out.append(Bid(robot.name, finish, total, robot.battery, charge, robot.busy))
+    return out, refusals
+
+
+def winner(offers: Sequence[Bid]) -> Bid:
+    """The bid that finishes first (ties: the robot's name)."""
+    return min(offers, key=lambda b: (b.finish, b.robot))
+
+
+def metres(stops: Sequence[Stop], start: tuple[float, float]) -> float:
+    """The straight-line length from ``start`` through ``stops``."""
+    points = [start, *((s.pose.x, s.pose.y) for s in stops)]
+    return sum(math.dist(a, b) for a, b in zip(points, points[1:], strict=False))

@@ -10,13 +10,13 @@ from zoneinfo import ZoneInfo
 
 from .member import PKG
 from .policy import ChargePolicy
-from .site import Site
 
 
 class PolicyService:
-    def __init__(self, fleet: Site, zone: dt.tzinfo, clock: Callable[[], float]):
-        self.policy, self.zone, self.clock = fleet.policy, zone, clock
-        fleet.service("/fleet/policy", f"{PKG}/FleetPolicy", self._read)
+    def __init__(self, policy: ChargePolicy, zone: dt.tzinfo, clock: Callable[[], float],
+                 serve: Callable[..., None]):
+        self.policy, self.zone, self.clock = policy, zone, clock
+        serve("/fleet/policy", f"{PKG}/FleetPolicy", self._read)
 
     async def _read(self, _request: dict) -> dict:
         return describe(self.policy, self.zone, self.clock())

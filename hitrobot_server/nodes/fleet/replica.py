@@ -13,14 +13,12 @@ from __future__ import annotations
 
 import asyncio
 import logging
-from collections.abc import Callable
+from collections.abc import Coroutine
 from typing import Any
 
 import orjson
 
 from ...bus.link import Group
-from ...state import StateBinding
-from ..ground.memory import NodeMemory
 from .board import HISTORY, KEEP_FINISHED, Board
 from .schedules import Schedule
 from .tasks import Task
@@ -34,23 +32,14 @@ REPLICA_TIMEOUT = 2.0
 Sent = tuple[int, int]  # (followers that applied a change, followers asked)
 
 
-class NotedMemory(NodeMemory):
-    """The board's sections; each put is also told to ``on_put`` (the replica)."""
-
-    def __init__(self, binding: StateBinding | None, prefix: str, on_put: Callable[[], None]):
-        super().__init__(binding, prefix)
-        self._on_put = on_put
-
-    def put(self, name: str, value: Any) -> None:
-        super().put(name, value)
-        self._on_put()
-
-
 class Replica:
-    """The board's changes sent to the followers (leading) or applied from the leader."""
+    """The board's changes sent to the followers (leading) or applied from the leader; it
+    listens to the board's change signal and is one of what the board's ``durable`` awaits."""
 
     def __init__(self, board: Board, group: Group):
         self.board, self.group = board, group
+        board.on_change(self.changed)
+        board.copied_by(self.copied)
         self.seq = 0  # the last change sent (leading) or applied (following)
         self.leading = False
         self._next: asyncio.Future[Sent] | None = None  # the send that carries the puts so far
@@ -96,6 +85,11 @@ class Replica:
             future = asyncio.get_running_loop().create_future()
             future.set_result(self._last)
         return future
+
+    def copied(self) -> Coroutine[Any, Any, str]:
+        """Awaits the send carrying every change so far (taken now): "" when every follower
+        applied it, else how many did."""
+        return _said(self.pending())
 
     def lead(self, leading: bool) -> None:
         self.leading = leading
@@ -146,6 +140,13 @@ class Replica:
         _apply(self.board, change)
         self.seq = int(change["seq"])
         await self.board.memory.durable()
+
+
+async def _said(sent: asyncio.Future[Sent]) -> str:
+    acks, asked = await asyncio.shield(sent)
+    if acks < asked:  # whichever follower takes over must have it: all of them
+        return f" (copied to {acks} of the {asked} other servers only)"
+    return ""
 
 
 def sections(board: Board) -> dict[str, Any]:

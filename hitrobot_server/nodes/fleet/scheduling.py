@@ -10,10 +10,11 @@ import datetime as dt
 import logging
 from collections.abc import Awaitable, Callable
 
+from ...bus.core import Bus
+from .board import Board
 from .member import OFFLINE, PKG
 from .requests import read_stops
 from .schedules import MAX_SCHEDULES, Schedule, ScheduleError, missed, parse, slot_after
-from .site import Site
 from .tasks import Refused
 
 log = logging.getLogger(__name__)
@@ -22,18 +23,19 @@ TASK_FIELDS = ("poi", "pose", "robot", "kind", "pois", "dwell", "laps", "priorit
 
 
 class ScheduleServices:
-    def __init__(self, fleet: Site, dispatch: Callable[[dict], Awaitable[dict]],
-                 zone: dt.tzinfo):
-        self.fleet, self.dispatch, self.zone = fleet, dispatch, zone
+    """The schedules on the ``board``; a due slot goes to ``dispatch`` (unless ``robots()``
+    are all offline); ``serve`` is the fleet node's."""
+
+    def __init__(self, board: Board, bus: Bus, clock: Callable[[], float],
+                 robots: Callable[[], list[dict]], dispatch: Callable[[dict], Awaitable[dict]],
+                 zone: dt.tzinfo, serve: Callable[..., None]):
+        self.board, self.bus, self.clock, self.robots = board, bus, clock, robots
+        self.dispatch, self.zone = dispatch, zone
         self._missed: dict[int, str] = {}  # schedule → what it missed (until its catch-up)
         for name, kind, handler in (("schedule_add", "FleetScheduleAdd", self._add),
                                     ("schedule_list", "FleetScheduleList", self._list),
                                     ("schedule_remove", "CancelTask", self._remove)):
-            fleet.service(f"/fleet/{name}", f"{PKG}/{kind}", handler)
-
-    @property
-    def board(self):
-        return self.fleet.board
+            serve(f"/fleet/{name}", f"{PKG}/{kind}", handler)
 
     async def _add(self, request: dict) -> dict:
         try:
@@ -41,10 +43,10 @@ class ScheduleServices:
             if len(self.board.schedules) >= MAX_SCHEDULES:
                 raise Refused(f"{MAX_SCHEDULES} schedules already; remove one first")
             task = {k: request[k] for k in TASK_FIELDS if k in request}
-            await read_stops(self.fleet.bus, task)  # the targets are checked now
+            await read_stops(self.bus, task)  # the targets are checked now
         except (ScheduleError, Refused) as exc:
             return {"success": False, "message": str(exc), "id": 0}
-        now = self.fleet.clock()
+        now = self.clock()
         schedule = Schedule(self.board.next_schedule, request["when"].strip(), task, now)
         self.board.next_schedule += 1
         schedule.next = slot_after(schedule, now, self.zone)
@@ -64,7 +66,7 @@ class ScheduleServices:
 
     def catch_up(self) -> None:
         """At start: report the slots missed while the server was down; they run once."""
-        now = self.fleet.clock()
+        now = self.clock()
         for schedule in self.board.schedules.values():
             count = missed(schedule, now, self.zone)
             if count:
@@ -77,8 +79,8 @@ class ScheduleServices:
     async def fire_due(self) -> None:
         """Dispatch the due slots; none while no robot is heard from (a server starting, its
         robots not yet reporting: the slot waits for them rather than being refused)."""
-        now = self.fleet.clock()
-        if all(r["state"] == OFFLINE for r in self.fleet.robots()):
+        now = self.clock()
+        if all(r["state"] == OFFLINE for r in self.robots()):
             return
         due = [s for s in self.board.schedules.values() if s.next <= now]
         for schedule in due:

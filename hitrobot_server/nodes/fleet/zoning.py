@@ -1,8 +1,8 @@
 """``/fleet/zone_add`` (``hitrobot_msgs/FleetZoneAdd``), ``/fleet/zone_list``
 (``FleetZoneList``), ``/fleet/zone_remove`` (``FleetZoneRemove``) and the latched
 ``/fleet/zones`` (``FleetZones``: each zone with who holds it and who waits, in order): the
-site's mutex zones, kept in the state folder (``fleet/zones``; an add or remove is answered
-once it is on disk)."""
+site's mutex zones, kept in the state folder (``fleet/zones``). A change is written before it
+applies (one the disk refuses changes nothing) and answered as :mod:`..ground.acks` says."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from collections.abc import Callable
 
 from ..ground.memory import NodeMemory, NotSaved
 from .member import PKG
-from .site import Site
+from .roster import Roster
 from .tasks import Refused
 from .traffic import Traffic
 from .zones import Zone, checked_zone
@@ -24,15 +24,19 @@ SECTION = "zones"
 
 
 class ZoneServices:
-    def __init__(self, fleet: Site, memory: NodeMemory, advertise: Callable[..., None],
-                 publish: Callable[[str, dict], object]):
-        self.fleet, self.memory, self._publish = fleet, memory, publish
-        self.traffic = Traffic(self._pose_of, self.publish)
+    """The zones' services on the robots' ``roster``, the site map given by ``site_map``;
+    ``serve``, ``advertise`` and ``publish`` are the fleet node's (offered while it leads)."""
+
+    def __init__(self, memory: NodeMemory, roster: Roster,
+                 site_map: Callable[[], dict | None], serve: Callable[..., None],
+                 advertise: Callable[..., None], publish: Callable[[str, dict], object]):
+        self.memory, self.roster, self.site_map, self._publish = memory, roster, site_map, publish
+        self.traffic = Traffic(roster.pose_of, self.publish)
         advertise(ZONES, f"{PKG}/FleetZones", latch=True)
         for name, kind, handler in (("zone_add", "FleetZoneAdd", self._add),
                                     ("zone_list", "FleetZoneList", self._list),
                                     ("zone_remove", "FleetZoneRemove", self._remove)):
-            fleet.service(f"/fleet/{name}", f"{PKG}/{kind}", handler)
+            serve(f"/fleet/{name}", f"{PKG}/{kind}", handler)
 
     def restore(self) -> list[str]:
         try:
@@ -54,19 +58,12 @@ class ZoneServices:
         for name, zone in kept.items():
             if name not in self.traffic.zones:
                 self.traffic.put(zone)
-        for robot in self.fleet.members:
+        for robot in self.roster.members:
             self.traffic.moved(robot)
         self.publish()
 
     def publish(self) -> None:
         self._publish(ZONES, self.traffic.msg())
-
-    def _pose_of(self, robot: str) -> tuple[float, float] | None:
-        msg = self.fleet.members.get(robot, (0.0, None))[1]
-        if msg is None:
-            return None
-        p = msg["pose"]["position"]
-        return float(p["x"]), float(p["y"])
 
     async def _save(self, zones: list[Zone]) -> None:
         """Keep ``zones`` (:class:`NotSaved` when they could not be written)."""
@@ -75,12 +72,12 @@ class ZoneServices:
 
     async def _add(self, request: dict) -> dict:
         try:
-            zone = checked_zone(request, self.fleet.site_map, set(self.traffic.zones))
+            zone = checked_zone(request, self.site_map(), set(self.traffic.zones))
             await self._save([*self.traffic.zones.values(), zone])
         except (Refused, NotSaved) as exc:
             return {"success": False, "message": str(exc)}
         self.traffic.put(zone)
-        for robot in self.fleet.members:  # a robot standing in it holds it
+        for robot in self.roster.members:  # a robot standing in it holds it
             self.traffic.moved(robot)
         self.publish()
         return {"success": True, "message": f"zone '{zone.name}' ({zone.kind}) added: one "

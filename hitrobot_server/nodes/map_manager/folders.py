@@ -113,7 +113,7 @@ class MapFolders:
         """The load's sections on disk, or its POIs, masks and marker taken back (the robot
         keeps the map it was given) and the load answered with the reason."""
         try:
-            await self.sections.durable()
+            await self.sections.kept("load_map")
         except NotSaved as exc:
             self.sections.take_back()
             self.pois.publish()

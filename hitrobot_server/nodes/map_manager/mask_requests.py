@@ -42,7 +42,8 @@ class MaskRequests:
         self.sections.remember("layers")
         self.layers.publish_map(force=True)
         text = f"{LAYER_NAMES[layer]} {'on' if state else 'off'}"
-        job(self.node, message, "map_layers", self._push_then(text), needs_robot=False)
+        job(self.node, message, "map_layers", self._push_then("map_layers", text),
+            needs_robot=False)
 
     def _on_modify_map(self, message: Message) -> None:
         msg = message.msg
@@ -66,12 +67,13 @@ class MaskRequests:
         except LayerError as exc:
             log.warning("/map: %s", exc)
         text = f"{MASK_ACTIONS[action]} {cells} cells of {LAYER_NAMES[layer]}"
-        job(self.node, message, "modify_map", self._push_then(text), needs_robot=False)
+        job(self.node, message, "modify_map", self._push_then("modify_map", text),
+            needs_robot=False)
 
-    def _push_then(self, text: str | None) -> Callable[[], Awaitable[str | None]]:
+    def _push_then(self, what: str, text: str | None) -> Callable[[], Awaitable[str | None]]:
         async def work() -> str | None:
             try:
-                await self.sections.durable()
+                await self.sections.kept(what)
             except NotSaved as exc:  # the mask or switch is taken back: /map as on disk
                 self.sections.take_back()
                 try:

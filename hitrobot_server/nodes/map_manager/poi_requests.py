@@ -1,7 +1,7 @@
 """``add_poi``, ``modify_poi``, ``delete_poi`` and the ``get_pois`` service: the points of
 interest (:mod:`.pois`) on the bus, the list on the latched ``pois`` topic. A change is
-acknowledged once it is on disk; one the state folder could not take is answered with the
-reason and taken back."""
+acknowledged as :mod:`..ground.acks` says (once it is on disk); one the state folder could not
+take is answered with the reason and taken back."""
 
 from __future__ import annotations
 
@@ -61,7 +61,7 @@ class PoiRequests:
 
         async def acknowledge() -> None:  # once the change is on disk
             try:
-                await self.sections.durable()
+                await self.sections.kept(what)
             except NotSaved as exc:
                 self.sections.take_back()
                 self.publish()

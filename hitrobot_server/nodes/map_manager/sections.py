@@ -11,7 +11,7 @@ import io
 
 import numpy as np
 
-from ..ground.memory import NodeMemory
+from ..ground.memory import NodeMemory, kept
 from .composition import MapComposition
 from .layers import DEFAULT_STATES, LAYER_NAMES, LayerError, Mask
 from .pois import PoiError, PoiRegistry
@@ -108,6 +108,11 @@ class Sections:
             phrases.append(f"masks on {len(self.layers.masks)} layers")
         return phrases
 
-    async def durable(self) -> None:
-        """Once what was remembered is on disk."""
+    async def kept(self, what: str) -> None:
+        """Once request ``what``'s change is kept, as the acknowledgement table says (every
+        map-manager change: on disk); ``NotSaved`` when the disk refused it."""
+        await kept(what, self._on_disk)
+
+    async def _on_disk(self) -> str:
         await self.memory.durable()
+        return ""
