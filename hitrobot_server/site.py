@@ -1,0 +1,124 @@
+"""The site of a server with named robots, as a part of its own: its state folder
+(``<state-dir>/site/``), its nodes (rosapi, TF, the bridge's diagnostics, the fleet with its
+tasks, schedules and zones) and its map manager (POIs, masks, the composed ``/map``, saved
+maps), fed by one robot's map (``--site-map-robot``, the first robot by default).
+
+What the site keeps is its own: removing or renaming a robot, or choosing another one to feed
+the map, loses none of it. A server that kept the site's map-manager sections in its first
+robot's folder (before the site had a part of its own) has them moved into the site's folder on
+its first start (:mod:`.state.moving`: all or nothing, once). A single unnamed robot has no
+site part: its map manager and its folder stay as they were.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .bus.core import Bus
+from .config import Settings
+from .nodes.assembly import restored_summary, start_site_map, start_site_nodes, stop_nodes
+from .nodes.base import Node
+from .nodes.map_manager import MEMORY
+from .nodes.options import NodeOptions
+from .robot.capabilities import Robot
+from .robot_state import open_state, report_restored
+from .state import StateBinding, StateStore, identity_folder
+from .state.moving import finish_move, move_sections, moving_from
+
+log = logging.getLogger(__name__)
+
+SITE_IDENTITY = "site"
+"""The site's state folder: ``<state-dir>/site/`` (a robot's is ``sim-…`` or ``slamware-…``)."""
+MOVED = "site/moved"
+"""The site folder's mark of the one move of a robot's map-manager sections into it."""
+
+
+@dataclass
+class SiteUnit:
+    """The site: ``nodes`` start first and stop last; ``map_manager`` starts with the robot
+    that feeds it and stops before any robot."""
+
+    state: StateBinding = field(default_factory=StateBinding)
+    nodes: list[Node] = field(default_factory=list)
+    map_manager: Node | None = None
+
+
+async def start_site(bus: Bus, settings: Settings, moved_from: str | None) -> SiteUnit:
+    """Open the site's folder, move ``moved_from``'s map-manager sections into it the first
+    time (the folder of the robot that held them), and start the site's nodes; on failure
+    whatever was opened is closed again."""
+    store = settings.store
+    site = SiteUnit(StateBinding(await open_state(store.state_root, SITE_IDENTITY, store.fresh),
+                                 SITE_IDENTITY))
+    try:
+        await move_in(site.state, store.state_root, moved_from, store.fresh)
+        site.nodes = await start_site_nodes(bus, settings.node_options(), site.state)
+    except BaseException:
+        await stop_site(site)
+        raise
+    return site
+
+
+async def attach_site_map(site: SiteUnit, bus: Bus, settings: NodeOptions,
+                          robot: Robot) -> None:
+    """Start the site's map manager on the feeding robot's view ``bus``."""
+    site.map_manager = await start_site_map(bus, settings, robot, site.state)
+
+
+def report_site(site: SiteUnit) -> None:
+    """The site folder's start-up line: what its parts took back."""
+    if site.state.store is not None:
+        parts = [*site.nodes, *([site.map_manager] if site.map_manager else [])]
+        report_restored(site.state.store, restored_summary(parts))
+
+
+async def stop_site_map(site: SiteUnit) -> None:
+    """The map manager first: it drives its robot, which stops after it."""
+    if site.map_manager is not None:
+        await stop_nodes([site.map_manager])
+        site.map_manager = None
+
+
+async def stop_site(site: SiteUnit) -> None:
+    """The site's nodes, then its folder (after the robots: the fleet drives them)."""
+    await stop_site_map(site)
+    await stop_nodes(site.nodes)
+    site.nodes.clear()
+    if site.state.store is not None:
+        await site.state.store.close()
+        site.state = StateBinding()
+
+
+async def move_in(state: StateBinding, root: Path, moved_from: str | None,
+                  fresh: bool) -> None:
+    """The site's map-manager sections from ``moved_from``'s folder, once: a move cut short by
+    a crash is finished, a finished one is not done again, ``--fresh`` moves nothing."""
+    site = state.store
+    assert site is not None
+    if (unfinished := moving_from(site, MOVED)) is not None:
+        await _with_store(root / unfinished, lambda old: finish_move(old, site, MOVED))
+        return
+    if site.get(MOVED) is not None:
+        return
+    folder = identity_folder(root, moved_from) if moved_from else None
+    if fresh or folder is None or not folder.is_dir():
+        await site.put(MOVED, {"from": "", "sections": [], "cleared": True})
+        return
+
+    async def move(old: StateStore) -> None:
+        names = await move_sections(old, site, f"{MEMORY}/", MOVED)
+        log.info("state: the site's %s moved from %s to %s", ", ".join(names) or "nothing",
+                 old.path, site.path)
+
+    await _with_store(folder, move)
+
+
+async def _with_store(folder: Path, work) -> None:
+    old = await asyncio.to_thread(StateStore.open, folder)
+    try:
+        await work(old)
+    finally:
+        await old.close()
