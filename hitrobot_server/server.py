@@ -77,7 +77,7 @@ class HitrobotServer:
         self._rosout: RosoutHandler | None = None
         self.recording: RecordingControl | None = None
         self.metrics = ServerMetrics(Sources(
-            sessions=lambda: self.sessions, robots=lambda: self.robots,
+            sessions=lambda: self.sessions, robots=lambda: self.robots, site=lambda: self.site,
             recording=lambda: self.recording, worker=self.plan.worker_id
             if self.plan.worker else None))
         self.black_box: BlackBoxControl | None = None

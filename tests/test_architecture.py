@@ -36,7 +36,7 @@ ALLOWED: dict[str, set[str]] = {
     "server": {"config", "robots", "site", "transport", "session", "bus", "nodes", "robot",
                "record", "protocol", "types", "state", "metrics"},
     # /metrics and /healthz: read the server's parts when scraped (beside server, below it)
-    "metrics": {"robots", "session", "bus", "record", "wire", "procmem"},
+    "metrics": {"robots", "site", "state", "session", "bus", "record", "wire", "procmem"},
     # one robot = backend + nodes (+ its state folder, robot_state)
     "robots": {"config", "bus", "nodes", "robot", "types", "state", "robot_state", "site"},
     "robot_state": {"nodes", "robot", "state"},

@@ -4,6 +4,8 @@ by the next start. Real servers on loopback, real state folders."""
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from hitrobot_server.cli import build_parser
@@ -19,7 +21,10 @@ from hitrobot_server.state.loading import JOURNAL
 
 from .helpers import Watcher
 from .integration.test_site_restart import write_old_layout
-from .nodes.map_manager.util import MM, poi
+from .nodes.map_manager.util import MM, poi, request
+from .state.failing_folder import FailingFolder
+from .test_metrics import scrape
+from .transport.test_http import http
 
 ROBOTS = (RobotEntry("a", "sim", (6.0, 8.0, 0.0)), RobotEntry("b", "sim", (12.0, 8.0, 0.0)))
 SLAM_MAP = "slamware_ros_sdk_server_node/map"
@@ -134,3 +139,38 @@ async def test_a_single_robot_keeps_its_own_map_manager_and_folder(make_server, 
     finally:
         await w.close()
     assert unit.state.store.get("map_manager/pois") == [normalize(poi("kitchen", 3.0, 8.0))]
+
+
+async def health(port: int) -> tuple[int, dict]:
+    status, _headers, body = await http(port, "GET", "/healthz")
+    return status, json.loads(body)
+
+
+async def test_a_site_folder_that_cannot_be_written_fails_the_health_check(make_server,
+                                                                          tmp_path):
+    """Its folder holds the site's POIs and the fleet's tasks: a write that fails there is
+    seen in ``/healthz`` and ``/metrics`` as one of a robot's folder is."""
+    folder = FailingFolder(tmp_path / "state")
+    try:
+        server = await make_server(robots=ROBOTS, map_dir=str(tmp_path / "maps"),
+                                   state_dir=str(folder.root))
+        status, checks = await health(server.port)
+        site = checks["state"]["site"]
+        assert status == 200 and site["ok"] and site["writes"] >= 1 and not site["last_error"]
+        assert [s["robot"] for s in checks["state"]["stores"]] == ["a", "b"]
+        assert (await scrape(server.port))["hitrobot_site_state_write_failures_total"][()] == 0
+        folder.fail(folder.root / "site")
+        w = await Watcher.open(server.port)
+        try:
+            refused = await request(w, f"{MM}/add_poi", "map_messages/PointOfInterest",
+                                    poi("while_full", 4.0, 8.0, remarks="x" * 6000), "p")
+            assert refused["level"] == "error", refused
+        finally:
+            await w.close()
+        status, checks = await health(server.port)
+        assert status == 503 and checks["state"]["site"] == {
+            "ok": False, "writes": site["writes"], "last_error": folder.reason}
+        assert (await scrape(server.port))["hitrobot_site_state_write_failures_total"][()] >= 1
+        await server.stop()  # before the folder goes
+    finally:
+        folder.close()
