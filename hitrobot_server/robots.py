@@ -14,6 +14,7 @@ import asyncio
 import contextlib
 import dataclasses
 import logging
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -38,8 +39,16 @@ from .robot.locomotion import STAND_UP_SECONDS
 from .robot.options import RobotEntry
 from .robot.sim.backend import SimBackend
 from .robot_state import RestStateBinder, open_state, report_restored
-from .site import SiteUnit, attach_site_map, report_site, start_site, stop_site, stop_site_map
-from .state import StateBinding
+from .site import (
+    SiteUnit,
+    attach_site_map,
+    move_in_bound,
+    report_site,
+    start_site,
+    stop_site,
+    stop_site_map,
+)
+from .state import StateBinding, StateStore
 
 if TYPE_CHECKING:
     from .robot.sim.shared import SharedWorld
@@ -129,10 +138,12 @@ def robot_node_options(settings: Settings, entry: RobotEntry) -> NodeOptions:
 
 
 async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
-                      world: SharedWorld | None = None, demo: bool = False) -> RobotUnit:
+                      world: SharedWorld | None = None, demo: bool = False,
+                      on_bound: Callable[[StateStore], Awaitable[None]] | None = None
+                      ) -> RobotUnit:
     """Build, start and wire one robot; on failure everything it started is stopped again.
     Its state folder (what an operator builds survives restarts) is opened first for a
-    simulated robot, and bound once a REST robot says who it is."""
+    simulated robot, and bound once a REST robot says who it is (``on_bound`` is told)."""
     options = settings.robot_options(entry)
     unit = RobotUnit(entry.name, entry.spec, None)
     try:
@@ -166,7 +177,7 @@ async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
         elif backend is not None:  # a REST robot: its state folder once it says who it is
             binder = RestStateBinder(backend, unit.state, options.robot,
                                      settings.store.state_root, settings.store.fresh,
-                                     lambda: unit.nodes)
+                                     lambda: unit.nodes, on_bound)
             unit.binder = asyncio.ensure_future(binder.run())
     except BaseException:
         await stop_robot(unit)
@@ -206,10 +217,14 @@ async def start_planned(bus: Bus, settings: Settings,
     units: list[RobotUnit] = []
     sims = any(e.spec == "sim" for e in plan.robots)
     world = shared_world(settings.robot_options()) if sims else None
+    first = next((e for e in plan.robots if e.spec != "none"), None)  # held the site's map
+    later = first is not None and first.spec != "sim"  # a REST robot: its folder once bound
     try:
-        site = await start_site(bus, settings, first_robot_folder(settings, plan))
+        site = await start_site(bus, settings, first_robot_folder(settings, first), later=later)
         for entry in plan.robots:
-            unit = await start_robot(bus, settings, entry, world=world)
+            bound = (lambda store: move_in_bound(site, store)) if later and entry is first \
+                else None
+            unit = await start_robot(bus, settings, entry, world=world, on_bound=bound)
             units.append(unit)
             if entry.name == plan.site_map and unit.robot is not None and unit.bus is not None:
                 await attach_site_map(site, unit.bus, robot_node_options(settings, entry),
@@ -221,11 +236,10 @@ async def start_planned(bus: Bus, settings: Settings,
     return site, units
 
 
-def first_robot_folder(settings: Settings, plan: StartPlan) -> str | None:
+def first_robot_folder(settings: Settings, first: RobotEntry | None) -> str | None:
     """Where a server kept the site's map-manager sections before the site had a part of its
-    own: its first robot with a map's folder. A simulated robot's is known now; a REST robot's
-    only once it answers (``None``: nothing is moved)."""
-    first = next((e for e in plan.robots if e.spec != "none"), None)
+    own: its first robot with a map's (``first``) folder. A simulated robot's is known now; a
+    REST robot's only once it answers (``None``)."""
     if first is None or first.spec != "sim":
         return None
     return sim_identity(settings.robot_options(first), first.name)

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from .bus.core import Bus
 from .config import Settings
-from .nodes.assembly import restored_summary, start_site_map, start_site_nodes, stop_nodes
+from .nodes.assembly import restored_summary, site_map, start_site_nodes, stop_nodes
 from .nodes.base import Node
 from .nodes.map_manager import MEMORY
 from .nodes.options import NodeOptions
@@ -46,15 +46,17 @@ class SiteUnit:
     map_manager: Node | None = None
 
 
-async def start_site(bus: Bus, settings: Settings, moved_from: str | None) -> SiteUnit:
+async def start_site(bus: Bus, settings: Settings, moved_from: str | None, *,
+                     later: bool = False) -> SiteUnit:
     """Open the site's folder, move ``moved_from``'s map-manager sections into it the first
-    time (the folder of the robot that held them), and start the site's nodes; on failure
-    whatever was opened is closed again."""
+    time (the folder of the robot that held them; ``later``: a REST robot's, known once it
+    answers, :func:`move_in_bound`), and start the site's nodes; on failure whatever was opened
+    is closed again."""
     store = settings.store
     site = SiteUnit(StateBinding(await open_state(store.state_root, SITE_IDENTITY, store.fresh),
                                  SITE_IDENTITY))
     try:
-        await move_in(site.state, store.state_root, moved_from, store.fresh)
+        await move_in(site.state, store.state_root, moved_from, store.fresh, later=later)
         site.nodes = await start_site_nodes(bus, settings.node_options(), site.state)
     except BaseException:
         await stop_site(site)
@@ -64,8 +66,10 @@ async def start_site(bus: Bus, settings: Settings, moved_from: str | None) -> Si
 
 async def attach_site_map(site: SiteUnit, bus: Bus, settings: NodeOptions,
                           robot: Robot) -> None:
-    """Start the site's map manager on the feeding robot's view ``bus``."""
-    site.map_manager = await start_site_map(bus, settings, robot, site.state)
+    """Start the site's map manager on the feeding robot's view ``bus`` (held before it
+    starts: a REST robot bound meanwhile hands it what it moved, :func:`move_in_bound`)."""
+    site.map_manager = site_map(bus, settings, robot, site.state)
+    await site.map_manager.start()
 
 
 def report_site(site: SiteUnit) -> None:
@@ -92,28 +96,50 @@ async def stop_site(site: SiteUnit) -> None:
         site.state = StateBinding()
 
 
-async def move_in(state: StateBinding, root: Path, moved_from: str | None,
-                  fresh: bool) -> None:
+async def move_in(state: StateBinding, root: Path, moved_from: str | None, fresh: bool, *,
+                  later: bool = False) -> None:
     """The site's map-manager sections from ``moved_from``'s folder, once: a move cut short by
-    a crash is finished, a finished one is not done again, ``--fresh`` moves nothing."""
+    a crash is finished, a finished one is not done again, ``--fresh`` moves nothing, and
+    ``later`` leaves it to :func:`move_in_bound`."""
     site = state.store
     assert site is not None
     if (unfinished := moving_from(site, MOVED)) is not None:
         await _with_store(root / unfinished, lambda old: finish_move(old, site, MOVED))
         return
-    if site.get(MOVED) is not None:
+    if site.get(MOVED) is not None or (later and not fresh):
         return
     folder = identity_folder(root, moved_from) if moved_from else None
     if fresh or folder is None or not folder.is_dir():
         await site.put(MOVED, {"from": "", "sections": [], "cleared": True})
         return
 
-    async def move(old: StateStore) -> None:
-        names = await move_sections(old, site, f"{MEMORY}/", MOVED)
-        log.info("state: the site's %s moved from %s to %s", ", ".join(names) or "nothing",
-                 old.path, site.path)
+    await _with_store(folder, lambda old: _move(old, site))
 
-    await _with_store(folder, move)
+
+async def move_in_bound(site: SiteUnit, old: StateStore) -> None:
+    """A REST robot that fed the site's map manager before the site had a folder of its own
+    was bound to its folder (``old``): the site's sections move from it, the first time, and
+    the map manager takes them. A move that fails is logged and tried again at the next
+    start (the robot's folder keeps them until then)."""
+    target = site.state.store
+    if target is None or target.get(MOVED) is not None:
+        return
+    try:
+        await _move(old, target)
+    except OSError as exc:
+        log.error("state: the site's sections could not be moved from %s (%s); the next start "
+                  "tries again", old.path, exc)
+        return
+    if site.map_manager is not None:
+        site.map_manager.adopt(True)
+
+
+async def _move(old: StateStore, site: StateStore) -> None:
+    names = await move_sections(old, site, f"{MEMORY}/", MOVED)
+    log.info("state: the site's %s moved from %s to %s", ", ".join(names) or "nothing",
+             old.path, site.path)
+    if kept := old.keys(f"{MEMORY}/"):
+        log.warning("state: %s stay in %s: the site's own are newer", ", ".join(kept), old.path)
 
 
 async def _with_store(folder: Path, work) -> None:

@@ -23,6 +23,7 @@ from .helpers import Watcher
 from .integration.test_site_restart import write_old_layout
 from .nodes.map_manager.util import MM, poi, request
 from .state.failing_folder import FailingFolder
+from .state.test_rest_identity import device
 from .test_metrics import scrape
 from .transport.test_http import http
 
@@ -117,6 +118,31 @@ async def test_a_move_torn_in_the_sites_journal_is_done_again(make_server, tmp_p
     assert await pois_of(server) == ["kitchen", "desk"]
     assert server.site.state.store.get("map_manager/pois") == pois
     assert server.robots[0].state.store.keys("map_manager/") == []
+
+
+async def test_a_rest_first_robots_folder_is_moved_once_it_answers(make_server, tmp_path):
+    """The first robot is a real robot over REST: its folder is known only once it says who
+    it is; then the site's sections move from it and the map manager serves them."""
+    state = tmp_path / "state"
+    dev = await device(1)
+    try:
+        folder = "slamware-" + dev.simulator.device_info().device_id
+        pois = await write_old_layout(state, folder)
+        server = await make_server(robots=(RobotEntry("a", dev.url), ROBOTS[1]),
+                                   map_dir=str(tmp_path), state_dir=str(state))
+        w = await Watcher.open(server.port)
+        try:
+            await w.subscribe(f"{MM}/pois")
+            await w.until(lambda: [p["name"] for p in (w.latest(f"{MM}/pois") or {"pois": []})[
+                "pois"]] == ["kitchen", "desk"], 20, "the POIs moved from the robot's folder")
+        finally:
+            await w.close()
+        assert server.site.state.store.get("map_manager/pois") == pois
+        assert server.site.state.store.get(MOVED)["from"] == folder
+        assert server.robots[0].state.store.keys("map_manager/") == []
+        await server.stop()
+    finally:
+        await dev.stop()
 
 
 async def test_a_single_robot_keeps_its_own_map_manager_and_folder(make_server, tmp_path):

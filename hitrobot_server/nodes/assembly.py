@@ -61,7 +61,7 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
     """The robot-facing nodes, in start order, each handed the capabilities it uses. They all
     drive the robot through the locomotion gate (``robot.motion``), so a sitting robot refuses
     motion whichever interface asks. ``map_manager``: the single robot's own (its POIs in its
-    state folder); a robot of a fleet has none: the site's (:func:`start_site_map`) serves
+    state folder); a robot of a fleet has none: the site's (:func:`site_map`) serves
     every robot, fed by one robot's map."""
     link, motion, localization = robot.link, robot.motion, robot.localization
     frame = settings.slamware.map_frame
@@ -105,7 +105,7 @@ async def start_site_nodes(bus: Bus, settings: NodeOptions,
                            state: StateBinding | None = None) -> list[Node]:
     """The site-wide nodes of a server with named robots: rosapi, TF, the bridge's
     diagnostics and the fleet (the site's map manager starts with the robot that feeds it,
-    :func:`start_site_map`). ``state``: the site's state folder (the fleet's tasks, history,
+    :func:`site_map`). ``state``: the site's state folder (the fleet's tasks, history,
     schedules and zones)."""
     policy = ChargePolicy(charge_below=settings.charge_below, charge_until=settings.charge_until)
     zone = ZoneInfo(settings.site_timezone) if settings.site_timezone else None
@@ -117,14 +117,12 @@ async def start_site_nodes(bus: Bus, settings: NodeOptions,
     return nodes
 
 
-async def start_site_map(bus: Bus, settings: NodeOptions, robot: Robot,
-                         state: StateBinding) -> Node:
+def site_map(bus: Bus, settings: NodeOptions, robot: Robot, state: StateBinding) -> Node:
     """The site's map manager (POIs, masks, the composed ``/map``, saved maps), on the view
-    ``bus`` of the robot whose map feeds it, its sections in the site's folder ``state``.
-    ``/map_manager`` and ``/map`` are site-wide names: every robot's view reaches them."""
-    node = map_manager_of(bus, settings, robot, state)
-    await node.start()
-    return node
+    ``bus`` of the robot whose map feeds it, its sections in the site's folder ``state``
+    (``/map_manager`` and ``/map`` are site-wide names: every robot's view reaches them); the
+    site starts it."""
+    return map_manager_of(bus, settings, robot, state)
 
 
 async def start_robot_nodes(bus: Bus, name: str, settings: NodeOptions, robot: Robot,

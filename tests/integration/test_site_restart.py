@@ -99,15 +99,17 @@ async def test_the_sites_pois_and_zones_stay_when_the_first_robot_goes(tmp_path)
         alone.stop()
 
 
-async def write_old_layout(state) -> list[dict]:
+async def write_old_layout(state, robot_folder: str = "") -> list[dict]:
     """A state folder as a server wrote it before the site had a part of its own: the site's
     POIs, layer switches, masks and loaded map in the first robot's folder (its map manager's
     sections, ``map_manager/…``, in the values the map manager stores), the zones in the
-    site's folder (``fleet/zones``, as today). The POIs as stored."""
+    site's folder (``fleet/zones``, as today). ``robot_folder``: the first robot's folder
+    (a simulated robot ``a``'s by default). The POIs as stored."""
     pois = [normalize(poi("kitchen", 3.0, 8.0)), normalize(poi("desk", 19.0, 8.0, kind=100))]
     mask = Mask(load_world().spec.resolution)  # the map manager paints on the map's lattice
     mask.paint([(p["x"], p["y"]) for p in rect(*MASK)], BLOCKED)
-    robot = StateStore.open(identity_folder(state, sim_identity(RobotOptions(), "a")))
+    robot = StateStore.open(identity_folder(
+        state, robot_folder or sim_identity(RobotOptions(), "a")))
     site = StateStore.open(identity_folder(state, "site"))
     try:
         await asyncio.gather(
