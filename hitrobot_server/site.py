@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -119,19 +120,18 @@ async def move_in(state: StateBinding, root: Path, moved_from: str | None, fresh
 async def move_in_bound(site: SiteUnit, old: StateStore) -> None:
     """A REST robot that fed the site's map manager before the site had a folder of its own
     was bound to its folder (``old``): the site's sections move from it, the first time, and
-    the map manager takes them. A move that fails is logged and tried again at the next
-    start (the robot's folder keeps them until then)."""
+    the map manager takes them. A move that fails is logged and tried again, or finished, at
+    the next start (the robot's folder keeps them until the site's has them)."""
     target = site.state.store
     if target is None or target.get(MOVED) is not None:
         return
     try:
         await _move(old, target)
     except OSError as exc:
-        log.error("state: the site's sections could not be moved from %s (%s); the next start "
-                  "tries again", old.path, exc)
-        return
-    if site.map_manager is not None:
-        site.map_manager.adopt(True)
+        log.error("state: moving the site's sections from %s did not finish (%s); the next "
+                  "start goes on with it", old.path, exc)
+    if site.map_manager is not None and target.get(MOVED) is not None:
+        site.map_manager.adopt(True)  # the site's folder has them
 
 
 async def _move(old: StateStore, site: StateStore) -> None:
@@ -142,7 +142,7 @@ async def _move(old: StateStore, site: StateStore) -> None:
         log.warning("state: %s stay in %s: the site's own are newer", ", ".join(kept), old.path)
 
 
-async def _with_store(folder: Path, work) -> None:
+async def _with_store(folder: Path, work: Callable[[StateStore], Awaitable[None]]) -> None:
     old = await asyncio.to_thread(StateStore.open, folder)
     try:
         await work(old)
