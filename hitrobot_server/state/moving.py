@@ -27,7 +27,7 @@ async def move_sections(source: StateStore, target: StateStore, prefix: str,
     puts = [target.put(key, source.get(key)) for key in names]
     puts.append(target.put(mark, {"from": source.path.name, "sections": names,
                                   "cleared": False}))
-    await asyncio.gather(*puts)  # put without a pause between them: one batch, one line
+    await _durable(puts)  # put without a pause between them: one batch, one line
     await finish_move(source, target, mark)
     return names
 
@@ -40,7 +40,7 @@ async def finish_move(source: StateStore, target: StateStore, mark: str) -> None
         return
     names = [key for key in record.get("sections", []) if source.get(key) is not None]
     if names:
-        await asyncio.gather(*(source.put(key, None) for key in names))
+        await _durable([source.put(key, None) for key in names])
     await target.put(mark, {**record, "cleared": True})
 
 
@@ -51,3 +51,10 @@ def moving_from(target: StateStore, mark: str) -> str | None:
     if isinstance(record, dict) and not record.get("cleared"):
         return str(record.get("from", "")) or None
     return None
+
+
+async def _durable(puts: list[asyncio.Future]) -> None:
+    """Once every put is on disk; the first failure raised (each one retrieved)."""
+    for outcome in await asyncio.gather(*puts, return_exceptions=True):
+        if isinstance(outcome, BaseException):
+            raise outcome
