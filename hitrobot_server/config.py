@@ -83,6 +83,7 @@ FLAG_ORDER = (
     "zenoh_domain", "workers", "event_loop", "record", "record_topics", "record_split_size",
     "record_split_time", "record_max_disk", "record_dir", "black_box", "black_box_max_mb",
     "black_box_localization", "demo_services", "charge_below", "charge_until", "site_timezone",
+    "site_map_robot",
 )
 
 
@@ -155,6 +156,20 @@ class Settings:
                              "auto or asyncio)")
         for part in (self.session, self.bus, self.robot, self.transport, self.record):
             part.check()
+        self.check_site_map()
+
+    def check_site_map(self) -> None:
+        """``--site-map-robot`` names one of the named robots, one that has a map."""
+        chosen = self.nodes.site_map_robot
+        if not chosen:
+            return
+        entry = next((e for e in self.robots if e.name == chosen), None)
+        if entry is None:
+            names = ", ".join(e.name for e in self.robots) or "none: a single robot has no site"
+            raise ValueError(f"--site-map-robot {chosen!r} is not one of the robots ({names})")
+        if entry.spec == "none":
+            raise ValueError(f"--site-map-robot {chosen!r}: robot {chosen!r} is 'none', it "
+                             "has no map")
 
     def robot_entries(self) -> list[RobotEntry]:
         """Every robot to attach: the named ones, or the single unnamed ``--robot``."""

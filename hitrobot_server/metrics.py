@@ -42,6 +42,8 @@ from .session.client import ClientSession
 from .session.foxglove.session import FoxgloveSession
 from .session.rosbridge.session import Session
 from .session.traffic import Traffic, counts_of
+from .site import SiteUnit
+from .state import StateStore
 from .wire.encoded import Encoded, Seed
 
 METRICS_DIR = "HITROBOT_METRICS_DIR"  # the environment variable the --workers parent sets
@@ -109,6 +111,7 @@ class Sources:
 
     sessions: Callable[[], Iterable[ClientSession]]
     robots: Callable[[], list[RobotUnit]]
+    site: Callable[[], SiteUnit]  # its folder holds the fleet's tasks and the site's POIs
     recording: Callable[[], RecordingControl | None]
     worker: int | None  # which of --workers, None for a single process
 
@@ -172,12 +175,15 @@ class ServerMetrics:
         robots = [{"robot": u.name or "robot", "connected": _link_up(u)}
                   for u in self.sources.robots() if u.backend is not None]
         state = [_state_health(u) for u in self.sources.robots() if u.state.store is not None]
+        site = self.sources.site().state.store
         recorder = _recorder_health(self.sources.recording())
         checks = {
             "loop": {"ok": self.loop.answering, "lag_seconds": round(self.loop.lag, 4)},
             "robots": {"ok": all(r["connected"] for r in robots), "links": robots},
             "recorder": recorder,
-            "state": {"ok": all(s["ok"] for s in state), "stores": state},
+            "state": {"ok": all(s["ok"] for s in state) and (site is None or site.healthy),
+                      "stores": state,
+                      **({"site": _store_health(site)} if site is not None else {})},
             "workers": _workers_health(self.sources.worker),
         }
         return {"ok": all(c["ok"] for c in checks.values()), **checks}
@@ -263,7 +269,13 @@ class ServerMetrics:
                 up.add_metric([*worker, name], 1 if _link_up(unit) else 0)
             if unit.state.store is not None:
                 failures.add_metric([*worker, name], _write_failures(unit))
-        yield from (up, failures)
+        site = self.sources.site().state.store
+        site_failures = CounterMetricFamily("hitrobot_site_state_write_failures",
+                                            "writes of the site's state folder that failed",
+                                            labels=labels)
+        if site is not None:
+            site_failures.add_metric(worker, site.write_failures)
+        yield from (up, failures, site_failures)
 
     def _recorder(self, labels: list[str], worker: list[str]) -> Iterator[Metric]:
         control = self.sources.recording()
@@ -326,8 +338,11 @@ def _write_failures(unit: RobotUnit) -> int:
 def _state_health(unit: RobotUnit) -> dict[str, Any]:
     store = unit.state.store
     assert store is not None
-    return {"robot": unit.name or "robot", "ok": store.healthy, "writes": store.writes,
-            "last_error": store.write_error or ""}
+    return {"robot": unit.name or "robot", **_store_health(store)}
+
+
+def _store_health(store: StateStore) -> dict[str, Any]:
+    return {"ok": store.healthy, "writes": store.writes, "last_error": store.write_error or ""}
 
 
 def _recorder_health(control: RecordingControl | None) -> dict[str, Any]:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from pathlib import Path
 
 from .nodes.assembly import restored_summary
@@ -49,9 +49,13 @@ class RestStateBinder:
     identity gets its own state folder, and the log says which side's state won."""
 
     def __init__(self, backend: RobotBackend, binding: StateBinding, url: str, root: Path,
-                 fresh: bool, nodes: Callable[[], list[Node]]):
+                 fresh: bool, nodes: Callable[[], list[Node]],
+                 on_bound: Callable[[StateStore], Awaitable[None]] | None = None):
+        """``on_bound``: told each folder bound, before the nodes adopt it (the site takes
+        what its first robot's folder kept for it)."""
         self.backend, self.binding, self.url = backend, binding, url
         self.root, self.fresh, self.nodes = root, fresh, nodes
+        self.on_bound = on_bound
 
     async def run(self) -> None:
         loop = asyncio.get_running_loop()
@@ -91,6 +95,8 @@ class RestStateBinder:
         if binding.store is not None:
             await binding.store.close()
         binding.store, binding.identity, binding.changed_unbound = store, identity, False
+        if self.on_bound is not None:
+            await self.on_bound(store)
         nodes = self.nodes()
         if old:
             why = f"a different robot ({identity}, was {old}) answers at {self.url}"

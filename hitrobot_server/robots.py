@@ -14,6 +14,7 @@ import asyncio
 import contextlib
 import dataclasses
 import logging
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -27,11 +28,9 @@ from .nodes.assembly import (
     start_nodes,
     start_robot_nodes,
     start_sim_controls,
-    start_site_nodes,
     stop_nodes,
 )
 from .nodes.base import Node
-from .nodes.map_manager import MapManager
 from .nodes.options import NodeOptions
 from .robot.backend import RobotBackend
 from .robot.capabilities import Robot
@@ -40,7 +39,16 @@ from .robot.locomotion import STAND_UP_SECONDS
 from .robot.options import RobotEntry
 from .robot.sim.backend import SimBackend
 from .robot_state import RestStateBinder, open_state, report_restored
-from .state import StateBinding
+from .site import (
+    SiteUnit,
+    attach_site_map,
+    move_in_bound,
+    report_site,
+    start_site,
+    stop_site,
+    stop_site_map,
+)
+from .state import StateBinding, StateStore
 
 if TYPE_CHECKING:
     from .robot.sim.shared import SharedWorld
@@ -48,8 +56,6 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 ROBOT_ID_PARAM = "robot_id"
-SITE_IDENTITY = "site"
-"""The state folder of a fleet's site (the fleet's tasks, history and schedules)."""
 
 
 @dataclass(frozen=True)
@@ -58,7 +64,8 @@ class StartPlan:
     :func:`start_plan`); the server, :func:`start_planned` and the transports read it."""
 
     robots: tuple[RobotEntry, ...]  # each with its nodes; () = a bridge only (rosapi)
-    fleet: bool  # named robots: site nodes, one shared world, a namespace each
+    fleet: bool  # named robots: the site part, one shared world, a namespace each
+    site_map: str  # the robot whose map feeds the site's map manager ("": none does)
     demo: bool  # the tutorial servers (/add_two_ints, /fibonacci), beside a single robot
     record: Path | None  # record every bus message into this file from the start
     black_box: bool  # --black-box: the last seconds in memory, written on an incident
@@ -83,9 +90,12 @@ def start_plan(settings: Settings, *, robot: str | None = None) -> StartPlan:
     serves a recording in place of a robot: ``"none"``)."""
     entries = settings.robots or (RobotEntry("", robot or settings.robot.robot),)
     primary = settings.worker_id in (None, 0)  # a secondary worker: rosapi only
+    fleet = primary and bool(settings.robots)
+    mapped = next((e.name for e in settings.robots if e.spec != "none"), "")  # has a map
     return StartPlan(
         robots=entries if primary else (),
-        fleet=primary and bool(settings.robots),
+        fleet=fleet,
+        site_map=(settings.nodes.site_map_robot or mapped) if fleet else "",
         demo=primary and not settings.robots and settings.nodes.demo_services,
         record=Path(settings.record.record) if settings.record.record else None,
         black_box=primary and settings.record.black_box > 0,  # where the robots are
@@ -103,6 +113,7 @@ class RobotUnit:
     name: str
     spec: str
     backend: RobotBackend | None
+    robot: Robot | None = None  # what its nodes were handed of the backend
     nodes: list[Node] = field(default_factory=list)
     bus: Bus | NamespacedBus | None = None  # what its nodes see
     state: StateBinding = field(default_factory=StateBinding)  # its state folder, once known
@@ -127,11 +138,12 @@ def robot_node_options(settings: Settings, entry: RobotEntry) -> NodeOptions:
 
 
 async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
-                      world: SharedWorld | None = None, site_map: MapManager | None = None,
-                      demo: bool = False) -> RobotUnit:
+                      world: SharedWorld | None = None, demo: bool = False,
+                      on_bound: Callable[[StateStore], Awaitable[None]] | None = None
+                      ) -> RobotUnit:
     """Build, start and wire one robot; on failure everything it started is stopped again.
     Its state folder (what an operator builds survives restarts) is opened first for a
-    simulated robot, and bound once a REST robot says who it is."""
+    simulated robot, and bound once a REST robot says who it is (``on_bound`` is told)."""
     options = settings.robot_options(entry)
     unit = RobotUnit(entry.name, entry.spec, None)
     try:
@@ -146,7 +158,7 @@ async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
         node_options = robot_node_options(settings, entry)
         robot: Robot | None = None  # what the nodes get: the motion behind the locomotion gate
         if backend is not None:
-            robot = robot_of(backend, STAND_UP_SECONDS / node_options.time_scale)
+            robot = unit.robot = robot_of(backend, STAND_UP_SECONDS / node_options.time_scale)
         if not entry.name:
             unit.bus = bus
             unit.nodes = await start_nodes(bus, node_options, robot, unit.state, demo=demo)
@@ -154,7 +166,7 @@ async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
             view = NamespacedBus(bus, Namespace(entry.name))
             view.params.set(ROBOT_ID_PARAM, entry.name)
             unit.bus = view
-            unit.nodes = await start_robot_nodes(view, entry.name, node_options, robot, site_map,
+            unit.nodes = await start_robot_nodes(view, entry.name, node_options, robot,
                                                  unit.state)
         if isinstance(backend, SimBackend) and unit.bus is not None:
             unit.nodes.append(await start_sim_controls(unit.bus, backend))
@@ -165,7 +177,7 @@ async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
         elif backend is not None:  # a REST robot: its state folder once it says who it is
             binder = RestStateBinder(backend, unit.state, options.robot,
                                      settings.store.state_root, settings.store.fresh,
-                                     lambda: unit.nodes)
+                                     lambda: unit.nodes, on_bound)
             unit.binder = asyncio.ensure_future(binder.run())
     except BaseException:
         await stop_robot(unit)
@@ -191,44 +203,52 @@ async def stop_robot(unit: RobotUnit) -> None:
 
 
 async def start_planned(bus: Bus, settings: Settings,
-                        plan: StartPlan) -> tuple[list[Node], list[RobotUnit]]:
-    """The site nodes and every robot of the plan. The single unnamed robot brings its own
-    nodes (today's layout); named robots share the site nodes, one simulated world and the site
-    map manager (made with the first robot that has a backend); no robot: the bridge's rosapi.
-    All or nothing: a robot that fails to start stops everything started before it."""
+                        plan: StartPlan) -> tuple[SiteUnit, list[RobotUnit]]:
+    """The site and every robot of the plan. The single unnamed robot brings its own nodes
+    (today's layout; the site is empty); named robots share the site (its folder, nodes and map
+    manager, started with the robot that feeds it) and one simulated world; no robot: the
+    bridge's rosapi. All or nothing: a robot that fails to start stops everything started
+    before it."""
     if not plan.robots:
-        return await start_bridge_nodes(bus, settings.node_options()), []
+        return SiteUnit(nodes=await start_bridge_nodes(bus, settings.node_options())), []
     if not plan.fleet:
-        return [], [await start_robot(bus, settings, plan.robots[0], demo=plan.demo)]
-    site: list[Node] = []
+        return SiteUnit(), [await start_robot(bus, settings, plan.robots[0], demo=plan.demo)]
+    site = SiteUnit()
     units: list[RobotUnit] = []
     sims = any(e.spec == "sim" for e in plan.robots)
     world = shared_world(settings.robot_options()) if sims else None
+    first = next((e for e in plan.robots if e.spec != "none"), None)  # held the site's map
+    later = first is not None and first.spec != "sim"  # a REST robot: its folder once bound
     try:
-        site_store = await open_state(settings.store.state_root, SITE_IDENTITY,
-                                      settings.store.fresh)
-        site_state = StateBinding(site_store, SITE_IDENTITY)
-        try:  # the fleet owns the site's folder from here: its stop closes it
-            site = await start_site_nodes(bus, settings.node_options(), site_state)
-        except BaseException:
-            await site_store.close()
-            raise
-
-        site_map: MapManager | None = None
+        site = await start_site(bus, settings, first_robot_folder(settings, first), later=later)
         for entry in plan.robots:
-            unit = await start_robot(bus, settings, entry, world=world, site_map=site_map)
+            bound = (lambda store: move_in_bound(site, store)) if later and entry is first \
+                else None
+            unit = await start_robot(bus, settings, entry, world=world, on_bound=bound)
             units.append(unit)
-            if site_map is None:
-                site_map = next((n for n in unit.nodes if isinstance(n, MapManager)), None)
+            if entry.name == plan.site_map and unit.robot is not None and unit.bus is not None:
+                await attach_site_map(site, unit.bus, robot_node_options(settings, entry),
+                                      unit.robot)
+        report_site(site)
     except BaseException:
         await stop_robots(site, units)
         raise
     return site, units
 
 
-async def stop_robots(site: list[Node], units: list[RobotUnit]) -> None:
-    """Robots in reverse start order (the first robot holds the site map manager), then the
-    site nodes."""
+def first_robot_folder(settings: Settings, first: RobotEntry | None) -> str | None:
+    """Where a server kept the site's map-manager sections before the site had a part of its
+    own: its first robot with a map's (``first``) folder. A simulated robot's is known now; a
+    REST robot's only once it answers (``None``)."""
+    if first is None or first.spec != "sim":
+        return None
+    return sim_identity(settings.robot_options(first), first.name)
+
+
+async def stop_robots(site: SiteUnit, units: list[RobotUnit]) -> None:
+    """The site's map manager (it drives its robot), the robots in reverse start order, then
+    the site's nodes and folder."""
+    await stop_site_map(site)
     for unit in reversed(units):
         await stop_robot(unit)
-    await stop_nodes(site)
+    await stop_site(site)

@@ -15,7 +15,6 @@ from .bus.rosout import RosoutHandler
 from .bus.zenoh.keys import endpoints
 from .config import Settings
 from .metrics import METRICS_DIR, ServerMetrics, Sources
-from .nodes.base import Node
 from .protocol.auth import load_secret
 from .protocol.foxglove import SUBPROTOCOLS as FOXGLOVE_SUBPROTOCOLS
 from .record.blackbox_control import BlackBoxControl
@@ -29,6 +28,7 @@ from .session.heap import HeapTrim
 from .session.offload import WorkerPool
 from .session.options import SessionOptions
 from .session.rosbridge.session import Session, Shared
+from .site import SiteUnit
 from .state import StateBinding
 from .transport.download import Downloads
 from .transport.http import StaticFiles, WithRecordings, default_web_root, missing_libraries
@@ -55,7 +55,7 @@ class HitrobotServer:
         self.bus = Bus(
             types or TypeRegistry.default(), unregister_timeout=self.settings.bus.unregister_timeout
         )
-        self.nodes: list[Node] = []  # the site nodes of a server with named robots
+        self.site = SiteUnit()  # a server with named robots: the site (its folder, nodes)
         self.robots: list[RobotUnit] = []  # every robot: its backend and its nodes
         self.link = None  # the ZenohLink with --bus zenoh
         self.sessions: set[ClientSession] = set()
@@ -77,7 +77,7 @@ class HitrobotServer:
         self._rosout: RosoutHandler | None = None
         self.recording: RecordingControl | None = None
         self.metrics = ServerMetrics(Sources(
-            sessions=lambda: self.sessions, robots=lambda: self.robots,
+            sessions=lambda: self.sessions, robots=lambda: self.robots, site=lambda: self.site,
             recording=lambda: self.recording, worker=self.plan.worker_id
             if self.plan.worker else None))
         self.black_box: BlackBoxControl | None = None
@@ -128,7 +128,7 @@ class HitrobotServer:
         logging.getLogger(PACKAGE_LOGGER).addHandler(self._rosout)
         tag = await self._start_link() if plan.zenoh else ""
         self._session_options = s.session.for_sessions(secret, tag)
-        self.nodes, self.robots = await start_planned(self.bus, s, plan)
+        self.site, self.robots = await start_planned(self.bus, s, plan)
         await self._start_listeners()
         if plan.worker and os.environ.get(METRICS_DIR):  # one scrape covers every worker
             await self.metrics.share(os.environ[METRICS_DIR])
@@ -252,8 +252,7 @@ class HitrobotServer:
         self.metrics.unshare()
         if self.black_box is not None:  # the robots stopping is no incident
             self.black_box.shutting_down()
-        await stop_robots(self.nodes, self.robots)
-        self.nodes.clear()
+        await stop_robots(self.site, self.robots)
         self.robots.clear()
         if self.black_box is not None:  # after the nodes, as the recording
             await self.black_box.stop()

@@ -33,13 +33,15 @@ ALLOWED: dict[str, set[str]] = {
     # the top: assembles the floors, so it may import any of them
     "config": {"session", "transport", "bus", "nodes", "robot", "record", "protocol", "types",
                "state"},
-    "server": {"config", "robots", "transport", "session", "bus", "nodes", "robot", "record",
-               "protocol", "types", "state", "metrics"},
+    "server": {"config", "robots", "site", "transport", "session", "bus", "nodes", "robot",
+               "record", "protocol", "types", "state", "metrics"},
     # /metrics and /healthz: read the server's parts when scraped (beside server, below it)
-    "metrics": {"robots", "session", "bus", "record", "wire", "procmem"},
+    "metrics": {"robots", "site", "state", "session", "bus", "record", "wire", "procmem"},
     # one robot = backend + nodes (+ its state folder, robot_state)
-    "robots": {"config", "bus", "nodes", "robot", "types", "state", "robot_state"},
+    "robots": {"config", "bus", "nodes", "robot", "types", "state", "robot_state", "site"},
     "robot_state": {"nodes", "robot", "state"},
+    # the site of a fleet: its folder (moved into once), its nodes, its map manager
+    "site": {"config", "bus", "nodes", "robot", "state", "robot_state"},
     "commands": {"robot", "signals", "config", "types", "server", "robots", "record"},
     "workers": {"config", "signals", "bus"},  # the --workers parent (bus: endpoint parsing)
     "cli": {"config", "server", "signals", "conformance", "commands", "workers"},

@@ -57,14 +57,12 @@ async def start_bridge_nodes(bus: Bus, settings: NodeOptions) -> list[Node]:
 
 
 def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
-                site_map: MapManager | None = None,
-                state: StateBinding | None = None) -> list[Node]:
+                state: StateBinding | None = None, *, map_manager: bool = True) -> list[Node]:
     """The robot-facing nodes, in start order, each handed the capabilities it uses. They all
     drive the robot through the locomotion gate (``robot.motion``), so a sitting robot refuses
-    motion whichever interface asks. A robot of a fleet is handed the site's map manager (its
-    POIs) instead of getting its own; the fleet's first robot creates it (its map is the site's
-    SLAM layer; ``/map_manager`` and ``/map`` are site-wide names, so the manager is global
-    though made on the robot's view)."""
+    motion whichever interface asks. ``map_manager``: the single robot's own (its POIs in its
+    state folder); a robot of a fleet has none: the site's (:func:`site_map`) serves
+    every robot, fed by one robot's map."""
     link, motion, localization = robot.link, robot.motion, robot.localization
     frame = settings.slamware.map_frame
     # Nodes handed to other nodes (no node imports another; they meet here or on the bus):
@@ -77,14 +75,13 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
     goal_topic = settings.slamware.goal_topic
     move_base = MoveBaseNode(bus, link, motion, localization, frame,
                              simple_goal=slamware_topic(goal_topic) if goal_topic else None)
-    map_manager = site_map or MapManager(bus, link, robot.maps, localization, settings, state)
     mapfiles = MapFilesNode(bus, link, localization, settings)
     return [
         SlamwareNode(bus, robot, settings.slamware, simple_goals=False, state=state),
         ConventionalNode(bus, link, localization, frame),
         move_base,
         ShellNode(bus, robot, settings.authenticate, move_base.cancel_all),
-        *([] if site_map else [map_manager]),
+        *([map_manager_of(bus, settings, robot, state)] if map_manager else []),
         NavigationNode(bus, link, motion, localization),
         PointCloudNode(bus, link, robot.sensors, frame),
         Nav2ActionsNode(bus, link, motion, localization, robot.sensors, frame),
@@ -97,11 +94,19 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
     ]
 
 
+def map_manager_of(bus: Bus, settings: NodeOptions, robot: Robot,
+                   state: StateBinding | None) -> MapManager:
+    """A map manager fed by ``robot``'s map (its SLAM layer; the masks become that robot's
+    blocked areas), its sections in ``state``."""
+    return MapManager(bus, robot.link, robot.maps, robot.localization, settings, state)
+
+
 async def start_site_nodes(bus: Bus, settings: NodeOptions,
                            state: StateBinding | None = None) -> list[Node]:
     """The site-wide nodes of a server with named robots: rosapi, TF, the bridge's
-    diagnostics and the fleet (the site map manager comes with the first robot). ``state``: the
-    site's state folder (the fleet's tasks, history and schedules)."""
+    diagnostics and the fleet (the site's map manager starts with the robot that feeds it,
+    :func:`site_map`). ``state``: the site's state folder (the fleet's tasks, history,
+    schedules and zones)."""
     policy = ChargePolicy(charge_below=settings.charge_below, charge_until=settings.charge_until)
     zone = ZoneInfo(settings.site_timezone) if settings.site_timezone else None
     fleet = FleetNode(bus, settings.slamware.map_frame, state, policy, zone,
@@ -112,12 +117,19 @@ async def start_site_nodes(bus: Bus, settings: NodeOptions,
     return nodes
 
 
+def site_map(bus: Bus, settings: NodeOptions, robot: Robot, state: StateBinding) -> Node:
+    """The site's map manager (POIs, masks, the composed ``/map``, saved maps), on the view
+    ``bus`` of the robot whose map feeds it, its sections in the site's folder ``state``
+    (``/map_manager`` and ``/map`` are site-wide names: every robot's view reaches them); the
+    site starts it."""
+    return map_manager_of(bus, settings, robot, state)
+
+
 async def start_robot_nodes(bus: Bus, name: str, settings: NodeOptions, robot: Robot,
-                            site_map: MapManager | None,
                             state: StateBinding | None = None) -> list[Node]:
     """Robot ``name``'s nodes on its namespaced view ``bus``, with its own diagnostics and its
-    state for the fleet."""
-    nodes = robot_nodes(bus, settings, robot, site_map, state)
+    state for the fleet (the site's map manager is not theirs)."""
+    nodes = robot_nodes(bus, settings, robot, state, map_manager=False)
     nodes += [DiagnosticsNode(bus, robot, state, bridge=False),
               FleetMemberNode(bus, robot, name)]
     await _start(nodes)

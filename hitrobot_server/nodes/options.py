@@ -33,6 +33,11 @@ class NodeOptions:
     site_timezone: str = field(default="", metadata={
         "help": "the site's IANA time zone for fleet schedules ('daily 09:00'); empty: the "
         "server's local time zone (default: empty)"})
+    # read by the start plan (which robot's map the site's map manager takes), not by a node
+    site_map_robot: str = field(default="", metadata={
+        "help": "named robots: the robot whose map feeds the site's map manager (its POIs, "
+        "masks and the composed /map are the site's, kept in <state-dir>/site/); empty: the "
+        "first robot that has one (default: empty)"})
     fleet_clock: Callable[[], float] | None = None  # tests hold the fleet's wall clock
     map_store: Path  # where map folders are saved (routes and graphs live beside it)
     slamware: SlamwareParams = field(default_factory=SlamwareParams)

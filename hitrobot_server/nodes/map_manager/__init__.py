@@ -1,5 +1,5 @@
 """``/map_manager``: POIs, map layers and masks, the composed ``/map``, and map folders."""
 
-from .node import NODE_NAME, MapManager
+from .node import MEMORY, NODE_NAME, MapManager
 
-__all__ = ["NODE_NAME", "MapManager"]
+__all__ = ["MEMORY", "NODE_NAME", "MapManager"]

@@ -32,6 +32,10 @@ from .topics import MAP_TOPIC, NODE_NAME
 
 log = logging.getLogger(__name__)
 
+MEMORY = "map_manager"
+"""Its sections' prefix in a state folder (``map_manager/pois``, ``…/layers``, ``…/masks``,
+``…/loaded``)."""
+
 
 class MapManager(RobotNode):
     """The map manager node; needs a robot (the SLAM layer is the robot's map)."""
@@ -45,7 +49,7 @@ class MapManager(RobotNode):
         params = settings.slamware
         self.pois = PoiRegistry()
         self.layers = MapComposition(self, maps, params)
-        self.sections = Sections(NodeMemory(state, "map_manager"), self.pois, self.layers)
+        self.sections = Sections(NodeMemory(state, MEMORY), self.pois, self.layers)
         self.poi_requests = PoiRequests(self, self.pois, self.sections,
                                         lambda: self.layers.published)
         self.robot_map = RobotMap(self, maps, localization, params)
