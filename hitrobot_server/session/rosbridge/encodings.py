@@ -1,72 +1,70 @@
-"""Every wire encoding of one bus message, made once and shared by every reader.
+"""rosbridge's encodings of a bus message, each made once and shared by every subscriber.
 
-A message fanned out to fifty clients is serialised once per (encoding, topic spelling), not
-fifty times — the main cost rosbridge pays per client (rosbridge #332, #559). The encodings
-of a message are its :class:`Encoded`, which the bus keeps for the wire floor in the
-message's opaque ``wire`` slot (:func:`encoded_of` makes it on first use): the JSON body and
-publish op, png, cbor, cbor-raw, Foxglove data frames and the frames one subscriber gets
-(fragmented or not, built by the server's :class:`~.frames.FrameBuilder`). Each is keyed by a
-``Key`` (an :class:`Encoding`, the topic spelling it names, a variant), and each set of frames
-is either ready (a list) or :class:`~.frames.PendingFrames`. A message's CDR is the bus's own
-(``Message.cdr``: its Zenoh link sends it).
+Each is a typed key of the message's memo (hitrobot_server/wire/memo.py): the JSON body, the
+``publish`` op as JSON, png, cbor and cbor-raw for each topic spelling (a client's ``publish``
+echoes the topic as it wrote it), and the frames one subscriber gets (per compression, topic
+spelling and fragment size), ready (a list) or ``PendingFrames`` while the worker pool builds a
+big message's (:func:`subscriber_frames`). A client's own ``publish`` op is put in the memo by its
+publisher (:func:`seeded`) as the outgoing JSON for its spelling.
 """
 
 from __future__ import annotations
 
 import functools
-from collections.abc import Hashable, Iterable
-from dataclasses import dataclass
-from enum import IntEnum
+from collections.abc import Iterable
 from typing import Any
 
 import orjson
 
-from ..bus.topics import Message
-from ..protocol import cbor, ops, rawmsg
-from ..protocol import foxglove as fg
-from ..protocol.bulk import OFFLOAD_BYTES
-from ..types import jsoncodec
-from ..types.registry import MsgType, TypeRegistry
-from .frames import (
-    Frame,
-    FrameBuilder,
-    Frames,
-    PendingFrames,
-    approx_size,
-    as_png,
-    cut,
-    fragments,
-)
+from ...bus.topics import Message
+from ...protocol import cbor, ops, rawmsg
+from ...protocol.bulk import OFFLOAD_BYTES
+from ...types import jsoncodec
+from ...types.registry import MsgType, TypeRegistry
+from ...wire.frames import Frame, Frames, PendingFrames
+from ...wire.memo import PUBLISHED_JSON, Memo, MemoKey, size_of
+from .frames import FrameBuilder, as_png, cut, fragments
 
 
-class Encoding(IntEnum):
-    """What a cached encoding is (an int, so keys hash in C on the fan-out path)."""
-
-    BODY = 0  # the message alone as JSON: the ``msg`` of a publish op
-    JSON = 1  # a ``publish`` op as JSON (compression ``none``)
-    PNG = 2  # that op as a ``png`` op
-    CBOR = 3  # a ``publish`` op as CBOR
-    CBOR_RAW = 4  # a ``publish`` op carrying ROS 1 bytes in CBOR
-    FOXGLOVE = 6  # a Foxglove message data frame (variant: the subscription id)
+def _body(message: Message, _variant: None) -> bytes:
+    return jsoncodec.dumps(message.msg)
 
 
-_BY_COMPRESSION: dict[str, Encoding] = {
-    "none": Encoding.JSON,
-    "png": Encoding.PNG,
-    "cbor": Encoding.CBOR,
-    "cbor-raw": Encoding.CBOR_RAW,
+def _publish_json(message: Message, topic: str) -> bytes:
+    return publish_json(topic, BODY.get(message))
+
+
+def _publish_png(message: Message, topic: str) -> bytes:
+    return publish_png(topic, message.msg, PUBLISH_JSON.get(message, topic))
+
+
+def _publish_cbor(message: Message, topic: str) -> bytes:
+    t = message.topic
+    return cbor.encode_publish_cbor(topic, message.msg, t.mtype, t.types)
+
+
+def _publish_cbor_raw(message: Message, topic: str) -> bytes:
+    secs = int(message.stamp)
+    nsecs = int(round((message.stamp - secs) * 1e9))
+    t = message.topic
+    return rawmsg.encode_publish_cbor_raw(topic, message.msg, t.mtype, t.types, (secs, nsecs))
+
+
+BODY: MemoKey[bytes] = MemoKey("rosbridge: the message as JSON", _body)
+"""The message alone as JSON: the ``msg`` of a publish op, one for every spelling."""
+PUBLISH_JSON: MemoKey[bytes] = MemoKey("rosbridge: publish op, JSON", _publish_json)
+"""``{"op":"publish","topic":T,"msg":…}``; variant: the topic spelling T."""
+PUBLISH_PNG: MemoKey[bytes] = MemoKey("rosbridge: publish op, png", _publish_png)
+PUBLISH_CBOR: MemoKey[bytes] = MemoKey("rosbridge: publish op, cbor", _publish_cbor)
+PUBLISH_CBOR_RAW: MemoKey[bytes] = MemoKey("rosbridge: publish op, cbor-raw", _publish_cbor_raw)
+
+_FRAMES: dict[str, MemoKey[Frames]] = {
+    compression: MemoKey(f"rosbridge: a subscriber's frames, {compression}")
+    for compression in ops.COMPRESSIONS
 }
-"""The encoding each of rosbridge's compressions (``ops.COMPRESSIONS``) asks for."""
-
-_BINARY = frozenset({Encoding.CBOR, Encoding.CBOR_RAW})
-
-
-Key = tuple[Encoding, str, Hashable]
-"""One cached encoding: what it is, for which topic spelling, in which variant (the fragment
-size of a subscriber's frames, a Foxglove subscription id). A plain tuple: it is built for
-every subscriber of every message, where a class's constructor would cost a third more."""
-
-_BODY: Key = (Encoding.BODY, "", None)
+"""The frames of one subscriber per compression (variant: topic spelling, fragment size);
+put by :func:`subscriber_frames`, which needs the server's frame builder to make them."""
+_BINARY = {"none": False, "png": False, "cbor": True, "cbor-raw": True}
 
 
 def strongest(compressions: Iterable[str]) -> str:
@@ -76,161 +74,55 @@ def strongest(compressions: Iterable[str]) -> str:
 
 def is_binary(compression: str) -> bool:
     """Whether a compression needs binary (WebSocket) frames."""
-    return _BY_COMPRESSION[compression] in _BINARY
+    return _BINARY[compression]
 
 
-@dataclass(frozen=True, slots=True)
-class Seed:
-    """What a publisher already has of a message's encodings: the length of the op it came in
-    (its size, near enough) and, when the converter left the message as the client wrote it,
-    the client's own ``publish`` op as the outgoing JSON for ``topic``
-    (session/rosbridge/publish.py).
-    Handed to ``Bus.publish`` (``seed``), which keeps it in the message's ``wire`` slot."""
-
-    size: int
-    topic: str = ""
-    publish_json: bytes | None = None
+def seeded(size: int, topic: str, publish_json: bytes | None = None) -> Memo:
+    """What a publisher hands ``Bus.publish`` (``seed``): the length of the op the message came
+    in (its size, near enough) and, when the converter left the message as the client wrote it,
+    the client's own ``publish`` op: the outgoing JSON for ``topic``, and the publisher's JSON
+    the recorder takes (session/rosbridge/publish.py)."""
+    memo = Memo(size)
+    if publish_json is not None:
+        memo.put(PUBLISH_JSON, publish_json, topic).put(PUBLISHED_JSON, publish_json)
+    return memo
 
 
-def encoded_of(message: Message) -> Encoded:
-    """The message's encodings, made on first use (from its publisher's :class:`Seed`, if any).
+def subscriber_frames(message: Message, topic: str, compression: str,
+                      fragment_size: int | None, builder: FrameBuilder) -> Frames:
+    """The frames one subscriber gets; fragments only text ops and only when asked to.
 
-    A hot path may test ``message.wire.__class__ is Encoded`` itself and call
-    ``Encoded(message)`` when it is not: the same, one call shorter."""
-    found = message.wire
-    if found.__class__ is Encoded:
-        return found  # type: ignore[return-value]
-    return Encoded(message)
-
-
-class Encoded:
-    """The encodings of one bus message (see the module docstring); pure apart from
-    :meth:`frames`, which may start the worker-pool build of a big message's text frames."""
-
-    __slots__ = ("topic", "msg", "stamp", "_bytes", "_frames", "_size", "_client")
-
-    def __init__(self, message: Message):
-        """The encodings of ``message``, installed in its ``wire`` slot in place of the
-        publisher's :class:`Seed` (what it knew is kept)."""
-        self.topic = message.topic
-        self.msg = message.msg
-        self.stamp = message.stamp
-        self._bytes: dict[Key, bytes] = {}
-        self._frames: dict[Key, Frames] = {}
-        self._size: int | None = None
-        self._client: bytes | None = None
-        seed = message.wire
-        message.wire = self
-        if seed is not None:
-            self.seed(seed)  # type: ignore[arg-type]
-
-    # ------------------------------------------------------------ what a publisher knows
-    def seed(self, seed: Seed) -> None:
-        self._size = seed.size
-        if seed.publish_json is not None:
-            self._bytes[(Encoding.JSON, seed.topic, None)] = self._client = seed.publish_json
-
-    def known(self, encoding: Encoding, topic: str = "") -> bytes | None:
-        """An encoding if someone already made it."""
-        return self._bytes.get((encoding, topic, None))
-
-    def client_json(self) -> bytes | None:
-        """The client's own ``publish`` op when its ``msg`` is the canonical message as it is
-        (the publisher's :class:`Seed`), or None: the recorder takes that ``msg`` as is."""
-        return self._client
-
-    def size(self) -> int:
-        """Estimated JSON size of the body, computed once (or given by the publisher)."""
-        if self._size is None:
-            self._size = approx_size(self.msg)
-        return self._size
-
-    # ------------------------------------------------------------ single encodings
-    def publish_json(self, topic: str) -> bytes:
-        """``{"op":"publish","topic":T,"msg":…}``, the body serialised once for every spelling."""
-        key: Key = (Encoding.JSON, topic, None)
-        data = self._bytes.get(key)
-        if data is None:
-            body = self._bytes.get(_BODY)
-            if body is None:
-                body = self._bytes[_BODY] = jsoncodec.dumps(self.msg)
-            data = self._bytes[key] = publish_json(topic, body)
-        return data
-
-    def publish_png(self, topic: str) -> bytes:
-        key: Key = (Encoding.PNG, topic, None)
-        data = self._bytes.get(key)
-        if data is None:
-            data = self._bytes[key] = publish_png(topic, self.msg, self.publish_json(topic))
-        return data
-
-    def publish_cbor(self, topic: str) -> bytes:
-        key: Key = (Encoding.CBOR, topic, None)
-        data = self._bytes.get(key)
-        if data is None:
-            t = self.topic
-            data = self._bytes[key] = cbor.encode_publish_cbor(topic, self.msg, t.mtype, t.types)
-        return data
-
-    def publish_cbor_raw(self, topic: str) -> bytes:
-        key: Key = (Encoding.CBOR_RAW, topic, None)
-        data = self._bytes.get(key)
-        if data is None:
-            secs = int(self.stamp)
-            nsecs = int(round((self.stamp - secs) * 1e9))
-            t = self.topic
-            data = self._bytes[key] = rawmsg.encode_publish_cbor_raw(
-                topic, self.msg, t.mtype, t.types, (secs, nsecs)
-            )
-        return data
-
-    def foxglove(self, sub_id: int, cdr: bytes) -> bytes:
-        """The Foxglove message data frame of subscription ``sub_id`` around ``cdr`` (the
-        message's ``Message.cdr``)."""
-        key: Key = (Encoding.FOXGLOVE, "", sub_id)
-        data = self._bytes.get(key)
-        if data is None:
-            data = self._bytes[key] = fg.message_data(sub_id, fg.nanoseconds(self.stamp), cdr)
-        return data
-
-    # ------------------------------------------------------------ a subscriber's frames
-    def frames(
-        self, topic: str, compression: str, fragment_size: int | None, builder: FrameBuilder
-    ) -> Frames:
-        """The frames one subscriber gets; fragments only text ops and only when asked to.
-
-        Made once per (compression, topic spelling, fragment size) and shared by every such
-        subscriber. A big message with variable arrays, for a text compression, is built by
-        the builder's runner (when it has one) and is pending until its frames are back.
-        """
-        encoding = _BY_COMPRESSION[compression]
-        key: Key = (encoding, topic, fragment_size)
-        found = self._frames.get(key)
-        if found is not None:
-            if isinstance(found, PendingFrames) and found.ok():
-                found = self._frames[key] = found.future.result()
-            return found
-        if encoding is Encoding.CBOR:
-            found = [(self.publish_cbor(topic), True)]
-        elif encoding is Encoding.CBOR_RAW:
-            found = [(self.publish_cbor_raw(topic), True)]
-        elif (
-            builder.offload is not None
-            and (Encoding.JSON, topic, None) not in self._bytes
-            and has_lists(self.topic.mtype, self.topic.types)
-            and self.size() >= OFFLOAD_BYTES
-        ):
-            found = builder.offloaded(
-                self.size(), publish_frames_taken, topic, [self.msg], compression, fragment_size
-            )
-        else:
-            data = self.publish_png(topic) if encoding is Encoding.PNG else self.publish_json(topic)
-            if fragment_size and len(data) > fragment_size:
-                found = fragments(data, fragment_size, builder.ids.next())
-            else:
-                found = [(data, False)]
-        self._frames[key] = found
+    Made once per (compression, topic spelling, fragment size) and shared by every such
+    subscriber. A big message with variable arrays, for a text compression, is built by the
+    builder's runner (when it has one) and is pending until its frames are back.
+    """
+    key = _FRAMES[compression]
+    variant = (topic, fragment_size)
+    found = key.peek(message, variant)
+    if found is not None:
+        if found.__class__ is PendingFrames and found.ok():  # type: ignore[union-attr]
+            found = key.put(message, found.future.result(), variant)  # type: ignore[union-attr]
         return found
+    if compression == "cbor":
+        found = [(PUBLISH_CBOR.get(message, topic), True)]
+    elif compression == "cbor-raw":
+        found = [(PUBLISH_CBOR_RAW.get(message, topic), True)]
+    elif (
+        builder.offload is not None
+        and PUBLISH_JSON.peek(message, topic) is None
+        and has_lists(message.topic.mtype, message.topic.types)
+        and size_of(message) >= OFFLOAD_BYTES
+    ):
+        found = builder.offloaded(size_of(message), publish_frames_taken, topic, [message.msg],
+                                  compression, fragment_size)
+    else:
+        key_of = PUBLISH_PNG if compression == "png" else PUBLISH_JSON
+        data = key_of.get(message, topic)
+        if fragment_size and len(data) > fragment_size:
+            found = fragments(data, fragment_size, builder.ids.next())
+        else:
+            found = [(data, False)]
+    return key.put(message, found, variant)
 
 
 # ------------------------------------------------------------ pure publish-op encoders
@@ -253,7 +145,7 @@ def publish_frames(
     topic: str, msg: dict, compression: str, fragment_size: int | None, frag_id: str
 ) -> list[Frame]:
     """Every frame one text subscriber (``none`` or ``png``) gets for one message: what the
-    worker pool builds for a big one, byte for byte what :meth:`Encoded.frames` makes."""
+    worker pool builds for a big one, byte for byte what :func:`subscriber_frames` makes."""
     # the whole op in one dump (the bytes publish_json makes): joining a head to a 50 MB
     # body would hold both at once in the worker
     data = jsoncodec.dumps({"op": "publish", "topic": topic, "msg": msg})

@@ -1,73 +1,35 @@
-"""The one frame builder: an op (a published message's ``publish`` op or a reply) as the
-frames a rosbridge client gets — JSON or png, whole or cut into ``fragment`` ops.
+"""The one frame builder of rosbridge: an op (a published message's ``publish`` op or a
+reply) as the frames a client gets — JSON or png, whole or cut into ``fragment`` ops.
 
-Frames are ready (a list) or :class:`PendingFrames`: a big op's frames are built in the worker
-pool (the :class:`FrameBuilder`'s runner), and the outbox waits for them in place. The pure
-builders (:func:`reply_frames` here, ``encoded.publish_frames`` for a message) are also what
-the worker runs, so an offloaded op is byte for byte what the inline path sends. A bus
-message's encodings, shared by every subscriber, are kept by :mod:`.encoded`.
+Frames are ready (a list) or ``PendingFrames`` (hitrobot_server/wire/frames.py): a big op's
+frames are built in the worker pool (the :class:`FrameBuilder`'s runner), and the outbox waits
+for them in place. The pure builders (:func:`reply_frames` here, ``encodings.publish_frames``
+for a message) are also what the worker runs, so an offloaded op is byte for byte what the
+inline path sends. A bus message's encodings, shared by every subscriber, are its memo's, by
+the keys of :mod:`.encodings`.
 """
 
 from __future__ import annotations
 
 import asyncio
 import logging
-from collections.abc import Awaitable, Callable
+from collections.abc import Callable
 
-import numpy as np
-
-from ..protocol import png
-from ..protocol.bulk import OFFLOAD_BYTES
-from ..protocol.errors import MessageId
-from ..protocol.fragment import FragmentIds, fragment_bytes, fragment_size_for
-from ..types import jsoncodec
+from ...protocol import png
+from ...protocol.bulk import OFFLOAD_BYTES
+from ...protocol.errors import MessageId
+from ...protocol.fragment import FragmentIds, fragment_bytes, fragment_size_for
+from ...types import jsoncodec
+from ...wire.frames import Frame, Frames, PendingFrames, Run
+from ...wire.memo import approx_size
 
 log = logging.getLogger(__name__)
-
-Frame = tuple[bytes, bool]  # (payload, is_binary)
-
-Run = Callable[..., Awaitable[list[Frame]]]
-"""Runs ``fn(*args)`` away from the event loop (the server's ``WorkerPool.run``,
-session/offload.py)."""
-
-
-class PendingFrames:
-    """Frames being built away from the event loop, and the bytes they are charged at until
-    then (an estimate). A queue holding one waits for it in place."""
-
-    __slots__ = ("future", "size")
-
-    def __init__(self, future: asyncio.Future[list[Frame]], size: int):
-        self.future = future
-        self.size = size
-
-    def done(self) -> bool:
-        return self.future.done()
-
-    def ok(self) -> bool:
-        """Done, with frames (not failed, not cancelled)."""
-        f = self.future
-        return f.done() and not f.cancelled() and f.exception() is None
-
-    def frames(self) -> list[Frame] | None:
-        """The frames once done; None (logged) when building them failed or was cancelled."""
-        if self.future.cancelled():
-            return None
-        exc = self.future.exception()
-        if exc is not None:
-            log.error("encoding a big message failed; it is skipped for this client: %r", exc)
-            return None
-        return self.future.result()
-
-
-Frames = list[Frame] | PendingFrames
-"""One message's or reply's frames as a queue holds them: ready, or pending."""
 
 
 # ------------------------------------------------------------ pure builders (also the worker's)
 def fragments(data: bytes, size: int, frag_id: str) -> list[Frame]:
     """Encoded JSON split into ``fragment`` ops with the id ``frag_id``, in pieces of ``size``
-    characters or as many more as the bounds of :func:`~..protocol.fragment.fragment_size_for`
+    characters or as many more as the bounds of ``protocol.fragment.fragment_size_for``
     need."""
     text = data.decode()
     size = fragment_size_for(len(text), size)
@@ -106,55 +68,12 @@ def json_frames(obj: dict) -> list[Frame]:
     return [(jsoncodec.dumps(obj), False)]
 
 
-# ------------------------------------------------------------ sizes
-def approx_size(value: object) -> int:
-    """Rough JSON size of a canonical message, without encoding it (an over-estimate is fine:
-    it only decides inline or offloaded). Looks into dicts and the first item of a list; one
-    call per nested dict, so a LaserScan costs three calls."""
-    kind = type(value)
-    if kind is dict:
-        total = 16 * len(value)
-        for item in value.values():
-            kind = type(item)
-            if kind is dict:
-                total += approx_size(item)
-            elif kind is list:
-                total += _list_size(item)
-            elif kind is bytes or kind is np.ndarray or kind is str:
-                total += _flat_size(item)
-            else:
-                total += 12
-        return total
-    if kind is list:
-        return _list_size(value)
-    return _flat_size(value)
-
-
-def _list_size(value: list) -> int:
-    if not value:
-        return 2
-    first = type(value[0])
-    each = approx_size(value[0]) if first is dict or first is list else 12
-    return each * len(value)
-
-
-def _flat_size(value: object) -> int:
-    kind = type(value)
-    if kind is bytes:
-        return len(value) * 4 // 3
-    if kind is np.ndarray:
-        return value.size * (4 if value.itemsize == 1 else 24)
-    if kind is str:
-        return len(value) + 2
-    return 12
-
-
 # ------------------------------------------------------------ the builder
 class FrameBuilder:
     """Builds the frames of every op a server's rosbridge clients get, a published message's
-    (through its ``Encoded``) and a reply's alike. One per server: its fragment ids come from
-    one counter, so two groups of fragments on one connection never share an id, whether they
-    carry topic data (built once, shared by every subscriber) or a reply."""
+    (``encodings.subscriber_frames``) and a reply's alike. One per server: its fragment ids
+    come from one counter, so two groups of fragments on one connection never share an id,
+    whether they carry topic data (built once, shared by every subscriber) or a reply."""
 
     def __init__(self, offload: Run | None = None) -> None:
         self.ids = FragmentIds()
