@@ -25,7 +25,9 @@ needs one; 100,000 ids on ``/scan`` would frame every scan 100,000 times."""
 
 
 def _data(message: Message, sub_id: int) -> bytes:
-    cdr = message.cdr(codec_for(message.topic.types))  # made already by the delivery
+    cdr = message.cdr_bytes  # made already by the delivery
+    if cdr is None:
+        cdr = message.cdr(codec_for(message.topic.types))
     return fg.message_data(sub_id, fg.nanoseconds(message.stamp), cdr)
 
 

@@ -109,8 +109,8 @@ def subscriber_frames(message: Message, topic: str, compression: str,
         found = [(PUBLISH_CBOR_RAW.get(message, topic), True)]
     elif (
         builder.offload is not None
-        and PUBLISH_JSON.peek(message, topic) is None
         and has_lists(message.topic.mtype, message.topic.types)
+        and PUBLISH_JSON.peek(message, topic) is None  # (made already: cutting it is cheap)
         and size_of(message) >= OFFLOAD_BYTES
     ):
         found = builder.offloaded(size_of(message), publish_frames_taken, topic, [message.msg],
