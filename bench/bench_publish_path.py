@@ -30,10 +30,10 @@ from bench_bridge import HOST, ScanSource, table  # noqa: E402
 from hitrobot_server.config import Settings  # noqa: E402
 from hitrobot_server.protocol import ops  # noqa: E402
 from hitrobot_server.server import HitrobotServer  # noqa: E402
+from hitrobot_server.session.rosbridge.encodings import seeded  # noqa: E402
+from hitrobot_server.session.rosbridge.verbatim import verbatim_publish  # noqa: E402
 from hitrobot_server.types import jsoncodec  # noqa: E402
 from hitrobot_server.types.convert import from_json_verbatim  # noqa: E402
-from hitrobot_server.wire.encoded import Seed  # noqa: E402
-from hitrobot_server.wire.verbatim import verbatim_publish  # noqa: E402
 
 TOPIC = "/bench/scan"
 
@@ -106,7 +106,7 @@ def stages(server: HitrobotServer, count: int) -> list[list[str]]:
             out.clear()
 
     def bus_publish() -> None:
-        server.bus.publish(TOPIC, value, origin=pub.origin, seed=Seed(len(frame), TOPIC, text))
+        server.bus.publish(TOPIC, value, origin=pub.origin, seed=seeded(len(frame), TOPIC, text))
         if len(out) > 1000:
             out.clear()
 

@@ -264,8 +264,8 @@ async def loop_cost(count: int, rounds: int) -> None:
 
     from hitrobot_server.bus.core import Bus
     from hitrobot_server.record.recorder import Recorder
+    from hitrobot_server.session.rosbridge.encodings import seeded
     from hitrobot_server.types.registry import TypeRegistry
-    from hitrobot_server.wire.encoded import Seed
 
     src = bb.ScanSource("/scan")
     ops = [src.frame(i) for i in range(64)]
@@ -275,7 +275,7 @@ async def loop_cost(count: int, rounds: int) -> None:
         t0 = time.process_time()
         for i in range(count):
             op = ops[i % 64]
-            bus.publish("/scan", msgs[i % 64], seed=Seed(len(op), "/scan", op))
+            bus.publish("/scan", msgs[i % 64], seed=seeded(len(op), "/scan", op))
             if i % 50 == 49:
                 await asyncio.sleep(0)  # the loop's timers run (the recorder's hand-off)
         return time.process_time() - t0

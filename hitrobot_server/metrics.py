@@ -44,7 +44,7 @@ from .session.rosbridge.session import Session
 from .session.traffic import Traffic, counts_of
 from .site import SiteUnit
 from .state import StateStore
-from .wire.encoded import Encoded, Seed
+from .wire.memo import size_of
 
 METRICS_DIR = "HITROBOT_METRICS_DIR"  # the environment variable the --workers parent sets
 PEER_TIMEOUT = 2.0  # seconds to read another worker's samples
@@ -65,9 +65,7 @@ class ClientPublishes:
         origin = message.origin
         if origin is None or not origin.node.startswith(CLIENT_NODE_PREFIX):
             return
-        wire = message.wire
-        size = wire.size if isinstance(wire, Seed) else (
-            wire.size() if isinstance(wire, Encoded) else 0)
+        size = 0 if message.wire is None else size_of(message)  # (no memo: nothing known)
         counts = self.received.get(message.topic.name)
         if counts is None:
             counts = counts_of(self.received, message.topic.name, lambda: [0, 0])

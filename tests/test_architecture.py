@@ -22,7 +22,7 @@ ALLOWED: dict[str, set[str]] = {
     "state": set(),  # the robot's state folder: below the robot and the nodes that write it
     "protocol": {"types"},
     "bus": {"types"},  # the bus knows no wire format (wire/ and protocol/ sit above it)
-    "wire": {"bus", "protocol", "types"},  # encodings and frames of messages and replies
+    "wire": {"bus"},  # a message's memo of encodings by typed key, frames: no protocol
     "robot": {"types", "tf_buffer", "state"},
     "session": {"wire", "bus", "protocol", "types"},
     "transport": {"session", "protocol", "types"},

@@ -66,7 +66,7 @@ _codecs: weakref.WeakKeyDictionary[TypeRegistry, Ros2Codec] = weakref.WeakKeyDic
 
 
 def codec_for(types: TypeRegistry) -> Ros2Codec:
-    """The one codec of a registry, so the CDR kept on a message (``Encoded.cdr``) is the
+    """The one codec of a registry, so the CDR kept on a message (``Message.cdr``) is the
     same bytes for the Zenoh link and the Foxglove sessions."""
     codec = _codecs.get(types)
     if codec is None:

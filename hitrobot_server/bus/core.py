@@ -32,7 +32,7 @@ from .services import (
     calling_as,
 )
 from .tap import BusTap, client_op
-from .topics import Message, Origin, Subscriber, Topic
+from .topics import Message, Origin, Subscriber, Topic, WireMemo
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -126,13 +126,13 @@ class Bus:
         stamp: float | None = None,
         reply: Status | None = None,
         origin: Origin | None = None,
-        seed: object = None,
+        seed: WireMemo | None = None,
     ) -> Message:
         """Fan ``msg`` (canonical dict) out to every subscriber of an existing topic.
 
         ``reply`` reaches the publisher when a subscriber refuses the message; ``seed`` is
-        what the publisher already has of its encodings (a client's own text of it: the wire
-        floor's ``Seed``, kept in the message's ``wire`` slot without a look).
+        what the publisher already has of its encodings (a client's own text of it, its size:
+        the wire floor's ``Memo``, kept in the message's ``wire`` slot without a look).
         """
         topic = self.topics.get(name) or self.topics.get(canonical(name))
         if topic is None:

@@ -7,7 +7,7 @@ import itertools
 import logging
 from collections.abc import Callable, Hashable, Iterator
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 from ..types.registry import MsgType, TypeRegistry
 from .requests import Reply, Status
@@ -21,13 +21,21 @@ class Codec(Protocol):
     def encode(self, msg: dict, mtype: MsgType) -> bytes: ...
 
 
+class WireMemo(Protocol):
+    """A message's other encodings, by typed key (hitrobot_server/wire/memo.py ``Memo``; each
+    wire protocol's package owns its keys). The bus holds it and never reads it: it knows no
+    wire format."""
+
+    made: dict[Any, Any]
+    size: int | None
+
+
 class Message:
     """One published message as every subscriber sees it.
 
     Its ROS 2 CDR, what the Zenoh link sends, is made once by whoever needs it first
     (:meth:`cdr`) and shared. Its other encodings are the wire floor's: the bus keeps them in
-    ``wire`` without looking (hitrobot_server/wire/encoded.py, ``encoded_of``), starting from
-    what its publisher handed in.
+    ``wire`` without looking, starting from what its publisher handed in (or None).
     """
 
     __slots__ = ("topic", "msg", "stamp", "seq", "origin", "wire", "cdr_bytes", "_status",
@@ -40,7 +48,7 @@ class Message:
         stamp: float,
         reply: Status | None = None,
         origin: Origin | None = None,
-        wire: object = None,
+        wire: WireMemo | None = None,
     ):
         self.topic = topic
         self.msg = msg

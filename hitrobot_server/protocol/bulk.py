@@ -6,8 +6,8 @@ conversion of Python lists hold the GIL for the whole call, so a 10 MB map parse
 encode only partly (25 ms stalls). Big ops therefore go to a worker *process*. What crosses the
 process boundary is pickled, so long numeric lists are turned into compact numpy arrays before
 they go back: a 4M-cell map is 4 MB of int8, not 4M Python ints. Outgoing ops (published
-messages and replies) are built by the wire floor (hitrobot_server/wire/frames.py), the same way
-inline and in the worker.
+messages and replies) are built by rosbridge's frame builder
+(hitrobot_server/session/rosbridge/frames.py), the same way inline and in the worker.
 """
 
 from __future__ import annotations

@@ -206,7 +206,7 @@ class Unadvertise:
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Publish:
     """``raw`` is the decoded op itself: its keys, in the client's order, let the client's own
-    text be sent on as the outgoing publish (wire/verbatim.py)."""
+    text be sent on as the outgoing publish (session/rosbridge/verbatim.py)."""
 
     OP: ClassVar[str] = "publish"
     id: MessageId = _optional_id()

@@ -44,7 +44,7 @@ from ..bus.core import Bus
 from ..bus.names import CLIENT_NODE_PREFIX, GlobFilter
 from ..bus.tap import ClientOp
 from ..bus.topics import Message
-from ..wire.encoded import Encoded, Seed
+from ..wire.memo import PUBLISHED_JSON
 from .files import check_writable, split_name
 from .handoff import CDR, JSON, MSG, BatchBuilder
 from .profile import AUDIT_TOPIC, AUDIT_TYPE
@@ -69,17 +69,11 @@ READ_ONLY_SERVICES = "/rosapi/"
 
 def known_bytes(message: Message) -> tuple[int, Any]:
     """The message as the writer takes it, without encoding anything: its CDR if someone made
-    it, else the client's own ``publish`` op when its ``msg`` is the message as it is (the bus
-    carries that text), else the message."""
+    it, else the client's own ``publish`` op when its ``msg`` is the message as it is (its memo's
+    ``PUBLISHED_JSON``, put by its publisher), else the message."""
     if message.cdr_bytes is not None:
         return CDR, message.cdr_bytes
-    wire = message.wire
-    if wire.__class__ is Encoded:
-        text = wire.client_json()  # type: ignore[attr-defined]
-    elif wire.__class__ is Seed:
-        text = wire.publish_json  # type: ignore[attr-defined]
-    else:
-        text = None
+    text = PUBLISHED_JSON.peek(message)
     return (JSON, text) if text is not None else (MSG, message.msg)
 
 

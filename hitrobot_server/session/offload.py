@@ -1,7 +1,7 @@
 """Big ops run in a worker process so that no client waits on another's map.
 
 Parsing a 10 MB publish, or encoding it as JSON or png, takes 100-500 ms of C code that holds
-the GIL (see wire/frames.py); on the event loop that is 100-500 ms in which no other client
+the GIL (see rosbridge/frames.py); on the event loop that is 100-500 ms in which no other client
 gets an answer. Ops and messages of at least ``OFFLOAD_BYTES`` go to a small process pool
 instead; smaller ones stay inline, where a pool round trip (~1 ms) would cost more than the work.
 The pool starts on first use, so a server that never sees a big message never pays for it; the

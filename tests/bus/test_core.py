@@ -10,8 +10,8 @@ from hitrobot_server.bus.core import Bus
 from hitrobot_server.bus.errors import ActionError, BusError, ServiceError
 from hitrobot_server.bus.params import ParamStore
 from hitrobot_server.bus.services import STATUS_CANCELED, STATUS_SUCCEEDED, GoalOutcome
+from hitrobot_server.session.rosbridge.encodings import PUBLISH_JSON
 from hitrobot_server.types.registry import TypeRegistry
-from hitrobot_server.wire.encoded import encoded_of
 
 
 @pytest.fixture
@@ -26,7 +26,7 @@ def test_publish_fans_out_one_message_object_to_all(bus):
         bus.subscribe("a", None, key, "/n", got.append)
     bus.publish("/a", {"data": "x"})
     assert len(got) == 3 and got[0] is got[1] is got[2]  # same Message: encoded once
-    assert encoded_of(got[0]).publish_json("/a") is encoded_of(got[1]).publish_json("/a")
+    assert PUBLISH_JSON.get(got[0], "/a") is PUBLISH_JSON.get(got[1], "/a")
 
 
 def test_latched_replay_and_type_conflict(bus):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hitrobot_server.protocol import bulk
-from hitrobot_server.wire.verbatim import verbatim_publish
+from hitrobot_server.session.rosbridge.verbatim import verbatim_publish
 
 
 def test_long_plain_numeric_lists_become_the_smallest_array_that_holds_them():

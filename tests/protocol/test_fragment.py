@@ -15,7 +15,7 @@ from hitrobot_server.protocol.fragment import (
     fragment_bytes,
     fragment_size_for,
 )
-from hitrobot_server.wire.frames import fragments
+from hitrobot_server.session.rosbridge.frames import fragments
 
 PAYLOAD = '{"op":"publish","topic":"/chatter","msg":{"data":"hello world"}}'
 

@@ -17,8 +17,8 @@ from hitrobot_server.record.handoff import MSG, Item
 from hitrobot_server.record.profile import AUDIT_TOPIC
 from hitrobot_server.record.recorder import Recorder, split_name
 from hitrobot_server.record.writer import write_recording
+from hitrobot_server.session.rosbridge.encodings import seeded
 from hitrobot_server.types.registry import TypeRegistry
-from hitrobot_server.wire.encoded import Seed
 
 from ..helpers import until
 
@@ -147,9 +147,9 @@ def test_write_recording_writes_encoded_messages_into_a_new_file_only(tmp_path):
 
 
 def client_publish(bus: Bus, topic: str, msg: dict) -> Message:
-    """As a rosbridge client's publish reaches the bus: with its own JSON op (the Seed)."""
+    """As a rosbridge client's publish reaches the bus: with its own JSON op (the seed)."""
     op = orjson.dumps({"op": "publish", "topic": topic, "msg": msg})
-    return bus.publish(topic, msg, seed=Seed(len(op), topic, op))
+    return bus.publish(topic, msg, seed=seeded(len(op), topic, op))
 
 
 async def test_a_client_publish_goes_to_the_writer_as_its_own_json(tmp_path):

@@ -24,12 +24,18 @@ from hitrobot_server.procmem import children
 from hitrobot_server.protocol import bulk, cbor, rawmsg
 from hitrobot_server.session.offload import WorkerPool
 from hitrobot_server.session.options import SessionOptions
+from hitrobot_server.session.rosbridge.encodings import (
+    PUBLISH_JSON,
+    PUBLISH_PNG,
+    has_lists,
+    publish_frames,
+    subscriber_frames,
+)
 from hitrobot_server.session.rosbridge.session import Session
+from hitrobot_server.session.rosbridge.verbatim import VERBATIM_MIN
 from hitrobot_server.types.convert import from_json
 from hitrobot_server.types.registry import TypeRegistry
-from hitrobot_server.wire.encoded import encoded_of, has_lists, publish_frames
 from hitrobot_server.wire.frames import PendingFrames
-from hitrobot_server.wire.verbatim import VERBATIM_MIN
 
 from ..helpers import WsClient
 from .test_encodings import decode_png_op
@@ -190,11 +196,10 @@ async def test_offloaded_frames_equal_the_inline_encoding(bus, compression, frag
                      "fragment_size": fragment_size})
     await feed(pub, publish_text("/map", grid(BIG, 7)))
     message = captured[0]
-    encoded = encoded_of(message)
-    offloaded = encoded.frames("/map", compression, fragment_size, sub.frames)
+    offloaded = subscriber_frames(message, "/map", compression, fragment_size, sub.frames)
     frames = await offloaded.future if isinstance(offloaded, PendingFrames) else offloaded
-    json_inline = encoded.publish_json("/map")  # the inline builders, never offloaded
-    inline = encoded.publish_png("/map") if compression == "png" else json_inline
+    json_inline = PUBLISH_JSON.get(message, "/map")  # the inline builders, never offloaded
+    inline = PUBLISH_PNG.get(message, "/map") if compression == "png" else json_inline
     if fragment_size:
         assert len(frames) > 1
         ops = [orjson.loads(f) for f, _ in frames]

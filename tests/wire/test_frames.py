@@ -9,9 +9,10 @@ import orjson
 from hitrobot_server.bus.core import Bus
 from hitrobot_server.protocol.bulk import OFFLOAD_BYTES
 from hitrobot_server.protocol.fragment import MIN_FRAGMENT_SIZE
+from hitrobot_server.session.rosbridge.encodings import subscriber_frames
+from hitrobot_server.session.rosbridge.frames import FrameBuilder, reply_data
 from hitrobot_server.types.registry import TypeRegistry
-from hitrobot_server.wire.encoded import encoded_of
-from hitrobot_server.wire.frames import FrameBuilder, PendingFrames, reply_data
+from hitrobot_server.wire.frames import PendingFrames
 
 
 def ids_of(frames) -> set[str]:
@@ -25,7 +26,7 @@ def test_topic_data_and_replies_never_share_a_fragment_id():
     seen: list[str] = []
     for i in range(3):
         message = bus.publish("/chatter", {"data": "x" * 5000 + str(i)})
-        seen += ids_of(encoded_of(message).frames("/chatter", "none", MIN_FRAGMENT_SIZE, builder))
+        seen += ids_of(subscriber_frames(message, "/chatter", "none", MIN_FRAGMENT_SIZE, builder))
         reply = {"op": "service_response", "values": {"message": "y" * 5000}, "result": True}
         seen += ids_of(builder.reply(reply, MIN_FRAGMENT_SIZE))
         seen += ids_of(builder.reply({**reply, "id": "c"}, MIN_FRAGMENT_SIZE))

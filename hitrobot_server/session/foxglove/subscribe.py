@@ -1,16 +1,17 @@
 """``subscribe`` / ``unsubscribe``: a client's subscriptions to the server's channels. A
-message's CDR is encoded once (its ``Encoded``) and each subscriber gets it behind its own
-13-byte header."""
+message's CDR is encoded once (``Message.cdr``) and each subscription gets it behind its own
+13-byte header, made once per message (:data:`DATA`, a key of the message's memo)."""
 
 from __future__ import annotations
 
 import functools
 from typing import TYPE_CHECKING
 
+from ...bus.cdr import codec_for
 from ...bus.errors import BusError
 from ...bus.topics import Message
 from ...protocol import foxglove as fg
-from ...wire.encoded import Encoded
+from ...wire.memo import MemoKey
 
 if TYPE_CHECKING:
     from .context import FoxgloveContext
@@ -21,6 +22,17 @@ MAX_SUBSCRIPTIONS = 4096
 MAX_PER_CHANNEL = 16
 """Most subscriptions of one client to one channel: the protocol allows several, a client
 needs one; 100,000 ids on ``/scan`` would frame every scan 100,000 times."""
+
+
+def _data(message: Message, sub_id: int) -> bytes:
+    cdr = message.cdr_bytes  # made already by the delivery
+    if cdr is None:
+        cdr = message.cdr(codec_for(message.topic.types))
+    return fg.message_data(sub_id, fg.nanoseconds(message.stamp), cdr)
+
+
+DATA: MemoKey[bytes] = MemoKey("foxglove: message data frame", _data)
+"""A Foxglove message data frame around the message's CDR; variant: the subscription id."""
 
 
 class SubscribeOps:
@@ -97,7 +109,7 @@ class SubscribeOps:
         """Called by the bus for every message; must never block or raise."""
         c = self.client
         try:
-            cdr = message.cdr(c.codec)
+            message.cdr(c.codec)  # made here first, so a message that cannot be is told once
         except Exception as exc:
             name = message.topic.name
             if name not in self._bad_encodings:
@@ -105,10 +117,7 @@ class SubscribeOps:
                 c.out.status(fg.WARNING, f"topic '{name}': a message could not be encoded as "
                              f"CDR ({exc}); such messages are skipped")
             return
-        encoded = message.wire
-        if encoded.__class__ is not Encoded:  # (encoded_of, one call shorter on this path)
-            encoded = Encoded(message)
-        c.out.data([(encoded.foxglove(sub_id, cdr), True)], message.topic.name)
+        c.out.data([(DATA.get(message, sub_id), True)], message.topic.name)
 
     def unsubscribe(self, op: dict) -> None:
         unknown = []

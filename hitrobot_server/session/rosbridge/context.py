@@ -14,10 +14,10 @@ from typing import Any, Protocol
 from ...bus.core import Bus
 from ...bus.topics import Origin
 from ...protocol.ops import CallService, SendActionGoal, Subscribe
-from ...wire.frames import FrameBuilder
 from ..offload import WorkerPool
 from ..options import SessionOptions
 from ..outbox import Outbox
+from .frames import FrameBuilder
 
 
 class OpContext(Protocol):

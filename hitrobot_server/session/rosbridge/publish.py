@@ -8,8 +8,8 @@ from ...bus.names import GlobFilter, canonical, valid_name
 from ...protocol.errors import MessageId, ProtocolError
 from ...protocol.ops import ABSENT, Advertise, Publish, Unadvertise
 from ...types.convert import from_json_verbatim
-from ...wire.encoded import Seed
-from ...wire.verbatim import VERBATIM_MIN, verbatim_publish
+from .encodings import seeded
+from .verbatim import VERBATIM_MIN, verbatim_publish
 
 if TYPE_CHECKING:
     from .context import OpContext
@@ -98,7 +98,7 @@ class PublishOps:
             text = None
             if verbatim and body is op.msg:
                 text = verbatim_publish(frame, op.raw)  # the client's text is the outgoing op
-            seed = Seed(len(frame), op.topic, text)  # the op's length: the message's size
+            seed = seeded(len(frame), op.topic, text)  # the op's length: the message's size
         if missing:
             c.status(
                 "warning",

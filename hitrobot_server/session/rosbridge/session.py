@@ -27,7 +27,6 @@ from ...protocol.fragment import MIN_FRAGMENT_SIZE, FragmentBudget
 from ...protocol.status import should_send
 from ...types import jsoncodec
 from ...types.convert import ConversionError
-from ...wire.frames import FrameBuilder, json_frames
 from ..client import Pending, release_client
 from ..limits import STREAM_ERRORS_PER_SECOND, ReportLimits, over_reply_bound, replies_full
 from ..offload import WorkerPool
@@ -35,6 +34,7 @@ from ..options import SessionOptions
 from ..outbox import Outbox, nbytes
 from .actions import ActionOps
 from .fragments import IncomingFragments
+from .frames import FrameBuilder, json_frames
 from .publish import PublishOps, TopicNames
 from .services import ServiceOps
 from .subscribe import SubscribeOps

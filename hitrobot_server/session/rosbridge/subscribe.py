@@ -23,7 +23,8 @@ from typing import TYPE_CHECKING
 from ...bus.topics import Message, Topic
 from ...protocol.errors import ProtocolError
 from ...protocol.ops import Subscribe, Unsubscribe
-from ...wire.encoded import Encoded, encoded_of, is_binary, strongest
+from ...wire.memo import size_of
+from .encodings import is_binary, strongest, subscriber_frames
 from .publish import TopicNames
 
 if TYPE_CHECKING:
@@ -89,7 +90,7 @@ class ClientSubscription:
     def _queue(self, message: Message) -> None:
         """Queue a message; a full queue, or this client's queues over their byte limit, drop
         their oldest first (and, with nothing left to drop, the newest)."""
-        size = encoded_of(message).size()  # an estimate: encoding here puts big maps on the loop
+        size = size_of(message)  # an estimate: encoding here puts big maps on the loop
         ops = self.ops
         limit = self.client.settings.send_buffer_limit
         while self._pending and (
@@ -128,11 +129,8 @@ class ClientSubscription:
             self._arm(time.monotonic())
 
     def _send(self, message: Message) -> None:
-        encoded = message.wire
-        if encoded.__class__ is not Encoded:  # (encoded_of, one call shorter on this path)
-            encoded = Encoded(message)
-        frames = encoded.frames(
-            self.topic_str, self.compression, self.fragment_size, self.client.frames
+        frames = subscriber_frames(
+            message, self.topic_str, self.compression, self.fragment_size, self.client.frames
         )
         self.client.outbox.put(frames, True, self.topic_str, self.queue_length or None)
 

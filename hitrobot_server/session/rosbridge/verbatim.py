@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import orjson
 
-from .encoded import publish_head, publish_json
+from .encodings import publish_head, publish_json
 
 VERBATIM_MIN = 2048
 """Publish ops shorter than this are re-encoded: checking the text costs about 2 us, encoding
