@@ -110,7 +110,7 @@ class FoxgloveSession:
         # the channels and services there are, told at once (one advertise of each)
         self.channel_ops.sync_channels(self.subscriptions, self.channel_ops.topic_names())
         self.channel_ops.sync_services(self.channel_ops.service_names())
-        bus.watchers.append(self._changed)
+        shared.graph.watch(self._changed)  # here and across the link (other workers)
         bus.params.watchers.append(self._param_changed)
         self._time_handle = asyncio.get_running_loop().call_soon(self._tick)
 
@@ -205,10 +205,10 @@ class FoxgloveSession:
         task.add_done_callback(self._tasks.discard)
         return task
 
-    # ------------------------------------------------------------------ the bus changed
+    # ------------------------------------------------------------------ the graph changed
     def _changed(self, kind: str, name: str) -> None:
-        """The bus changed: sync what changed of channels, services and the graph once,
-        after this step."""
+        """The graph changed (here or in a process the link joins): sync what changed of
+        channels, services and the graph once, after this step."""
         if self.closed:
             return
         self._changes.add((kind, name))
@@ -229,7 +229,7 @@ class FoxgloveSession:
                     {name for kind, name in changes if kind == "topic"}
                 services = ops.service_names() if everything else \
                     {name for kind, name in changes if kind == "service"}
-                self.shared.prune(self.bus)
+                self.shared.prune()
                 for part in _batches(topics):
                     ops.sync_channels(self.subscriptions, part)
                     await asyncio.sleep(0)
@@ -263,8 +263,7 @@ class FoxgloveSession:
         self.outbox.clear()  # freed now, not by the next full collection
         if self._time_handle is not None:
             self._time_handle.cancel()
-        if self._changed in self.bus.watchers:
-            self.bus.watchers.remove(self._changed)
+        self.shared.graph.unwatch(self._changed)
         if self._param_changed in self.bus.params.watchers:
             self.bus.params.watchers.remove(self._param_changed)
         self.subscriptions.close()
