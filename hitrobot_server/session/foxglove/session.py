@@ -19,16 +19,14 @@ from typing import Any
 
 from ...bus.core import Bus
 from ...bus.errors import BusError
-from ...bus.names import CLIENT_NODE_PREFIX
 from ...bus.params import ParamError, without_gc
-from ...bus.topics import Origin
 from ...protocol import foxglove as fg
 from ...protocol.foxglove_playback import CLIENT_PLAYBACK_CONTROL_REQUEST
-from ..client import Pending, release_client
+from ..client import Pending
+from ..core import ClientCore
 from ..options import SessionOptions
-from ..outbox import Outbox
 from .channels import ChannelOps
-from .frames import FoxgloveOutput
+from .frames import FoxgloveOutput, status_frames
 from .graph import GraphOps
 from .params import ParamOps
 from .playback import PlaybackOps
@@ -72,17 +70,15 @@ class FoxgloveSession:
         self.settings = settings
         self.shared = shared
         self.codec = shared.codec
-        self.peer = peer
         self.subprotocol = subprotocol
         # under the rosbridge clients' prefix, so diagnostics' /Bridge/Clients counts it too
-        self.node = f"{CLIENT_NODE_PREFIX}{settings.client_tag}foxglove_{next(shared.client_ids)}"
-        self.origin = Origin(self.node)
+        self.core = ClientCore(bus, settings, f"foxglove_{next(shared.client_ids)}", peer,
+                               lambda text: status_frames(fg.ERROR, text))
+        self.peer, self.node, self.outbox = peer, self.core.node, self.core.outbox
+        self.origin = self.core.origin
+        self.on_close: list[Callable[[FoxgloveSession], None]] = self.core.on_close
         self.pool = shared.pool
-        self.outbox = Outbox(settings.send_buffer_limit, settings.reply_buffer_limit)
-        self.out = FoxgloveOutput(self.outbox, self.node, settings.reply_buffer_limit)
-        self.closed = False
-        self.on_close: list[Callable[[FoxgloveSession], None]] = []
-        self._tasks: set[asyncio.Task] = set()  # big decodes, cancelled when the client goes
+        self.out = FoxgloveOutput(self.core)
         self._changes: set[tuple[str, str]] = set()  # (kind, name) changed since the last sync
         self.channel_ops = ChannelOps(self)
         self.channels = self.channel_ops.channels  # channel id advertised → topic
@@ -96,7 +92,6 @@ class FoxgloveSession:
         self._handlers = self._op_table()
         self._sync_task: asyncio.Task | None = None
         self._time_handle: asyncio.TimerHandle | None = None
-        bus.register_node(self.node)
         log.info("foxglove client %s connected from %s (%s)", self.node, peer or "?", subprotocol)
         if settings.authenticate:
             # The protocol has no auth op: with --authenticate nothing is served to it.
@@ -117,7 +112,11 @@ class FoxgloveSession:
     @property
     def close_reason(self) -> str:
         """Why the server disconnected the client (the transport closes with it, 1008)."""
-        return self.out.close_reason
+        return self.core.close_reason
+
+    @property
+    def closed(self) -> bool:
+        return self.core.closed
 
     def _op_table(self) -> dict[str, Callable[[dict], None]]:
         """Each JSON op's handler, by the ``op`` its parser (protocol/foxglove.py) checked."""
@@ -200,10 +199,7 @@ class FoxgloveSession:
 
     def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:
         """Run a coroutine tied to this client; it is cancelled when the client goes."""
-        task = asyncio.ensure_future(coro)
-        self._tasks.add(task)
-        task.add_done_callback(self._tasks.discard)
-        return task
+        return self.core.spawn(coro)
 
     # ------------------------------------------------------------------ the graph changed
     def _changed(self, kind: str, name: str) -> None:
@@ -259,7 +255,7 @@ class FoxgloveSession:
         """The connection is gone: release everything this client held on the bus."""
         if self.closed:
             return
-        self.closed = True
+        self.core.closed = True
         self.outbox.clear()  # freed now, not by the next full collection
         if self._time_handle is not None:
             self._time_handle.cancel()
@@ -268,7 +264,7 @@ class FoxgloveSession:
             self.bus.params.watchers.remove(self._param_changed)
         self.subscriptions.close()
         self.playback.close()
-        release_client(self, self.service_ops.tasks | self._tasks)
+        self.core.release(self)
         self._handlers.clear()  # bound methods of the op groups: session ↔ ops cycles
         log.info("foxglove client %s (%s) disconnected", self.node, self.peer or "?")
 
