@@ -12,6 +12,7 @@ client's identity, its input and its life.
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import logging
 import uuid
 from collections.abc import Callable, Coroutine
@@ -45,9 +46,6 @@ MAX_TEXT_BYTES = 16 * 1024 * 1024
 BATCH = 256
 """Entries of a listing op handled in one step of the event loop: an op of 10,000 channels
 is handled in steps of this many, other clients served in between."""
-BATCHED = {"subscribe": "subscriptions", "unsubscribe": "subscriptionIds",
-           "advertise": "channels", "unadvertise": "channelIds"}
-"""The ops that list many entries, and the field that lists them."""
 SYNC_BATCH = 16
 """Topics (or services) synced in one step of the event loop: a type a Foxglove client is
 told of first costs its schema (a few ms)."""
@@ -118,20 +116,20 @@ class FoxgloveSession:
     def closed(self) -> bool:
         return self.core.closed
 
-    def _op_table(self) -> dict[str, Callable[[dict], None]]:
-        """Each JSON op's handler, by the ``op`` its parser (protocol/foxglove.py) checked."""
+    def _op_table(self) -> dict[type, Callable[[Any], None]]:
+        """Each JSON op's handler, by the class its parser (protocol/foxglove.py) made."""
         return {
-            "subscribe": self.subscriptions.subscribe,
-            "unsubscribe": self.subscriptions.unsubscribe,
-            "advertise": self.publishing.advertise,
-            "unadvertise": self.publishing.unadvertise,
-            "getParameters": self._get_parameters,
-            "setParameters": self.param_ops.set,
-            "subscribeParameterUpdates": self.param_ops.subscribe,
-            "unsubscribeParameterUpdates": self.param_ops.unsubscribe,
-            "subscribeConnectionGraph": self.graph_ops.subscribe,
-            "unsubscribeConnectionGraph": self.graph_ops.unsubscribe,
-            "fetchAsset": _fetch_asset,
+            fg.Subscribe: self.subscriptions.subscribe,
+            fg.Unsubscribe: self.subscriptions.unsubscribe,
+            fg.Advertise: self.publishing.advertise,
+            fg.Unadvertise: self.publishing.unadvertise,
+            fg.GetParameters: self._get_parameters,
+            fg.SetParameters: self.param_ops.set,
+            fg.SubscribeParameterUpdates: self.param_ops.subscribe,
+            fg.UnsubscribeParameterUpdates: self.param_ops.unsubscribe,
+            fg.SubscribeConnectionGraph: self.graph_ops.subscribe,
+            fg.UnsubscribeConnectionGraph: self.graph_ops.unsubscribe,
+            fg.FetchAsset: _fetch_asset,
         }
 
     # ------------------------------------------------------------------ input
@@ -152,11 +150,11 @@ class FoxgloveSession:
                     f"text frame of {len(data)} bytes: JSON ops are at most "
                     f"{MAX_TEXT_BYTES} bytes; message data goes in binary frames"
                 )
-            op = _parse_text(data)
-            field = BATCHED.get(op["op"])
-            if field is not None and len(op[field]) > BATCH:
+            op = _parse_op(data)
+            field = op.LISTS
+            if field is not None and len(getattr(op, field)) > BATCH:
                 return self.spawn(self._batched(op, field))
-            self._handlers[op["op"]](op)
+            self._handlers[type(op)](op)
         except fg.FoxgloveError as exc:
             self.out.status(fg.ERROR, str(exc))
         except (BusError, ParamError) as exc:  # a refusal of the bus, named by it
@@ -172,22 +170,22 @@ class FoxgloveSession:
         self.service_ops.call(frame)
         return None
 
-    async def _batched(self, op: dict, field: str) -> None:
+    async def _batched(self, op: fg.ClientOp, field: str) -> None:
         """A long listing op in steps of :data:`BATCH` entries (the transport reads this
         client's next frame once all are done); its refusals still make one status each."""
-        entries, handler = op[field], self._handlers[op["op"]]
+        entries, handler = getattr(op, field), self._handlers[type(op)]
         self.out.gather()
         try:
             for start in range(0, len(entries), BATCH):
                 if self.closed:
                     return
-                handler({**op, field: entries[start:start + BATCH]})
+                handler(dataclasses.replace(op, **{field: entries[start:start + BATCH]}))
                 await asyncio.sleep(0)
         finally:
             if not self.closed:
                 self.out.flush()
 
-    def _get_parameters(self, op: dict) -> None:
+    def _get_parameters(self, op: fg.GetParameters) -> None:
         """``getParameters``, refused while this client's unread replies are over its budget
         (each reply may be the whole parameter tree)."""
         if self.out.full:
@@ -269,11 +267,11 @@ class FoxgloveSession:
         log.info("foxglove client %s (%s) disconnected", self.node, self.peer or "?")
 
 
-def _parse_text(data: str | bytes) -> dict:
-    """``fg.parse_text`` with the cyclic garbage collector paused: an op of 10,000 entries
+def _parse_op(data: str | bytes) -> fg.ClientOp:
+    """``fg.parse_op`` with the cyclic garbage collector paused: an op of 10,000 entries
     makes 40,000 objects, whose creation would trigger a collection walking the whole server
     (100 ms) that their reference counts make useless (as the parameter store parses)."""
-    return without_gc(fg.parse_text, data)
+    return without_gc(fg.parse_op, data)
 
 
 def _batches(names: set[str]) -> list[list[str]]:
@@ -281,5 +279,5 @@ def _batches(names: set[str]) -> list[list[str]]:
     return [ordered[i:i + SYNC_BATCH] for i in range(0, len(ordered), SYNC_BATCH)]
 
 
-def _fetch_asset(op: dict) -> None:
+def _fetch_asset(op: fg.FetchAsset) -> None:
     raise fg.FoxgloveError("fetchAsset: this server has no 'assets' capability")
