@@ -20,7 +20,7 @@ from typing import Any
 from ...bus.core import Bus
 from ...bus.errors import BusError
 from ...bus.topics import Origin
-from ...protocol import auth, bulk, cbor, ops, png
+from ...protocol import auth, bulk, cbor, ops, outbound, png
 from ...protocol.errors import ProtocolError, message_id, status_op
 from ...protocol.fragment import MIN_FRAGMENT_SIZE, FragmentBudget
 from ...protocol.status import should_send
@@ -220,11 +220,7 @@ class Session:
                 f"pending and {queued} bytes of replies not read yet "
                 f"(--reply-buffer-limit {limit}); refused")
         if isinstance(op, ops.CallService):
-            reply = {"op": "service_response", "service": op.service, "values": text,
-                     "result": False}
-            if op.id is not None:
-                reply["id"] = op.id
-            self.send(reply)
+            self.send(outbound.service_response(op.service, op.id, text, False))
         self.status("error", text, op.id)
         return True
 
