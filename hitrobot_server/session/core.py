@@ -90,6 +90,15 @@ class ClientCore:
         task.add_done_callback(self.tasks.discard)
         return task
 
+    def close(self) -> bool:
+        """The connection is gone: the client is closed and its queue freed now (not by the
+        next full collection); False when it already was."""
+        if self.closed:
+            return False
+        self.closed = True
+        self.outbox.clear()
+        return True
+
     def release(self, owner: object) -> None:
         """What the client gives back when its connection goes: its tasks, what ``owner``
         (its session) holds on the bus and its node; then its close callbacks run once (with

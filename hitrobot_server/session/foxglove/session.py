@@ -251,10 +251,8 @@ class FoxgloveSession:
     # ------------------------------------------------------------------ lifecycle
     def close(self) -> None:
         """The connection is gone: release everything this client held on the bus."""
-        if self.closed:
+        if not self.core.close():
             return
-        self.core.closed = True
-        self.outbox.clear()  # freed now, not by the next full collection
         if self._time_handle is not None:
             self._time_handle.cancel()
         self.shared.graph.unwatch(self._changed)

@@ -314,10 +314,8 @@ class Session:
 
     def close(self) -> None:
         """The connection is gone: release everything this client held on the bus."""
-        if self.closed:
+        if not self.core.close():
             return
-        self.core.closed = True
-        self.outbox.clear()  # freed now, not by the next full collection
         self.fragments.close()
         self.subscriptions.close()
         self.service_ops.close()
