@@ -5,14 +5,11 @@ query (``whole_graph``); a participant that follows it (Foxglove's channels) hol
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from ..types.registry import UnknownType
 from .core import Bus
-
-log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -61,29 +58,17 @@ class GraphView:
 
     def __init__(self, bus: Bus):
         self.bus = bus
-        self.watchers: list[Watcher] = []
 
     def watch(self, watcher: Watcher) -> None:
-        """Hear every change, local or remote, from now on."""
-        if not self.watchers:
-            self.bus.watchers.append(self._changed)
-            self.bus.remote_watchers.append(self._changed)
-        self.watchers.append(watcher)
+        """Hear every change, local (``Bus.watchers``) or remote (``Bus.remote_watchers``,
+        which the link calls), from now on."""
+        self.bus.watchers.append(watcher)
+        self.bus.remote_watchers.append(watcher)
 
     def unwatch(self, watcher: Watcher) -> None:
-        if watcher in self.watchers:
-            self.watchers.remove(watcher)
-        if not self.watchers:
-            for hooks in (self.bus.watchers, self.bus.remote_watchers):
-                if self._changed in hooks:
-                    hooks.remove(self._changed)
-
-    def _changed(self, kind: str, name: str) -> None:
-        for watcher in list(self.watchers):
-            try:
-                watcher(kind, name)
-            except Exception:
-                log.exception("graph watcher %r failed", watcher)
+        for hooks in (self.bus.watchers, self.bus.remote_watchers):
+            if watcher in hooks:
+                hooks.remove(watcher)
 
     def topic_names(self) -> set[str]:
         return set(self.bus.topics) | set(self.bus.remote_graph().topics)

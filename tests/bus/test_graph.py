@@ -56,7 +56,7 @@ async def test_local_and_remote_are_one_graph():
 async def test_the_graph_view_hears_local_and_link_changes_as_one():
     """A GraphView names topics and services on either side (this process's type first) and
     raises one change event for a local change and for another process's entity (as the
-    Zenoh link reports its tokens), until its last watcher leaves."""
+    Zenoh link reports its tokens), until it is unwatched."""
     bus = Bus(TypeRegistry.default(), unregister_timeout=0)
     link = ZenohLink(bus)  # never started: no session, no network
     link.peer.zid = "a" * 32
@@ -86,8 +86,9 @@ async def test_the_graph_view_hears_local_and_link_changes_as_one():
 
     announce(False, PUBLISHER, 1, "/scan", "sensor_msgs/msg/LaserScan")
     assert heard[-1] == ("topic", "/scan") and "/scan" not in view.topic_names()
+    watcher = bus.remote_watchers[0]
     view.unwatch(heard.append)  # not a watcher: nothing changes
-    assert view.watchers
-    view.unwatch(view.watchers[0])
-    assert view._changed not in bus.watchers and view._changed not in bus.remote_watchers
+    assert bus.remote_watchers == [watcher]
+    view.unwatch(watcher)
+    assert watcher not in bus.watchers and watcher not in bus.remote_watchers
     bus.link = None

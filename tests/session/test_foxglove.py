@@ -268,7 +268,7 @@ async def test_close_releases_everything(hub):
     fox.session.close()
     assert fox.session.node not in hub.bus.nodes
     assert fox.session._changed not in hub.bus.watchers
-    assert fox.session._changed not in fox.shared.graph.watchers
+    assert fox.session._changed not in hub.bus.remote_watchers
     for topic in hub.bus.topics.values():
         assert fox.session not in topic.publishers
         assert all(k[0] is not fox.session for k in topic.subscribers if isinstance(k, tuple))

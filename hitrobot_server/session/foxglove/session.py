@@ -43,6 +43,8 @@ TIME_PERIOD = 0.1
 PLAYBACK_REQUEST = bytes([CLIENT_PLAYBACK_CONTROL_REQUEST])
 MAX_TEXT_BYTES = 16 * 1024 * 1024
 """Largest JSON op accepted (ops are small; binary frames carry the data)."""
+PAUSE_GC_BYTES = 16 * 1024
+"""JSON ops from this size up are parsed with the garbage collector paused."""
 BATCH = 256
 """Entries of a listing op handled in one step of the event loop: an op of 10,000 channels
 is handled in steps of this many, other clients served in between."""
@@ -88,7 +90,7 @@ class FoxgloveSession:
         self.graph_ops = GraphOps(self)
         self.playback = PlaybackOps(self)  # replay's playbackControl (helper replay)
         self._handlers = self._op_table()
-        self._sync_task: asyncio.Task | None = None
+        self._wake = asyncio.Event()  # set when _changes has something to sync
         self._time_handle: asyncio.TimerHandle | None = None
         log.info("foxglove client %s connected from %s (%s)", self.node, peer or "?", subprotocol)
         if settings.authenticate:
@@ -104,6 +106,7 @@ class FoxgloveSession:
         self.channel_ops.sync_channels(self.subscriptions, self.channel_ops.topic_names())
         self.channel_ops.sync_services(self.channel_ops.service_names())
         shared.graph.watch(self._changed)  # here and across the link (other workers)
+        self.spawn(self._sync_loop())
         bus.params.watchers.append(self._param_changed)
         self._time_handle = asyncio.get_running_loop().call_soon(self._tick)
 
@@ -137,7 +140,7 @@ class FoxgloveSession:
         """One WebSocket frame; every failure becomes an error status, never an exception.
         A task when a big message is being decoded in the worker pool (the transport awaits
         it before the next frame, so one client's frames keep their order)."""
-        if self.closed or self.outbox.closed:
+        if self.core.closed or self.outbox.closed:
             return None
         try:
             if binary:
@@ -202,40 +205,47 @@ class FoxgloveSession:
     # ------------------------------------------------------------------ the graph changed
     def _changed(self, kind: str, name: str) -> None:
         """The graph changed (here or in a process the link joins): sync what changed of
-        channels, services and the graph once, after this step."""
-        if self.closed:
+        channels, services and the graph once, after this step (the sync loop wakes)."""
+        if self.core.closed:
             return
         self._changes.add((kind, name))
-        if self._sync_task is None:
-            self._sync_task = self.spawn(self._sync())
+        self._wake.set()
+
+    async def _sync_loop(self) -> None:
+        """The client's one sync task, for its life: each wake-up syncs what changed since
+        (a burst of changes is one sync). It ends when the client goes (the core cancels it)."""
+        while True:
+            await self._wake.wait()
+            self._wake.clear()
+            try:
+                await self._sync()
+            except Exception:  # the next change syncs again
+                log.exception("foxglove client %s: sync failed", self.node)
 
     async def _sync(self) -> None:
         """Channels, services and the graph brought up to date: for the names changed since
         the last sync (everything after an action changed), in steps of
         :data:`SYNC_BATCH` names (a name seen first costs its schema), other clients served in
         between."""
-        try:
-            while self._changes and not self.closed:
-                changes, self._changes = self._changes, set()
-                everything = any(kind == "action" for kind, _name in changes)
-                ops = self.channel_ops
-                topics = ops.topic_names() if everything else \
-                    {name for kind, name in changes if kind == "topic"}
-                services = ops.service_names() if everything else \
-                    {name for kind, name in changes if kind == "service"}
-                self.shared.prune()
-                for part in _batches(topics):
-                    ops.sync_channels(self.subscriptions, part)
-                    await asyncio.sleep(0)
-                for part in _batches(services):
-                    ops.sync_services(part)
-                    await asyncio.sleep(0)
-                if not everything:
-                    self.graph_ops.changed(topics, services)
-                elif self.graph_ops.graph is not None:
-                    self.graph_ops.send()
-        finally:
-            self._sync_task = None
+        while self._changes and not self.closed:
+            changes, self._changes = self._changes, set()
+            everything = any(kind == "action" for kind, _name in changes)
+            ops = self.channel_ops
+            topics = ops.topic_names() if everything else \
+                {name for kind, name in changes if kind == "topic"}
+            services = ops.service_names() if everything else \
+                {name for kind, name in changes if kind == "service"}
+            self.shared.prune()
+            for part in _batches(topics):
+                ops.sync_channels(self.subscriptions, part)
+                await asyncio.sleep(0)
+            for part in _batches(services):
+                ops.sync_services(part)
+                await asyncio.sleep(0)
+            if not everything:
+                self.graph_ops.changed(topics, services)
+            elif self.graph_ops.graph is not None:
+                self.graph_ops.send()
 
     def _param_changed(self, name: str) -> None:
         if not self.closed:
@@ -266,9 +276,12 @@ class FoxgloveSession:
 
 
 def _parse_op(data: str | bytes) -> fg.ClientOp:
-    """``fg.parse_op`` with the cyclic garbage collector paused: an op of 10,000 entries
-    makes 40,000 objects, whose creation would trigger a collection walking the whole server
-    (100 ms) that their reference counts make useless (as the parameter store parses)."""
+    """``fg.parse_op``, with the cyclic garbage collector paused for a long op: one of 10,000
+    entries makes 40,000 objects, whose creation would trigger a collection walking the whole
+    server (100 ms) that their reference counts make useless (as the parameter store parses).
+    An op under :data:`PAUSE_GC_BYTES` makes too few to matter."""
+    if len(data) < PAUSE_GC_BYTES:
+        return fg.parse_op(data)
     return without_gc(fg.parse_op, data)
 
 
