@@ -14,7 +14,7 @@ from ...bus.services import (
     GoalHandle,
     GoalOutcome,
 )
-from ...protocol import outbound
+from ...protocol import ops
 from ...protocol.errors import MessageId, ProtocolError
 from ...protocol.ops import (
     ActionFeedback,
@@ -46,7 +46,7 @@ class ActionOps:
         name = canonical(action_str)
 
         def fail(text: str) -> None:
-            c.send(outbound.action_result(op.action, op_id, text, STATUS_UNKNOWN, False))
+            c.send(ops.action_result(op.action, op_id, text, STATUS_UNKNOWN, False))
             c.status("error", f"send_action_goal: {text}", op_id)
 
         found = self._goal_of(op, name, op_id)
@@ -62,7 +62,7 @@ class ActionOps:
 
         def on_feedback(values: dict) -> None:
             if want_feedback:
-                c.send(outbound.action_feedback(op.action, op_id, values), fragment_size=frag)
+                c.send(ops.action_feedback(op.action, op_id, values), fragment_size=frag)
 
         c.bus.client_called("send_action_goal", name, c.origin)
         try:
@@ -78,7 +78,7 @@ class ActionOps:
             if t.cancelled():
                 return
             out: GoalOutcome = t.result()
-            c.send(outbound.action_result(op.action, op_id, out.values, out.status, out.result),
+            c.send(ops.action_result(op.action, op_id, out.values, out.status, out.result),
                    fragment_size=frag)
 
         task.add_done_callback(done)
@@ -129,9 +129,9 @@ class ActionOps:
             fut = asyncio.get_running_loop().create_future()
             self.serving[gid] = (fut, handle)
             handle.on_cancel.append(
-                lambda: c.send(outbound.cancel_action_goal(gid, name))
+                lambda: c.send(ops.cancel_action_goal(gid, name))
             )
-            c.send(outbound.send_action_goal(gid, name, type_name, handle.goal))
+            c.send(ops.send_action_goal(gid, name, type_name, handle.goal))
             try:
                 return await fut
             finally:

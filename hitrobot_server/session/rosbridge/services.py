@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 from ...bus.errors import ServiceError
 from ...bus.names import canonical, valid_name
-from ...protocol import outbound
+from ...protocol import ops
 from ...protocol.errors import MessageId, ProtocolError
 from ...protocol.ops import (
     COMPRESSIONS,
@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from .context import OpContext
 
 Reply = Callable[[Any, bool], dict]
-"""A ``service_response`` to one call, of its values and result (``outbound.service_response``
+"""A ``service_response`` to one call, of its values and result (``ops.service_response``
 with the call's service and id)."""
 
 
@@ -86,7 +86,7 @@ class ServiceOps:
             raise ProtocolError(
                 f"call_service: field 'service' is not a valid name: {service_str!r}", op_id
             )
-        reply = functools.partial(outbound.service_response, op.service, op_id)
+        reply = functools.partial(ops.service_response, op.service, op_id)
         frag = c.fragment_size(op)
 
         def fail(text: str) -> None:
@@ -157,7 +157,7 @@ class ServiceOps:
             rid = f"service_request:{name}:{next(counter)}"
             fut = asyncio.get_running_loop().create_future()
             self.pending[rid] = (fut, service.stype.response, name)
-            c.send(outbound.call_service(rid, name, request))
+            c.send(ops.call_service(rid, name, request))
             try:
                 return await fut
             finally:

@@ -20,7 +20,7 @@ from typing import Any
 from ...bus.core import Bus
 from ...bus.errors import BusError
 from ...bus.topics import Origin
-from ...protocol import auth, bulk, cbor, ops, outbound, png
+from ...protocol import auth, bulk, cbor, ops, png
 from ...protocol.errors import ProtocolError, message_id, status_op
 from ...protocol.fragment import MIN_FRAGMENT_SIZE, FragmentBudget
 from ...protocol.status import should_send
@@ -28,8 +28,7 @@ from ...types import jsoncodec
 from ...types.convert import ConversionError
 from ...wire.frames import FrameBuilder, Frames, json_frames
 from ..client import Pending
-from ..core import ClientCore
-from ..limits import STREAM_ERRORS_PER_SECOND
+from ..core import STREAM_ERRORS_PER_SECOND, ClientCore
 from ..offload import WorkerPool
 from ..options import SessionOptions
 from .actions import ActionOps
@@ -220,7 +219,7 @@ class Session:
                 f"pending and {queued} bytes of replies not read yet "
                 f"(--reply-buffer-limit {limit}); refused")
         if isinstance(op, ops.CallService):
-            self.send(outbound.service_response(op.service, op.id, text, False))
+            self.send(ops.service_response(op.service, op.id, text, False))
         self.status("error", text, op.id)
         return True
 
