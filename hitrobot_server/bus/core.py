@@ -61,8 +61,7 @@ class Bus:
         # Called with (kind, name) whenever a topic, service, action or node comes, goes or
         # changes publishers/subscribers (the Foxglove sessions keep their channels current).
         self.watchers: list[Callable[[str, str], None]] = []
-        # The same for another process's entities, as the link sees them (bus/graph.py)
-        self.remote_watchers: list[Callable[[str, str], None]] = []
+        self.remote_watchers: list[Callable[[str, str], None]] = []  # the same, told by the link
         self.taps: list[BusTap] = []  # observers of every publish (the recorder)
         self._seqs = itertools.count(1)  # numbers every message published here
 
