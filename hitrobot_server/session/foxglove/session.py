@@ -2,11 +2,12 @@
 
 The twin of the rosbridge session for clients that ask for the ``foxglove.websocket.v1`` (or
 ``foxglove.sdk.v1``) subprotocol: the same :class:`~..client.ClientSession` shape
-(``receive``, ``outbox``, ``close``), same bus, same per-client send bound. Every bus topic the
-``--topics-glob`` allows is a channel (CDR, ``ros2msg`` schema) kept current as topics come and
-go. Protocol parsing and building are in protocol/foxglove.py; the ops are in this package's
-op groups (channels, subscribe, publish, services, params, graph); this module holds the
-client's identity, its input and its life.
+(``receive``, ``outbox``, ``close``), same bus, the same client core (session/core.py: identity,
+outbox, limits, tasks, release). Every topic of the whole graph (this process and those its
+link joins) the ``--topics-glob`` allows is a channel (CDR, ``ros2msg`` schema) kept current as
+topics come and go. Protocol parsing and building are in protocol/foxglove.py; the ops are in
+this package's op groups (channels, subscribe, publish, services, params, graph); this module
+holds the client's input, its sync with the graph and its life.
 """
 
 from __future__ import annotations
