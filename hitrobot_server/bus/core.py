@@ -61,6 +61,7 @@ class Bus:
         # Called with (kind, name) whenever a topic, service, action or node comes, goes or
         # changes publishers/subscribers (the Foxglove sessions keep their channels current).
         self.watchers: list[Callable[[str, str], None]] = []
+        self.remote_watchers: list[Callable[[str, str], None]] = []  # the same, told by the link
         self.taps: list[BusTap] = []  # observers of every publish (the recorder)
         self._seqs = itertools.count(1)  # numbers every message published here
 
@@ -68,11 +69,11 @@ class Bus:
     def _changed(self, kind: str, name: str) -> None:
         if self.link is not None:
             self.link.changed(kind, name)
-        for watcher in list(self.watchers):
-            try:
-                watcher(kind, name)
-            except Exception:
-                log.exception("bus watcher %r failed", watcher)
+        _tell(self.watchers, kind, name)
+
+    def remote_changed(self, kind: str, name: str) -> None:
+        """The link saw another process's ``kind`` ``name`` come or go."""
+        _tell(self.remote_watchers, kind, name)
 
     def remote_graph(self) -> RemoteGraph:
         """What other processes joined to this bus have (empty without a link)."""
@@ -354,3 +355,11 @@ def _known_type(lookup: Callable[[str], T], type_name: str) -> T:
         return lookup(type_name)
     except UnknownType as exc:
         raise BusError(str(exc.args[0] if exc.args else exc)) from None
+
+
+def _tell(watchers: list[Callable[[str, str], None]], kind: str, name: str) -> None:
+    for watcher in list(watchers):
+        try:
+            watcher(kind, name)
+        except Exception:
+            log.exception("bus watcher %r failed", watcher)

@@ -1,7 +1,8 @@
 """The Foxglove WebSocket protocol (``foxglove.websocket.v1``, ``foxglove.sdk.v1``), sans-I/O.
 
-Parses what a Foxglove or Lichtblick client sends (JSON ops and binary frames) into checked
-values, and builds what the server sends. Nothing here touches a socket or the bus; the
+Parses what a Foxglove or Lichtblick client sends (JSON ops and binary frames) into checked,
+frozen values (one class per op, as rosbridge's ``protocol/ops.py``: :func:`parse_op`), and
+builds what the server sends. Nothing here touches a socket or the bus; the
 Foxglove session (session/foxglove/) drives it. Every malformed input raises
 :class:`FoxgloveError` whose text names the op and the field, never anything else.
 
@@ -17,7 +18,7 @@ import math
 import re
 import struct
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import orjson
 
@@ -88,6 +89,80 @@ class ServiceCallRequest:
     payload: bytes
 
 
+@dataclass(frozen=True, slots=True)
+class Subscribe:
+    LISTS: ClassVar[str | None] = "subscriptions"  # the field a long op is handled in steps of
+    subscriptions: tuple[tuple[int | None, int], ...]  # (id, or None: the server picks; channel)
+
+
+@dataclass(frozen=True, slots=True)
+class Unsubscribe:
+    LISTS: ClassVar[str | None] = "subscription_ids"
+    subscription_ids: tuple[int, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Advertise:
+    LISTS: ClassVar[str | None] = "channels"
+    channels: tuple[ClientChannel, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Unadvertise:
+    LISTS: ClassVar[str | None] = "channel_ids"
+    channel_ids: tuple[int, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class GetParameters:
+    LISTS: ClassVar[str | None] = None
+    parameter_names: tuple[str, ...]
+    id: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class SetParameters:
+    LISTS: ClassVar[str | None] = None
+    parameters: tuple[tuple[str, Any], ...]  # (name, value: None unsets it)
+    id: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class SubscribeParameterUpdates:
+    LISTS: ClassVar[str | None] = None
+    parameter_names: tuple[str, ...]
+    id: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class UnsubscribeParameterUpdates:
+    LISTS: ClassVar[str | None] = None
+    parameter_names: tuple[str, ...]
+    id: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class SubscribeConnectionGraph:
+    LISTS: ClassVar[str | None] = None
+
+
+@dataclass(frozen=True, slots=True)
+class UnsubscribeConnectionGraph:
+    LISTS: ClassVar[str | None] = None
+
+
+@dataclass(frozen=True, slots=True)
+class FetchAsset:
+    LISTS: ClassVar[str | None] = None
+    request_id: int
+    uri: str
+
+
+ClientOp = (Subscribe | Unsubscribe | Advertise | Unadvertise | GetParameters | SetParameters
+            | SubscribeParameterUpdates | UnsubscribeParameterUpdates | SubscribeConnectionGraph
+            | UnsubscribeConnectionGraph | FetchAsset)
+
+
 def _u32(value: Any, op: str, field: str) -> int:
     if value.__class__ is int and 0 <= value <= U32:  # the common case, checked fast
         return value
@@ -124,8 +199,21 @@ def _request_id(obj: dict, op: str) -> str | None:
     return value
 
 
+def parse_op(data: str | bytes) -> ClientOp:
+    """A JSON op as its frozen value, every field checked (:class:`FoxgloveError` otherwise)."""
+    return client_op(parse_text(data))
+
+
+def client_op(fields: dict) -> ClientOp:
+    """The frozen op of :func:`parse_text`'s checked fields (lists become tuples)."""
+    cls = OPS[fields["op"]]
+    return cls(**{_FIELDS[name]: tuple(value) if value.__class__ is list else value
+                  for name, value in fields.items() if name != "op"})
+
+
 def parse_text(data: str | bytes) -> dict:
-    """A JSON op as a dict with its fields checked (``op`` and the fields its handler reads).
+    """A JSON op as a dict with its fields checked (``op`` and the fields its handler reads),
+    by their wire names (:func:`client_op` makes its frozen value).
 
     Subscriptions come back as ``(id or None, channelId)`` pairs, client channels as
     :class:`ClientChannel`, parameters as ``(name, value)`` pairs (wire types decoded).
@@ -234,6 +322,25 @@ _PARSERS = {
     "fetchAsset": _parse_fetch_asset,
 }
 CLIENT_OPS = tuple(_PARSERS)
+OPS: dict[str, type[ClientOp]] = {
+    "subscribe": Subscribe,
+    "unsubscribe": Unsubscribe,
+    "advertise": Advertise,
+    "unadvertise": Unadvertise,
+    "getParameters": GetParameters,
+    "setParameters": SetParameters,
+    "subscribeParameterUpdates": SubscribeParameterUpdates,
+    "unsubscribeParameterUpdates": UnsubscribeParameterUpdates,
+    "subscribeConnectionGraph": SubscribeConnectionGraph,
+    "unsubscribeConnectionGraph": UnsubscribeConnectionGraph,
+    "fetchAsset": FetchAsset,
+}
+"""Each JSON op's frozen class, by its ``op``."""
+_FIELDS = {"subscriptions": "subscriptions", "subscriptionIds": "subscription_ids",
+           "channels": "channels", "channelIds": "channel_ids",
+           "parameterNames": "parameter_names", "parameters": "parameters", "id": "id",
+           "requestId": "request_id", "uri": "uri"}
+"""A checked field's wire name → its name in the op's class."""
 
 
 def parse_binary(data: bytes) -> ClientMessage | ServiceCallRequest:

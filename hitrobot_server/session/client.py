@@ -9,11 +9,9 @@ protocol is its own package under ``session/`` plus one ``register`` line in ser
 
 from __future__ import annotations
 
-import asyncio
 from collections.abc import Awaitable, Callable, Iterable, Sequence
 from typing import Any, Protocol, runtime_checkable
 
-from ..bus.core import Bus
 from ..protocol.errors import ProtocolError
 from .outbox import Outbox
 
@@ -83,22 +81,3 @@ class WireProtocols:
         if factory is None:
             return self.default(peer, transport)
         return factory(peer, subprotocol or "")
-
-
-class Releasable(Protocol):
-    bus: Bus
-    node: str
-    on_close: list[Callable[[Any], None]]
-
-
-def release_client(client: Releasable, tasks: set[asyncio.Task]) -> None:
-    """What every client session (rosbridge or Foxglove) gives back when its connection goes:
-    its tasks, what it owns on the bus and its node; then its close callbacks run once and are
-    dropped (they hold the server: no cycle outlives the session)."""
-    for task in list(tasks):
-        task.cancel()
-    client.bus.remove_owner(client)
-    client.bus.unregister_node(client.node)
-    for callback in client.on_close:
-        callback(client)
-    client.on_close.clear()

@@ -18,9 +18,12 @@ NAME_PARAM = re.compile(r"(name|topic|service|action|node)s?|(topic|service|acti
 NOT_ON_THE_VIEW: dict[str, str] = {
     # takes a name, but only a client's session calls it: a client never holds a robot's view
     "client_called": "the taps' record of a client's call (sessions only)",
+    # takes a name, but only the link calls it: the link holds the whole bus
+    "remote_changed": "the link's news of another process's entity",
     # name-free, and none of a node's business
     "link": "the server joins the bus to other processes, before any robot starts",
     "watchers": "the Foxglove sessions follow the whole bus",
+    "remote_watchers": "the Foxglove sessions follow the whole graph (bus/graph.py GraphView)",
     "taps": "the recorder observes the whole bus",
     "unregister_timeout": "the server's setting for unused topics",
 }

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import struct
 
@@ -46,6 +47,42 @@ def test_bad_text_frames_name_the_problem(frame, words):
     with pytest.raises(fg.FoxgloveError) as info:
         fg.parse_text(frame)
     assert words in str(info.value)
+
+
+def test_each_op_parses_into_its_frozen_class():
+    """``parse_op`` gives each JSON op its frozen value (checked fields, lists as tuples);
+    the ops that may list thousands of entries name the field a session handles in steps."""
+    sub = fg.parse_op(json.dumps({"op": "subscribe", "subscriptions": [
+        {"id": 3, "channelId": 7}, {"channelId": 8}]}))
+    assert sub == fg.Subscribe(((3, 7), (None, 8)))
+    assert sub.LISTS == "subscriptions"
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        sub.subscriptions = ()  # type: ignore[misc]
+    assert fg.parse_op('{"op": "unsubscribe", "subscriptionIds": [1, 2]}') == \
+        fg.Unsubscribe((1, 2))
+    adv = fg.parse_op(json.dumps({"op": "advertise", "channels": [
+        {"id": 1, "topic": "/t", "encoding": "cdr", "schemaName": "std_msgs/msg/String"}]}))
+    assert adv == fg.Advertise((fg.ClientChannel(1, "/t", "cdr", "std_msgs/msg/String"),))
+    assert fg.parse_op('{"op": "unadvertise", "channelIds": [4]}') == fg.Unadvertise((4,))
+    assert fg.parse_op('{"op": "getParameters", "parameterNames": ["/a"], "id": "q"}') == \
+        fg.GetParameters(("/a",), "q")
+    assert fg.parse_op(json.dumps({"op": "setParameters", "parameters": [
+        {"name": "/a", "value": 1.0, "type": "float64"}]})) == \
+        fg.SetParameters((("/a", 1.0),), None)
+    assert fg.parse_op('{"op": "subscribeParameterUpdates", "parameterNames": ["/a"]}') == \
+        fg.SubscribeParameterUpdates(("/a",))
+    assert fg.parse_op('{"op": "unsubscribeParameterUpdates", "parameterNames": []}') == \
+        fg.UnsubscribeParameterUpdates(())
+    assert fg.parse_op('{"op": "subscribeConnectionGraph"}') == fg.SubscribeConnectionGraph()
+    assert fg.parse_op('{"op": "unsubscribeConnectionGraph"}') == \
+        fg.UnsubscribeConnectionGraph()
+    assert fg.parse_op('{"op": "fetchAsset", "requestId": 9, "uri": "package://x"}') == \
+        fg.FetchAsset(9, "package://x")
+    assert set(fg.OPS) == set(fg.CLIENT_OPS)
+    for cls in fg.OPS.values():
+        assert cls.LISTS is None or cls.LISTS in {f.name for f in dataclasses.fields(cls)}
+    with pytest.raises(fg.FoxgloveError, match="channelId"):
+        fg.parse_op('{"op": "subscribe", "subscriptions": [{"id": 1}]}')
 
 
 def test_too_many_entries_is_refused():
@@ -143,6 +180,7 @@ def test_fuzzed_text_ops_only_raise_protocol_errors(op, fields):
         assert str(exc)
     else:
         assert parsed["op"] == op
+        assert isinstance(fg.client_op(parsed), fg.OPS[op])
 
 
 @settings(max_examples=400, deadline=None, derandomize=True)

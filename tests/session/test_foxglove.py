@@ -268,6 +268,7 @@ async def test_close_releases_everything(hub):
     fox.session.close()
     assert fox.session.node not in hub.bus.nodes
     assert fox.session._changed not in hub.bus.watchers
+    assert fox.session._changed not in hub.bus.remote_watchers
     for topic in hub.bus.topics.values():
         assert fox.session not in topic.publishers
         assert all(k[0] is not fox.session for k in topic.subscribers if isinstance(k, tuple))
@@ -357,7 +358,7 @@ async def test_forgotten_channels_of_topics_gone_keep_the_table_bounded(hub, mon
         fox.shared.channel(hub.bus.topic(f"/fg/churn{i}"))
         hub.bus.unadvertise(f"/fg/churn{i}", node)
         hub.bus._expire(hub.bus.topic(f"/fg/churn{i}"))
-    fox.shared.prune(hub.bus)
+    fox.shared.prune()
     names = {name for name, _type in fox.shared._channels}
     assert names and names <= set(hub.bus.topics)
     assert not any(name.startswith("/fg/churn") for name in names)

@@ -14,8 +14,8 @@ from .actions import ActionServer
 from .config import session_config
 from .graph import RemoteEntities
 from .group import ZenohGroup
-from .keys import NODE
-from .peer import Peer
+from .keys import NODE, PUBLISHER, SERVICE, SUBSCRIBER, Entity
+from .peer import ACTION_SUFFIX, Peer
 from .remote_actions import RemoteActions
 from .services import ServiceBridge
 from .topics import TopicBridge
@@ -38,7 +38,7 @@ class ZenohLink:
         config = session_config(config_file, connect, listen)
         self.peer = Peer(bus, domain, config, shared_params)
         self.topics = TopicBridge(self.peer)
-        self.remote = RemoteEntities(self.peer, self.topics.remote_changed)
+        self.remote = RemoteEntities(self.peer, self._remote_changed)
         self.services = ServiceBridge(self.peer, self.remote)
         self.actions = ActionServer(self.peer, self.services)
         self.remote_actions = RemoteActions(self.peer, self.remote)
@@ -67,6 +67,19 @@ class ZenohLink:
             self.bus.link = None
         self.actions.stop()
         await self.peer.close()
+
+    def _remote_changed(self, entity: Entity, alive: bool) -> None:
+        """Another process's entity came or went: the topics' bookkeeping, then the bus's
+        graph watchers hear it as a change of a topic, service, action or node."""
+        self.topics.remote_changed(entity, alive)
+        if entity.kind == NODE:
+            self.bus.remote_changed("node", entity.node)
+        elif entity.kind in (PUBLISHER, SUBSCRIBER):
+            self.bus.remote_changed("topic", entity.name)
+        elif entity.name.endswith(ACTION_SUFFIX):
+            self.bus.remote_changed("action", entity.name[: -len(ACTION_SUFFIX)])
+        elif entity.kind == SERVICE:
+            self.bus.remote_changed("service", entity.name)
 
     # ------------------------------------------------------------------ BusLink
     def changed(self, kind: str, name: str) -> None:

@@ -1,6 +1,7 @@
-"""The server's channels and services as one client knows them, kept current with the bus:
-what the globs allow and has a ROS 2 schema is advertised, what went is unadvertised. Each
-bus change costs the names it touched (O(change)), not a walk of every topic."""
+"""The server's channels and services as one client knows them, kept current with the whole
+graph (this bus and the processes its link joins: other ``--workers``, Zenoh peers): what the
+globs allow and has a ROS 2 schema is advertised, what went is unadvertised. Each change costs
+the names it touched (O(change)), not a walk of every topic."""
 
 from __future__ import annotations
 
@@ -24,23 +25,23 @@ class ChannelOps:
         self.by_service: dict[str, int] = {}  # service name → its id advertised
 
     def topic_names(self) -> set[str]:
-        """Every topic this client was told of or that is on the bus (a whole sync)."""
-        return set(self.by_topic) | set(self.client.bus.topics)
+        """Every topic this client was told of or that is in the graph (a whole sync)."""
+        return set(self.by_topic) | self.client.shared.graph.topic_names()
 
     def service_names(self) -> set[str]:
-        return set(self.by_service) | set(self.client.bus.services)
+        return set(self.by_service) | self.client.shared.graph.service_names()
 
     def sync_channels(self, subscriptions: SubscribeOps, names: Iterable[str]) -> None:
         """Advertise the new channels among the topics ``names``, unadvertise the gone (and
         end their subscriptions)."""
         c = self.client
-        allowed = c.settings.topics_filter.allows
+        allowed, graph = c.settings.topics_filter.allows, c.shared.graph
         gone: list[int] = []
         gone_topics: set[str] = set()
         new: list[dict] = []
         for name in names:
-            topic = c.bus.topics.get(name)
-            chan = c.shared.channel(topic) if topic is not None and allowed(name) else None
+            type_name = graph.topic_type(name) if allowed(name) else None
+            chan = None if type_name is None else c.shared.channel_of(name, type_name)
             old = self.by_topic.get(name)
             cid = None if chan is None else chan["id"]
             if old == cid:
@@ -62,13 +63,13 @@ class ChannelOps:
     def sync_services(self, names: Iterable[str]) -> None:
         """The same for the services ``names``."""
         c = self.client
-        allowed = c.settings.services_filter.allows
+        allowed, graph = c.settings.services_filter.allows, c.shared.graph
         gone: list[int] = []
         new: list[dict] = []
         for name in names:
-            svc = c.bus.services.get(name)
-            desc = c.shared.service(name, svc.stype) if svc is not None and allowed(name) \
-                else None
+            type_name = graph.service_type(name) if allowed(name) else None
+            stype = None if type_name is None else c.bus.types.srv(type_name)
+            desc = None if stype is None else c.shared.service(name, stype)
             old = self.by_service.get(name)
             sid = None if desc is None else desc["id"]
             if old == sid:
@@ -78,7 +79,7 @@ class ChannelOps:
                 del self.services[old], self.by_service[name]
             if desc is not None:
                 new.append(desc)
-                self.services[sid] = (name, svc.stype)
+                self.services[sid] = (name, stype)
                 self.by_service[name] = sid
         if gone:
             c.out.send(fg.unadvertise_services(gone))

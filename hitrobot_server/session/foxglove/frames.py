@@ -5,14 +5,12 @@ buffer; and CDR payloads decoded."""
 from __future__ import annotations
 
 import logging
-import time
 
 from ...bus.cdr import Ros2Codec, codec_for
 from ...protocol import foxglove as fg
 from ...types.registry import MsgType, TypeRegistry
 from ...wire.frames import Frame, Frames
-from ..limits import ReportLimits, over_reply_bound, replies_full
-from ..outbox import Outbox
+from ..core import ClientCore
 
 log = logging.getLogger(__name__)
 
@@ -21,31 +19,22 @@ LISTED = 5
 
 
 class FoxgloveOutput:
-    """One client's output, over its outbox: the same reply budget and error-status limits as
-    a rosbridge client's (session/limits.py)."""
+    """One client's output, in Foxglove's spelling over its client core: the same reply budget
+    and error-status limits as a rosbridge client's."""
 
-    def __init__(self, outbox: Outbox, node: str, reply_limit: int = 0):
-        self.outbox = outbox
-        self.node = node
-        self.reply_limit = reply_limit
-        self.limits = ReportLimits(outbox, lambda text: self._put(_status(fg.ERROR, text)))
-        self.close_reason = ""  # why the server disconnected the client, once it did
+    def __init__(self, core: ClientCore):
+        self.core = core
+        self.outbox = core.outbox
+        self.node = core.node
+        self.reply_limit = core.reply_limit
         self._gathered: dict[str, list[str]] | None = None  # an op's refusals, while batched
 
     def send(self, obj: dict) -> None:
         """A reply or announcement: never dropped by the send bound."""
-        self._put([(fg.dumps(obj), False)])
+        self.core.reply([(fg.dumps(obj), False)])
 
     def binary(self, data: bytes) -> None:
-        self._put([(data, True)])
-
-    def _put(self, frames: list[Frame]) -> None:
-        self.outbox.put(frames)
-        reason = over_reply_bound(self.outbox, self.reply_limit)
-        if reason is not None:
-            log.warning("foxglove client %s: %s", self.node, reason)
-            self.close_reason = reason
-            self.outbox.abort(_status(fg.ERROR, reason))
+        self.core.reply([(data, True)])
 
     def data(self, frames: Frames, topic: str) -> None:
         """Topic data, in the topic's own fair-share stream: when the client's buffer is full,
@@ -56,10 +45,10 @@ class FoxgloveOutput:
         """A status, queued like a reply; error statuses of a client that does not read them
         are limited per second (the rest counted in one line), as a rosbridge client's."""
         if level == fg.ERROR:
-            if self.limits.skip_error(time.monotonic()):
+            if self.core.skip_error():
                 return
             log.info("foxglove client %s: %s", self.node, message)
-        self._put(_status(level, message, status_id))
+        self.core.notice(status_frames(level, message, status_id))
 
     def errors(self, what: str, items: list[str]) -> None:
         """One error status for the items of one op refused for the same reason (``what``),
@@ -87,10 +76,10 @@ class FoxgloveOutput:
     def full(self) -> bool:
         """Whether this client's unread replies are over its budget: a request that would
         queue another reply is refused."""
-        return replies_full(self.outbox, self.reply_limit, 0, 0.0)
+        return self.core.replies_full()
 
 
-def _status(level: int, message: str, status_id: str | None = None) -> list[Frame]:
+def status_frames(level: int, message: str, status_id: str | None = None) -> list[Frame]:
     return [(fg.dumps(fg.status(level, message, status_id)), False)]
 
 

@@ -30,11 +30,11 @@ class GraphOps:
         self.client = client
         self.graph: Sent | None = None  # last graph sent, if subscribed
 
-    def subscribe(self, op: dict) -> None:
+    def subscribe(self, op: fg.SubscribeConnectionGraph) -> None:
         self.graph = Sent()
         self.send()
 
-    def unsubscribe(self, op: dict) -> None:
+    def unsubscribe(self, op: fg.UnsubscribeConnectionGraph) -> None:
         self.graph = None
 
     def send(self) -> None:

@@ -55,9 +55,9 @@ class PublishOps:
         self.client_channels: dict[int, ClientChannel] = {}
         self.per_topic: dict[str, int] = {}  # topic → how many of client_channels publish it
 
-    def advertise(self, op: dict) -> None:
+    def advertise(self, op: fg.Advertise) -> None:
         refused: dict[str, list[str]] = {}
-        for chan in op["channels"]:
+        for chan in op.channels:
             why = self._advertise_one(chan)
             if why is not None:
                 refused.setdefault(why, []).append(str(chan.id))
@@ -89,9 +89,9 @@ class PublishOps:
         self.per_topic[name] = self.per_topic.get(name, 0) + 1
         return None
 
-    def unadvertise(self, op: dict) -> None:
+    def unadvertise(self, op: fg.Unadvertise) -> None:
         unknown = []
-        for cid in op["channelIds"]:
+        for cid in op.channel_ids:
             chan = self.client_channels.pop(cid, None)
             if chan is None:
                 unknown.append(str(cid))

@@ -24,7 +24,8 @@ class ServiceOps:
     def __init__(self, client: FoxgloveContext, services: dict[int, tuple[str, SrvType]]):
         self.client = client
         self.services = services  # the services advertised to this client (id → name, type)
-        self.tasks: set[asyncio.Task] = set()  # the calls waiting for their answers
+        self.tasks: set[asyncio.Task] = set()  # the calls waiting for their answers (counted;
+        # the client core cancels them when the client goes)
 
     def call(self, req: fg.ServiceCallRequest) -> None:
         entry = self.services.get(req.service_id)
@@ -52,7 +53,7 @@ class ServiceOps:
         except Exception as exc:
             self._failed(req, f"the request CDR does not match {stype.request.name}: {exc}")
             return
-        task = asyncio.ensure_future(self._call(req, name, stype, request))
+        task = self.client.spawn(self._call(req, name, stype, request))
         self.tasks.add(task)
         task.add_done_callback(self.tasks.discard)
 

@@ -2,16 +2,18 @@
 
 The twin of the rosbridge session for clients that ask for the ``foxglove.websocket.v1`` (or
 ``foxglove.sdk.v1``) subprotocol: the same :class:`~..client.ClientSession` shape
-(``receive``, ``outbox``, ``close``), same bus, same per-client send bound. Every bus topic the
-``--topics-glob`` allows is a channel (CDR, ``ros2msg`` schema) kept current as topics come and
-go. Protocol parsing and building are in protocol/foxglove.py; the ops are in this package's
-op groups (channels, subscribe, publish, services, params, graph); this module holds the
-client's identity, its input and its life.
+(``receive``, ``outbox``, ``close``), same bus, the same client core (session/core.py: identity,
+outbox, limits, tasks, release). Every topic of the whole graph (this process and those its
+link joins) the ``--topics-glob`` allows is a channel (CDR, ``ros2msg`` schema) kept current as
+topics come and go. Protocol parsing and building are in protocol/foxglove.py; the ops are in
+this package's op groups (channels, subscribe, publish, services, params, graph); this module
+holds the client's input, its sync with the graph and its life.
 """
 
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import logging
 import uuid
 from collections.abc import Callable, Coroutine
@@ -19,16 +21,14 @@ from typing import Any
 
 from ...bus.core import Bus
 from ...bus.errors import BusError
-from ...bus.names import CLIENT_NODE_PREFIX
 from ...bus.params import ParamError, without_gc
-from ...bus.topics import Origin
 from ...protocol import foxglove as fg
 from ...protocol.foxglove_playback import CLIENT_PLAYBACK_CONTROL_REQUEST
-from ..client import Pending, release_client
+from ..client import Pending
+from ..core import ClientCore
 from ..options import SessionOptions
-from ..outbox import Outbox
 from .channels import ChannelOps
-from .frames import FoxgloveOutput
+from .frames import FoxgloveOutput, status_frames
 from .graph import GraphOps
 from .params import ParamOps
 from .playback import PlaybackOps
@@ -44,12 +44,11 @@ TIME_PERIOD = 0.1
 PLAYBACK_REQUEST = bytes([CLIENT_PLAYBACK_CONTROL_REQUEST])
 MAX_TEXT_BYTES = 16 * 1024 * 1024
 """Largest JSON op accepted (ops are small; binary frames carry the data)."""
+PAUSE_GC_BYTES = 16 * 1024
+"""JSON ops from this size up are parsed with the garbage collector paused."""
 BATCH = 256
 """Entries of a listing op handled in one step of the event loop: an op of 10,000 channels
 is handled in steps of this many, other clients served in between."""
-BATCHED = {"subscribe": "subscriptions", "unsubscribe": "subscriptionIds",
-           "advertise": "channels", "unadvertise": "channelIds"}
-"""The ops that list many entries, and the field that lists them."""
 SYNC_BATCH = 16
 """Topics (or services) synced in one step of the event loop: a type a Foxglove client is
 told of first costs its schema (a few ms)."""
@@ -72,17 +71,15 @@ class FoxgloveSession:
         self.settings = settings
         self.shared = shared
         self.codec = shared.codec
-        self.peer = peer
         self.subprotocol = subprotocol
         # under the rosbridge clients' prefix, so diagnostics' /Bridge/Clients counts it too
-        self.node = f"{CLIENT_NODE_PREFIX}{settings.client_tag}foxglove_{next(shared.client_ids)}"
-        self.origin = Origin(self.node)
+        self.core = ClientCore(bus, settings, f"foxglove_{next(shared.client_ids)}", peer,
+                               lambda text: status_frames(fg.ERROR, text))
+        self.peer, self.node, self.outbox = peer, self.core.node, self.core.outbox
+        self.origin = self.core.origin
+        self.on_close: list[Callable[[FoxgloveSession], None]] = self.core.on_close
         self.pool = shared.pool
-        self.outbox = Outbox(settings.send_buffer_limit, settings.reply_buffer_limit)
-        self.out = FoxgloveOutput(self.outbox, self.node, settings.reply_buffer_limit)
-        self.closed = False
-        self.on_close: list[Callable[[FoxgloveSession], None]] = []
-        self._tasks: set[asyncio.Task] = set()  # big decodes, cancelled when the client goes
+        self.out = FoxgloveOutput(self.core)
         self._changes: set[tuple[str, str]] = set()  # (kind, name) changed since the last sync
         self.channel_ops = ChannelOps(self)
         self.channels = self.channel_ops.channels  # channel id advertised → topic
@@ -94,9 +91,8 @@ class FoxgloveSession:
         self.graph_ops = GraphOps(self)
         self.playback = PlaybackOps(self)  # replay's playbackControl (helper replay)
         self._handlers = self._op_table()
-        self._sync_task: asyncio.Task | None = None
+        self._wake = asyncio.Event()  # set when _changes has something to sync
         self._time_handle: asyncio.TimerHandle | None = None
-        bus.register_node(self.node)
         log.info("foxglove client %s connected from %s (%s)", self.node, peer or "?", subprotocol)
         if settings.authenticate:
             # The protocol has no auth op: with --authenticate nothing is served to it.
@@ -110,29 +106,34 @@ class FoxgloveSession:
         # the channels and services there are, told at once (one advertise of each)
         self.channel_ops.sync_channels(self.subscriptions, self.channel_ops.topic_names())
         self.channel_ops.sync_services(self.channel_ops.service_names())
-        bus.watchers.append(self._changed)
+        shared.graph.watch(self._changed)  # here and across the link (other workers)
+        self.spawn(self._sync_loop())
         bus.params.watchers.append(self._param_changed)
         self._time_handle = asyncio.get_running_loop().call_soon(self._tick)
 
     @property
     def close_reason(self) -> str:
         """Why the server disconnected the client (the transport closes with it, 1008)."""
-        return self.out.close_reason
+        return self.core.close_reason
 
-    def _op_table(self) -> dict[str, Callable[[dict], None]]:
-        """Each JSON op's handler, by the ``op`` its parser (protocol/foxglove.py) checked."""
+    @property
+    def closed(self) -> bool:
+        return self.core.closed
+
+    def _op_table(self) -> dict[type, Callable[[Any], None]]:
+        """Each JSON op's handler, by the class its parser (protocol/foxglove.py) made."""
         return {
-            "subscribe": self.subscriptions.subscribe,
-            "unsubscribe": self.subscriptions.unsubscribe,
-            "advertise": self.publishing.advertise,
-            "unadvertise": self.publishing.unadvertise,
-            "getParameters": self._get_parameters,
-            "setParameters": self.param_ops.set,
-            "subscribeParameterUpdates": self.param_ops.subscribe,
-            "unsubscribeParameterUpdates": self.param_ops.unsubscribe,
-            "subscribeConnectionGraph": self.graph_ops.subscribe,
-            "unsubscribeConnectionGraph": self.graph_ops.unsubscribe,
-            "fetchAsset": _fetch_asset,
+            fg.Subscribe: self.subscriptions.subscribe,
+            fg.Unsubscribe: self.subscriptions.unsubscribe,
+            fg.Advertise: self.publishing.advertise,
+            fg.Unadvertise: self.publishing.unadvertise,
+            fg.GetParameters: self._get_parameters,
+            fg.SetParameters: self.param_ops.set,
+            fg.SubscribeParameterUpdates: self.param_ops.subscribe,
+            fg.UnsubscribeParameterUpdates: self.param_ops.unsubscribe,
+            fg.SubscribeConnectionGraph: self.graph_ops.subscribe,
+            fg.UnsubscribeConnectionGraph: self.graph_ops.unsubscribe,
+            fg.FetchAsset: _fetch_asset,
         }
 
     # ------------------------------------------------------------------ input
@@ -140,7 +141,7 @@ class FoxgloveSession:
         """One WebSocket frame; every failure becomes an error status, never an exception.
         A task when a big message is being decoded in the worker pool (the transport awaits
         it before the next frame, so one client's frames keep their order)."""
-        if self.closed or self.outbox.closed:
+        if self.core.closed or self.outbox.closed:
             return None
         try:
             if binary:
@@ -153,11 +154,11 @@ class FoxgloveSession:
                     f"text frame of {len(data)} bytes: JSON ops are at most "
                     f"{MAX_TEXT_BYTES} bytes; message data goes in binary frames"
                 )
-            op = _parse_text(data)
-            field = BATCHED.get(op["op"])
-            if field is not None and len(op[field]) > BATCH:
+            op = _parse_op(data)
+            field = op.LISTS
+            if field is not None and len(getattr(op, field)) > BATCH:
                 return self.spawn(self._batched(op, field))
-            self._handlers[op["op"]](op)
+            self._handlers[type(op)](op)
         except fg.FoxgloveError as exc:
             self.out.status(fg.ERROR, str(exc))
         except (BusError, ParamError) as exc:  # a refusal of the bus, named by it
@@ -173,22 +174,22 @@ class FoxgloveSession:
         self.service_ops.call(frame)
         return None
 
-    async def _batched(self, op: dict, field: str) -> None:
+    async def _batched(self, op: fg.ClientOp, field: str) -> None:
         """A long listing op in steps of :data:`BATCH` entries (the transport reads this
         client's next frame once all are done); its refusals still make one status each."""
-        entries, handler = op[field], self._handlers[op["op"]]
+        entries, handler = getattr(op, field), self._handlers[type(op)]
         self.out.gather()
         try:
             for start in range(0, len(entries), BATCH):
                 if self.closed:
                     return
-                handler({**op, field: entries[start:start + BATCH]})
+                handler(dataclasses.replace(op, **{field: entries[start:start + BATCH]}))
                 await asyncio.sleep(0)
         finally:
             if not self.closed:
                 self.out.flush()
 
-    def _get_parameters(self, op: dict) -> None:
+    def _get_parameters(self, op: fg.GetParameters) -> None:
         """``getParameters``, refused while this client's unread replies are over its budget
         (each reply may be the whole parameter tree)."""
         if self.out.full:
@@ -200,48 +201,52 @@ class FoxgloveSession:
 
     def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:
         """Run a coroutine tied to this client; it is cancelled when the client goes."""
-        task = asyncio.ensure_future(coro)
-        self._tasks.add(task)
-        task.add_done_callback(self._tasks.discard)
-        return task
+        return self.core.spawn(coro)
 
-    # ------------------------------------------------------------------ the bus changed
+    # ------------------------------------------------------------------ the graph changed
     def _changed(self, kind: str, name: str) -> None:
-        """The bus changed: sync what changed of channels, services and the graph once,
-        after this step."""
-        if self.closed:
+        """The graph changed (here or in a process the link joins): sync what changed of
+        channels, services and the graph once, after this step (the sync loop wakes)."""
+        if self.core.closed:
             return
         self._changes.add((kind, name))
-        if self._sync_task is None:
-            self._sync_task = self.spawn(self._sync())
+        self._wake.set()
+
+    async def _sync_loop(self) -> None:
+        """The client's one sync task, for its life: each wake-up syncs what changed since
+        (a burst of changes is one sync). It ends when the client goes (the core cancels it)."""
+        while True:
+            await self._wake.wait()
+            self._wake.clear()
+            try:
+                await self._sync()
+            except Exception:  # the next change syncs again
+                log.exception("foxglove client %s: sync failed", self.node)
 
     async def _sync(self) -> None:
         """Channels, services and the graph brought up to date: for the names changed since
         the last sync (everything after an action changed), in steps of
         :data:`SYNC_BATCH` names (a name seen first costs its schema), other clients served in
         between."""
-        try:
-            while self._changes and not self.closed:
-                changes, self._changes = self._changes, set()
-                everything = any(kind == "action" for kind, _name in changes)
-                ops = self.channel_ops
-                topics = ops.topic_names() if everything else \
-                    {name for kind, name in changes if kind == "topic"}
-                services = ops.service_names() if everything else \
-                    {name for kind, name in changes if kind == "service"}
-                self.shared.prune(self.bus)
-                for part in _batches(topics):
-                    ops.sync_channels(self.subscriptions, part)
-                    await asyncio.sleep(0)
-                for part in _batches(services):
-                    ops.sync_services(part)
-                    await asyncio.sleep(0)
-                if not everything:
-                    self.graph_ops.changed(topics, services)
-                elif self.graph_ops.graph is not None:
-                    self.graph_ops.send()
-        finally:
-            self._sync_task = None
+        while self._changes and not self.closed:
+            changes, self._changes = self._changes, set()
+            everything = any(kind == "action" for kind, _name in changes)
+            ops = self.channel_ops
+            topics = ops.topic_names() if everything else \
+                {name for kind, name in changes if kind == "topic"}
+            services = ops.service_names() if everything else \
+                {name for kind, name in changes if kind == "service"}
+            self.shared.prune()
+            for part in _batches(topics):
+                ops.sync_channels(self.subscriptions, part)
+                await asyncio.sleep(0)
+            for part in _batches(services):
+                ops.sync_services(part)
+                await asyncio.sleep(0)
+            if not everything:
+                self.graph_ops.changed(topics, services)
+            elif self.graph_ops.graph is not None:
+                self.graph_ops.send()
 
     def _param_changed(self, name: str) -> None:
         if not self.closed:
@@ -257,28 +262,28 @@ class FoxgloveSession:
     # ------------------------------------------------------------------ lifecycle
     def close(self) -> None:
         """The connection is gone: release everything this client held on the bus."""
-        if self.closed:
+        if not self.core.close():
             return
-        self.closed = True
-        self.outbox.clear()  # freed now, not by the next full collection
         if self._time_handle is not None:
             self._time_handle.cancel()
-        if self._changed in self.bus.watchers:
-            self.bus.watchers.remove(self._changed)
+        self.shared.graph.unwatch(self._changed)
         if self._param_changed in self.bus.params.watchers:
             self.bus.params.watchers.remove(self._param_changed)
         self.subscriptions.close()
         self.playback.close()
-        release_client(self, self.service_ops.tasks | self._tasks)
+        self.core.release(self)
         self._handlers.clear()  # bound methods of the op groups: session ↔ ops cycles
         log.info("foxglove client %s (%s) disconnected", self.node, self.peer or "?")
 
 
-def _parse_text(data: str | bytes) -> dict:
-    """``fg.parse_text`` with the cyclic garbage collector paused: an op of 10,000 entries
-    makes 40,000 objects, whose creation would trigger a collection walking the whole server
-    (100 ms) that their reference counts make useless (as the parameter store parses)."""
-    return without_gc(fg.parse_text, data)
+def _parse_op(data: str | bytes) -> fg.ClientOp:
+    """``fg.parse_op``, with the cyclic garbage collector paused for a long op: one of 10,000
+    entries makes 40,000 objects, whose creation would trigger a collection walking the whole
+    server (100 ms) that their reference counts make useless (as the parameter store parses).
+    An op under :data:`PAUSE_GC_BYTES` makes too few to matter."""
+    if len(data) < PAUSE_GC_BYTES:
+        return fg.parse_op(data)
+    return without_gc(fg.parse_op, data)
 
 
 def _batches(names: set[str]) -> list[list[str]]:
@@ -286,5 +291,5 @@ def _batches(names: set[str]) -> list[list[str]]:
     return [ordered[i:i + SYNC_BATCH] for i in range(0, len(ordered), SYNC_BATCH)]
 
 
-def _fetch_asset(op: dict) -> None:
+def _fetch_asset(op: fg.FetchAsset) -> None:
     raise fg.FoxgloveError("fetchAsset: this server has no 'assets' capability")

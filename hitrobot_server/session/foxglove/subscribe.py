@@ -44,11 +44,11 @@ class SubscribeOps:
         self._bad_encodings: set[str] = set()
         self._next_id = 1  # where an SDK client's next server-given id is looked for
 
-    def subscribe(self, op: dict) -> None:
+    def subscribe(self, op: fg.Subscribe) -> None:
         c = self.client
         given: list[tuple[int, int]] = []
         refused: dict[str, list[str]] = {}
-        for sub_id, channel_id in op["subscriptions"]:
+        for sub_id, channel_id in op.subscriptions:
             topic = self.channels.get(channel_id)
             why = self._refusal(sub_id, topic)
             if why is not None:
@@ -119,9 +119,9 @@ class SubscribeOps:
             return
         c.out.data([(DATA.get(message, sub_id), True)], message.topic.name)
 
-    def unsubscribe(self, op: dict) -> None:
+    def unsubscribe(self, op: fg.Unsubscribe) -> None:
         unknown = []
-        for sub_id in op["subscriptionIds"]:
+        for sub_id in op.subscription_ids:
             if sub_id not in self.subs:
                 unknown.append(str(sub_id))
                 continue

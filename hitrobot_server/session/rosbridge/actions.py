@@ -14,6 +14,7 @@ from ...bus.services import (
     GoalHandle,
     GoalOutcome,
 )
+from ...protocol import ops
 from ...protocol.errors import MessageId, ProtocolError
 from ...protocol.ops import (
     ActionFeedback,
@@ -43,13 +44,9 @@ class ActionOps:
         c = self.client
         action_str, op_id = split_id(op.action, op.id)
         name = canonical(action_str)
-        base = {"action": op.action}
-        if op_id is not None:
-            base["id"] = op_id
 
         def fail(text: str) -> None:
-            c.send({"op": "action_result", **base, "values": text, "status": STATUS_UNKNOWN,
-                    "result": False})
+            c.send(ops.action_result(op.action, op_id, text, STATUS_UNKNOWN, False))
             c.status("error", f"send_action_goal: {text}", op_id)
 
         found = self._goal_of(op, name, op_id)
@@ -65,7 +62,7 @@ class ActionOps:
 
         def on_feedback(values: dict) -> None:
             if want_feedback:
-                c.send({"op": "action_feedback", **base, "values": values}, fragment_size=frag)
+                c.send(ops.action_feedback(op.action, op_id, values), fragment_size=frag)
 
         c.bus.client_called("send_action_goal", name, c.origin)
         try:
@@ -81,16 +78,8 @@ class ActionOps:
             if t.cancelled():
                 return
             out: GoalOutcome = t.result()
-            c.send(
-                {
-                    "op": "action_result",
-                    **base,
-                    "values": out.values,
-                    "status": out.status,
-                    "result": out.result,
-                },
-                fragment_size=frag,
-            )
+            c.send(ops.action_result(op.action, op_id, out.values, out.status, out.result),
+                   fragment_size=frag)
 
         task.add_done_callback(done)
 
@@ -140,18 +129,9 @@ class ActionOps:
             fut = asyncio.get_running_loop().create_future()
             self.serving[gid] = (fut, handle)
             handle.on_cancel.append(
-                lambda: c.send({"op": "cancel_action_goal", "id": gid, "action": name})
+                lambda: c.send(ops.cancel_action_goal(gid, name))
             )
-            c.send(
-                {
-                    "op": "send_action_goal",
-                    "id": gid,
-                    "action": name,
-                    "action_type": type_name,
-                    "args": handle.goal,
-                    "feedback": True,
-                }
-            )
+            c.send(ops.send_action_goal(gid, name, type_name, handle.goal))
             try:
                 return await fut
             finally:

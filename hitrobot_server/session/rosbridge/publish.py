@@ -79,7 +79,7 @@ class PublishOps:
         c = self.client
         op_id = op.id
         name = self.topic_names.check("publish", op.topic, op_id)
-        topic = c.bus.topic(name)
+        topic = c.bus.topics.get(name)  # ``name`` is canonical already
         if topic is None:
             raise ProtocolError(
                 f"publish: cannot infer the type of topic '{name}': it does not exist; "

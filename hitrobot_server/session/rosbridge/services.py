@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import asyncio
+import functools
 import itertools
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ...bus.errors import ServiceError
 from ...bus.names import canonical, valid_name
+from ...protocol import ops
 from ...protocol.errors import MessageId, ProtocolError
 from ...protocol.ops import (
     COMPRESSIONS,
@@ -23,6 +25,10 @@ from ...types.registry import MsgType
 
 if TYPE_CHECKING:
     from .context import OpContext
+
+Reply = Callable[[Any, bool], dict]
+"""A ``service_response`` to one call, of its values and result (``ops.service_response``
+with the call's service and id)."""
 
 
 def split_id(name: str, op_id: MessageId) -> tuple[str, MessageId]:
@@ -80,13 +86,11 @@ class ServiceOps:
             raise ProtocolError(
                 f"call_service: field 'service' is not a valid name: {service_str!r}", op_id
             )
-        reply = {"op": "service_response", "service": op.service}
-        if op_id is not None:
-            reply["id"] = op_id
+        reply = functools.partial(ops.service_response, op.service, op_id)
         frag = c.fragment_size(op)
 
         def fail(text: str) -> None:
-            c.send({**reply, "values": text, "result": False}, fragment_size=frag)
+            c.send(reply(text, False), fragment_size=frag)
             c.status("error", f"call_service: {text}", op_id)
 
         limit = c.settings.max_requests_in_flight
@@ -117,7 +121,7 @@ class ServiceOps:
         c.spawn(self._call(name, request, timeout, reply, frag,
                            "png" if compression == "png" else "none", fail))
 
-    async def _call(self, name: str, request: dict, timeout: float, reply: dict,
+    async def _call(self, name: str, request: dict, timeout: float, reply: Reply,
                     frag: int | None, compression: str, fail: Callable[[str], None]) -> None:
         """The call itself, answered with the provider's values (or its failure)."""
         c = self.client
@@ -125,14 +129,13 @@ class ServiceOps:
             values = await c.bus.call_service(name, request, timeout, c.origin)
         except ServiceError as exc:
             if exc.values is not None:  # the provider's own failure values, as rosbridge
-                c.send({**reply, "values": exc.values, "result": False}, fragment_size=frag)
+                c.send(reply(exc.values, False), fragment_size=frag)
             else:
                 fail(str(exc))
             return
         finally:
             self.in_flight -= 1
-        c.send({**reply, "values": values, "result": True}, fragment_size=frag,
-               compression=compression)
+        c.send(reply(values, True), fragment_size=frag, compression=compression)
 
     # ------------------------------------------------------------- providing
     def advertise_service(self, op: AdvertiseService) -> None:
@@ -154,7 +157,7 @@ class ServiceOps:
             rid = f"service_request:{name}:{next(counter)}"
             fut = asyncio.get_running_loop().create_future()
             self.pending[rid] = (fut, service.stype.response, name)
-            c.send({"op": "call_service", "id": rid, "service": name, "args": request})
+            c.send(ops.call_service(rid, name, request))
             try:
                 return await fut
             finally:

@@ -19,7 +19,6 @@ from typing import Any
 
 from ...bus.core import Bus
 from ...bus.errors import BusError
-from ...bus.names import CLIENT_NODE_PREFIX
 from ...bus.topics import Origin
 from ...protocol import auth, bulk, cbor, ops, png
 from ...protocol.errors import ProtocolError, message_id, status_op
@@ -27,11 +26,11 @@ from ...protocol.fragment import MIN_FRAGMENT_SIZE, FragmentBudget
 from ...protocol.status import should_send
 from ...types import jsoncodec
 from ...types.convert import ConversionError
-from ..client import Pending, release_client
-from ..limits import STREAM_ERRORS_PER_SECOND, ReportLimits, over_reply_bound, replies_full
+from ...wire.frames import Frames
+from ..client import Pending
+from ..core import STREAM_ERRORS_PER_SECOND, ClientCore
 from ..offload import WorkerPool
 from ..options import SessionOptions
-from ..outbox import Outbox, nbytes
 from .actions import ActionOps
 from .fragments import IncomingFragments
 from .frames import FrameBuilder, json_frames
@@ -84,31 +83,22 @@ class Session:
         self.pool = self.shared.pool
         self.frames = self.shared.frames
         self.settings = settings
-        self.peer = peer
         self.transport = transport
         self.client_id = next(self.shared.client_ids)
-        self.node = f"{CLIENT_NODE_PREFIX}{settings.client_tag}{self.client_id}"
-        self.outbox = Outbox(settings.send_buffer_limit, settings.reply_buffer_limit)
-        self.outbox.on_thinned = self._thinned
+        self.core = ClientCore(bus, settings, str(self.client_id), peer, _error_frames)
+        self.peer, self.node, self.outbox = peer, self.core.node, self.core.outbox
+        self.on_close: list[Callable[[Session], None]] = self.core.on_close
+        self.limits = self.core.limits
         self.status_level = settings.status_level
         self.authenticated = not settings.authenticate
         self.auth_level: str | None = None
-        self.closed = False
-        self.close_reason = ""  # why the server closed the connection, if it did
         self.fragments = IncomingFragments(self, settings, self.shared.fragments)
-        self.limits = ReportLimits(
-            self.outbox, lambda text: self.outbox.put(json_frames(status_op("error", text))))
-        self.reply_bytes = 0.0  # running mean size of its replies: what a call will cost
-        self._tasks: set[asyncio.Task] = set()
-        self.on_close: list[Callable[[Session], None]] = []
         topic_names = TopicNames(settings.topics_filter)
         self.publishing = PublishOps(self, topic_names)
         self.subscriptions = SubscribeOps(self, topic_names)
         self.service_ops = ServiceOps(self)
         self.action_ops = ActionOps(self)
         self._handlers = self._op_table()
-        self.origin = Origin(self.node, peer=peer)
-        bus.register_node(self.node)
         log.info("client %s connected from %s over %s", self.node, peer or "?", transport)
 
     def _op_table(self) -> dict[type, Callable[[Any], Pending]]:
@@ -134,6 +124,18 @@ class Session:
             ops.ActionFeedback: self.action_ops.action_feedback,
             ops.ActionResult: self.action_ops.action_result,
         }
+
+    @property
+    def origin(self) -> Origin:
+        return self.core.origin
+
+    @property
+    def closed(self) -> bool:
+        return self.core.closed
+
+    @property
+    def close_reason(self) -> str:
+        return self.core.close_reason
 
     # ------------------------------------------------------------------ input
     def receive(self, data: str | bytes, binary: bool = False) -> Pending:
@@ -163,7 +165,7 @@ class Session:
             self._reject_unauthenticated("invalid JSON", error.id)
             return
         if error.id is None:
-            seen = self.limits.garbage(time.monotonic())
+            seen = self.core.garbage()
             if seen > STREAM_ERRORS_PER_SECOND:
                 if seen == STREAM_ERRORS_PER_SECOND + 1:
                     self.status("error", "invalid JSON: more invalid input; not reported for "
@@ -212,17 +214,13 @@ class Session:
         limit = self.settings.reply_buffer_limit
         queued = self.outbox.control_bytes
         calls = self.service_ops.in_flight  # this client's call_service ops not answered yet
-        if not replies_full(self.outbox, limit, calls, self.reply_bytes):
+        if not self.core.replies_full(calls):
             return False
         text = (f"{op.OP}: too many requests in flight: {calls} call(s) "
                 f"pending and {queued} bytes of replies not read yet "
                 f"(--reply-buffer-limit {limit}); refused")
         if isinstance(op, ops.CallService):
-            reply = {"op": "service_response", "service": op.service, "values": text,
-                     "result": False}
-            if op.id is not None:
-                reply["id"] = op.id
-            self.send(reply)
+            self.send(ops.service_response(op.service, op.id, text, False))
         self.status("error", text, op.id)
         return True
 
@@ -263,7 +261,7 @@ class Session:
         else:
             self.authenticated = True
             self.auth_level = op.level
-            self.origin = Origin(self.node, self.auth_level, peer=self.peer)
+            self.core.origin = Origin(self.node, self.auth_level, peer=self.peer)
             self.status("info", f"authenticated at level {self.auth_level!r}", op.id)
 
     def _reject_unauthenticated(self, what: str, op_id: Any) -> None:
@@ -276,11 +274,7 @@ class Session:
     ) -> None:
         """Queue a reply op; replies are never dropped by the send buffer."""
         size = fragment_size or self.settings.max_message_size
-        frames = self.frames.reply(obj, size, compression)
-        charged = nbytes(frames)  # a big reply being built in the worker pool: its estimate
-        self.outbox.put(frames)
-        self.reply_bytes += (charged - self.reply_bytes) / 8  # the running mean reply size
-        self._check_replies()
+        self.core.reply(self.frames.reply(obj, size, compression))
 
     def fragment_size(self, op: ops.Subscribe | ops.CallService | ops.SendActionGoal) -> int | None:
         """The op's ``fragment_size``, raised to the floor (with a warning) when below it."""
@@ -295,42 +289,23 @@ class Session:
             return MIN_FRAGMENT_SIZE
         return size
 
-    def _check_replies(self) -> None:
-        """Past twice ``--reply-buffer-limit`` of unread replies the client is disconnected:
-        its queue is freed, and a last status (and the WebSocket close reason) says why."""
-        reason = over_reply_bound(self.outbox, self.settings.reply_buffer_limit)
-        if reason is None:
-            return
-        log.warning("client %s (%s): %s", self.node, self.peer or "?", reason)
-        self.close_reason = reason
-        self.outbox.abort(json_frames(status_op("error", reason)))
-
-    def _thinned(self, key: object) -> None:
-        log.warning("slow link: %s thinned for client %s (%s): older messages dropped to keep "
-                    "up with its other topics", key if key is not None else "topic data",
-                    self.node, self.peer or "?")
-
     def status(self, level: str, msg: str, op_id: Any = None) -> None:
         if level == "error":
             log.info("client %s: %s", self.node, msg)
         if not should_send(self.status_level, level):
             return
-        if level == "error" and self.limits.skip_error(time.monotonic()):
+        if level == "error" and self.core.skip_error():
             return
         try:
             frames = json_frames(status_op(level, msg, op_id))
         except TypeError:  # a text or id that cannot be encoded must not lose the report
             text = msg.encode("utf-8", "backslashreplace").decode("utf-8")
             frames = json_frames(status_op(level, text))
-        self.outbox.put(frames)
-        self._check_replies()
+        self.core.notice(frames)
 
     def spawn(self, coro: Coroutine[Any, Any, Any]) -> asyncio.Task:
         """Run a coroutine tied to this client; it is cancelled when the client goes."""
-        task = asyncio.ensure_future(coro)
-        self._tasks.add(task)
-        task.add_done_callback(self._tasks.discard)
-        return task
+        return self.core.spawn(coro)
 
     # ------------------------------------------------------------------ lifecycle
     def close_connection(self) -> None:
@@ -339,16 +314,14 @@ class Session:
 
     def close(self) -> None:
         """The connection is gone: release everything this client held on the bus."""
-        if self.closed:
+        if not self.core.close():
             return
-        self.closed = True
-        self.outbox.clear()  # freed now, not by the next full collection
         self.fragments.close()
         self.subscriptions.close()
         self.service_ops.close()
         self.action_ops.close()
         self.publishing.close()
-        release_client(self, self._tasks)
+        self.core.release(self)
         self._handlers.clear()  # bound methods of the op objects: session ↔ ops cycles
         if self._own_pool:
             self.pool.shutdown()
@@ -375,3 +348,8 @@ async def _handle_big(
     more = session.handle(obj)
     if more is not None:
         await more
+
+
+def _error_frames(text: str) -> Frames:
+    """An error status, as the client core queues one (its own reports, a disconnect)."""
+    return json_frames(status_op("error", text))
