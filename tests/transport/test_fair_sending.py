@@ -106,7 +106,7 @@ async def test_a_slow_reader_gets_every_small_message_fresh_and_in_order(make_se
     assert 0 < big_seen < 24 and fragments > big_seen
     sub = slow_session.subscriptions.subs[BIG]
     assert sub.dropped == slow_session.outbox.drops(BIG)
-    nodes = [*server.nodes, *(n for robot in server.robots for n in robot.nodes)]
+    nodes = [*server.site.nodes, *(n for robot in server.robots for n in robot.nodes)]
     diagnostics = next(n for n in nodes if isinstance(n, DiagnosticsNode))
     item = diagnostics.slow_links()  # what /diagnostics_agg publishes: per client and topic
     assert item["level"] == WARN
