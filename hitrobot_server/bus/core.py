@@ -32,7 +32,7 @@ from .services import (
     calling_as,
 )
 from .tap import BusTap, client_op
-from .topics import Message, Origin, Subscriber, Topic, WireMemo
+from .topics import Memo, Message, Origin, Subscriber, Topic
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -127,7 +127,7 @@ class Bus:
         stamp: float | None = None,
         reply: Status | None = None,
         origin: Origin | None = None,
-        seed: WireMemo | None = None,
+        seed: Memo | None = None,
     ) -> Message:
         """Fan ``msg`` (canonical dict) out to every subscriber of an existing topic.
 

@@ -1,4 +1,11 @@
-"""Typed topics: publishers, subscribers, latching; a message as every subscriber sees it."""
+"""Typed topics: publishers, subscribers, latching; a message as every subscriber sees it.
+
+A message keeps what readers make of it in its :class:`Memo`, by typed :class:`MemoKey`: a
+message fanned out to fifty clients is serialised once per encoding, not fifty times (the main
+cost rosbridge pays per client, rosbridge #332, #559). The keys are the wire protocols' own
+(each declares its keys beside its encoders), so the bus holds the values without knowing any
+wire format; a publisher may hand a memo in already filled (``Bus.publish``'s ``seed``).
+"""
 
 from __future__ import annotations
 
@@ -7,12 +14,13 @@ import itertools
 import logging
 from collections.abc import Callable, Hashable, Iterator
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, Generic, Protocol, TypeVar
 
 from ..types.registry import MsgType, TypeRegistry
 from .requests import Reply, Status
 
 log = logging.getLogger(__name__)
+T = TypeVar("T")
 
 
 class Codec(Protocol):
@@ -21,21 +29,71 @@ class Codec(Protocol):
     def encode(self, msg: dict, mtype: MsgType) -> bytes: ...
 
 
-class WireMemo(Protocol):
-    """A message's other encodings, by typed key (hitrobot_server/wire/memo.py ``Memo``; each
-    wire protocol's package owns its keys). The bus holds it and never reads it: it knows no
-    wire format."""
+class MemoKey(Generic[T]):
+    """One kind of encoding of a message: a name (for a reader), and how it is made from the
+    message and a variant (a topic spelling, a subscription id, ...) on first use; a key with
+    no builder is only ever put by whoever knows its value (a publisher's own text)."""
 
-    made: dict[Any, Any]
-    size: int | None
+    __slots__ = ("name", "build")
+
+    def __init__(self, name: str, build: Callable[[Message, Any], T] | None = None) -> None:
+        self.name = name
+        self.build = build
+
+    def __repr__(self) -> str:
+        return f"MemoKey({self.name!r})"
+
+    def get(self, message: Message, variant: Hashable = None) -> T:
+        """This encoding of ``message`` in ``variant``, made on the first call, then shared."""
+        memo = message.wire
+        if memo is None:
+            memo = message.wire = Memo()
+        made = memo.made  # (one dict look-up on the fan-out path; the key's tuple hashes in C)
+        found = made.get((self, variant))
+        if found is None:
+            if self.build is None:
+                raise LookupError(f"{self!r} is only put, never built: peek it")
+            found = made[(self, variant)] = self.build(message, variant)
+        return found
+
+    def peek(self, message: Message, variant: Hashable = None) -> T | None:
+        """This encoding if someone already made it (or the publisher put it), else None."""
+        memo = message.wire
+        return None if memo is None else memo.made.get((self, variant))
+
+    def put(self, message: Message, value: T, variant: Hashable = None) -> T:
+        """Keep ``value`` as this encoding (one made by a caller that needs more than the
+        message to make it: a server's frame builder)."""
+        memo = message.wire
+        if memo is None:
+            memo = message.wire = Memo()
+        memo.made[(self, variant)] = value
+        return value
+
+
+class Memo:
+    """The encodings of one message made so far, by (key, variant), and an estimate of its
+    size (as JSON): given by the publisher (the length of the op it came in) or estimated once
+    (:func:`size_of`)."""
+
+    __slots__ = ("made", "size")
+
+    def __init__(self, size: int | None = None) -> None:
+        self.made: dict[tuple[MemoKey[Any], Hashable], Any] = {}
+        self.size = size
+
+    def put(self, key: MemoKey[T], value: T, variant: Hashable = None) -> Memo:
+        """What a publisher already has, before the message exists (chainable)."""
+        self.made[(key, variant)] = value
+        return self
 
 
 class Message:
     """One published message as every subscriber sees it.
 
     Its ROS 2 CDR, what the Zenoh link sends, is made once by whoever needs it first
-    (:meth:`cdr`) and shared. Its other encodings are the wire floor's: the bus keeps them in
-    ``wire`` without looking, starting from what its publisher handed in (or None).
+    (:meth:`cdr`) and shared. Its other encodings are in ``wire``, its :class:`Memo` (made on
+    first use, or what its publisher handed in).
     """
 
     __slots__ = ("topic", "msg", "stamp", "seq", "origin", "wire", "cdr_bytes", "_status",
@@ -48,14 +106,14 @@ class Message:
         stamp: float,
         reply: Status | None = None,
         origin: Origin | None = None,
-        wire: WireMemo | None = None,
+        wire: Memo | None = None,
     ):
         self.topic = topic
         self.msg = msg
         self.stamp = stamp
         self.seq = next(topic.seqs)
         self.origin = origin  # None for in-process publishers
-        self.wire = wire  # opaque to the bus: the wire floor's encodings of this message
+        self.wire = wire  # its memo: what readers made of it, by their keys
         self.cdr_bytes: bytes | None = None  # its CDR, once encoded or as it arrived (Zenoh)
         self._status = reply
         self._reply: Reply | None = None

@@ -1,85 +1,17 @@
-"""A bus message's encodings, made once per key and shared by every reader.
+"""What the wire floor knows of every message, whatever the protocol: its size, its
+publisher's own text.
 
-A message fanned out to fifty clients is serialised once per encoding, not fifty times: the
-main cost rosbridge pays per client (rosbridge #332, #559). Each encoding is named by a typed
-:class:`MemoKey` that the protocol's own package declares (its name, its value type, how it is
-made from the message); this module knows no protocol, so a new wire protocol adds keys of its
-own and changes nothing here. The values live in the message's :class:`Memo`, which the bus
-holds in ``Message.wire`` without looking; a publisher may hand one in already filled
-(``Bus.publish``'s ``seed``: what it knows of the message, such as the client's own text).
-A message's CDR is the bus's own (``Message.cdr``: its Zenoh link sends it).
+A message's encodings live in its memo (``bus/topics.py`` ``Memo``, by typed ``MemoKey``),
+each key declared by the protocol's own package; this module adds the two that belong to no
+protocol: the estimate of a message's size (queues are charged by it, big ones are encoded off
+the loop) and :data:`PUBLISHED_JSON`, what a publisher can vouch for (the recorder peeks it).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Hashable
-from typing import Any, Generic, TypeVar
-
 import numpy as np
 
-from ..bus.topics import Message
-
-T = TypeVar("T")
-
-
-class MemoKey(Generic[T]):
-    """One kind of encoding of a message: a name (for a reader), and how it is made from the
-    message and a variant (a topic spelling, a subscription id, ...) on first use; a key with
-    no builder is only ever put by whoever knows its value (a publisher's own text)."""
-
-    __slots__ = ("name", "build")
-
-    def __init__(self, name: str, build: Callable[[Message, Any], T] | None = None) -> None:
-        self.name = name
-        self.build = build
-
-    def __repr__(self) -> str:
-        return f"MemoKey({self.name!r})"
-
-    def get(self, message: Message, variant: Hashable = None) -> T:
-        """This encoding of ``message`` in ``variant``, made on the first call, then shared."""
-        memo = message.wire
-        if memo is None:
-            memo = message.wire = Memo()
-        made = memo.made  # (one dict look-up on the fan-out path; the key's tuple hashes in C)
-        found = made.get((self, variant))
-        if found is None:
-            if self.build is None:
-                raise LookupError(f"{self!r} is only put, never built: peek it")
-            found = made[(self, variant)] = self.build(message, variant)
-        return found
-
-    def peek(self, message: Message, variant: Hashable = None) -> T | None:
-        """This encoding if someone already made it (or the publisher put it), else None."""
-        memo = message.wire
-        return None if memo is None else memo.made.get((self, variant))
-
-    def put(self, message: Message, value: T, variant: Hashable = None) -> T:
-        """Keep ``value`` as this encoding (one made by a caller that needs more than the
-        message to make it: a server's frame builder)."""
-        memo = message.wire
-        if memo is None:
-            memo = message.wire = Memo()
-        memo.made[(self, variant)] = value
-        return value
-
-
-class Memo:
-    """The encodings of one message made so far, by (key, variant), and an estimate of its
-    size (as JSON): given by the publisher (the length of the op it came in) or estimated once
-    (:func:`size_of`)."""
-
-    __slots__ = ("made", "size")
-
-    def __init__(self, size: int | None = None) -> None:
-        self.made: dict[tuple[MemoKey[Any], Hashable], Any] = {}
-        self.size = size
-
-    def put(self, key: MemoKey[T], value: T, variant: Hashable = None) -> Memo:
-        """What a publisher already has, before the message exists (chainable)."""
-        self.made[(key, variant)] = value
-        return self
-
+from ..bus.topics import Memo, MemoKey, Message
 
 PUBLISHED_JSON: MemoKey[bytes] = MemoKey("the publisher's own JSON")
 """The publisher's own text of the message: a JSON object whose ``msg`` member is the message

@@ -15,7 +15,7 @@ import pytest
 
 from hitrobot_server.bus.cdr import codec_for
 from hitrobot_server.bus.core import Bus
-from hitrobot_server.bus.topics import Message
+from hitrobot_server.bus.topics import Memo, Message
 from hitrobot_server.protocol import bulk, cbor
 from hitrobot_server.protocol.fragment import MIN_FRAGMENT_SIZE
 from hitrobot_server.session.foxglove.subscribe import DATA
@@ -31,7 +31,7 @@ from hitrobot_server.session.rosbridge.encodings import (
 from hitrobot_server.session.rosbridge.frames import FrameBuilder
 from hitrobot_server.types.registry import TypeRegistry
 from hitrobot_server.wire.frames import PendingFrames
-from hitrobot_server.wire.memo import Memo, size_of
+from hitrobot_server.wire.memo import size_of
 
 INLINE = FrameBuilder()  # no runner: every frame is built inline
 CELLS = 600 * 600  # an OccupancyGrid this big is estimated well over bulk.OFFLOAD_BYTES

@@ -64,11 +64,11 @@ def imports_of(path: Path) -> set[str]:
 
 
 def test_the_third_protocol_needs_no_other_protocol():
-    """The line protocol reaches the server's floors only through the bus, the outbox and the
-    wire's memo: no rosbridge or Foxglove module, no encoder of protocol/."""
+    """The line protocol reaches the server's floors only through the bus (its messages' memo)
+    and the outbox: no rosbridge or Foxglove module, no encoder of protocol/."""
     used = set().union(*(imports_of(path) for path in LINES.glob("*.py")))
     ours = {name for name in used if name.startswith("hitrobot_server")}
-    assert "hitrobot_server.wire.memo" in ours
+    assert "hitrobot_server.bus.topics" in ours
     assert not {name for name in ours if name.startswith((
         "hitrobot_server.session.rosbridge", "hitrobot_server.session.foxglove",
         "hitrobot_server.protocol"))}, ours

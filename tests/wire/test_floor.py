@@ -10,7 +10,7 @@ from ..test_architecture import violations
 
 def test_the_wire_floor_sits_between_the_bus_and_the_session():
     core = ["hitrobot_server", "bus", "core"]
-    assert violations("from ..wire.memo import Memo\n", core, False)
+    assert violations("from ..wire.memo import size_of\n", core, False)
     assert violations("import hitrobot_server.wire.frames\n", core, False)
     assert not violations("from ..bus.topics import Message\n",
                           ["hitrobot_server", "wire", "memo"], False)

@@ -9,9 +9,8 @@ from typing import TYPE_CHECKING
 
 from ...bus.cdr import codec_for
 from ...bus.errors import BusError
-from ...bus.topics import Message
+from ...bus.topics import MemoKey, Message
 from ...protocol import foxglove as fg
-from ...wire.memo import MemoKey
 
 if TYPE_CHECKING:
     from .context import FoxgloveContext

@@ -1,6 +1,6 @@
 """rosbridge's encodings of a bus message, each made once and shared by every subscriber.
 
-Each is a typed key of the message's memo (hitrobot_server/wire/memo.py): the JSON body, the
+Each is a typed key of the message's memo (hitrobot_server/bus/topics.py): the JSON body, the
 ``publish`` op as JSON, png, cbor and cbor-raw for each topic spelling (a client's ``publish``
 echoes the topic as it wrote it), and the frames one subscriber gets (per compression, topic
 spelling and fragment size), ready (a list) or ``PendingFrames`` while the worker pool builds a
@@ -16,13 +16,13 @@ from typing import Any
 
 import orjson
 
-from ...bus.topics import Message
+from ...bus.topics import Memo, MemoKey, Message
 from ...protocol import cbor, ops, rawmsg
 from ...protocol.bulk import OFFLOAD_BYTES
 from ...types import jsoncodec
 from ...types.registry import MsgType, TypeRegistry
 from ...wire.frames import Frame, Frames, PendingFrames
-from ...wire.memo import PUBLISHED_JSON, Memo, MemoKey, size_of
+from ...wire.memo import PUBLISHED_JSON, size_of
 from .frames import FrameBuilder, as_png, cut, fragments
 
 

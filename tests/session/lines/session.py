@@ -11,9 +11,8 @@ import orjson
 
 from hitrobot_server.bus.core import Bus
 from hitrobot_server.bus.errors import BusError
-from hitrobot_server.bus.topics import Message
+from hitrobot_server.bus.topics import MemoKey, Message
 from hitrobot_server.session.outbox import Outbox
-from hitrobot_server.wire.memo import MemoKey
 
 SUBPROTOCOL = "hitrobot.lines.v1"
 
