@@ -13,8 +13,8 @@ import time
 import numpy as np
 
 from hitrobot_server.robot.model import Point2D, Pose2D, Rect
+from hitrobot_server.robot.planning.planner import plan
 from hitrobot_server.robot.sim.lidar import Lidar, LidarConfig, RayCaster
-from hitrobot_server.robot.sim.planner import plan
 from hitrobot_server.robot.sim.simulator import SimConfig, Simulator
 from hitrobot_server.robot.sim.world import load_world
 
@@ -78,8 +78,8 @@ def main() -> None:
 
 async def rest_round_trips(count: int = 200) -> None:
     """Mean wall time of the node's most frequent REST calls against a sim-device."""
+    from hitrobot_server.robot.device import SimDevice
     from hitrobot_server.robot.rest.client import SlamwareRestBackend
-    from hitrobot_server.robot.rest.device import SimDevice
 
     device = SimDevice(Simulator(load_world(), seed=0), port=0)
     await device.start()

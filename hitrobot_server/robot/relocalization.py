@@ -21,8 +21,8 @@ import numpy as np
 from .backend import LocalizationBackend
 from .capabilities import Robot
 from .model import LaserScan, MapRegion, Pose2D, Rect
-from .sim.geometry import compose, inverse, wrap_angle
-from .sim.grid import GridSpec, distance_field
+from .planning.geometry import compose, inverse, wrap_angle
+from .planning.grid import GridSpec, distance_field
 from .sim.localization import (
     LikelihoodField,
     LocalizationConfig,

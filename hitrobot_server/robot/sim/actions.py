@@ -25,9 +25,9 @@ from ..model import (
     Pose2D,
     Rect,
 )
+from ..planning.geometry import compose, inverse, wrap_angle
 from .context import ActionContext
 from .follower import YAW_TOLERANCE, FollowerConfig, turn_command
-from .geometry import compose, inverse, wrap_angle
 from .localization import RelocalizationSearch
 from .navigation import Navigator, speed_ratio
 

@@ -33,7 +33,7 @@ from ..model import (
     PowerStatus,
     Rect,
 )
-from ..pathing import check_poses, searched_path
+from ..planning.search import check_poses, searched_path
 from .persist import SimMemory
 from .runner import SimRunner
 from .simulator import Simulator

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .costmap import CostmapConfig
+from ..planning.costmap import CostmapConfig
 from .kinematics import DriveLimits
 from .lidar import LidarConfig
 from .localization import LocalizationConfig

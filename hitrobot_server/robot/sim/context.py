@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import Protocol
 
 from ..model import LaserScan, Pose2D, Rect
-from .costmap import Costmap
+from ..planning.costmap import Costmap
 from .kinematics import DriveLimits
 from .localization import RelocalizationSearch
 

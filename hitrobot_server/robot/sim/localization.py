@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import Pose2D, Rect
-from .geometry import compose, inverse, wrap_angle
-from .grid import GridSpec
+from ..planning.geometry import compose, inverse, wrap_angle
+from ..planning.grid import GridSpec
 
 
 @dataclass(frozen=True, slots=True)

@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass
 
 from ..model import DockingStatus, Pose2D, PowerStatus
-from .geometry import wrap_angle
+from ..planning.geometry import wrap_angle
 
 
 @dataclass(frozen=True, slots=True)

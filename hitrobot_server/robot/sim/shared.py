@@ -13,9 +13,9 @@ import math
 import numpy as np
 
 from ..model import Pose2D
+from ..planning.grid import distance_field
 from .backend import SimBackend
 from .config import SimConfig
-from .grid import distance_field
 from .persist import SimMemory
 from .simulator import Simulator
 from .world import World

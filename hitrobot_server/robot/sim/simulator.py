@@ -34,15 +34,15 @@ from ..model import (
     Rect,
     Twist2D,
 )
+from ..planning.costmap import Costmap, build_costmap
+from ..planning.geometry import compose, inverse, wrap_angle
+from ..planning.grid import distance_field
 from .artifacts import LineStore
 from .checks import checked_pose
 from .commands import ActionSlot, MotionCommands
 from .config import SimConfig
 from .context import ActionContext
 from .controls import SimControls
-from .costmap import Costmap, build_costmap
-from .geometry import compose, inverse, wrap_angle
-from .grid import distance_field
 from .health import HealthMonitor
 from .kinematics import DiffDrive, DriveLimits
 from .lidar import Lidar, RayCaster

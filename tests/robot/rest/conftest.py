@@ -9,9 +9,9 @@ from collections.abc import Awaitable, Callable
 import pytest
 from aiohttp import web
 
+from hitrobot_server.robot.device import SimDevice
 from hitrobot_server.robot.factory import build_simulator
 from hitrobot_server.robot.rest.client import SlamwareRestBackend
-from hitrobot_server.robot.rest.device import SimDevice
 
 
 async def connected(backend: SlamwareRestBackend, seconds: float = 5.0) -> None:

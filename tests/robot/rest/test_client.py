@@ -11,6 +11,7 @@ from aiohttp import web
 
 from hitrobot_server.config import Settings
 from hitrobot_server.robot.backend import BackendError, NotConnectedError, UnsupportedError
+from hitrobot_server.robot.device import SimDevice
 from hitrobot_server.robot.factory import build_backend, build_simulator
 from hitrobot_server.robot.model import (
     ActionDirection,
@@ -26,7 +27,6 @@ from hitrobot_server.robot.model import (
 )
 from hitrobot_server.robot.rest import paths, shapes
 from hitrobot_server.robot.rest.client import SlamwareRestBackend
-from hitrobot_server.robot.rest.device import SimDevice
 
 from .conftest import connected
 

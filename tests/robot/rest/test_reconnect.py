@@ -8,8 +8,8 @@ import logging
 import time
 
 from hitrobot_server.nodes.options import SlamwareParams
+from hitrobot_server.robot.device import SimDevice
 from hitrobot_server.robot.factory import build_simulator
-from hitrobot_server.robot.rest.device import SimDevice
 
 from ...helpers import Watcher
 

@@ -7,7 +7,7 @@ from hitrobot_server.robot.model import (
     Pose2D,
     Rect,
 )
-from hitrobot_server.robot.sim.geometry import wrap_angle
+from hitrobot_server.robot.planning.geometry import wrap_angle
 from hitrobot_server.robot.sim.health import LOCALIZATION_LOW, RELOCALIZATION_FAILED
 from hitrobot_server.robot.sim.simulator import Simulator
 

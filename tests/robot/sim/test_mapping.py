@@ -3,7 +3,7 @@ import math
 import numpy as np
 
 from hitrobot_server.robot.model import Point2D, Pose2D, Rect
-from hitrobot_server.robot.sim.grid import GridSpec
+from hitrobot_server.robot.planning.grid import GridSpec
 from hitrobot_server.robot.sim.mapping import ExploreMapper, decode_cells, encode_cells
 from hitrobot_server.robot.sim.simulator import SimConfig, Simulator
 

@@ -15,7 +15,7 @@ from hitrobot_server.robot.model import (
     Point2D,
     Pose2D,
 )
-from hitrobot_server.robot.sim.geometry import wrap_angle
+from hitrobot_server.robot.planning.geometry import wrap_angle
 from hitrobot_server.robot.sim.health import POWER_LOW
 from hitrobot_server.robot.sim.power import PowerConfig
 from hitrobot_server.robot.sim.simulator import SimConfig, Simulator

@@ -8,11 +8,11 @@ from collections.abc import Awaitable, Callable
 
 from aiohttp import web
 
-from .... import __version__
-from ...backend import BackendError, NotConnectedError, UnsupportedError
-from ...sim.backend import SimBackend
-from ...sim.simulator import Simulator
-from .. import paths, shapes
+from ... import __version__
+from ..backend import BackendError, NotConnectedError, UnsupportedError
+from ..rest import paths, shapes
+from ..sim.backend import SimBackend
+from ..sim.simulator import Simulator
 from .actions import ActionRoutes
 from .artifacts import AreaRoutes, LineRoutes
 from .replies import Handler, body_of, empty, getter, reply, text

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from aiohttp import web
 
-from ...model import ArtifactUsage, Line
-from ...sim.backend import SimBackend
-from .. import paths, shapes
+from ..model import ArtifactUsage, Line
+from ..rest import paths, shapes
+from ..sim.backend import SimBackend
 from .replies import body_of, reply, text
 
 

@@ -7,10 +7,10 @@ from typing import Any
 
 from aiohttp import web
 
-from ...backend import ACTION_PREFIX, BackendError
-from ...model import ActionDirection, ActionInfo
-from ...sim.backend import SimBackend
-from .. import paths, shapes
+from ..backend import ACTION_PREFIX, BackendError
+from ..model import ActionDirection, ActionInfo
+from ..rest import paths, shapes
+from ..sim.backend import SimBackend
 from .replies import body_of, empty, getter, reply, text
 
 ACTION_NAMES = ("MoveToAction", "SeriesMoveToAction", "MoveByAction", "RotateToAction",

@@ -7,9 +7,9 @@ import math
 
 from aiohttp import web
 
-from ...model import Pose2D, Rect
-from ...sim.backend import SimBackend
-from .. import mapformat, paths, shapes
+from ..model import Pose2D, Rect
+from ..rest import mapformat, paths, shapes
+from ..sim.backend import SimBackend
 from .replies import body_of, empty, enabler, getter, reply, text
 
 
