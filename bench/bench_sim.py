@@ -84,13 +84,13 @@ async def rest_round_trips(count: int = 200) -> None:
     device = SimDevice(Simulator(load_world(), seed=0), port=0)
     await device.start()
     client = SlamwareRestBackend(device.url)
-    await client.start()
-    while not client.connected:
+    await client.link.start()
+    while not client.link.connected:
         await asyncio.sleep(0.01)
     calls = {
-        "odometry (pose + speed)": client.get_odometry,
-        "laser scan, 360 points": client.get_laser_scan,
-        "explore map, 16 m window": lambda: client.get_map(Rect(2.0, 0.0, 16.0, 16.0)),
+        "odometry (pose + speed)": client.sensors.get_odometry,
+        "laser scan, 360 points": client.sensors.get_laser_scan,
+        "explore map, 16 m window": lambda: client.maps.get_map(Rect(2.0, 0.0, 16.0, 16.0)),
     }
     try:
         for name, call in calls.items():
@@ -100,7 +100,7 @@ async def rest_round_trips(count: int = 200) -> None:
             per_call = (time.perf_counter() - started) / count * 1000.0
             print(f"REST {name + ':':27s}{per_call:6.2f} ms/call")
     finally:
-        await client.stop()
+        await client.link.stop()
         await device.stop()
 
 

@@ -60,7 +60,7 @@ async def test_robot_items_are_ok_at_start_and_follow_the_robot(robot, monkeypat
     async def fake_quality() -> int:
         return quality["value"]
 
-    monkeypatch.setattr(backend, "get_localization_quality", fake_quality)
+    monkeypatch.setattr(backend.localization, "get_localization_quality", fake_quality)
     got = by_name(await w.next("/diagnostics_agg", timeout=3))
     assert got["/Robot/Localization"]["level"] == WARN
     assert got["/Robot"]["level"] == WARN
@@ -77,7 +77,7 @@ async def test_robot_items_are_ok_at_start_and_follow_the_robot(robot, monkeypat
 
 async def test_an_offline_robot_is_an_error_and_its_items_stale(robot):
     server, w = robot.server, robot.w
-    await server.backend.stop()
+    await server.backend.link.stop()
     got = by_name(await w.next("/diagnostics_agg", timeout=3))
     assert got["/Robot/Connection"]["level"] == ERROR
     assert got["/Robot/Battery"]["level"] == STALE

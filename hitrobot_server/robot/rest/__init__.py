@@ -1,6 +1,6 @@
 """The Slamware REST API (port 1448): the client backend for real robots.
 
-* :mod:`.client` - :class:`SlamwareRestBackend`, the :class:`RobotBackend` over aiohttp, made of
+* :mod:`.client` - :class:`SlamwareRestBackend`, a ``ComposedBackend`` over aiohttp, made of
   one adapter per capability: :mod:`.motion`, :mod:`.localization`, :mod:`.maps`,
   :mod:`.sensors`, :mod:`.power`, each over :mod:`.link` (the connection and its requests);
 * :mod:`.http` - the session wrapper (timeouts, one request in flight per resource);

@@ -2,6 +2,6 @@
 
 :class:`~hitrobot_server.robot.sim.simulator.Simulator` owns the physics and the robot's
 software stand-ins (mapping, localization, planning); :class:`~.runner.SimRunner` steps it on
-the event loop and :class:`~.backend.SimBackend` exposes it through the async
-:class:`~hitrobot_server.robot.backend.RobotBackend` interface.
+the event loop and :class:`~.backend.SimBackend` exposes it as the REST robot is exposed: one
+adapter per capability (:mod:`hitrobot_server.robot.backend`'s protocols) over the runner.
 """

@@ -113,7 +113,7 @@ async def test_a_paused_device_refuses_with_503_and_factories_are_listed(http, d
     async with http.get(paths.ACTION_FACTORIES) as resp:
         names = [f["action_name"] for f in await resp.json()]
     assert "slamtec.agent.actions.GoHomeAction" in names
-    await device.backend.stop()  # the HTTP side up, the simulator not running
+    await device.backend.link.stop()  # the HTTP side up, the simulator not running
     assert (await call(http, "GET", paths.POSE))[0] == 503
-    await device.backend.start()
+    await device.backend.link.start()
     assert (await call(http, "GET", paths.POSE))[0] == 200

@@ -16,13 +16,13 @@ async def test_map_lines_home_pose_and_battery_come_back(world, tmp_path, run_un
     store = StateStore.open(tmp_path)
     memory = SimMemory(store)
     backend = SimBackend(Simulator(world, seed=0), memory=memory)
-    await backend.start()
+    await backend.link.start()
     try:  # requests through the backend are on disk when they return
-        await backend.add_lines(ArtifactUsage.VIRTUAL_WALL,
+        await backend.maps.add_lines(ArtifactUsage.VIRTUAL_WALL,
                                 [Line(0, Point2D(14.0, 2.0), Point2D(14.0, 3.0))])
-        await backend.set_home_pose(Pose2D(4.0, 1.0, 0.5))
+        await backend.maps.set_home_pose(Pose2D(4.0, 1.0, 0.5))
     finally:
-        await backend.stop()
+        await backend.link.stop()
     sim = backend.simulator
     sim.move_to([Point2D(7.0, 8.0)])
     assert run_until(sim, lambda: math.dist((sim.pose.x, sim.pose.y), (7.0, 8.0)) < 0.2

@@ -114,6 +114,6 @@ def test_a_reboot_keeps_the_start_and_the_neighbours(world):
     w = fresh(world)
     robot = w.add(0, Pose2D(5.0, CORRIDOR_Y, 0.0), 1.0)
     w.add(1, Pose2D(8.0, CORRIDOR_Y, 0.0), 1.0)
-    robot.runner.simulator = robot.simulator.restarted()  # what SimBackend.reboot does
+    robot.runner.simulator = robot.simulator.restarted()  # what SimRunner.reboot does
     assert robot.simulator.start == Pose2D(5.0, CORRIDOR_Y, 0.0)
     assert robot.simulator.others() == [Pose2D(8.0, CORRIDOR_Y, 0.0)]
