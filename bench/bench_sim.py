@@ -42,12 +42,12 @@ def main() -> None:
     print(f"step, idle:                  {rate:8.0f} steps/s   worst {worst:6.1f} ms")
 
     moving = Simulator(world, seed=0)
-    moving.move_to([Point2D(21.0, 10.3)])
+    moving.actions.move_to([Point2D(21.0, 10.3)])
     rate, worst = steps_per_second(moving, 30.0)
     print(f"step, navigating:            {rate:8.0f} steps/s   worst {worst:6.1f} ms")
 
     mapping = Simulator(world, seed=0, config=SimConfig(prebuilt_map=False, map_update=True))
-    mapping.move_to([Point2D(21.0, 10.3)])
+    mapping.actions.move_to([Point2D(21.0, 10.3)])
     rate, worst = steps_per_second(mapping, 30.0)
     print(f"step, navigating + mapping:  {rate:8.0f} steps/s   worst {worst:6.1f} ms")
 

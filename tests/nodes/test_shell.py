@@ -91,11 +91,12 @@ async def test_cancel_stops_move_base_goals_and_the_robot(robot):
         "pose": {"position": {"x": 20.0, "y": 8.2, "z": 0.0},
                  "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}}},
         "move_base_msgs/MoveBaseActionGoal")
-    await w.until(lambda: server.backend.simulator.current_action() is not None, 5, "motion")
+    actions = server.robot.simulator.actions
+    await w.until(lambda: actions.current_action() is not None, 5, "motion")
     await command(w, "cancel", "c")
     result = await w.until(lambda: w.latest("/move_base/result"), 5, "a result")
     assert result["status"]["goal_id"]["id"] == "far" and result["status"]["status"] == 2
-    await w.until(lambda: server.backend.simulator.current_action() is None, 3, "robot idle")
+    await w.until(lambda: actions.current_action() is None, 3, "robot idle")
 
 
 async def test_map_commands_go_to_the_map_manager(robot):

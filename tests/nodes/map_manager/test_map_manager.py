@@ -272,12 +272,12 @@ async def test_blocked_areas_are_handed_over_again_after_a_reconnect(make_server
     status = await modify_map(w, "mask", rect(6.0, 7.5, 6.5, 8.5), BLOCKED)
     assert status["level"] == "info", status
     sim = server.backend.simulator
-    assert len(sim._blocked) == 1
+    assert len(sim.map.blocked) == 1
     await server.backend.link.stop()  # the robot goes away and forgets its blocked areas
-    sim.set_blocked_areas([])
+    sim.map.set_blocked_areas([])
     await asyncio.sleep(0.8)
     await server.backend.link.start()
-    await w.until(lambda: len(sim._blocked) == 1, 5, "the blocked areas handed over again")
+    await w.until(lambda: len(sim.map.blocked) == 1, 5, "the blocked areas handed over again")
     await w.close()
 
 

@@ -53,7 +53,7 @@ async def test_state_reads_match_the_simulator(device, client):
     assert odo.twist.vx == 0.0 and odo.pose.x == pytest.approx(pose.x, abs=0.05)
     scan = await client.sensors.get_laser_scan()
     assert len(scan.angles) == len(sim.latest_scan.angles) and scan.valid.sum() > 300
-    assert await client.maps.get_known_area() == sim.known_area()
+    assert await client.maps.get_known_area() == sim.map.known_area()
     assert await client.maps.get_map_update() is False
     assert await client.localization.get_localization_enabled() is True
     assert 0 <= await client.localization.get_localization_quality() <= 100
@@ -79,7 +79,7 @@ async def test_map_kinds_other_than_explore_are_unsupported(client):
 async def test_setters_reach_the_simulator(device, client):
     sim = device.simulator
     await client.maps.set_map_update(True)
-    assert sim.map_update is True and await client.maps.get_map_update() is True
+    assert sim.map.map_update is True and await client.maps.get_map_update() is True
     await client.localization.set_localization_enabled(False)
     assert sim.localization_enabled is False
     assert await client.localization.get_localization_quality() == 0
@@ -91,7 +91,7 @@ async def test_setters_reach_the_simulator(device, client):
     with pytest.raises(BackendError):
         await client.localization.set_pose(Pose2D(math.nan, 0.0, 0.0))
     await client.maps.clear_map()
-    assert sim.known_area().is_empty
+    assert sim.map.known_area().is_empty
     assert (await client.maps.get_map()).cells.size == 0
     assert not await client.sensors.clear_health_error(0x12345)
 
@@ -99,10 +99,10 @@ async def test_setters_reach_the_simulator(device, client):
 async def test_stcm_is_passed_through_unchanged_and_the_pose_is_set_after(device, client):
     sim = device.simulator
     saved = await client.maps.get_composite_map()
-    assert saved == sim.composite_map()
+    assert saved == sim.map.composite_map()
     await client.maps.clear_map()
     await client.maps.set_composite_map(saved, Pose2D(5.0, 8.0, 0.0))
-    assert sim.composite_map() == saved
+    assert sim.map.composite_map() == saved
     assert sim.pose.x == pytest.approx(5.0) and sim.pose.y == pytest.approx(8.0)
     with pytest.raises(BackendError, match="HTTP 400"):
         await client.maps.set_composite_map(b"not a map", Pose2D(5.0, 8.0, 0.0))
@@ -227,7 +227,7 @@ async def test_lines_crud_and_robot_assigned_ids(device, client):
     assert await client.maps.remove_line(walls, stored[1].id)
     assert not await client.maps.remove_line(walls, 999)
     await client.maps.clear_lines(walls)
-    assert device.simulator.get_lines(walls) == []
+    assert device.simulator.map.get_lines(walls) == []
 
 
 async def test_blocked_areas_become_forbidden_rectangles_and_replace_only_ours(device, client):
@@ -241,12 +241,12 @@ async def test_blocked_areas_become_forbidden_rectangles_and_replace_only_ours(d
     square = [Point2D(8, 7), Point2D(9, 7), Point2D(9, 8), Point2D(8, 8)]
     triangle = [Point2D(12, 7), Point2D(13, 7), Point2D(12.5, 8)]
     await client.maps.set_blocked_areas([square, triangle])
-    blocked = device.simulator._blocked
+    blocked = device.simulator.map.blocked
     assert len(blocked) == 1 + 1 + 10  # foreign + square + ten 0.1 m strips of the triangle
     await client.maps.set_blocked_areas([square])
-    assert len(device.simulator._blocked) == 2
+    assert len(device.simulator.map.blocked) == 2
     await client.maps.set_blocked_areas([])
-    assert len(device.simulator._blocked) == 1  # the foreign one stays
+    assert len(device.simulator.map.blocked) == 1  # the foreign one stays
 
 
 async def test_factory_builds_the_rest_client_from_a_url():

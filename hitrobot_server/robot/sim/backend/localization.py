@@ -26,4 +26,5 @@ class SimLocalization(SimPart, LocalizationBackend):
     async def recover_localization(self, area: Rect | None = None,
                                    max_time_ms: int | None = None,
                                    movement: LocalizationMovement | None = None) -> ActionInfo:
-        return self._call(self.simulator.recover_localization, area, max_time_ms, movement)
+        recover = self.simulator.actions.recover_localization
+        return self._call(recover, area, max_time_ms, movement)

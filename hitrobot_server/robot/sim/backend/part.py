@@ -44,7 +44,7 @@ class SimPart:
     async def _change(self, fn: Callable[..., T], *args: object) -> T:
         """A request that changes what the robot remembers: answered once it is on disk."""
         memory = self.runner.memory
-        lines = None if memory is None else self.simulator.saved_lines()
+        lines = None if memory is None else self.simulator.map.saved_lines()
         result = self._call(fn, *args)
         if memory is not None:
             pending = memory.sync(self.simulator, asyncio.get_running_loop().time(),
