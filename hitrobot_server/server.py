@@ -272,11 +272,6 @@ class HitrobotServer:
         await self._stop_link()
 
     @property
-    def backend(self):
-        """The first robot's backend (the single robot's), None without one."""
-        return self.robots[0].backend if self.robots else None
-
-    @property
     def robot(self) -> Robot | None:
         """The first robot's capabilities (the single robot's), None without one: what tools
         and tests drive it through (its motion behind the locomotion gate)."""
