@@ -2,11 +2,11 @@
 over what steps it (:class:`~..runner.SimRunner`), composed by
 :class:`~hitrobot_server.robot.composed.ComposedBackend`.
 
-* :mod:`.link` (start, stop: the runner's), :mod:`.motion`, :mod:`.localization`,
-  :mod:`.maps`, :mod:`.sensors`, :mod:`.power`; and :mod:`.controls`, the simulator's own
-  (battery, kidnap, emergency stop), which no real robot has;
-* :mod:`.part` - what they share: the runner, and how a request is refused, translated and
-  (when it changes what the robot remembers) answered once on disk.
+:mod:`.link` (start, stop: the runner's), :mod:`.motion`, :mod:`.localization`, :mod:`.maps`,
+:mod:`.sensors`, :mod:`.power`, and :mod:`.controls`, the simulator's own (battery, kidnap,
+emergency stop), which no real robot has. Each is a :class:`~..runner.RunnerPart`: the runner
+refuses a request while the simulator is stopped, words its ``ValueError`` as a
+``BackendError`` and answers a change once on disk.
 """
 
 from __future__ import annotations

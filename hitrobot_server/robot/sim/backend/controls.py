@@ -4,15 +4,15 @@ the emergency stop. See :mod:`~..controls`."""
 from __future__ import annotations
 
 from ...model import Pose2D
-from .part import SimPart
+from ..runner import RunnerPart
 
 
-class SimControls(SimPart):
+class SimControls(RunnerPart):
     def set_battery(self, percent: float) -> float:
-        return self._call(self.simulator.set_battery, percent)
+        return self.runner.call(self.runner.simulator.set_battery, percent)
 
     def kidnap(self, true_pose: Pose2D) -> None:
-        self._call(self.simulator.kidnap, true_pose)
+        self.runner.call(self.runner.simulator.kidnap, true_pose)
 
     def emergency_stop(self, pressed: bool) -> None:
-        self._call(self.simulator.emergency_stop, pressed)
+        self.runner.call(self.runner.simulator.emergency_stop, pressed)

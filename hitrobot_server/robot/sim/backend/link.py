@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from ...backend import Link
-from .part import SimPart
+from ..runner import RunnerPart
+from ..simulator import Simulator
 
 
-class SimLink(SimPart, Link):
+class SimLink(RunnerPart, Link):
     """Starting and stopping the simulation is connecting and disconnecting."""
 
     @property
@@ -18,3 +19,9 @@ class SimLink(SimPart, Link):
 
     async def stop(self) -> None:
         await self.runner.stop()
+
+    @property
+    def simulator(self) -> Simulator:
+        """The simulator now running (a reboot replaces it): what a ``Robot`` of it shows the
+        sim tools and tests."""
+        return self.runner.simulator

@@ -4,15 +4,15 @@ from __future__ import annotations
 
 from ...backend import PowerBackend
 from ...model import PowerStatus
-from .part import SimPart
+from ..runner import RunnerPart
 
 
-class SimPower(SimPart, PowerBackend):
+class SimPower(RunnerPart, PowerBackend):
     async def get_power_status(self) -> PowerStatus:
-        return self._call(self.simulator.power_status)
+        return self.runner.call(self.runner.simulator.power_status)
 
     async def get_board_temperature(self) -> int:
-        return self._call(self.simulator.board_temperature)
+        return self.runner.call(self.runner.simulator.board_temperature)
 
     async def power_off(self) -> None:
         await self.runner.power_off()

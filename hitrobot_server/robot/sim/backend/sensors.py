@@ -11,27 +11,27 @@ from ...model import (
     LaserScan,
     Odometry,
 )
-from .part import SimPart
+from ..runner import RunnerPart
 
 
-class SimSensors(SimPart, SensorBackend):
+class SimSensors(RunnerPart, SensorBackend):
     async def get_odometry(self) -> Odometry:
-        return self._call(self.simulator.odometry)
+        return self.runner.call(self.runner.simulator.odometry)
 
     async def get_laser_scan(self) -> LaserScan:
-        return self._call(lambda: self.simulator.latest_scan)
+        return self.runner.call(lambda: self.runner.simulator.latest_scan)
 
     async def get_sensors_info(self) -> list[BasicSensorInfo]:
-        return self._call(self.simulator.sensors_info)
+        return self.runner.call(self.runner.simulator.sensors_info)
 
     async def get_sensor_values(self) -> dict[int, BasicSensorValue]:
-        return self._call(self.simulator.sensor_values)
+        return self.runner.call(self.runner.simulator.sensor_values)
 
     async def get_device_info(self) -> DeviceInfo:
-        return self._call(self.simulator.device_info)
+        return self.runner.call(self.runner.simulator.device_info)
 
     async def get_health(self) -> HealthInfo:
-        return self._call(self.simulator.health)
+        return self.runner.call(self.runner.simulator.health)
 
     async def clear_health_error(self, error_code: int) -> bool:
-        return self._call(self.simulator.clear_health_error, error_code)
+        return self.runner.call(self.runner.simulator.clear_health_error, error_code)
