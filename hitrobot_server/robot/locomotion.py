@@ -249,8 +249,8 @@ def _through(name: str) -> Callable[..., Awaitable[Any]]:
 class GatedMotion(MotionBackend):
     """A robot's motion behind its :class:`Locomotion`: commands that move the robot are
     checked first (see the module text); stopping and reading actions pass straight through.
-    Every method of the protocol is named here once, gated or not (a new one left out keeps
-    the class abstract, so ``robot_of`` fails until it is placed)."""
+    Every method of the protocol is named here once, gated or not (an abstract one left out
+    keeps the class abstract; ``tests/robot/test_composed.py`` fails on any left out)."""
 
     def __init__(self, inner: MotionBackend, locomotion: Locomotion):
         self.inner = inner
