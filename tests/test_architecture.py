@@ -60,14 +60,17 @@ NODES_ASSEMBLY = "assembly"
 NODE_EXCEPTIONS: dict[tuple[str, str], str] = {}
 
 # Inside robot/ (ARCHITECTURE.md, "Inside robot/"): planning/ (grid, costmap, planner, path
-# search) sits below both backends; the simulator and the REST client never import each other;
-# the sim-device (the simulator served over the REST API) sits above both. The modules at
-# robot/'s top (the capability protocols, the model, the factory) are not parts.
+# search, scan matching) sits below both backends; the simulator and the REST client never
+# import each other; the sim-device (the simulator served over the REST API) sits above both.
+# The modules at robot/'s top ("top": the capability protocols, the model, the locomotion gate,
+# relocalization) use planning/ but no backend; only the factory, which builds them, does.
 ROBOT_PARTS: dict[str, set[str]] = {
     "planning": set(),
     "sim": {"planning"},
     "rest": {"planning"},
     "device": {"planning", "sim", "rest"},
+    "top": {"planning"},
+    "factory": {"planning", "sim", "rest"},
 }
 
 
@@ -131,22 +134,25 @@ def node_violations(source: str, module: list[str], is_package: bool) -> list[st
 
 
 def robot_part_of(module: list[str]) -> str | None:
-    """``['hitrobot_server', 'robot', 'sim', 'runner']`` → ``'sim'``; None outside the parts."""
-    if len(module) > 2 and module[1] == "robot" and module[2] in ROBOT_PARTS:
+    """``['hitrobot_server', 'robot', 'sim', 'runner']`` → ``'sim'``, a module at robot/'s top
+    → ``'top'`` (the factory its own); None outside robot/ and for robot/ itself."""
+    if len(module) < 3 or module[1] != "robot":
+        return None
+    if module[2] in ROBOT_PARTS:
         return module[2]
-    return None
+    return "top" if len(module) == 3 else None
 
 
 def robot_violations(source: str, module: list[str], is_package: bool) -> list[str]:
-    """A part of robot/ importing a part it may not (planning importing a backend, one
-    backend importing the other)."""
+    """A part of robot/ importing a part it may not (planning or a top module importing a
+    backend, one backend importing the other); every part may import the top modules."""
     here = robot_part_of(module)
     if here is None:
         return []
     bad = []
     for target in imported_modules(source, module, is_package):
         dest = robot_part_of(target)
-        if dest is not None and dest != here and dest not in ROBOT_PARTS[here]:
+        if dest not in (None, here, "top") and dest not in ROBOT_PARTS[here]:
             bad.append(f"{'.'.join(module)} imports {'.'.join(target)} (robot/{here} → "
                        f"robot/{dest})")
     return bad
@@ -261,6 +267,11 @@ def test_the_robot_rule_catches_a_backend_importing_the_other():
     assert robot_violations("import hitrobot_server.robot.rest.shapes\n", sim, False)
     assert robot_violations("from ..sim.navigation import Navigator\n", planning, False)
     assert robot_violations("def f():\n    from ..rest import paths\n", planning, False)
+    top = ["hitrobot_server", "robot", "relocalization"]
+    assert robot_violations("from .sim.localization import Localizer\n", top, False)
+    assert not robot_violations("from .planning.matching import scan_points\n", top, False)
+    assert not robot_violations("from .sim.backend import SimBackend\n",
+                                ["hitrobot_server", "robot", "factory"], False)
     assert not robot_violations("from ..planning.costmap import Costmap\n", rest, False)
     assert not robot_violations("from ..planning.grid import GridSpec\n", sim, False)
     assert not robot_violations("from ..sim.backend import SimBackend\n", device, False)

@@ -10,8 +10,8 @@ from typing import Protocol
 
 from ..model import LaserScan, Pose2D, Rect
 from ..planning.costmap import Costmap
+from ..planning.matching import RelocalizationSearch
 from .kinematics import DriveLimits
-from .localization import RelocalizationSearch
 
 
 class ActionContext(Protocol):

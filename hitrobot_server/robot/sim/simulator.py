@@ -39,18 +39,14 @@ from ..model import (
 from ..planning.costmap import Costmap
 from ..planning.geometry import compose, inverse, wrap_angle
 from ..planning.grid import distance_field
+from ..planning.matching import LikelihoodField, RelocalizationSearch, scan_points
 from .checks import checked_pose, checked_saved_robot
 from .commands import Actions
 from .config import SimConfig
 from .health import HealthMonitor
 from .kinematics import DiffDrive, DriveLimits
 from .lidar import Lidar, RayCaster
-from .localization import (
-    LikelihoodField,
-    Localizer,
-    RelocalizationSearch,
-    scan_points,
-)
+from .localization import Localizer
 from .mapping import ExploreMapper
 from .maps import RobotMap
 from .power import Battery, on_dock
