@@ -30,7 +30,7 @@ def step_cost(robots: int, seconds: float = 20.0) -> tuple[float, float]:
     sims = [world.add(i, Pose2D(2.0 + 2.5 * i, CORRIDOR_Y, 0.0), 1.0).simulator
             for i in range(robots)]
     for i, sim in enumerate(sims):  # half drive east, half west: they meet and pass
-        sim.move_to([Point2D(20.0 if i % 2 == 0 else 1.5, CORRIDOR_Y)])
+        sim.actions.move_to([Point2D(20.0 if i % 2 == 0 else 1.5, CORRIDOR_Y)])
     worst, started = 0.0, time.perf_counter()
     count = round(seconds / STEP)
     for _ in range(count):

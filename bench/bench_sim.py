@@ -13,8 +13,8 @@ import time
 import numpy as np
 
 from hitrobot_server.robot.model import Point2D, Pose2D, Rect
+from hitrobot_server.robot.planning.planner import plan
 from hitrobot_server.robot.sim.lidar import Lidar, LidarConfig, RayCaster
-from hitrobot_server.robot.sim.planner import plan
 from hitrobot_server.robot.sim.simulator import SimConfig, Simulator
 from hitrobot_server.robot.sim.world import load_world
 
@@ -42,12 +42,12 @@ def main() -> None:
     print(f"step, idle:                  {rate:8.0f} steps/s   worst {worst:6.1f} ms")
 
     moving = Simulator(world, seed=0)
-    moving.move_to([Point2D(21.0, 10.3)])
+    moving.actions.move_to([Point2D(21.0, 10.3)])
     rate, worst = steps_per_second(moving, 30.0)
     print(f"step, navigating:            {rate:8.0f} steps/s   worst {worst:6.1f} ms")
 
     mapping = Simulator(world, seed=0, config=SimConfig(prebuilt_map=False, map_update=True))
-    mapping.move_to([Point2D(21.0, 10.3)])
+    mapping.actions.move_to([Point2D(21.0, 10.3)])
     rate, worst = steps_per_second(mapping, 30.0)
     print(f"step, navigating + mapping:  {rate:8.0f} steps/s   worst {worst:6.1f} ms")
 
@@ -78,19 +78,19 @@ def main() -> None:
 
 async def rest_round_trips(count: int = 200) -> None:
     """Mean wall time of the node's most frequent REST calls against a sim-device."""
+    from hitrobot_server.robot.device import SimDevice
     from hitrobot_server.robot.rest.client import SlamwareRestBackend
-    from hitrobot_server.robot.rest.device import SimDevice
 
     device = SimDevice(Simulator(load_world(), seed=0), port=0)
     await device.start()
     client = SlamwareRestBackend(device.url)
-    await client.start()
-    while not client.connected:
+    await client.link.start()
+    while not client.link.connected:
         await asyncio.sleep(0.01)
     calls = {
-        "odometry (pose + speed)": client.get_odometry,
-        "laser scan, 360 points": client.get_laser_scan,
-        "explore map, 16 m window": lambda: client.get_map(Rect(2.0, 0.0, 16.0, 16.0)),
+        "odometry (pose + speed)": client.sensors.get_odometry,
+        "laser scan, 360 points": client.sensors.get_laser_scan,
+        "explore map, 16 m window": lambda: client.maps.get_map(Rect(2.0, 0.0, 16.0, 16.0)),
     }
     try:
         for name, call in calls.items():
@@ -100,7 +100,7 @@ async def rest_round_trips(count: int = 200) -> None:
             per_call = (time.perf_counter() - started) / count * 1000.0
             print(f"REST {name + ':':27s}{per_call:6.2f} ms/call")
     finally:
-        await client.stop()
+        await client.link.stop()
         await device.stop()
 
 

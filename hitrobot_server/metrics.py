@@ -325,7 +325,7 @@ def _merged(texts: list[str]) -> bytes:
 
 
 def _link_up(unit: RobotUnit) -> bool:
-    return unit.backend is not None and unit.backend.connected
+    return unit.backend is not None and unit.backend.link.connected
 
 
 def _write_failures(unit: RobotUnit) -> int:

@@ -12,7 +12,8 @@ from pathlib import Path
 
 from .nodes.assembly import restored_summary
 from .nodes.base import Node
-from .robot.backend import BackendError, RobotBackend
+from .robot.backend import BackendError
+from .robot.composed import ComposedBackend
 from .state import StateBinding, StateStore, identity_folder
 
 log = logging.getLogger(__name__)
@@ -48,7 +49,7 @@ class RestStateBinder:
     robot swapped at the same address may never look disconnected), ask who it is; a new
     identity gets its own state folder, and the log says which side's state won."""
 
-    def __init__(self, backend: RobotBackend, binding: StateBinding, url: str, root: Path,
+    def __init__(self, backend: ComposedBackend, binding: StateBinding, url: str, root: Path,
                  fresh: bool, nodes: Callable[[], list[Node]],
                  on_bound: Callable[[StateStore], Awaitable[None]] | None = None):
         """``on_bound``: told each folder bound, before the nodes adopt it (the site takes
@@ -61,11 +62,11 @@ class RestStateBinder:
         loop = asyncio.get_running_loop()
         was, asked = False, -math.inf
         while True:
-            now = self.backend.connected
+            now = self.backend.link.connected
             if now and (not was or loop.time() - asked >= IDENTITY_RECHECK):
                 asked = loop.time()
                 try:
-                    info = await self.backend.get_device_info()
+                    info = await self.backend.sensors.get_device_info()
                 except BackendError as exc:
                     log.warning("state: cannot ask the robot who it is (%s); retrying", exc)
                     now = False

@@ -32,8 +32,8 @@ from .nodes.assembly import (
 )
 from .nodes.base import Node
 from .nodes.options import NodeOptions
-from .robot.backend import RobotBackend
 from .robot.capabilities import Robot
+from .robot.composed import ComposedBackend
 from .robot.factory import build_backend, robot_of, shared_world, sim_identity
 from .robot.locomotion import STAND_UP_SECONDS
 from .robot.options import RobotEntry
@@ -112,9 +112,9 @@ class RobotUnit:
 
     name: str
     spec: str
-    backend: RobotBackend | None
-    robot: Robot | None = None  # what its nodes were handed of the backend
+    backend: ComposedBackend | None
     nodes: list[Node] = field(default_factory=list)
+    robot: Robot | None = None  # what its nodes, tools and tests get: the gated capabilities
     bus: Bus | NamespacedBus | None = None  # what its nodes see
     state: StateBinding = field(default_factory=StateBinding)  # its state folder, once known
     binder: asyncio.Task | None = None  # a REST robot's: binds its folder when it answers
@@ -154,7 +154,7 @@ async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
             unit.state = StateBinding(store, identity)
         backend = unit.backend = build_backend(options, world, unit.state.store)
         if backend is not None:
-            await backend.start()
+            await backend.link.start()
         node_options = robot_node_options(settings, entry)
         robot: Robot | None = None  # what the nodes get: the motion behind the locomotion gate
         if backend is not None:
@@ -169,10 +169,10 @@ async def start_robot(bus: Bus, settings: Settings, entry: RobotEntry, *,
             unit.nodes = await start_robot_nodes(view, entry.name, node_options, robot,
                                                  unit.state)
         if isinstance(backend, SimBackend) and unit.bus is not None:
-            unit.nodes.append(await start_sim_controls(unit.bus, backend))
+            unit.nodes.append(await start_sim_controls(unit.bus, backend.link, backend.controls))
         if unit.state.store is not None:
             # the simulator restores itself from the store (a REST robot keeps its own state)
-            own = backend.restored if isinstance(backend, SimBackend) else []
+            own = backend.restored if backend is not None else []
             report_restored(unit.state.store, [*own, *restored_summary(unit.nodes)])
         elif backend is not None:  # a REST robot: its state folder once it says who it is
             binder = RestStateBinder(backend, unit.state, options.robot,
@@ -195,8 +195,8 @@ async def stop_robot(unit: RobotUnit) -> None:
     unit.nodes.clear()
     if unit.backend is not None:
         with contextlib.suppress(Exception):
-            await unit.backend.stop()
-        unit.backend = None
+            await unit.backend.link.stop()
+        unit.backend = unit.robot = None
     if unit.state.store is not None:
         await unit.state.store.close()
         unit.state = StateBinding()

@@ -20,6 +20,7 @@ from .protocol.foxglove import SUBPROTOCOLS as FOXGLOVE_SUBPROTOCOLS
 from .record.blackbox_control import BlackBoxControl
 from .record.control import RecordingControl
 from .record.replay_launcher import ReplayLauncher
+from .robot.capabilities import Robot
 from .robots import RobotUnit, StartPlan, start_plan, start_planned, stop_robots
 from .session.client import ClientSession, WireProtocols
 from .session.foxglove.session import FoxgloveSession
@@ -270,9 +271,10 @@ class HitrobotServer:
         await self._stop_link()
 
     @property
-    def backend(self):
-        """The first robot's backend (the single robot's), None without one."""
-        return self.robots[0].backend if self.robots else None
+    def robot(self) -> Robot | None:
+        """The first robot's capabilities (the single robot's), None without one: what tools
+        and tests drive it through (its motion behind the locomotion gate)."""
+        return self.robots[0].robot if self.robots else None
 
     @property
     def state(self) -> StateBinding:

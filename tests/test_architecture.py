@@ -61,6 +61,20 @@ NODES_ASSEMBLY = "assembly"
 # Known node → node imports, each with its reason. Empty: keep it so.
 NODE_EXCEPTIONS: dict[tuple[str, str], str] = {}
 
+# Inside robot/ (ARCHITECTURE.md, "Inside robot/"): planning/ (grid, costmap, planner, path
+# search, scan matching) sits below both backends; the simulator and the REST client never
+# import each other; the sim-device (the simulator served over the REST API) sits above both.
+# The modules at robot/'s top ("top": the capability protocols, the model, the locomotion gate,
+# relocalization) use planning/ but no backend; only the factory, which builds them, does.
+ROBOT_PARTS: dict[str, set[str]] = {
+    "planning": set(),
+    "sim": {"planning"},
+    "rest": {"planning"},
+    "device": {"planning", "sim", "rest"},
+    "top": {"planning"},
+    "factory": {"planning", "sim", "rest"},
+}
+
 
 def floor_of(module: list[str]) -> str:
     """``['hitrobot_server', 'nodes', 'slamware', 'node']`` → ``'nodes'``."""
@@ -118,6 +132,31 @@ def node_violations(source: str, module: list[str], is_package: bool) -> list[st
             kind = "the ground" if here in NODES_GROUND else "a node"
             bad.append(f"{'.'.join(module)} imports {'.'.join(target)} ({kind} imports node "
                        f"{dest})")
+    return bad
+
+
+def robot_part_of(module: list[str]) -> str | None:
+    """``['hitrobot_server', 'robot', 'sim', 'runner']`` → ``'sim'``, a module at robot/'s top
+    → ``'top'`` (the factory its own); None outside robot/ and for robot/ itself."""
+    if len(module) < 3 or module[1] != "robot":
+        return None
+    if module[2] in ROBOT_PARTS:
+        return module[2]
+    return "top" if len(module) == 3 else None
+
+
+def robot_violations(source: str, module: list[str], is_package: bool) -> list[str]:
+    """A part of robot/ importing a part it may not (planning or a top module importing a
+    backend, one backend importing the other); every part may import the top modules."""
+    here = robot_part_of(module)
+    if here is None:
+        return []
+    bad = []
+    for target in imported_modules(source, module, is_package):
+        dest = robot_part_of(target)
+        if dest not in (None, here, "top") and dest not in ROBOT_PARTS[here]:
+            bad.append(f"{'.'.join(module)} imports {'.'.join(target)} (robot/{here} → "
+                       f"robot/{dest})")
     return bad
 
 
@@ -211,3 +250,31 @@ def test_the_nodes_rule_catches_a_node_importing_another():
     assert not node_violations("from ..base import require_finite\n", ground, False)
     assert not node_violations("from .patrol import PatrolNode\n",
                                ["hitrobot_server", "nodes", "assembly"], False)
+
+
+def test_the_robot_parts_keep_their_floors():
+    bad = tree_violations(robot_violations)
+    assert not bad, "robot/ part imports (planning below sim and rest, which never meet):\n" \
+        + "\n".join(bad)
+
+
+def test_the_robot_rule_catches_a_backend_importing_the_other():
+    """The checker itself: rest importing sim, sim importing rest, planning importing either
+    are reported; both backends importing planning, and the device importing both, are not."""
+    rest = ["hitrobot_server", "robot", "rest", "maps"]
+    sim = ["hitrobot_server", "robot", "sim", "simulator"]
+    planning = ["hitrobot_server", "robot", "planning", "search"]
+    device = ["hitrobot_server", "robot", "device", "server"]
+    assert robot_violations("from ..sim.costmap import Costmap\n", rest, False)
+    assert robot_violations("import hitrobot_server.robot.rest.shapes\n", sim, False)
+    assert robot_violations("from ..sim.navigation import Navigator\n", planning, False)
+    assert robot_violations("def f():\n    from ..rest import paths\n", planning, False)
+    top = ["hitrobot_server", "robot", "relocalization"]
+    assert robot_violations("from .sim.localization import Localizer\n", top, False)
+    assert not robot_violations("from .planning.matching import scan_points\n", top, False)
+    assert not robot_violations("from .sim.backend import SimBackend\n",
+                                ["hitrobot_server", "robot", "factory"], False)
+    assert not robot_violations("from ..planning.costmap import Costmap\n", rest, False)
+    assert not robot_violations("from ..planning.grid import GridSpec\n", sim, False)
+    assert not robot_violations("from ..sim.backend import SimBackend\n", device, False)
+    assert not robot_violations("from ..model import Pose2D\n", planning, False)

@@ -1,14 +1,14 @@
 """``hitrobot-server sim-device``: the built-in simulator served over the Slamware REST API
-(:class:`~hitrobot_server.robot.rest.device.SimDevice`) until terminated."""
+(:class:`~hitrobot_server.robot.device.SimDevice`) until terminated."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 
+from ..robot.device import NOT_EMULATED, SimDevice
 from ..robot.factory import build_simulator
 from ..robot.options import RobotOptions
-from ..robot.rest.device import NOT_EMULATED, SimDevice
 from ..signals import until_terminated
 from . import run_command
 

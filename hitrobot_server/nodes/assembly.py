@@ -7,8 +7,9 @@ from zoneinfo import ZoneInfo
 from ..bus.core import Bus
 from ..bus.namespace import SITE_WIDE, SITE_WIDE_TOPICS
 from ..bus.rosout import SERVER_NODE
+from ..robot.backend import Link
 from ..robot.capabilities import Robot
-from ..robot.sim.backend import SimBackend
+from ..robot.sim.backend.controls import SimControls
 from ..state import StateBinding
 from .base import Node
 from .conventional import ConventionalNode
@@ -136,9 +137,9 @@ async def start_robot_nodes(bus: Bus, name: str, settings: NodeOptions, robot: R
     return nodes
 
 
-async def start_sim_controls(bus: Bus, backend: SimBackend) -> Node:
+async def start_sim_controls(bus: Bus, link: Link, controls: SimControls) -> Node:
     """A simulated robot's controls (``/sim/…``, ``/NAME/sim/…`` on a robot's view)."""
-    node = SimControlsNode(bus, backend)
+    node = SimControlsNode(bus, link, controls)
     await node.start()
     return node
 

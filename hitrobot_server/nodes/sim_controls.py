@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from ..bus.core import Bus
 from ..bus.topics import RequestRejected
-from ..robot.backend import BackendError
-from ..robot.sim.backend import SimBackend
+from ..robot.backend import BackendError, Link
+from ..robot.sim.backend.controls import SimControls
 from .base import RobotNode
 from .ground import messages as m
 
@@ -28,16 +28,16 @@ class SimControlsNode(RobotNode):
 
     GLOBAL_NAMES = ("/sim",)
 
-    def __init__(self, bus: Bus, backend: SimBackend):
-        super().__init__(bus, "/sim", backend)
-        self.backend = backend
+    def __init__(self, bus: Bus, link: Link, controls: SimControls):
+        super().__init__(bus, "/sim", link)
+        self.controls = controls
         self.service(SET_BATTERY, "hitrobot_msgs/SimSetBattery", self._set_battery)
         self.service(KIDNAP, "hitrobot_msgs/SimKidnap", self._kidnap)
         self.service(EMERGENCY_STOP, "std_srvs/SetBool", self._emergency_stop)
 
     async def _set_battery(self, request: dict) -> dict:
         try:
-            now = self.backend.set_battery(float(request["percent"]))
+            now = self.controls.set_battery(float(request["percent"]))
         except BackendError as exc:
             return {"success": False, "message": f"percent: {exc}"}
         return {"success": True, "message": f"battery at {now:.1f} %"}
@@ -45,7 +45,7 @@ class SimControlsNode(RobotNode):
     async def _kidnap(self, request: dict) -> dict:
         try:
             pose = m.pose2d_of(request["pose"], "pose")
-            self.backend.kidnap(pose)
+            self.controls.kidnap(pose)
         except (RequestRejected, BackendError) as exc:
             return {"success": False, "message": str(exc)}
         return {"success": True, "message": f"carried to ({pose.x:.2f}, {pose.y:.2f}); "
@@ -54,7 +54,7 @@ class SimControlsNode(RobotNode):
     async def _emergency_stop(self, request: dict) -> dict:
         pressed = bool(request["data"])
         try:
-            self.backend.emergency_stop(pressed)
+            self.controls.emergency_stop(pressed)
         except BackendError as exc:
             return {"success": False, "message": str(exc)}
         return {"success": True,

@@ -10,14 +10,17 @@ It is split by concern into small protocols, so a node names just what it uses:
 :class:`LocalizationBackend` (where the robot believes it is), :class:`MapBackend` (map, lines,
 home, blocked areas, whole-map transfer), :class:`SensorBackend` (odometry, lidar, bumpers,
 identity, health) and :class:`PowerBackend` (battery, shutdown, reboot). A backend implements
-them all, :class:`RobotBackend`: directly as one class
-(:class:`~hitrobot_server.robot.sim.backend.SimBackend`), or as one adapter per capability
-composed by :class:`~hitrobot_server.robot.composed.ComposedBackend` (the Slamware REST client).
-The nodes get them one by one, bundled in a :class:`~hitrobot_server.robot.capabilities.Robot`
-(with the motion behind the locomotion gate). Adding a capability method touches this file,
-the backends and ``ComposedBackend``'s forwarding, nothing else.
+each with an adapter of its own, composed by
+:class:`~hitrobot_server.robot.composed.ComposedBackend`: the Slamware REST client
+(``rest/``: link, motion, localization, maps, sensors, power over one ``RestLink``) and the
+simulator (``sim/backend/``: the same six over its ``SimRunner``). Nodes, tools and tests get
+them one by one, bundled in a :class:`~hitrobot_server.robot.capabilities.Robot` (with the
+motion behind the locomotion gate, ``locomotion.py`` ``GatedMotion``). A new capability is its
+protocol here plus one adapter per backend (plus its place in ``GatedMotion`` for a motion
+method); nothing is forwarded, so nothing else changes until a node calls it.
 
-Conventions: poses are in the robot's map frame; failures raise :class:`BackendError`;
+Conventions: methods are cheap to await and never block the loop; poses are in the robot's
+map frame; failures raise :class:`BackendError`;
 ``NotConnectedError`` means the robot is unreachable (the node should drop the request and
 retry later, as ``slamware_ros_sdk_server_node`` does).
 """
@@ -333,10 +336,3 @@ class PowerBackend(Protocol):
         (``/cmd_string reboot``); returns once it is offline. Optional; raises
         :class:`UnsupportedError` when the robot cannot do it."""
         raise UnsupportedError("this robot cannot be rebooted remotely")
-
-
-class RobotBackend(Link, MotionBackend, LocalizationBackend, MapBackend, SensorBackend,
-                   PowerBackend):
-    """Every capability of one robot in one class: what a backend implements. Nodes never
-    name it; they name the capabilities they use. Methods are cheap to await and never block
-    the loop."""

@@ -7,7 +7,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..state import StateStore
-from .backend import RobotBackend
 from .capabilities import Robot
 from .composed import ComposedBackend
 from .locomotion import STAND_UP_SECONDS, GatedMotion, Locomotion
@@ -50,10 +49,11 @@ def sim_identity(options: RobotOptions, name: str = "") -> str:
 
 
 def build_backend(options: RobotOptions, world: SharedWorld | None = None,
-                  state: StateStore | None = None) -> RobotBackend | None:
-    """The robot backend for ``--robot``; the caller starts and stops it. A simulated robot
-    joins ``world`` when one is given (its seed offset by the robots already there).
-    ``state``: the simulator's state folder (a REST robot keeps its own map, lines and pose)."""
+                  state: StateStore | None = None) -> ComposedBackend | None:
+    """The robot backend for ``--robot``; the caller starts and stops it (its ``link``). A
+    simulated robot joins ``world`` when one is given (its seed offset by the robots already
+    there). ``state``: the simulator's state folder (a REST robot keeps its own map, lines and
+    pose)."""
     if options.robot == "none":
         return None
     if options.robot.startswith(("http://", "https://")):
@@ -73,14 +73,10 @@ def build_backend(options: RobotOptions, world: SharedWorld | None = None,
     return SimBackend(simulator, time_scale=options.sim_speed, memory=memory)
 
 
-def robot_of(backend: RobotBackend, stand_up_seconds: float = STAND_UP_SECONDS) -> Robot:
-    """The capabilities the nodes get of ``backend``: its own, except the motion, which goes
-    through a fresh locomotion gate (``stand_up_seconds``: the stand-up transition)."""
-    if isinstance(backend, ComposedBackend):  # its adapters themselves, not the forwarding
-        link, motion, localization = backend.link, backend.motion, backend.localization
-        maps, sensors, power = backend.maps, backend.sensors, backend.power
-    else:
-        link = motion = localization = maps = sensors = power = backend
-    locomotion = Locomotion(link, motion, stand_up_seconds)
-    return Robot(link=link, motion=GatedMotion(motion, locomotion), localization=localization,
-                 maps=maps, sensors=sensors, power=power, locomotion=locomotion)
+def robot_of(backend: ComposedBackend, stand_up_seconds: float = STAND_UP_SECONDS) -> Robot:
+    """The capabilities the nodes get of ``backend``: its adapters, except the motion, which
+    goes through a fresh locomotion gate (``stand_up_seconds``: the stand-up transition)."""
+    locomotion = Locomotion(backend.link, backend.motion, stand_up_seconds)
+    return Robot(link=backend.link, motion=GatedMotion(backend.motion, locomotion),
+                 localization=backend.localization, maps=backend.maps, sensors=backend.sensors,
+                 power=backend.power, locomotion=locomotion)

@@ -2,7 +2,7 @@
 
 A robot told "you are here" must not simply take the guess: a guess 0.6 m or 0.5 rad off leaves
 it lost with a good conscience. :func:`refine_guess` runs the coarse-to-fine scan matcher of
-the simulator's ``recover_localization`` (:class:`~.sim.localization.RelocalizationSearch`) on
+the simulator's ``recover_localization`` (:class:`~.planning.matching.RelocalizationSearch`) on
 the robot's own explore map and latest lidar frame, searching only near the guess, and says
 where the scan really fits and how well. It works for any backend that serves a map and a scan
 (the simulator and a Slamware robot over REST alike), and it changes nothing on the robot:
@@ -21,9 +21,9 @@ import numpy as np
 from .backend import LocalizationBackend
 from .capabilities import Robot
 from .model import LaserScan, MapRegion, Pose2D, Rect
-from .sim.geometry import compose, inverse, wrap_angle
-from .sim.grid import GridSpec, distance_field
-from .sim.localization import (
+from .planning.geometry import compose, inverse, wrap_angle
+from .planning.grid import GridSpec, distance_field
+from .planning.matching import (
     LikelihoodField,
     LocalizationConfig,
     RelocalizationSearch,

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import pytest
 
+from hitrobot_server.robot.device import SimDevice
 from hitrobot_server.robot.factory import build_simulator
-from hitrobot_server.robot.rest.device import SimDevice
 
 from ..helpers import Watcher, WsClient
 from .robot_setup import Robot, RobotSetup

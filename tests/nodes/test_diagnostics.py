@@ -54,13 +54,13 @@ async def test_robot_items_are_ok_at_start_and_follow_the_robot(robot, monkeypat
     assert values(got["/Robot/Battery"])["charging"] == "false"
     assert got["/Robot/Motion"]["message"] == "idle"
 
-    backend = server.backend
+    caps = server.robot
     quality = {"value": 40}
 
     async def fake_quality() -> int:
         return quality["value"]
 
-    monkeypatch.setattr(backend, "get_localization_quality", fake_quality)
+    monkeypatch.setattr(caps.localization, "get_localization_quality", fake_quality)
     got = by_name(await w.next("/diagnostics_agg", timeout=3))
     assert got["/Robot/Localization"]["level"] == WARN
     assert got["/Robot"]["level"] == WARN
@@ -68,7 +68,7 @@ async def test_robot_items_are_ok_at_start_and_follow_the_robot(robot, monkeypat
     got = by_name(await w.next("/diagnostics_agg", timeout=3))
     assert got["/Robot/Localization"]["level"] == ERROR and got["/Robot"]["level"] == ERROR
 
-    backend.simulator._battery.percentage = 10.0  # below Slamware's "power low"
+    caps.simulator._battery.percentage = 10.0  # below Slamware's "power low"
     got = by_name(await w.next("/diagnostics_agg", timeout=3))
     assert got["/Robot/Battery"]["level"] == WARN and "low" in got["/Robot/Battery"]["message"]
     health = got["/Robot/Health"]
@@ -77,7 +77,7 @@ async def test_robot_items_are_ok_at_start_and_follow_the_robot(robot, monkeypat
 
 async def test_an_offline_robot_is_an_error_and_its_items_stale(robot):
     server, w = robot.server, robot.w
-    await server.backend.stop()
+    await server.robot.link.stop()
     got = by_name(await w.next("/diagnostics_agg", timeout=3))
     assert got["/Robot/Connection"]["level"] == ERROR
     assert got["/Robot/Battery"]["level"] == STALE

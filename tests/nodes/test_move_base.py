@@ -188,8 +188,8 @@ async def test_invalid_goals_are_rejected_and_keep_the_running_goal(robot):
 
 async def test_cancel_before_the_robot_started_recalls(robot):
     server, w = robot.server, robot.w
-    backend = server.backend
-    real_move_to = backend.move_to
+    caps = server.robot
+    real_move_to = caps.motion.move_to
 
     asked, moved = asyncio.Event(), asyncio.Event()
 
@@ -201,13 +201,13 @@ async def test_cancel_before_the_robot_started_recalls(robot):
         finally:
             moved.set()
 
-    backend.move_to = slow_move_to
+    caps.motion.move_to = slow_move_to
     await w.publish("/move_base/goal", goal_msg("slow", *FAR), "move_base_msgs/MoveBaseActionGoal")
     await asyncio.wait_for(asked.wait(), 5)  # the goal is on its way to the robot
     await w.publish("/move_base/cancel", {"id": "slow"}, "actionlib_msgs/GoalID")
     assert (await result_for(w, "slow"))["status"] == 8  # RECALLED
     await asyncio.wait_for(moved.wait(), 5)  # the robot was told to move meanwhile
     deadline = time.monotonic() + 5  # ... so it must be stopped again
-    while (action := await backend.get_current_action()) is not None:
+    while (action := await caps.motion.get_current_action()) is not None:
         assert time.monotonic() < deadline, f"the late move was not stopped: {action}"
         await asyncio.sleep(0.02)

@@ -91,11 +91,12 @@ async def test_cancel_stops_move_base_goals_and_the_robot(robot):
         "pose": {"position": {"x": 20.0, "y": 8.2, "z": 0.0},
                  "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}}},
         "move_base_msgs/MoveBaseActionGoal")
-    await w.until(lambda: server.backend.simulator.current_action() is not None, 5, "motion")
+    actions = server.robot.simulator.actions
+    await w.until(lambda: actions.current_action() is not None, 5, "motion")
     await command(w, "cancel", "c")
     result = await w.until(lambda: w.latest("/move_base/result"), 5, "a result")
     assert result["status"]["goal_id"]["id"] == "far" and result["status"]["status"] == 2
-    await w.until(lambda: server.backend.simulator.current_action() is None, 3, "robot idle")
+    await w.until(lambda: actions.current_action() is None, 3, "robot idle")
 
 
 async def test_map_commands_go_to_the_map_manager(robot):
@@ -169,7 +170,7 @@ async def test_shutdown_needs_admin_and_takes_the_robot_offline(secured):
     assert status["level"] == "error" and "admin" in status["msg"]
     await command(user, "reboot", "r")
     assert "admin" in (await status_for(user, "r"))["msg"]
-    assert server.backend.connected
+    assert server.robot.link.connected
 
     admin = await connect("admin")
     await admin.subscribe("/diagnostics_agg")
@@ -181,9 +182,9 @@ async def test_shutdown_needs_admin_and_takes_the_robot_offline(secured):
                     None) if msg else None
 
     await admin.until(lambda: connection() == 2, 4, "/Robot/Connection ERROR")
-    assert not server.backend.connected
+    assert not server.robot.link.connected
     await asyncio.sleep(0.5)
-    assert not server.backend.connected  # and it stays off
+    assert not server.robot.link.connected  # and it stays off
     await command(admin, "reboot", "r2")  # an offline robot cannot be rebooted
     assert "not connected" in (await status_for(admin, "r2"))["msg"]
 
@@ -192,7 +193,7 @@ async def test_reboot_keeps_what_the_robot_stores_and_starts_in_navigation(make_
     """A reboot takes the robot offline; it comes back with what it keeps (its state folder:
     map, lines, pose) and in its start-up mode (mapping off)."""
     server = await make_server(robot="sim", sim_speed=4.0)
-    server.backend.reboot_delay = 0.5
+    server.robot.link.runner.reboot_delay = 0.5
     w = await Watcher.open(server.port)
     try:
         await w.subscribe("/robot_pose")
@@ -206,8 +207,8 @@ async def test_reboot_keeps_what_the_robot_stores_and_starts_in_navigation(make_
         await w.until(lambda: w.latest("/robot_pose")["position"]["x"] == 6.0, 3, "moved")
         await w.until(lambda: w.latest("/ros_mode")["data"] == "gmapping", 3, "mapping")
         await command(w, "reboot", "r")
-        await w.until(lambda: not server.backend.connected, 2, "the robot offline")
-        await w.until(lambda: server.backend.connected, 5, "the robot back")
+        await w.until(lambda: not server.robot.link.connected, 2, "the robot offline")
+        await w.until(lambda: server.robot.link.connected, 5, "the robot back")
 
         def where_it_was() -> bool:
             p = w.latest("/robot_pose")["position"]

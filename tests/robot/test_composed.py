@@ -1,5 +1,6 @@
-"""``ComposedBackend``: a backend made of one adapter per capability forwards every method of
-every capability protocol, and the nodes get the adapters themselves (``robot_of``)."""
+"""``ComposedBackend``: every backend is one adapter per capability, each implementing every
+method of its protocol; nothing is forwarded, and the nodes get the adapters themselves
+(``robot_of``)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,8 @@ from hitrobot_server.robot.backend import (
     SensorBackend,
 )
 from hitrobot_server.robot.composed import ComposedBackend
-from hitrobot_server.robot.factory import robot_of
+from hitrobot_server.robot.factory import build_simulator, robot_of
+from hitrobot_server.robot.locomotion import GatedMotion
 from hitrobot_server.robot.rest.client import SlamwareRestBackend
 from hitrobot_server.robot.rest.link import RestLink
 from hitrobot_server.robot.rest.localization import RestLocalization
@@ -20,15 +22,32 @@ from hitrobot_server.robot.rest.maps import RestMaps
 from hitrobot_server.robot.rest.motion import RestMotion
 from hitrobot_server.robot.rest.power import RestPower
 from hitrobot_server.robot.rest.sensors import RestSensors
+from hitrobot_server.robot.sim.backend import SimBackend
 
 PROTOCOLS = (Link, MotionBackend, LocalizationBackend, MapBackend, SensorBackend, PowerBackend)
 
 
+def capabilities(backend: ComposedBackend) -> tuple:
+    return (backend.link, backend.motion, backend.localization, backend.maps, backend.sensors,
+            backend.power)
+
+
 def test_every_capability_method_is_forwarded():
+    """No forwarding is left to miss a method: each backend's adapter of a capability
+    implements every method of its protocol (an abstract one left would refuse to build), and
+    the locomotion gate names every motion method."""
     methods = {name for protocol in PROTOCOLS for name in vars(protocol)
                if not name.startswith("_")}
     assert methods, "the protocols declare methods"
-    assert sorted(methods - set(vars(ComposedBackend))) == []
+    for backend in (SlamwareRestBackend("http://192.0.2.1:1448"),
+                    SimBackend(build_simulator())):
+        for part, protocol in zip(capabilities(backend), PROTOCOLS, strict=True):
+            own = {name for name in vars(protocol) if not name.startswith("_")}
+            assert sorted(own - set(dir(part))) == []
+            assert not type(part).__abstractmethods__
+    motion = {name for name in vars(MotionBackend) if not name.startswith("_")}
+    assert sorted(motion - set(vars(GatedMotion))) == []
+    assert not set(vars(ComposedBackend)) & methods  # nothing of a capability forwarded
 
 
 def test_the_rest_backend_is_one_adapter_per_capability_handed_to_the_robot():

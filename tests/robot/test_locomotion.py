@@ -52,7 +52,7 @@ async def test_sitting_refuses_every_motion_and_standing_up_allows_it():
     robot = robot_of(inner, stand_up_seconds=0.2)
     motion, locomotion = robot.motion, robot.locomotion
     assert motion is not inner  # the nodes get the gated motion ...
-    assert robot.localization is inner and robot.power is inner  # ... and the rest as it is
+    assert robot.localization is inner.localization and robot.power is inner.power  # ... the rest
     assert locomotion.state == LocomotionState.COMM_DISABLED  # not started
     with pytest.raises(NotConnectedError):
         await motion.move_to([Point2D(6.0, 8.0)])  # the inner backend's own refusal
@@ -95,7 +95,7 @@ async def test_a_reboot_brings_the_locomotion_back_in_control():
     """A robot that sat down comes back from a reboot as freshly started: the bundle's reboot
     restarts the locomotion along with the robot (the gate never wraps power)."""
     inner = SimBackend(build_simulator(), time_scale=4.0)
-    inner.reboot_delay = 0.1
+    inner.runner.reboot_delay = 0.1
     robot = robot_of(inner, stand_up_seconds=0.2)
     await robot.link.start()
     try:

@@ -15,7 +15,7 @@ from hitrobot_server.robot.relocalization import MATCH_SCORE, carry_forward, ref
 def seen():
     sim = build_simulator(None, 0, False)
     sim.step(0.5)
-    return sim.true_pose, sim.latest_scan, sim.map_region(Rect(-5, -5, 40, 30))
+    return sim.true_pose, sim.latest_scan, sim.map.map_region(Rect(-5, -5, 40, 30))
 
 
 @pytest.mark.parametrize("dx, dy, dyaw", [(0.5, -0.4, 0.4), (-0.7, 0.3, -0.5), (0.0, 0.0, 0.0)])

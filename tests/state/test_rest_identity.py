@@ -4,8 +4,8 @@ and the log says which side's state won."""
 
 from __future__ import annotations
 
+from hitrobot_server.robot.device import SimDevice
 from hitrobot_server.robot.factory import build_simulator
-from hitrobot_server.robot.rest.device import SimDevice
 
 from ..helpers import ServerProcess, Watcher
 from ..nodes.map_manager.util import BLOCKED, MM, NS, cell, modify_map, poi, rect, request

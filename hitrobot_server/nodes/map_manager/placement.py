@@ -5,7 +5,7 @@ so when it is placed.
 
 The clearance is the robot's footprint radius plus the planner's safety margin: 0.20 m + 0.05 m,
 the defaults of the simulated robot (``robot/sim/kinematics.py`` ``DriveLimits.radius`` and
-``robot/sim/costmap.py`` ``CostmapConfig.safety_margin``, kept equal by a test), whose planner
+``robot/planning/costmap.py`` ``CostmapConfig.safety_margin``, kept equal by a test), whose planner
 refuses a goal nearer an obstacle than that. The Slamware robot does not tell its footprint over
 its API, so the same figure stands for it. The console (``web/placement.js``) warns with the
 same rule and figure while the operator places a POI.

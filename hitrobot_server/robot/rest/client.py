@@ -54,5 +54,5 @@ class SlamwareRestBackend(ComposedBackend):
         return self.link.url
 
     async def get_odopose(self) -> Pose2D:
-        """The odometry (dead-reckoning) pose; not part of :class:`RobotBackend`."""
+        """The odometry (dead-reckoning) pose; not part of a capability."""
         return await self.localization.get_odopose()

@@ -18,8 +18,8 @@ import numpy as np
 from .. import composite_map
 from ..backend import BackendError, MapBackend, UnsupportedError
 from ..model import ArtifactUsage, Line, MapKind, MapRegion, Point2D, Pose2D, Rect
-from ..sim.costmap import Costmap, CostmapConfig, build_costmap
-from ..sim.grid import GridSpec
+from ..planning.costmap import Costmap, CostmapConfig, build_costmap
+from ..planning.grid import GridSpec
 from . import mapformat, paths, shapes
 from .link import RestLink, converted, failed, finite_pose
 

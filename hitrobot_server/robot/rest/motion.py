@@ -34,8 +34,7 @@ from ..model import (
     Pose2D,
     Rect,
 )
-from ..pathing import check_poses, searched_path
-from ..sim.navigation import arrival_tolerance
+from ..planning.search import arrival_tolerance, check_poses, searched_path
 from . import paths, shapes
 from .link import RestLink, failed
 from .localization import RestLocalization
@@ -100,9 +99,10 @@ class RestMotion(MotionBackend):
         self, start: Pose2D | None, goal: Pose2D, options: MoveOptions | None = None
     ) -> list[Point2D]:
         """REST has no planning without moving, but the server has the robot's map: it plans
-        itself with the simulator's planner (:func:`~..sim.navigation.path_search`) on a
-        costmap of the robot's explore map, virtual walls and tracks and the blocked areas
-        we sent (the robot's own planner and footprint may differ)."""
+        itself with the planner a simulated move uses
+        (:func:`~..planning.search.path_search`) on a costmap of the robot's explore map,
+        virtual walls and tracks and the blocked areas we sent (the robot's own planner and
+        footprint may differ)."""
         options = options or MoveOptions()
         check_poses(start, goal)
         origin = await self._localization.get_pose() if start is None else start

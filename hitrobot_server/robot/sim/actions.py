@@ -25,10 +25,10 @@ from ..model import (
     Pose2D,
     Rect,
 )
+from ..planning.geometry import compose, inverse, wrap_angle
+from ..planning.matching import RelocalizationSearch
 from .context import ActionContext
 from .follower import YAW_TOLERANCE, FollowerConfig, turn_command
-from .geometry import compose, inverse, wrap_angle
-from .localization import RelocalizationSearch
 from .navigation import Navigator, speed_ratio
 
 DOCK_APPROACH = 0.6

@@ -30,3 +30,18 @@ def checked_duration(seconds: float) -> float:
     if not (math.isfinite(seconds) and seconds > 0.0):
         raise ValueError("duration must be positive")
     return seconds
+
+
+def checked_saved_robot(saved: dict) -> tuple[Pose2D, Pose2D, float, bool]:
+    """A saved chassis record's true pose, believed pose, battery and localization switch;
+    ``ValueError`` when it is not such a record."""
+    try:
+        pose = checked_pose(Pose2D(*map(float, saved["pose"])))
+        believed = checked_pose(Pose2D(*map(float, saved["believed"])))
+        battery = float(saved["battery"])
+        localization = saved["localization"]
+    except (KeyError, TypeError) as exc:
+        raise ValueError(f"not a saved robot state ({exc})") from None
+    if not (0.0 <= battery <= 100.0) or not isinstance(localization, bool):
+        raise ValueError("battery or localization out of range")
+    return pose, believed, battery, localization

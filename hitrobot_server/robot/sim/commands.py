@@ -1,6 +1,6 @@
-"""The simulated robot's actions: the slot that holds the current one and the recent ones by
-id (:class:`ActionSlot`), and the commands that start, follow and stop them
-(:class:`MotionCommands`, a part of :class:`~.simulator.Simulator`)."""
+"""The simulated robot's actions (:class:`Actions`, a part of :class:`~.simulator.Simulator`):
+the current one and the recent ones by id, and the commands that start, follow and stop
+them."""
 
 from __future__ import annotations
 
@@ -31,33 +31,36 @@ from .actions import (
 from .checks import checked_duration, checked_point
 
 if TYPE_CHECKING:
-    from .config import SimConfig
     from .context import ActionContext
 
 ACTION_HISTORY = 20
 """Finished actions stay queryable by id for this many actions, as on the REST API."""
 
 
-class ActionSlot:
-    """The current action (one at a time: a new one supersedes it) and the last
-    :data:`ACTION_HISTORY` actions by id."""
+class Actions:
+    """The current action (one at a time: a new one supersedes it), the last
+    :data:`ACTION_HISTORY` actions by id, and the motion requests that start them; the
+    simulator ticks :attr:`current`. Bad arguments raise ``ValueError``. ``context`` is what a
+    running action sees (its clock too); ``velocity_timeout`` the ``/cmd_vel`` dead-man time."""
 
-    def __init__(self) -> None:
+    def __init__(self, context: ActionContext, velocity_timeout: float) -> None:
         self.current: Action | None = None
         self._history: OrderedDict[int, Action] = OrderedDict()
         self._next_action_id = 1
+        self._context = context
+        self._velocity_timeout = velocity_timeout
 
     def running(self) -> Action | None:
         """The current action unless it has finished."""
         current = self.current
         return None if current is None or current.done else current
 
-    def new_id(self) -> int:
+    def _new_id(self) -> int:
         action_id = self._next_action_id
         self._next_action_id += 1
         return action_id
 
-    def start(self, action: Action) -> ActionInfo:
+    def _start(self, action: Action) -> ActionInfo:
         current = self.current
         if current is not None and not current.done:
             current.finish(ActionResult.ABORTED, "superseded by a new action")
@@ -67,23 +70,11 @@ class ActionSlot:
             self._history.popitem(last=False)
         return action.info()
 
-    def get(self, action_id: int) -> Action | None:
-        return self._history.get(action_id)
-
-
-class MotionCommands:
-    """The motion requests of a :class:`~.simulator.Simulator`: each starts an action in its
-    :class:`ActionSlot` (``_actions``), which the simulator ticks; bad arguments raise
-    ``ValueError``."""
-
-    _actions: ActionSlot
-    if TYPE_CHECKING:
-        config: SimConfig
-
-        @property
-        def time(self) -> float: ...
-
-        def _context(self) -> ActionContext: ...
+    def abort(self, reason: str) -> None:
+        """End the running action, if any, as ``ABORTED`` with ``reason``."""
+        current = self.running()
+        if current is not None:
+            current.finish(ActionResult.ABORTED, reason)
 
     def move_to(
         self, targets: Sequence[Point2D], options: MoveOptions | None = None, yaw: float = 0.0
@@ -95,7 +86,7 @@ class MotionCommands:
             checked_point(t)
         if not math.isfinite(yaw):
             raise ValueError("yaw must be finite")
-        current = self._actions.current
+        current = self.current
         if (
             options.flags & MoveOptionFlag.APPENDING
             and isinstance(current, MoveToAction)
@@ -103,14 +94,14 @@ class MotionCommands:
         ):
             current.append(targets, options, yaw)
             return current.info()
-        return self._actions.start(MoveToAction(self._actions.new_id(), targets, options, yaw))
+        return self._start(MoveToAction(self._new_id(), targets, options, yaw))
 
     def move_by_direction(
         self, direction: ActionDirection, options: MoveOptions | None = None, duration: float = 0.5
     ) -> ActionInfo:
         direction = ActionDirection(direction)
-        return self._actions.start(
-            MoveByAction(self._actions.new_id(), options or MoveOptions(),
+        return self._start(
+            MoveByAction(self._new_id(), options or MoveOptions(),
                          checked_duration(duration), direction=direction)
         )
 
@@ -119,25 +110,25 @@ class MotionCommands:
     ) -> ActionInfo:
         if not math.isfinite(theta):
             raise ValueError("theta must be finite")
-        return self._actions.start(
-            MoveByAction(self._actions.new_id(), options or MoveOptions(),
+        return self._start(
+            MoveByAction(self._new_id(), options or MoveOptions(),
                          checked_duration(duration), theta=theta)
         )
 
     def rotate_to(self, yaw: float, options: MoveOptions | None = None) -> ActionInfo:
         if not math.isfinite(yaw):
             raise ValueError("yaw must be finite")
-        return self._actions.start(
-            RotateAction(self._actions.new_id(), yaw, options or MoveOptions(), True))
+        return self._start(
+            RotateAction(self._new_id(), yaw, options or MoveOptions(), True))
 
     def rotate(self, angle: float, options: MoveOptions | None = None) -> ActionInfo:
         if not math.isfinite(angle):
             raise ValueError("angle must be finite")
-        return self._actions.start(
-            RotateAction(self._actions.new_id(), angle, options or MoveOptions(), False))
+        return self._start(
+            RotateAction(self._new_id(), angle, options or MoveOptions(), False))
 
     def go_home(self, options: MoveOptions | None = None) -> ActionInfo:
-        return self._actions.start(GoHomeAction(self._actions.new_id(), options or MoveOptions()))
+        return self._start(GoHomeAction(self._new_id(), options or MoveOptions()))
 
     def recover_localization(
         self,
@@ -149,37 +140,37 @@ class MotionCommands:
             raise ValueError("max_time_ms must be positive")
         max_time = None if max_time_ms is None else max_time_ms / 1000.0
         movement = LocalizationMovement.NO_MOVE if movement is None else movement
-        return self._actions.start(
-            RecoverLocalizationAction(self._actions.new_id(), area, max_time, movement))
+        return self._start(
+            RecoverLocalizationAction(self._new_id(), area, max_time, movement))
 
     def set_velocity(self, linear: float, angular: float) -> None:
         if not (math.isfinite(linear) and math.isfinite(angular)):
             raise ValueError("velocities must be finite")
-        current = self._actions.current
+        current = self.current
         if not isinstance(current, VelocityControlAction) or current.done:
-            current = VelocityControlAction(self._actions.new_id(), self.config.velocity_timeout)
-            self._actions.start(current)
-        current.command(linear, angular, self.time)
+            current = VelocityControlAction(self._new_id(), self._velocity_timeout)
+            self._start(current)
+        current.command(linear, angular, self._context.time)
 
     def cancel_action(self) -> ActionInfo | None:
-        current = self._actions.running()
+        current = self.running()
         if current is None:
             return None
         current.finish(ActionResult.ABORTED, "cancelled")
         return current.info()
 
     def current_action(self) -> ActionInfo | None:
-        current = self._actions.running()
+        current = self.running()
         return None if current is None else current.info()
 
     def action(self, action_id: int) -> ActionInfo | None:
-        found = self._actions.get(action_id)
+        found = self._history.get(action_id)
         return None if found is None else found.info()
 
     def remaining_path(self) -> list[Point2D]:
-        current = self._actions.running()
-        return [] if current is None else current.remaining_path(self._context())
+        current = self.running()
+        return [] if current is None else current.remaining_path(self._context)
 
     def remaining_milestones(self) -> list[Point2D]:
-        current = self._actions.running()
+        current = self.running()
         return [] if current is None else current.milestones()

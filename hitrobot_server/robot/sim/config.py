@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .costmap import CostmapConfig
+from ..planning.costmap import CostmapConfig
+from ..planning.matching import LocalizationConfig
 from .kinematics import DriveLimits
 from .lidar import LidarConfig
-from .localization import LocalizationConfig
 from .power import PowerConfig
 
 

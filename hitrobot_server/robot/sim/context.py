@@ -9,9 +9,9 @@ from __future__ import annotations
 from typing import Protocol
 
 from ..model import LaserScan, Pose2D, Rect
-from .costmap import Costmap
+from ..planning.costmap import Costmap
+from ..planning.matching import RelocalizationSearch
 from .kinematics import DriveLimits
-from .localization import RelocalizationSearch
 
 
 class ActionContext(Protocol):

@@ -16,13 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import Pose2D
-from .geometry import wrap_angle
+from ..planning.geometry import wrap_angle
+from ..planning.search import DEFAULT_TOLERANCE
 from .kinematics import DriveLimits
 
-DEFAULT_TOLERANCE = 0.15
-"""Arrival tolerance (m) without PRECISE."""
-PRECISE_TOLERANCE = 0.05
-"""Arrival tolerance (m) with PRECISE."""
 YAW_TOLERANCE = 0.02
 """Final-heading tolerance (rad) the follower aims for (WITH_YAW promises 0.05)."""
 

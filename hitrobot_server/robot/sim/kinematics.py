@@ -14,7 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from ..model import Pose2D
-from .geometry import wrap_angle
+from ..planning.geometry import wrap_angle
 
 _PROBE_BEARINGS = [2.0 * math.pi * k / 16 for k in range(16)]
 

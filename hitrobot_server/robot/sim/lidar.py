@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import Pose2D
-from .grid import GridSpec
+from ..planning.grid import GridSpec
 
 _BISECTIONS = 5
 

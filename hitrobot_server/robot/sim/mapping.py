@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import MapRegion, Pose2D, Rect
-from .grid import GridSpec
+from ..planning.grid import GridSpec
 
 
 @dataclass(frozen=True, slots=True)

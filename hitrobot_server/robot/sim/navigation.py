@@ -33,11 +33,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..model import MoveOptionFlag, MoveOptions, NavigationMode, Point2D
+from ..model import MoveOptionFlag, MoveOptions, Point2D
+from ..planning.costmap import densify
+from ..planning.planner import PathSearch
+from ..planning.search import DEFAULT_TOLERANCE, arrival_tolerance, path_search
 from .context import ActionContext
-from .costmap import Costmap, densify
-from .follower import DEFAULT_TOLERANCE, PRECISE_TOLERANCE, PathFollower
-from .planner import PathSearch, TrackMode
+from .follower import PathFollower
 
 REPLAN_PERIOD = 0.5
 """Seconds between checks of the path ahead."""
@@ -54,44 +55,6 @@ BACK_OFF_TIME = 0.5
 BACK_OFF_SPEED = 0.1
 """After a collision the robot eases away from the contact (about 4 cm) before replanning, so
 the new plan does not start pressed against the obstacle."""
-
-
-def track_mode(options: MoveOptions) -> TrackMode:
-    """Virtual-track handling requested by the flags or the REST/SDK navigation mode."""
-    if (
-        options.flags & MoveOptionFlag.KEY_POINTS
-        or options.mode == NavigationMode.STRICT_VIRTUAL_TRACK
-    ):
-        return TrackMode.STRICT
-    if (
-        options.flags & MoveOptionFlag.KEY_POINTS_WITH_OA
-        or options.mode == NavigationMode.PRIORITY_VIRTUAL_TRACK
-    ):
-        return TrackMode.PRIORITY
-    return TrackMode.NONE
-
-
-def path_search(costmap: Costmap, start: tuple[float, float], goal: tuple[float, float],
-                options: MoveOptions) -> PathSearch:
-    """The search a move with ``options`` plans each leg with (also ``compute_path``'s)."""
-    flags = options.flags
-    return PathSearch(
-        costmap, start, goal,
-        smooth=not flags & MoveOptionFlag.NO_SMOOTH,
-        substitute_goal=not flags & MoveOptionFlag.RETURN_UNREACHABLE_DIRECTLY,
-        track_mode=track_mode(options),
-        bbox=options.planning_area,
-    )
-
-
-def arrival_tolerance(options: MoveOptions) -> float:
-    """How close (m) to a target counts as there: ``acceptable_precision``, else 0.05 m with
-    ``PRECISE``, else 0.15 m."""
-    if options.acceptable_precision is not None:
-        return options.acceptable_precision
-    if options.flags & MoveOptionFlag.PRECISE:
-        return PRECISE_TOLERANCE
-    return DEFAULT_TOLERANCE
 
 
 def speed_ratio(options: MoveOptions) -> float:

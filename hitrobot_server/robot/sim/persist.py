@@ -41,7 +41,7 @@ class SimMemory:
         """Install what the store has; what was restored, as phrases for the start-up log.
         A section the simulator refuses is reported to the store and skipped."""
         done: list[str] = []
-        for key, apply in ((MAP, sim.restore_map), (LINES, sim.restore_lines),
+        for key, apply in ((MAP, sim.map.restore_map), (LINES, sim.map.restore_lines),
                            (ROBOT, sim.restore_robot)):
             value = self.store.get(key)
             if value is None:
@@ -60,16 +60,16 @@ class SimMemory:
                 done.append(f"robot pose ({x:.1f}, {y:.1f}), battery {value['battery']:.0f}%")
             else:
                 done.append("the robot's map")
-        self._robot, self._lines = sim.saved_robot(), sim.saved_lines()
-        self._map_revision = sim.map_revision
+        self._robot, self._lines = sim.saved_robot(), sim.map.saved_lines()
+        self._map_revision = sim.map.map_revision
         return done
 
     def take_back_lines(self, sim: Simulator, lines: dict | None) -> bool:
         """A change that could not be written: the walls, tracks and home as they were before
         it (True when it had changed them). The next sample writes them again."""
-        if lines is None or lines == sim.saved_lines():
+        if lines is None or lines == sim.map.saved_lines():
             return False
-        sim.restore_lines(lines)
+        sim.map.restore_lines(lines)
         self._lines = None
         return True
 
@@ -77,14 +77,14 @@ class SimMemory:
         """Put what changed since the last call; the future of the last put, if any.
         ``urgent``: a request changed the robot, so the map is taken without waiting."""
         last = None
-        lines = sim.saved_lines()
+        lines = sim.map.saved_lines()
         if lines != self._lines:
             self._lines = lines
             last = self.store.put(LINES, lines)
-        if sim.map_revision != self._map_revision and (urgent or now >= self._map_due):
-            self._map_revision = sim.map_revision
+        if sim.map.map_revision != self._map_revision and (urgent or now >= self._map_due):
+            self._map_revision = sim.map.map_revision
             self._map_due = now + MAP_EVERY
-            last = self.store.put(MAP, sim.saved_map())
+            last = self.store.put(MAP, sim.map.saved_map())
         robot = sim.saved_robot()
         if self._robot is None or _robot_changed(self._robot, robot):
             self._robot = robot

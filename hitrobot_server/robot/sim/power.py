@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass
 
 from ..model import DockingStatus, Pose2D, PowerStatus
-from .geometry import wrap_angle
+from ..planning.geometry import wrap_angle
 
 
 @dataclass(frozen=True, slots=True)
@@ -39,6 +39,13 @@ class Battery:
     def __init__(self, percentage: float, config: PowerConfig) -> None:
         self.percentage = max(0.0, min(100.0, percentage))
         self.config = config
+
+    def set(self, percent: float) -> float:
+        """Set the state of charge (0–100 %, else ``ValueError``); returns what it is now."""
+        if not (math.isfinite(percent) and 0.0 <= percent <= 100.0):
+            raise ValueError("percent must be between 0 and 100")
+        self.percentage = float(percent)
+        return self.percentage
 
     def step(self, dt: float, effort: float, docked: bool) -> None:
         """Advance ``dt`` seconds; ``effort`` is 0 (still) to 1 (full speed)."""

@@ -1,9 +1,12 @@
-"""``SimRunner``: a :class:`Simulator` stepped on the event loop, its memory kept, rebooted.
+"""``SimRunner``: a :class:`Simulator` stepped on the event loop, its memory kept, rebooted,
+and the requests of the backend's adapters (:class:`RunnerPart`) answered from it.
 
 A background task steps the simulator at a fixed rate, paced against the event loop's clock
 (``time_scale`` > 1 runs faster than real time). Work inside one step is bounded (planning and
 relocalization run in slices), typically a few milliseconds; the slowest step seen is kept in
 :attr:`SimRunner.max_step_seconds` for diagnostics. While it runs the robot is connected.
+Every request is answered synchronously from the simulator's state (:meth:`SimRunner.call`,
+:meth:`SimRunner.change`), so awaiting one never waits on the stepping task.
 """
 
 from __future__ import annotations
@@ -13,12 +16,15 @@ import contextlib
 import logging
 import math
 import time
+from collections.abc import Callable
+from typing import TypeVar
 
-from ..backend import NotConnectedError
+from ..backend import BackendError, NotConnectedError
 from .persist import SimMemory
 from .simulator import Simulator
 
 log = logging.getLogger(__name__)
+T = TypeVar("T")
 
 SLOW_STEP = 0.05
 """A step slower than this (s) is logged: it delays every other task on the loop."""
@@ -66,16 +72,14 @@ class SimRunner:
 
     async def power_off(self) -> None:
         """The simulated robot goes offline and stays so (until the server restarts)."""
-        if not self.running:
-            raise NotConnectedError("simulator is not running")
+        self.alive()
         await self.stop()
 
     async def reboot(self) -> None:
         """Offline now; back after :attr:`reboot_delay` as a freshly started simulator (same
         world, seed and configuration, no actions) with what the robot keeps: its map, lines,
         home and pose from the state folder (as at start-up when there is none)."""
-        if not self.running:
-            raise NotConnectedError("simulator is not running")
+        self.alive()
         await self.stop()
 
         async def come_back() -> None:
@@ -87,6 +91,37 @@ class SimRunner:
             await self.start()
 
         self._reboot = asyncio.get_running_loop().create_task(come_back(), name="sim-reboot")
+
+    def alive(self) -> None:
+        """Refuse a request while the simulator is not running."""
+        if not self.running:
+            raise NotConnectedError("simulator is not running")
+
+    def call(self, fn: Callable[..., T], *args: object) -> T:
+        """Run a simulator call as a backend request: refuse when stopped, translate errors."""
+        self.alive()
+        try:
+            return fn(*args)
+        except ValueError as exc:
+            raise BackendError(str(exc)) from exc
+
+    async def change(self, fn: Callable[..., T], *args: object) -> T:
+        """A request that changes what the robot remembers: answered once it is on disk (the
+        walls, tracks and home taken back when the write fails)."""
+        memory = self.memory
+        lines = None if memory is None else self.simulator.map.saved_lines()
+        result = self.call(fn, *args)
+        if memory is not None:
+            pending = memory.sync(self.simulator, asyncio.get_running_loop().time(),
+                                  urgent=True)
+            if pending is not None:
+                try:
+                    await pending
+                except OSError as exc:
+                    undone = memory.take_back_lines(self.simulator, lines)
+                    raise BackendError(f"{exc}" + ("; the walls, tracks and home were taken "
+                                                   "back" if undone else "")) from None
+        return result
 
     async def _run(self) -> None:
         loop = asyncio.get_running_loop()
@@ -117,3 +152,10 @@ class SimRunner:
             self.max_step_seconds = spent
         if spent > SLOW_STEP:
             log.warning("simulator step took %.1f ms", spent * 1000.0)
+
+
+class RunnerPart:
+    """One capability of a simulated robot (an adapter of :mod:`.backend`) over its runner."""
+
+    def __init__(self, runner: SimRunner) -> None:
+        self.runner = runner

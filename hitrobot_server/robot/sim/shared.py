@@ -13,9 +13,9 @@ import math
 import numpy as np
 
 from ..model import Pose2D
+from ..planning.grid import distance_field
 from .backend import SimBackend
 from .config import SimConfig
-from .grid import distance_field
 from .persist import SimMemory
 from .simulator import Simulator
 from .world import World
@@ -38,7 +38,7 @@ class SharedWorld:
         self._standable &= clearance >= radius + 0.3  # room to turn around at the start
 
     def others(self, me: Simulator) -> list[Pose2D]:
-        return [b.simulator.true_pose for b in self.robots if b.simulator is not me]
+        return [b.runner.simulator.true_pose for b in self.robots if b.runner.simulator is not me]
 
     def add(self, seed: int, start: Pose2D | None, time_scale: float,
             memory: SimMemory | None = None) -> SimBackend:
@@ -53,7 +53,7 @@ class SharedWorld:
         return backend
 
     def _taken(self) -> list[Pose2D]:
-        return [b.simulator.true_pose for b in self.robots]
+        return [b.runner.simulator.true_pose for b in self.robots]
 
     def _checked(self, start: Pose2D) -> Pose2D:
         spec = self.world.spec

@@ -9,8 +9,12 @@ firing a bumper), odometry drift and the battery are updated. Every ``scan_perio
 measures from the true pose, localization re-estimates its quality, and (every ``map_period``,
 when enabled) the explore map integrates the scan at the believed pose.
 
-The public methods mirror :class:`~hitrobot_server.robot.backend.RobotBackend` synchronously;
-bad arguments raise ``ValueError``.
+Its parts own their state and are handed values: :attr:`Simulator.actions`
+(:class:`~.commands.Actions`: the current and recent actions, the motion requests),
+:attr:`Simulator.map` (:class:`~.maps.RobotMap`: explore map, lines, blocked areas, home,
+costmap) and its :class:`Neighbours` (the other robots of a shared world in its scan and
+costmap). The backend's adapters (:mod:`.backend`) answer from them and from the chassis
+queries here; bad arguments raise ``ValueError``.
 """
 
 from __future__ import annotations
@@ -21,54 +25,44 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from ..model import (
-    ArtifactUsage,
     BasicSensorInfo,
     BasicSensorValue,
     DeviceInfo,
     HealthInfo,
     LaserScan,
     Odometry,
-    Point2D,
     Pose2D,
     PowerStatus,
     Rect,
     Twist2D,
 )
-from .artifacts import LineStore
-from .checks import checked_pose
-from .commands import ActionSlot, MotionCommands
+from ..planning.costmap import Costmap
+from ..planning.geometry import compose, inverse, wrap_angle
+from ..planning.grid import distance_field
+from ..planning.matching import LikelihoodField, RelocalizationSearch, scan_points
+from .checks import checked_pose, checked_saved_robot
+from .commands import Actions
 from .config import SimConfig
-from .context import ActionContext
-from .controls import SimControls
-from .costmap import Costmap, build_costmap
-from .geometry import compose, inverse, wrap_angle
-from .grid import distance_field
 from .health import HealthMonitor
 from .kinematics import DiffDrive, DriveLimits
 from .lidar import Lidar, RayCaster
-from .localization import (
-    LikelihoodField,
-    Localizer,
-    RelocalizationSearch,
-    scan_points,
-)
+from .localization import Localizer
 from .mapping import ExploreMapper
-from .maps import MapRequests
+from .maps import RobotMap
 from .power import Battery, on_dock
 from .sensors import SensorSuite, device_info
-from .snapshot import SavedState
 from .world import World
 
 TRUE_FIELD_CELLS = 20
 """Reach (cells) of the ground-truth distance field used for collisions and matching."""
 
 
-class Simulator(MotionCommands, MapRequests, SavedState, SimControls):
+class Simulator:
     """One simulated robot in one world. Not thread-safe; drive it from one thread/loop.
 
-    This class owns the physics, the sensing and what actions see (:class:`ActionContext`);
-    its requests are split by concern: motion (:class:`~.commands.MotionCommands`), the map
-    (:class:`~.maps.MapRequests`) and what survives a restart (:class:`~.snapshot.SavedState`).
+    This class owns the world, the chassis, the sensors and the tick, and is what actions see
+    (:class:`~.context.ActionContext`); its :attr:`actions` and its :attr:`map` are parts of
+    their own.
     """
 
     def __init__(self, world: World, seed: int = 0, config: SimConfig | None = None,
@@ -91,24 +85,19 @@ class Simulator(MotionCommands, MapRequests, SavedState, SimControls):
         self._lidar = Lidar(self._caster, cfg.lidar, self._rng)
         self._sensors = SensorSuite(self._caster, cfg.drive.radius)
         self._drive = DiffDrive(self.start, cfg.drive, self._clearance)
-        self._mapper = ExploreMapper(spec)
+        mapper = ExploreMapper(spec)
         if cfg.prebuilt_map:
-            self._mapper.seed(world.occupied, world.free)
-        self._mapper.enabled = cfg.map_update
+            mapper.seed(world.occupied, world.free)
+        mapper.enabled = cfg.map_update
+        self.map = RobotMap(mapper, world.dock_pose, cfg.costmap)
         clearance = np.where(world.occupied, 0.0, true_cells * res)
         self._field = LikelihoodField(spec, clearance, cfg.localization)
         stand = cfg.drive.radius + 0.5 * res + cfg.costmap.safety_margin
         self._standable = true_cells * res >= stand
         self._localizer = Localizer(self._field, cfg.localization, self._rng)
         self._battery = Battery(cfg.initial_battery, cfg.power)
-        self._lines = LineStore()
-        self._blocked: tuple[tuple[Point2D, ...], ...] = ()
-        self._blocked_revision = 0
-        self._home = world.dock_pose
-        self._costmap: Costmap | None = None
-        self._costmap_key: tuple[int, int, int] | None = None
-        self._with_robots: tuple[tuple, Costmap] | None = None  # the costmap with the others
-        self._actions = ActionSlot()
+        self._neighbours = Neighbours(cfg)
+        self.actions = Actions(self, cfg.velocity_timeout)
         self._health = HealthMonitor()
         self._ticks = 0
         self._pending = 0.0
@@ -136,8 +125,8 @@ class Simulator(MotionCommands, MapRequests, SavedState, SimControls):
     def _tick(self) -> None:
         tick = self.config.tick
         if self._health.emergency_stop:
-            self._actions_abort("emergency stop")
-        action = self._actions.current
+            self._abort("emergency stop")
+        action = self.actions.current
         linear, angular = (0.0, 0.0)
         if action is not None and not action.done:
             linear, angular = action.tick(self)
@@ -165,11 +154,7 @@ class Simulator(MotionCommands, MapRequests, SavedState, SimControls):
     def _sense(self) -> None:
         true_pose = self._drive.pose
         ranges = self._lidar.measure(true_pose)
-        others = self.others()
-        if others:
-            ranges = np.minimum(ranges, discs_along_rays(
-                true_pose, self._lidar.angles, others, self.config.drive.radius,
-                self.config.lidar.max_range))
+        ranges = self._neighbours.in_scan(ranges, true_pose, self._lidar.angles, self.others())
         ranges.flags.writeable = False  # handed out in LaserScan; shared by every reader
         believed = self._localizer.believed(true_pose)
         angles = self._lidar.angles
@@ -179,7 +164,7 @@ class Simulator(MotionCommands, MapRequests, SavedState, SimControls):
         points = scan_points(angles, ranges, self.config.localization.match_points)
         self._localizer.update(self.config.scan_period, true_pose, points)
         if self._ticks % self._map_every == 0:
-            self._mapper.integrate(believed, angles, ranges)
+            self.map.mapper.integrate(believed, angles, ranges)
 
     def _clearance(self, x: float, y: float) -> float:
         """Distance (m) from a point to the nearest solid cell edge of the true world."""
@@ -234,48 +219,24 @@ class Simulator(MotionCommands, MapRequests, SavedState, SimControls):
     def latest_scan(self) -> LaserScan:
         return self._scan
 
+    @property
+    def home_pose(self) -> Pose2D | None:
+        return self.map.home_pose
+
     def costmap(self) -> Costmap:
         """The planner's map; other robots in lidar range are obstacles in it (laid over the
         map's costmap again when one moved by a quarter metre)."""
-        key = (self._mapper.revision, self._lines.revision, self._blocked_revision)
-        if self._costmap is None or key != self._costmap_key:
-            cells = self._mapper.cells()
-            self._costmap = build_costmap(
-                self.world.spec,
-                cells >= 128,
-                cells == 0,
-                self.config.costmap,
-                walls=self._lines.get(ArtifactUsage.VIRTUAL_WALL),
-                blocked=self._blocked,
-                tracks=self._lines.get(ArtifactUsage.VIRTUAL_TRACK),
-            )
-            self._costmap_key = key
-            self._with_robots = None
-        seen = tuple((round(p.x * 4) / 4, round(p.y * 4) / 4) for p in self._seen_robots())
-        if not seen:
-            return self._costmap
-        if self._with_robots is None or self._with_robots[0] != seen:
-            self._with_robots = (seen, with_robots(self._costmap, seen, self.config))
-        return self._with_robots[1]
-
-    def _seen_robots(self) -> list[Pose2D]:
-        me = self._drive.pose
-        reach = self.config.lidar.max_range
-        return [p for p in self.others() if math.hypot(p.x - me.x, p.y - me.y) <= reach]
+        return self._neighbours.costmap(self.map.costmap(), self._drive.pose, self.others())
 
     def start_relocalization(self, area: Rect | None) -> RelocalizationSearch:
         scan = self._scan
         points = scan_points(scan.angles, scan.ranges, self.config.localization.match_points)
-        return RelocalizationSearch(
-            self._field, points, area, self._standable, self.config.localization
-        )
+        return RelocalizationSearch(self._field, points, area, self._standable,
+                                    self.config.localization)
 
     @property
     def scan_odometry(self) -> Pose2D:
         return self._scan_odometry
-
-    def _context(self) -> ActionContext:
-        return self
 
     def relocalize(self, match: Pose2D, at: Pose2D) -> None:
         """Believe ``match`` at odometry pose ``at``: the pose is the match plus the odometry
@@ -330,6 +291,93 @@ class Simulator(MotionCommands, MapRequests, SavedState, SimControls):
     def clear_health_error(self, error_code: int) -> bool:
         """Acknowledge an error; conditions that still hold are reported again."""
         return self._health.clear(error_code)
+
+    def load_composite_map(self, data: bytes, pose: Pose2D) -> None:
+        """Install a composite map and set the believed pose; ``ValueError`` (and nothing
+        changed) if either is invalid."""
+        pose = checked_pose(pose)
+        self.map.install(self.map.check_composite_map(data))
+        self.set_pose(pose)
+
+    # --- what the chassis keeps across a restart ---------------------------------------------
+
+    def saved_robot(self) -> dict:
+        """The chassis as JSON: true and believed pose, battery, localization. (Mapping is a
+        mode the robot starts without, as after a reboot.)"""
+        t, b = self._drive.pose, self.pose
+        return {"pose": [t.x, t.y, t.yaw], "believed": [b.x, b.y, b.yaw],
+                "battery": round(self._battery.percentage, 2),
+                "localization": self._localizer.enabled}
+
+    def restore_robot(self, saved: dict) -> None:
+        """Put the chassis back where :meth:`saved_robot` found it; ``ValueError`` (nothing
+        changed) if ``saved`` is not such a record or the pose is not in free space."""
+        pose, believed, battery, localization = checked_saved_robot(saved)
+        if self._clearance(pose.x, pose.y) < self.config.drive.radius * 0.5:
+            raise ValueError(f"the saved pose ({pose.x:.2f}, {pose.y:.2f}) is inside an obstacle")
+        self._drive.pose = pose
+        self._drive.linear = self._drive.angular = 0.0
+        self._localizer.set_pose(believed, pose)
+        self.localization_enabled = localization
+        self._battery.percentage = battery
+        self._sense()
+
+    # --- the simulator's own controls (see :mod:`.controls`) ---------------------------------
+
+    def set_battery(self, percent: float) -> float:
+        """Set the state of charge (0–100 %); returns what it is now."""
+        return self._battery.set(percent)
+
+    def kidnap(self, true_pose: Pose2D) -> None:
+        """Carry the robot to ``true_pose`` without telling it: its believed pose stays where it
+        was, so its scans stop matching the map and its localization quality falls."""
+        checked_pose(true_pose)
+        if self._clearance(true_pose.x, true_pose.y) <= self.config.drive.radius:
+            raise ValueError(f"({true_pose.x:.2f}, {true_pose.y:.2f}) is not free floor")
+        believed = self.pose
+        self._abort("kidnapped")
+        self._drive.pose = true_pose
+        self._localizer.set_pose(believed, true_pose)
+
+    def emergency_stop(self, pressed: bool) -> None:
+        """Press (``True``) or release the emergency stop."""
+        self._health.emergency_stop = bool(pressed)
+        if pressed:
+            self._abort("emergency stop")
+
+    def _abort(self, reason: str) -> None:
+        """End the running action and stop the wheels."""
+        self.actions.abort(reason)
+        self._drive.linear = self._drive.angular = 0.0
+
+
+class Neighbours:
+    """What the others' true poses do to this robot's scan and costmap; the costmap with them
+    is kept until one moved by a quarter metre or the map's costmap changed."""
+
+    def __init__(self, config: SimConfig) -> None:
+        self._config = config
+        self._cached: tuple[tuple, Costmap, Costmap] | None = None
+
+    def in_scan(self, ranges: np.ndarray, origin: Pose2D, angles: np.ndarray,
+                others: Sequence[Pose2D]) -> np.ndarray:
+        """``ranges`` cut short where a beam meets another robot's disc."""
+        if not others:
+            return ranges
+        return np.minimum(ranges, discs_along_rays(
+            origin, angles, others, self._config.drive.radius, self._config.lidar.max_range))
+
+    def costmap(self, base: Costmap, me: Pose2D, others: Sequence[Pose2D]) -> Costmap:
+        """``base`` with the others in lidar range of ``me`` as obstacles."""
+        reach = self._config.lidar.max_range
+        seen = tuple((round(p.x * 4) / 4, round(p.y * 4) / 4) for p in others
+                     if math.hypot(p.x - me.x, p.y - me.y) <= reach)
+        if not seen:
+            return base
+        cached = self._cached
+        if cached is None or cached[0] != seen or cached[1] is not base:
+            cached = self._cached = (seen, base, with_robots(base, seen, self._config))
+        return cached[2]
 
 
 def discs_along_rays(origin: Pose2D, angles: np.ndarray, centres: Sequence[Pose2D],

@@ -16,7 +16,7 @@ import yaml
 from PIL import Image
 
 from ..model import Pose2D
-from .grid import GridSpec, distance_field
+from ..planning.grid import GridSpec, distance_field
 
 DEFAULT_WORLD = Path(__file__).resolve().parent.parent / "worlds" / "office.yaml"
 """The office world shipped with the package."""

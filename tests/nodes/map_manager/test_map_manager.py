@@ -271,13 +271,13 @@ async def test_blocked_areas_are_handed_over_again_after_a_reconnect(make_server
     server, w = await start(make_server, tmp_path)
     status = await modify_map(w, "mask", rect(6.0, 7.5, 6.5, 8.5), BLOCKED)
     assert status["level"] == "info", status
-    sim = server.backend.simulator
-    assert len(sim._blocked) == 1
-    await server.backend.stop()  # the robot goes away and forgets its blocked areas
-    sim.set_blocked_areas([])
+    sim = server.robot.simulator
+    assert len(sim.map.blocked) == 1
+    await server.robot.link.stop()  # the robot goes away and forgets its blocked areas
+    sim.map.set_blocked_areas([])
     await asyncio.sleep(0.8)
-    await server.backend.start()
-    await w.until(lambda: len(sim._blocked) == 1, 5, "the blocked areas handed over again")
+    await server.robot.link.start()
+    await w.until(lambda: len(sim.map.blocked) == 1, 5, "the blocked areas handed over again")
     await w.close()
 
 
@@ -313,12 +313,12 @@ async def test_home_dock_is_latched_and_follows_the_robot(make_server, tmp_path)
     server, w = await start(make_server, tmp_path)
     await w.subscribe(f"{MM}/home", "geometry_msgs/PoseStamped")
     first = await w.until(lambda: w.latest(f"{MM}/home"), 10, "the dock's pose")
-    dock = await server.backend.get_home_pose()
+    dock = await server.robot.maps.get_home_pose()
     assert first["header"]["frame_id"] == "/map"
     p = first["pose"]["position"]
     assert (p["x"], p["y"]) == (pytest.approx(dock.x), pytest.approx(dock.y))
     moved = type(dock)(dock.x + 1.0, dock.y, dock.yaw)
-    await server.backend.set_home_pose(moved)
+    await server.robot.maps.set_home_pose(moved)
     changed = await w.until(lambda: (m := w.latest(f"{MM}/home")) and
                             m["pose"]["position"]["x"] == pytest.approx(moved.x) and m, 10,
                             "the moved dock")

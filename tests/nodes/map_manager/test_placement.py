@@ -13,7 +13,7 @@ from hitrobot_server.nodes.map_manager.placement import (
     SAFETY_MARGIN,
     placement_problem,
 )
-from hitrobot_server.robot.sim.costmap import CostmapConfig
+from hitrobot_server.robot.planning.costmap import CostmapConfig
 from hitrobot_server.robot.sim.kinematics import DriveLimits
 
 from .util import MM, poi, request, start

@@ -9,14 +9,14 @@ from collections.abc import Awaitable, Callable
 import pytest
 from aiohttp import web
 
+from hitrobot_server.robot.device import SimDevice
 from hitrobot_server.robot.factory import build_simulator
 from hitrobot_server.robot.rest.client import SlamwareRestBackend
-from hitrobot_server.robot.rest.device import SimDevice
 
 
 async def connected(backend: SlamwareRestBackend, seconds: float = 5.0) -> None:
     for _ in range(round(seconds / 0.01)):
-        if backend.connected:
+        if backend.link.connected:
             return
         await asyncio.sleep(0.01)
     raise AssertionError("the client did not connect")
@@ -33,10 +33,10 @@ async def device():
 @pytest.fixture
 async def client(device):
     backend = SlamwareRestBackend(device.url, reconn_wait_ms=200)
-    await backend.start()
+    await backend.link.start()
     await connected(backend)
     yield backend
-    await backend.stop()
+    await backend.link.stop()
 
 
 class FakeRobot:
@@ -97,7 +97,7 @@ async def fake():
 async def fake_client(fake):
     backend = SlamwareRestBackend(fake.url, reconn_wait_ms=200, timeout=0.3,
                                   control_timeout=0.3, bulk_timeout=0.3)
-    await backend.start()
+    await backend.link.start()
     await connected(backend)
     yield backend
-    await backend.stop()
+    await backend.link.stop()

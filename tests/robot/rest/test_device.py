@@ -99,21 +99,21 @@ async def test_rectangle_areas_crud_and_forbidden_ones_block(http, device):
     async with http.get(url) as resp:
         (stored,) = await resp.json()
     assert stored["usage"] == "forbidden_area" and stored["metadata"] == {"display_name": "x"}
-    assert len(device.simulator._blocked) == 1
+    assert len(device.simulator.map.blocked) == 1
     moved = dict(area, area={**area["area"], "half_width": 0.25})
     assert (await call(http, "PUT", f"{url}/{stored['id']}", json=moved))[2] == b"true"
     assert (await call(http, "PUT", f"{url}/999", json=moved))[0] == 404
     assert (await call(http, "DELETE", f"{url}/{stored['id']}"))[2] == b"true"
-    assert device.simulator._blocked == ()
+    assert device.simulator.map.blocked == ()
     await call(http, "POST", f"{paths.RECTANGLE_AREAS}/coverage_area", json=area)
-    assert device.simulator._blocked == ()  # other usages are only stored
+    assert device.simulator.map.blocked == ()  # other usages are only stored
 
 
 async def test_a_paused_device_refuses_with_503_and_factories_are_listed(http, device):
     async with http.get(paths.ACTION_FACTORIES) as resp:
         names = [f["action_name"] for f in await resp.json()]
     assert "slamtec.agent.actions.GoHomeAction" in names
-    await device.backend.stop()  # the HTTP side up, the simulator not running
+    await device.backend.link.stop()  # the HTTP side up, the simulator not running
     assert (await call(http, "GET", paths.POSE))[0] == 503
-    await device.backend.start()
+    await device.backend.link.start()
     assert (await call(http, "GET", paths.POSE))[0] == 200

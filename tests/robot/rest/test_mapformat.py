@@ -78,8 +78,8 @@ async def test_the_client_decodes_the_device_map_byte_for_byte(device, client):
             assert resp.status == 200
             assert resp.content_type == "application/octet-stream"
             wire = await resp.read()
-    got = await client.get_map(area)
-    expected = sim.map_region(area)
+    got = await client.maps.get_map(area)
+    expected = sim.map.map_region(area)
     assert got.cells.shape == expected.cells.shape
     assert got.width % 2 == 1 and got.height % 2 == 1
     assert np.array_equal(got.cells, expected.cells)

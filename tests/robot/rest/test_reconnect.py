@@ -8,8 +8,8 @@ import logging
 import time
 
 from hitrobot_server.nodes.options import SlamwareParams
+from hitrobot_server.robot.device import SimDevice
 from hitrobot_server.robot.factory import build_simulator
-from hitrobot_server.robot.rest.device import SimDevice
 
 from ...helpers import Watcher
 
@@ -43,7 +43,7 @@ async def test_the_robot_going_away_and_coming_back(make_server, caplog):
 
         port = device.port
         await device.stop()  # the robot drops off the network mid-run
-        await w.until(lambda: not server.backend.connected, 5, "the loss to be noticed")
+        await w.until(lambda: not server.robot.link.connected, 5, "the loss to be noticed")
         await asyncio.sleep(0.2)
         count = len(w.messages[odom])
         await asyncio.sleep(RECONN_WAIT * 2)
@@ -72,7 +72,7 @@ async def test_the_robot_going_away_and_coming_back(make_server, caplog):
         await w.publish(f"{NS}/move_to", move_to(6.0, 8.0), op_id="back")
         await asyncio.sleep(0.5)
         assert not [s for s in w.statuses if s.get("id") == "back" and s["level"] == "error"]
-        assert server.backend.connected
+        assert server.robot.link.connected
 
         # the whole outage was logged as warnings, nothing escaped (checked before teardown,
         # which is not what this test is about)

@@ -3,8 +3,9 @@ import math
 import pytest
 
 from hitrobot_server.robot.model import Pose2D
-from hitrobot_server.robot.sim.follower import PRECISE_TOLERANCE, PathFollower
-from hitrobot_server.robot.sim.geometry import wrap_angle
+from hitrobot_server.robot.planning.geometry import wrap_angle
+from hitrobot_server.robot.planning.search import PRECISE_TOLERANCE
+from hitrobot_server.robot.sim.follower import PathFollower
 from hitrobot_server.robot.sim.kinematics import DiffDrive, DriveLimits
 
 DT = 0.025

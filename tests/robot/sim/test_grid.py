@@ -1,7 +1,7 @@
 import numpy as np
 
 from hitrobot_server.robot.model import Point2D, Rect
-from hitrobot_server.robot.sim.grid import (
+from hitrobot_server.robot.planning.grid import (
     GridSpec,
     distance_field,
     rasterize_polygons,

@@ -7,7 +7,7 @@ from hitrobot_server.robot.model import (
     Pose2D,
     Rect,
 )
-from hitrobot_server.robot.sim.geometry import wrap_angle
+from hitrobot_server.robot.planning.geometry import wrap_angle
 from hitrobot_server.robot.sim.health import LOCALIZATION_LOW, RELOCALIZATION_FAILED
 from hitrobot_server.robot.sim.simulator import Simulator
 
@@ -20,9 +20,9 @@ def _error(sim):
 
 
 def _recover(sim, run_until, **kwargs):
-    info = sim.recover_localization(**kwargs)
-    assert run_until(sim, lambda: sim.action(info.action_id).done, 30.0, dt=0.025)
-    return sim.action(info.action_id)
+    info = sim.actions.recover_localization(**kwargs)
+    assert run_until(sim, lambda: sim.actions.action(info.action_id).done, 30.0, dt=0.025)
+    return sim.actions.action(info.action_id)
 
 
 def test_quality_is_high_when_well_localized(world):
@@ -87,8 +87,8 @@ def test_disabled_localization_reports_zero_and_drifts(world, run_until):
     sim = Simulator(world, seed=0)
     sim.localization_enabled = False
     assert sim.localization_quality == 0
-    info = sim.move_to([Point2D(15.0, 8.0)])
-    assert run_until(sim, lambda: sim.action(info.action_id).done, 60.0)
+    info = sim.actions.move_to([Point2D(15.0, 8.0)])
+    assert run_until(sim, lambda: sim.actions.action(info.action_id).done, 60.0)
     assert sim.localization_quality == 0
     assert not any(e.error_code == LOCALIZATION_LOW for e in sim.health().errors)
     assert _error(sim)[0] > 0.0

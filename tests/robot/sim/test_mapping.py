@@ -3,7 +3,7 @@ import math
 import numpy as np
 
 from hitrobot_server.robot.model import Point2D, Pose2D, Rect
-from hitrobot_server.robot.sim.grid import GridSpec
+from hitrobot_server.robot.planning.grid import GridSpec
 from hitrobot_server.robot.sim.mapping import ExploreMapper, decode_cells, encode_cells
 from hitrobot_server.robot.sim.simulator import SimConfig, Simulator
 
@@ -36,20 +36,20 @@ def test_mapping_grows_then_freezes_when_disabled(world, run_until):
     sim = Simulator(world, seed=0, config=SimConfig(prebuilt_map=False, map_update=True))
 
     def known():
-        return int((sim.map_region(world.spec.extent()).cells > 0).sum())
+        return int((sim.map.map_region(world.spec.extent()).cells > 0).sum())
 
     start = known()
     assert start > 1000  # the first scan already maps the corridor around the robot
-    info = sim.move_to([Point2D(15.0, 8.0)])
-    assert run_until(sim, lambda: sim.action(info.action_id).done, 60.0)
+    info = sim.actions.move_to([Point2D(15.0, 8.0)])
+    assert run_until(sim, lambda: sim.actions.action(info.action_id).done, 60.0)
     grown = known()
     assert grown > start * 2
-    sim.map_update = False
-    frozen = sim.map_region(world.spec.extent()).cells.copy()
-    info = sim.move_to([Point2D(15.0, 12.0)])  # into office C: new walls in view
-    assert run_until(sim, lambda: sim.action(info.action_id).done, 60.0)
-    assert (sim.map_region(world.spec.extent()).cells == frozen).all()
-    sim.map_update = True
+    sim.map.map_update = False
+    frozen = sim.map.map_region(world.spec.extent()).cells.copy()
+    info = sim.actions.move_to([Point2D(15.0, 12.0)])  # into office C: new walls in view
+    assert run_until(sim, lambda: sim.actions.action(info.action_id).done, 60.0)
+    assert (sim.map.map_region(world.spec.extent()).cells == frozen).all()
+    sim.map.map_update = True
     sim.step(0.5)
     assert known() > grown
 
@@ -57,7 +57,7 @@ def test_mapping_grows_then_freezes_when_disabled(world, run_until):
 def test_map_agrees_with_the_world_where_observed(world, run_until):
     sim = Simulator(world, seed=0, config=SimConfig(prebuilt_map=False, map_update=True))
     sim.step(2.0)
-    cells = sim.map_region(world.spec.extent()).cells
+    cells = sim.map.map_region(world.spec.extent()).cells
     occupied = cells >= 128
     free = (cells > 0) & (cells < 128)
     # Nearly every mapped-free cell is truly free; occupied cells are on or next to obstacles.
@@ -67,10 +67,10 @@ def test_map_agrees_with_the_world_where_observed(world, run_until):
 
 def test_clear_map_and_regions(world):
     sim = Simulator(world, seed=0)
-    region = sim.map_region(Rect(4.0, 7.5, 2.0, 1.0))
+    region = sim.map.map_region(Rect(4.0, 7.5, 2.0, 1.0))
     assert (region.width, region.height) == (40, 20)
     assert (region.origin_x, region.origin_y) == (4.0, 7.5)
     assert (region.cells > 0).all()
-    sim.clear_map()
-    assert sim.known_area().is_empty
-    assert sim.map_region().width == 0
+    sim.map.clear_map()
+    assert sim.map.known_area().is_empty
+    assert sim.map.map_region().width == 0

@@ -16,18 +16,18 @@ async def test_map_lines_home_pose_and_battery_come_back(world, tmp_path, run_un
     store = StateStore.open(tmp_path)
     memory = SimMemory(store)
     backend = SimBackend(Simulator(world, seed=0), memory=memory)
-    await backend.start()
+    await backend.link.start()
     try:  # requests through the backend are on disk when they return
-        await backend.add_lines(ArtifactUsage.VIRTUAL_WALL,
+        await backend.maps.add_lines(ArtifactUsage.VIRTUAL_WALL,
                                 [Line(0, Point2D(14.0, 2.0), Point2D(14.0, 3.0))])
-        await backend.set_home_pose(Pose2D(4.0, 1.0, 0.5))
+        await backend.maps.set_home_pose(Pose2D(4.0, 1.0, 0.5))
     finally:
-        await backend.stop()
+        await backend.link.stop()
     sim = backend.simulator
-    sim.move_to([Point2D(7.0, 8.0)])
+    sim.actions.move_to([Point2D(7.0, 8.0)])
     assert run_until(sim, lambda: math.dist((sim.pose.x, sim.pose.y), (7.0, 8.0)) < 0.2
-                     and sim.current_action() is None, 30)
-    sim.clear_map()
+                     and sim.actions.current_action() is None, 30)
+    sim.map.clear_map()
     before = sim.saved_robot()
     await memory.sync(sim, 0.0, urgent=True)  # as the stepping task samples it
     await store.close()
@@ -37,9 +37,9 @@ async def test_map_lines_home_pose_and_battery_come_back(world, tmp_path, run_un
     done = SimMemory(again).restore(fresh)
     assert done[0] == "the robot's map" and done[1] == "1 wall, 0 tracks, home"
     assert fresh.saved_robot() == before
-    assert fresh.known_area().is_empty  # the cleared map, not the world's prebuilt one
+    assert fresh.map.known_area().is_empty  # the cleared map, not the world's prebuilt one
     assert fresh.home_pose == Pose2D(4.0, 1.0, 0.5)
-    assert [(ln.start, ln.end) for ln in fresh.get_lines(ArtifactUsage.VIRTUAL_WALL)] == [
+    assert [(ln.start, ln.end) for ln in fresh.map.get_lines(ArtifactUsage.VIRTUAL_WALL)] == [
         (Point2D(14.0, 2.0), Point2D(14.0, 3.0))]
 
 

@@ -2,9 +2,9 @@ import numpy as np
 import pytest
 
 from hitrobot_server.robot.model import Line, Point2D, Rect
-from hitrobot_server.robot.sim.costmap import CostmapConfig, build_costmap, densify
-from hitrobot_server.robot.sim.planner import PathSearch, TrackMode, plan
-from hitrobot_server.robot.sim.regions import label_regions
+from hitrobot_server.robot.planning.costmap import CostmapConfig, build_costmap, densify
+from hitrobot_server.robot.planning.planner import PathSearch, TrackMode, plan
+from hitrobot_server.robot.planning.regions import label_regions
 
 START = (5.0, 8.0)
 

@@ -67,8 +67,8 @@ def test_robots_never_drive_through_each_other(world):
     b = w.add(1, Pose2D(6.5, CORRIDOR_Y, math.pi), 1.0).simulator
     closest = gap(a, b)
     for _ in range(int(6 / TICK)):  # both drive straight at each other, blind to the planner
-        a.set_velocity(0.5, 0.0)
-        b.set_velocity(0.5, 0.0)
+        a.actions.set_velocity(0.5, 0.0)
+        b.actions.set_velocity(0.5, 0.0)
         a.step(TICK)
         b.step(TICK)
         closest = min(closest, gap(a, b))
@@ -80,14 +80,14 @@ def test_the_planner_drives_around_a_robot_in_the_corridor(world):
     w = fresh(world)
     a = w.add(0, Pose2D(5.0, CORRIDOR_Y, 0.0), 1.0).simulator
     parked = w.add(1, Pose2D(8.0, CORRIDOR_Y, 0.0), 1.0).simulator
-    a.move_to([Point2D(11.0, CORRIDOR_Y)])
+    a.actions.move_to([Point2D(11.0, CORRIDOR_Y)])
     closest = gap(a, parked)
     for _ in range(int(60 / TICK)):
         a.step(TICK)
         closest = min(closest, gap(a, parked))
-        if a.current_action() is None:
+        if a.actions.current_action() is None:
             break
-    assert a.action(1).status == ActionStatus.DONE and not a.action(1).reason
+    assert a.actions.action(1).status == ActionStatus.DONE and not a.actions.action(1).reason
     assert math.hypot(a.true_pose.x - 11.0, a.true_pose.y - CORRIDOR_Y) < 0.3
     assert closest > 2 * a.drive.radius + 0.05  # passed it with room, never touched it
 
@@ -96,14 +96,14 @@ def test_two_robots_pass_each_other_in_the_corridor(world):
     w = fresh(world)
     a = w.add(0, Pose2D(4.0, CORRIDOR_Y, 0.0), 1.0).simulator
     b = w.add(1, Pose2D(12.0, CORRIDOR_Y, math.pi), 1.0).simulator
-    a.move_to([Point2D(12.0, CORRIDOR_Y)])
-    b.move_to([Point2D(4.0, CORRIDOR_Y)])
+    a.actions.move_to([Point2D(12.0, CORRIDOR_Y)])
+    b.actions.move_to([Point2D(4.0, CORRIDOR_Y)])
     closest = gap(a, b)
     for _ in range(int(90 / TICK)):
         a.step(TICK)
         b.step(TICK)
         closest = min(closest, gap(a, b))
-        if a.current_action() is None and b.current_action() is None:
+        if a.actions.current_action() is None and b.actions.current_action() is None:
             break
     assert closest >= 2 * a.drive.radius - 1e-6
     assert math.hypot(a.true_pose.x - 12.0, a.true_pose.y - CORRIDOR_Y) < 0.3
@@ -114,6 +114,6 @@ def test_a_reboot_keeps_the_start_and_the_neighbours(world):
     w = fresh(world)
     robot = w.add(0, Pose2D(5.0, CORRIDOR_Y, 0.0), 1.0)
     w.add(1, Pose2D(8.0, CORRIDOR_Y, 0.0), 1.0)
-    robot.runner.simulator = robot.simulator.restarted()  # what SimBackend.reboot does
+    robot.runner.simulator = robot.simulator.restarted()  # what SimRunner.reboot does
     assert robot.simulator.start == Pose2D(5.0, CORRIDOR_Y, 0.0)
     assert robot.simulator.others() == [Pose2D(8.0, CORRIDOR_Y, 0.0)]

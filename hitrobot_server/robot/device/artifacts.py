@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from aiohttp import web
 
-from ...model import ArtifactUsage, Line
-from ...sim.backend import SimBackend
-from .. import paths, shapes
+from ..model import ArtifactUsage, Line
+from ..rest import paths, shapes
+from ..sim.backend import SimBackend
 from .replies import body_of, reply, text
 
 
@@ -33,28 +33,28 @@ class LineRoutes:
         return usage
 
     async def _get_lines(self, request: web.Request) -> web.Response:
-        lines = await self.backend.get_lines(self._line_usage(request))
+        lines = await self.backend.maps.get_lines(self._line_usage(request))
         return reply([shapes.line_json(ln) for ln in lines])
 
     async def _add_lines(self, request: web.Request) -> web.Response:
         """The robot assigns ids: requested ones are ignored."""
         usage = self._line_usage(request)
         lines = shapes.lines_from(await body_of(request))
-        await self.backend.add_lines(usage, [Line(0, ln.start, ln.end) for ln in lines])
+        await self.backend.maps.add_lines(usage, [Line(0, ln.start, ln.end) for ln in lines])
         return reply(True)
 
     async def _move_lines(self, request: web.Request) -> web.Response:
         usage = self._line_usage(request)
         lines = shapes.lines_from(await body_of(request))
-        return reply(await self.backend.move_lines(usage, lines))
+        return reply(await self.backend.maps.move_lines(usage, lines))
 
     async def _clear_lines(self, request: web.Request) -> web.Response:
-        await self.backend.clear_lines(self._line_usage(request))
+        await self.backend.maps.clear_lines(self._line_usage(request))
         return reply(True)
 
     async def _remove_line(self, request: web.Request) -> web.Response:
         usage = self._line_usage(request)
-        return reply(await self.backend.remove_line(usage, int(request.match_info["line_id"])))
+        return reply(await self.backend.maps.remove_line(usage, int(request.match_info["line_id"])))
 
 
 class AreaRoutes:
@@ -81,7 +81,7 @@ class AreaRoutes:
 
     async def _areas_changed(self, usage: str) -> None:
         if usage == paths.FORBIDDEN_AREA:
-            await self.backend.set_blocked_areas([
+            await self.backend.maps.set_blocked_areas([
                 shapes.rectangle_corners(*shapes.rectangle_area_from(entry))
                 for entry in self._areas[usage].values()])
 

@@ -8,11 +8,11 @@ from collections.abc import Awaitable, Callable
 
 from aiohttp import web
 
-from .... import __version__
-from ...backend import BackendError, NotConnectedError, UnsupportedError
-from ...sim.backend import SimBackend
-from ...sim.simulator import Simulator
-from .. import paths, shapes
+from ... import __version__
+from ..backend import BackendError, NotConnectedError, UnsupportedError
+from ..rest import paths, shapes
+from ..sim.backend import SimBackend
+from ..sim.simulator import Simulator
 from .actions import ActionRoutes
 from .artifacts import AreaRoutes, LineRoutes
 from .replies import Handler, body_of, empty, getter, reply, text
@@ -63,7 +63,7 @@ class SimDevice:
         return self._runner is not None
 
     async def start(self) -> None:
-        await self.backend.start()
+        await self.backend.link.start()
         await self._listen()
 
     async def stop(self) -> None:
@@ -71,7 +71,7 @@ class SimDevice:
         if power is not None and power is not asyncio.current_task():
             power.cancel()
         await self._close()
-        await self.backend.stop()
+        await self.backend.link.stop()
 
     async def _listen(self) -> None:
         if self._runner is not None:
@@ -84,7 +84,7 @@ class SimDevice:
             await site.start()
         except BaseException:
             await runner.cleanup()
-            await self.backend.stop()
+            await self.backend.link.stop()
             raise
         self.port = runner.addresses[0][1]
         self._runner = runner
@@ -98,19 +98,21 @@ class SimDevice:
 
     def _app(self) -> web.Application:
         app = web.Application(middlewares=[self._errors], client_max_size=64 * 1024 * 1024)
-        b = self.backend
+        sensors = self.backend.sensors
         r = app.router
         get, post = r.add_get, r.add_post
 
         get(paths.CAPABILITIES, self._capabilities, allow_head=False)
-        get(paths.POWER_STATUS, getter(b.get_power_status, shapes.power_json), allow_head=False)
-        get(paths.ROBOT_INFO, getter(b.get_device_info, shapes.device_info_json),
+        get(paths.POWER_STATUS, getter(self.backend.power.get_power_status, shapes.power_json),
             allow_head=False)
-        get(paths.ROBOT_HEALTH, getter(b.get_health, shapes.health_json), allow_head=False)
+        get(paths.ROBOT_INFO, getter(sensors.get_device_info, shapes.device_info_json),
+            allow_head=False)
+        get(paths.ROBOT_HEALTH, getter(sensors.get_health, shapes.health_json), allow_head=False)
         r.add_delete(paths.ROBOT_HEALTH + r"/{code:-?\d+}", self._clear_health)
         post(paths.POWER_SHUTDOWN, self._shutdown)
         post(paths.POWER_RESTART_MODULE, self._restart)
-        get(paths.LASERSCAN, getter(b.get_laser_scan, shapes.laser_scan_json), allow_head=False)
+        get(paths.LASERSCAN, getter(sensors.get_laser_scan, shapes.laser_scan_json),
+            allow_head=False)
         for routes in self._routes:
             routes.add_to(r)
         return app
@@ -134,7 +136,7 @@ class SimDevice:
     # --- system ------------------------------------------------------------------------------
 
     async def _capabilities(self, request: web.Request) -> web.Response:
-        up = self.backend.connected
+        up = self.backend.link.connected
         return reply([{"name": name, "version": __version__, "enabled": up}
                       for name in ("slamware.agent.core", "slamware.agent.platform")])
 
@@ -148,12 +150,12 @@ class SimDevice:
 
     async def _shutdown(self, request: web.Request) -> web.Response:
         """Off the network for good (until :meth:`start`)."""
-        if not self.backend.connected:
+        if not self.backend.link.connected:
             raise NotConnectedError("the simulator is not running")
 
         async def off() -> None:
             await self._close()
-            await self.backend.power_off()
+            await self.backend.power.power_off()
 
         self._after_reply(off)
         return reply(True)
@@ -163,20 +165,20 @@ class SimDevice:
         body = shapes.obj(await body_of(request), "body")
         if body.get("mode") not in ("RestartModeSoft", "RestartModeHard", "RestartModeBase"):
             return text(400, "mode must be RestartModeSoft, RestartModeHard or RestartModeBase")
-        if not self.backend.connected:
+        if not self.backend.link.connected:
             raise NotConnectedError("the simulator is not running")
 
         async def restart() -> None:
             await self._close()
-            await self.backend.reboot()
-            await asyncio.sleep(self.backend.reboot_delay)
+            await self.backend.power.reboot()
+            await asyncio.sleep(self.backend.runner.reboot_delay)
             await self._listen()
 
         self._after_reply(restart)
         return reply(True)
 
     async def _clear_health(self, request: web.Request) -> web.Response:
-        if await self.backend.clear_health_error(int(request.match_info["code"])):
+        if await self.backend.sensors.clear_health_error(int(request.match_info["code"])):
             return empty()
         return text(400, "Invalid Error Code")
 

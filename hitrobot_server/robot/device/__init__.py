@@ -1,7 +1,7 @@
 """The sim-device: the built-in simulator behind the Slamware REST API, over real HTTP.
 
 ``hitrobot-server sim-device --port 1448`` (or :class:`SimDevice` in-process) serves the
-endpoints :class:`~..client.SlamwareRestBackend` uses, the way a robot does: paths with literal
+endpoints :class:`~..rest.client.SlamwareRestBackend` uses, the way a robot does: paths with literal
 ``:`` segments, bare JSON booleans and numbers, octet-stream maps with the 36-byte header, 404
 from ``actions/:current`` when idle, action status 0/1/3/4 with result 0/-1/-2, finished
 actions read back as gravestones (no name, no stage), line ids chosen by the robot (requested

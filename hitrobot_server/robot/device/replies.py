@@ -8,7 +8,7 @@ from typing import Any
 import orjson
 from aiohttp import web
 
-from .. import shapes
+from ..rest import shapes
 
 Handler = Callable[[web.Request], Awaitable[web.StreamResponse]]
 

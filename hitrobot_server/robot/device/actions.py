@@ -7,10 +7,10 @@ from typing import Any
 
 from aiohttp import web
 
-from ...backend import ACTION_PREFIX, BackendError
-from ...model import ActionDirection, ActionInfo
-from ...sim.backend import SimBackend
-from .. import paths, shapes
+from ..backend import ACTION_PREFIX, BackendError
+from ..model import ActionDirection, ActionInfo
+from ..rest import paths, shapes
+from ..sim.backend import SimBackend
 from .replies import body_of, empty, getter, reply, text
 
 ACTION_NAMES = ("MoveToAction", "SeriesMoveToAction", "MoveByAction", "RotateToAction",
@@ -31,8 +31,8 @@ class ActionRoutes:
         get(paths.CURRENT_ACTION, self._current_action, allow_head=False)
         router.add_delete(paths.CURRENT_ACTION, self._cancel_action)
         get(paths.ACTIONS + r"/{action_id:\d+}", self._action, allow_head=False)
-        get(paths.PATH, getter(b.get_remaining_path, shapes.path_json), allow_head=False)
-        get(paths.MILESTONES, getter(b.get_remaining_milestones, shapes.path_json),
+        get(paths.PATH, getter(b.motion.get_remaining_path, shapes.path_json), allow_head=False)
+        get(paths.MILESTONES, getter(b.motion.get_remaining_milestones, shapes.path_json),
             allow_head=False)
         get(paths.SPEED, self._speed, allow_head=False)
 
@@ -62,23 +62,23 @@ class ActionRoutes:
         if short in ("RotateToAction", "RotateAction"):
             angle = shapes.number(options.get("angle"), "angle")
             if short == "RotateToAction":
-                return await self.backend.rotate_to(angle, move)
-            return await self.backend.rotate(angle, move)
+                return await self.backend.motion.rotate_to(angle, move)
+            return await self.backend.motion.rotate(angle, move)
         if short == "GoHomeAction":
             home = shapes.obj(options.get("gohome_options") or {}, "gohome_options")
             move, _ = shapes.move_options_from(home.get("move_options"))
-            return await self.backend.go_home(move)
+            return await self.backend.motion.go_home(move)
         return await self._recover(options)
 
     async def _move_to(self, short: str, options: dict, move, yaw: float) -> ActionInfo:
         if short == "MoveToAction":
-            return await self.backend.move_to(
+            return await self.backend.motion.move_to(
                 [shapes.point_from(options.get("target"), "target")], move, yaw)
         raw = shapes.array(options.get("targets"), "targets")
         if not raw:
             raise shapes.ShapeError("targets must not be empty")
         targets = [shapes.point_from(t, f"targets[{i}]") for i, t in enumerate(raw)]
-        return await self.backend.move_to(targets, move, yaw)
+        return await self.backend.motion.move_to(targets, move, yaw)
 
     async def _move_by(self, options: dict, move) -> ActionInfo:
         duration = shapes.number(options.get("duration", 500), "duration") / 1000.0
@@ -89,10 +89,10 @@ class ActionRoutes:
             except ValueError:
                 raise shapes.ShapeError(f"direction must be 0-3, got {raw_direction}") \
                     from None
-            return await self.backend.move_by_direction(direction, move, duration)
+            return await self.backend.motion.move_by_direction(direction, move, duration)
         if "theta" in options:
-            return await self.backend.move_by_theta(shapes.number(options["theta"], "theta"),
-                                                    move, duration)
+            theta = shapes.number(options["theta"], "theta")
+            return await self.backend.motion.move_by_theta(theta, move, duration)
         raise shapes.ShapeError("MoveByAction needs a direction or a theta")
 
     async def _recover(self, options: dict) -> ActionInfo:
@@ -101,22 +101,22 @@ class ActionRoutes:
         reloc = shapes.obj(options.get("relocalization_options") or {},
                            "relocalization_options")
         max_time = reloc.get("max_recover_time")
-        return await self.backend.recover_localization(
+        return await self.backend.localization.recover_localization(
             area, None if max_time is None else shapes.integer(max_time, "max_recover_time"),
             shapes.movement_from(reloc.get("recover_movement_type")))
 
     async def _current_action(self, request: web.Request) -> web.Response:
-        action = await self.backend.get_current_action()
+        action = await self.backend.motion.get_current_action()
         if action is None:
             return text(404, "Action Not Found")
         return reply(shapes.action_json(action))
 
     async def _cancel_action(self, request: web.Request) -> web.Response:
-        await self.backend.cancel_action()
+        await self.backend.motion.cancel_action()
         return empty()
 
     async def _action(self, request: web.Request) -> web.Response:
-        action = await self.backend.get_action(int(request.match_info["action_id"]))
+        action = await self.backend.motion.get_action(int(request.match_info["action_id"]))
         if action is None:
             return text(404, "Action Not Found")
         data = shapes.action_json(action)
@@ -125,4 +125,4 @@ class ActionRoutes:
         return reply(data)
 
     async def _speed(self, request: web.Request) -> web.Response:
-        return reply(shapes.speed_json((await self.backend.get_odometry()).twist))
+        return reply(shapes.speed_json((await self.backend.sensors.get_odometry()).twist))
