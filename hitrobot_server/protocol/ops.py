@@ -24,8 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields, replace
 from typing import Any, ClassVar, TypeVar
 
-from .errors import MessageId, ProtocolError, message_id
-from .status import LEVELS
+from .errors import LEVELS, MessageId, ProtocolError, message_id
 
 COMPRESSIONS: tuple[str, ...] = ("none", "png", "cbor", "cbor-raw")
 

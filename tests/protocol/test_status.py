@@ -2,8 +2,15 @@
 
 import pytest
 
-from hitrobot_server.protocol.errors import ProtocolError, message_id, status_op
-from hitrobot_server.protocol.status import DEFAULT_LEVEL, LEVELS, set_level, should_send
+from hitrobot_server.protocol.errors import (
+    DEFAULT_LEVEL,
+    LEVELS,
+    ProtocolError,
+    message_id,
+    set_level,
+    should_send,
+    status_op,
+)
 
 # client level -> message levels it receives
 RECEIVES = {

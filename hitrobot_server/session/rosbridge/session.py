@@ -21,9 +21,8 @@ from ...bus.core import Bus
 from ...bus.errors import BusError
 from ...bus.topics import Origin
 from ...protocol import auth, bulk, cbor, ops, png
-from ...protocol.errors import ProtocolError, message_id, status_op
+from ...protocol.errors import ProtocolError, message_id, should_send, status_op
 from ...protocol.fragment import MIN_FRAGMENT_SIZE, FragmentBudget
-from ...protocol.status import should_send
 from ...types import jsoncodec
 from ...types.convert import ConversionError
 from ...wire.frames import Frames
