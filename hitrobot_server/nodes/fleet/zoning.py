@@ -91,8 +91,9 @@ class ZoneServices:
         for robot in self.roster.members:  # a robot standing in it holds it
             self.traffic.moved(robot)
         self.publish()
+        crowded = self.traffic.crowded(zone.name)
         return {"success": True, "message": f"zone '{zone.name}' ({zone.kind}) added: one "
-                "robot at a time"}
+                "robot at a time" + (f"; {crowded}" if crowded else "")}
 
     async def _list(self, _request: dict) -> dict:
         return self.traffic.msg()
