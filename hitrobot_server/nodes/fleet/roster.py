@@ -55,6 +55,11 @@ class Roster:
         p = msg["pose"]["position"]
         return float(p["x"]), float(p["y"])
 
+    def unplace(self, robot: str) -> None:
+        """Where the robot was is no longer known (an operator says it is not there): it has
+        no pose until it reports one again."""
+        self._placed.discard(robot)
+
     def forget_times(self) -> dict[str, dict]:
         """Every robot counts as not heard (a take-over: none is free until it reports again);
         the last reports."""

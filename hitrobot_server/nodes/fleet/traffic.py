@@ -155,6 +155,12 @@ class Traffic:
                 holders[robot] = True
         self.moved(robot)
 
+    def let_go(self, name: str, robot: str) -> None:
+        """``robot`` no longer holds zone ``name`` (an operator released it)."""
+        if self.holders.get(name, {}).pop(robot, None) is not None:
+            self._grant()
+            self.changed()
+
     def moved(self, robot: str) -> None:
         """A new pose of ``robot``: the holds it is past and clear of end; a zone it stands
         in without holding it (drawn over it, or after a restart) is its."""

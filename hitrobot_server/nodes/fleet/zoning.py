@@ -1,5 +1,6 @@
 """``/fleet/zone_add`` (``hitrobot_msgs/FleetZoneAdd``), ``/fleet/zone_list``
-(``FleetZoneList``), ``/fleet/zone_remove`` (``FleetZoneRemove``) and the latched
+(``FleetZoneList``), ``/fleet/zone_remove`` (``FleetZoneRemove``), ``/fleet/zone_release``
+(``FleetZoneRemove``: the zone's offline holders let go, with a warning) and the latched
 ``/fleet/zones`` (``FleetZones``: each zone with who holds it and who waits, in order): the
 site's mutex zones, kept in the state folder (``fleet/zones``). A change is written before it
 applies (one the disk refuses changes nothing) and answered as :mod:`..ground.acks` says; the
@@ -17,7 +18,7 @@ import logging
 from collections.abc import Callable
 
 from ..ground.memory import NodeMemory, NotSaved
-from .member import PKG
+from .member import OFFLINE, PKG
 from .roster import Roster
 from .tasks import Refused
 from .traffic import Traffic
@@ -42,7 +43,8 @@ class ZoneServices:
         advertise(ZONES, f"{PKG}/FleetZones", latch=True)
         for name, kind, handler in (("zone_add", "FleetZoneAdd", self._add),
                                     ("zone_list", "FleetZoneList", self._list),
-                                    ("zone_remove", "FleetZoneRemove", self._remove)):
+                                    ("zone_remove", "FleetZoneRemove", self._remove),
+                                    ("zone_release", "FleetZoneRemove", self._release)):
             serve(f"/fleet/{name}", f"{PKG}/{kind}", handler)
 
     def restore(self) -> list[str]:
@@ -114,3 +116,23 @@ class ZoneServices:
         self.traffic.remove(name)
         self.publish()
         return {"success": True, "message": f"zone '{name}' removed"}
+
+    async def _release(self, request: dict) -> dict:
+        """An operator says the offline robots holding a zone are not in it (carried away,
+        switched off elsewhere): they let it go and have no pose until they report one."""
+        name = str(request.get("name", ""))
+        if name not in self.traffic.zones:
+            known = ", ".join(sorted(self.traffic.zones)) or "none"
+            return {"success": False, "message": f"name: no zone '{name}' (zones: {known})"}
+        offline = {r["name"] for r in self.roster.robots() if r["state"] == OFFLINE}
+        gone = sorted(set(self.traffic.holders[name]) & offline)
+        if not gone:
+            return {"success": False, "message": f"no offline robot holds zone '{name}'"}
+        for robot in gone:
+            self.roster.unplace(robot)
+            self.traffic.let_go(name, robot)
+        text = (f"zone '{name}' released by an operator: {', '.join(gone)} (offline) held it "
+                "where last seen; if one is still in it, a robot may meet it there")
+        log.warning("fleet: %s", text, extra={"ros_node": "/fleet"})
+        self.publish()
+        return {"success": True, "message": text}
