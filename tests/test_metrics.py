@@ -3,14 +3,19 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
 
+import pytest
 from prometheus_client.parser import text_string_to_metric_families
 from websockets.asyncio.client import connect
+
+from hitrobot_server.session.traffic import MAX_TOPICS, OTHER_TOPICS
 
 from .helpers import ServerProcess, WsClient, round_trip
 from .test_process_tree import wait_for_line
 from .transport.test_http import http
+from .witness import MemoryPeak, RoundTrips
 
 
 async def scrape(port: int) -> dict[str, dict[tuple, float]]:
@@ -116,4 +121,40 @@ async def test_one_scrape_covers_every_worker():
     finally:
         for ws in clients:
             await ws.close()
+        server.stop()
+
+
+NAMES = 10_000
+"""Topic names clients published on (the per-topic counts keep 2,000 of them by name)."""
+SCRAPES = 200
+
+
+@pytest.mark.serial  # the witness's bound: run alone (tests/run.py)
+async def test_a_scrape_storm_costs_the_other_clients_nothing():
+    """Issue 52, item 6: 200 scrapes at once of a /metrics holding the bound of
+    per-topic samples; the witness's round trips stay short and the memory comes back."""
+    server = ServerProcess()
+    try:
+        publisher = await WsClient.open(server.port)
+        for i in range(NAMES):
+            topic = f"/storm/topic_with_a_long_name_{i:05d}"
+            await publisher.send({"op": "advertise", "topic": topic, "type": "std_msgs/String"})
+            await publisher.send({"op": "publish", "topic": topic, "msg": {"data": "x"}})
+        await round_trip(publisher, timeout=60)
+        memory = MemoryPeak(server.proc.pid)
+        first = await scrape(server.port)  # every publish counted (by name, or the others)
+        assert len(first["hitrobot_messages_received_total"]) == MAX_TOPICS + 1
+        assert first["hitrobot_messages_received_total"][(("topic", OTHER_TOPICS),)] == (
+            NAMES - MAX_TOPICS)
+        witness = await RoundTrips.open(server.port)
+        pages = await asyncio.gather(*(http(server.port, "GET", "/metrics")
+                                       for _ in range(SCRAPES)))
+        assert all(status == 200 and len(body) > 100_000 for status, _, body in pages)
+        worst = await witness.stop()
+        after = memory.now() - memory.base
+        memory.stop()
+        await publisher.close()
+        assert worst <= 0.5, witness.times
+        assert after < 50_000_000, f"+{after / 1e6:.0f} MB after the storm"
+    finally:
         server.stop()

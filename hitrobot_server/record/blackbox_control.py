@@ -7,6 +7,12 @@ progress, republished every second; an incident is an event that a console opene
 should still see, so it is latched apart (and ``RecordState`` keeps the definition its readers
 and earlier recordings have).
 
+The files count against a disk budget of their own, :data:`DISK_FILES` times the buffer's
+bound (``--black-box-max-mb``: 1 GiB by default), the oldest going first, and a file is not
+written when it would leave the disk less than :data:`RESERVE` free (it says so). Snapshots
+asked for while one is being written share it (a flood of ``/record/snapshot`` is one file
+at a time, and one copy of the buffer's rows: the rows are taken when a file's turn comes).
+
 One incident makes one file: an incident waits ``GATHER`` seconds before it is written, and
 every other cause reported meanwhile (the link lost, then the goal it aborted) joins the same
 file; the same cause again within ``QUIET`` seconds of its file is the same incident.
@@ -25,6 +31,7 @@ from ..bus.errors import ServiceError
 from .blackbox import BlackBox
 from .blackbox_file import PREFIX, FileWriter, Incident, read_incident
 from .control import list_recordings
+from .files import make_room
 from .incidents import IncidentWatch
 
 log = logging.getLogger(__name__)
@@ -34,15 +41,23 @@ INCIDENT_TOPIC = "/record/incident"
 GATHER = 1.0
 QUIET = 30.0
 MAX_REASON = 200
+DISK_FILES = 16
+"""The black box's files may hold this many times its buffer's bound on disk."""
+RESERVE = 64 * 1024 * 1024
+"""Bytes a black-box file must leave free on its disk."""
 
 
 class BlackBoxControl:
     """Owns the black box and the incident watch; writes the files."""
 
     def __init__(self, bus: Bus, folder: Path, *, seconds: float, max_bytes: int,
-                 topics: str | None = None, localization_threshold: int = 30):
+                 topics: str | None = None, localization_threshold: int = 30,
+                 disk_bytes: int | None = None, reserve: int = RESERVE):
         self.bus = bus
         self.folder = folder
+        self.disk_bytes = DISK_FILES * max_bytes if disk_bytes is None else disk_bytes
+        self.reserve = reserve
+        self._snapshotting: asyncio.Future[str] | None = None  # the snapshot being written
         self.box = BlackBox(bus, seconds, max_bytes, topics=topics)
         self.watch = IncidentWatch(self.report, localization_threshold=localization_threshold)
         self.writer = FileWriter()
@@ -120,9 +135,10 @@ class BlackBoxControl:
 
     async def _write(self, incident: Incident) -> str:
         """Write the buffer as it is now; the file's name. OSError when it cannot be."""
-        items = self.box.snapshot()
         async with self._writing:
             try:
+                await asyncio.to_thread(self._make_room)
+                items = self.box.snapshot()  # the rows now, when its turn came
                 name = await self.writer.write(self.folder, items, incident)
             except OSError as exc:
                 log.error("black box: %s not written: %s", incident.cause, exc)
@@ -133,6 +149,16 @@ class BlackBoxControl:
                     name)
         self._publish(incident, name)
         return name
+
+    def _make_room(self) -> None:
+        """The oldest black-box files removed to keep the budget with the next one (at most
+        the buffer's bytes and each message's framing); OSError past the disk's reserve."""
+        self.folder.mkdir(parents=True, exist_ok=True)
+        contents = self.box.contents
+        incoming = contents.bytes + 64 * contents.messages + 1024 * 1024
+        for name in make_room(self.folder, PREFIX, self.disk_bytes, incoming, self.reserve):
+            log.info("black box: %s removed (the black box's files are kept under %d MiB)",
+                     name, self.disk_bytes // (1024 * 1024))
 
     def _publish(self, incident: Incident, name: str) -> None:
         self.bus.publish(INCIDENT_TOPIC, {
@@ -145,8 +171,12 @@ class BlackBoxControl:
         if len(reason) > MAX_REASON:
             raise ServiceError(f"field 'reason' is longer than {MAX_REASON} characters")
         contents = self.box.contents
+        writing = self._snapshotting
+        if writing is None or writing.done():  # else: this one shares the file being written
+            writing = self._snapshotting = asyncio.ensure_future(
+                self._write(Incident("snapshot", reason or "asked for", time.time())))
         try:
-            name = await self._write(Incident("snapshot", reason or "asked for", time.time()))
+            name = await asyncio.shield(writing)
         except OSError as exc:
             raise ServiceError(f"the black box could not be written: {exc}") from None
         return {"success": True, "path": name,

@@ -170,3 +170,28 @@ def enforce_budget(folders: set[Path], own: list[Path], max_bytes: int, keep: se
         log.info("disk budget: removed %s (%d kB) to keep recordings under %d MB", path.name,
                  found[path].st_size // 1000, max_bytes // 1_000_000)
     return freed
+
+
+def make_room(folder: Path, prefix: str, max_bytes: int, incoming: int, reserve: int
+              ) -> list[str]:
+    """Before a file of at most ``incoming`` bytes joins the files of ``folder`` whose names
+    start with ``prefix``: the oldest of those removed until they and it hold ``max_bytes`` or
+    less; OSError when the disk would then keep less than ``reserve`` bytes free. The names
+    removed."""
+    files = [(p, st.st_size, st.st_mtime) for p, st in recordings(folder)
+             if p.name.startswith(prefix)]
+    removed = []
+    for path in prune(files, max(0, max_bytes - incoming), set()):
+        try:
+            os.unlink(path)
+        except OSError as exc:
+            log.warning("disk budget: cannot remove %s (%s)", path, exc.strerror or exc)
+            continue
+        removed.append(path.name)
+    vfs = os.statvfs(folder)
+    free = vfs.f_bavail * vfs.f_frsize
+    if free - incoming < reserve:
+        raise OSError(f"only {free // 1024} KiB free on the disk of {folder}: a file of up to "
+                      f"{incoming // 1024} KiB would leave less than the "
+                      f"{reserve // (1024 * 1024)} MiB kept free")
+    return removed

@@ -11,6 +11,12 @@ knows no robot): a bus tap that calls ``report(cause, detail)`` on the edge of e
   stop" among its errors (how the simulator's ``/sim/emergency_stop`` shows, as a Slamware
   FATAL health error).
 
+Only the robot and the server's own nodes tell of incidents: a message any client published
+(or another server, over the Zenoh link: its own black box watches its robot) is no incident,
+whatever its topic says, so no client can make the black box write files or make this watch
+keep names. The watch keeps the last state of at most :data:`MAX_NAMES` diagnostics items and
+state topics each (a robot has two items and one state topic); past it the oldest is forgotten.
+
 Each rule fires on a change (it was fine, now it is not) and is armed again when the thing is
 fine again, so a state that stays bad makes one incident; the control's debounce folds what
 one incident causes (the link lost, then the goal aborted) into one file.
@@ -34,6 +40,7 @@ EMERGENCY_STOP = "emergency stop"  # in a health error's text (the simulator's, 
 LOCALIZATION_TYPE = "slamware_ros_sdk/RobotBasicState"
 HYSTERESIS = 10  # localization is fine again at the threshold plus this
 SEEN_GOALS = 256  # aborted ROS 2 goals remembered (a status list repeats them)
+MAX_NAMES = 1024  # diagnostics items (and state topics) whose last state each rule keeps
 
 Report = Callable[[str, str], None]
 Rule = Callable[[Message], None]
@@ -52,6 +59,8 @@ class IncidentWatch:
         self._aborted: deque[tuple[str, bytes]] = deque(maxlen=SEEN_GOALS)
 
     def message(self, message: Message) -> None:
+        if message.origin is not None:  # a client's (or another server's): not ours to tell
+            return
         name = message.topic.name
         try:
             rule = self._rules[name]
@@ -108,9 +117,9 @@ class IncidentWatch:
     def _connection(self, name: str, level: int, text: str) -> None:
         was = self._connected.get(name)
         if level == DIAGNOSTIC_OK:
-            self._connected[name] = True
+            _keep(self._connected, name, True)
         elif level == DIAGNOSTIC_ERROR:
-            self._connected[name] = False
+            _keep(self._connected, name, False)
             if was:
                 self.report("link_lost", _robot_says(name, CONNECTION_ITEM,
                                                      text or "not connected"))
@@ -119,7 +128,7 @@ class IncidentWatch:
         stopped = level == DIAGNOSTIC_ERROR and EMERGENCY_STOP in text.lower()
         if stopped and not self._stopped.get(name, False):
             self.report("emergency_stop", _robot_says(name, HEALTH_ITEM, text))
-        self._stopped[name] = stopped
+        _keep(self._stopped, name, stopped)
 
     def _localization(self, message: Message) -> None:
         msg = message.msg
@@ -129,12 +138,19 @@ class IncidentWatch:
         name = message.topic.name
         was = self._localized.get(name, False)
         if quality < self.threshold:
-            self._localized[name] = False
+            _keep(self._localized, name, False)
             if was:
                 self.report("localization_lost",
                             f"{name}: localization quality {quality} < {self.threshold}")
         elif quality >= min(100, self.threshold + HYSTERESIS):
-            self._localized[name] = True
+            _keep(self._localized, name, True)
+
+
+def _keep(table: dict[str, bool], name: str, value: bool) -> None:
+    """``table[name] = value``, the oldest name forgotten past :data:`MAX_NAMES`."""
+    if name not in table and len(table) >= MAX_NAMES:
+        del table[next(iter(table))]
+    table[name] = value
 
 
 def _level(level: int | bytes) -> int:

@@ -5,7 +5,8 @@ only how an error status is spelled differs between the protocols (``error_frame
 
 The protections: how many reports of bad input and error statuses one client gets per second,
 so a flood of junk or bogus ops cannot flood the client, the log or the server's memory; and
-the hard bound on the replies a client leaves unread, past which it is disconnected."""
+the hard bound on the replies a client leaves unread, past which it is disconnected; and what a
+client's WebSocket control frames may cost (applied by the transport)."""
 
 from __future__ import annotations
 
@@ -32,6 +33,11 @@ ERROR_STATUSES_PER_SECOND = 50
 (:data:`BEHIND_BYTES` unread); the rest are counted and reported in one line, so a flood of
 bogus ops cannot make the server hold a flood of errors."""
 BEHIND_BYTES = 64 * 1024
+
+CONTROL_FRAMES_PER_SECOND = 100
+"""Most WebSocket pings (and pongs nobody asked for) one client may send a second: a keepalive
+sends one every few seconds; past it the client's input waits for the next second
+(transport/control.py), as its pongs wait once :data:`BEHIND_BYTES` of them are unread."""
 
 
 class ReportLimits:

@@ -25,6 +25,7 @@ from websockets.typing import Subprotocol
 from ..session.client import ClientSession, WireProtocols
 from . import download
 from .connection import DIRECT_WRITE_LIMIT, keep_reading, limit_read, run_session
+from .control import ControlledConnection
 from .download import Downloads
 from .flight import FIRST_GIVE_UP, FlightWindow
 from .http import QuietHttpLog
@@ -330,7 +331,9 @@ def _http_requests(http_handler: HttpHandler | None):
 
 def _connection_class(tls: HandshakeGate | None, downloads: Downloads | None
                       ) -> type[ServerConnection]:
-    base = ServerConnection if downloads is None else _with_downloads(downloads)
+    """Every connection counts its control frames (:mod:`.control`); then the downloads'
+    split and the TLS gate, when the server has them."""
+    base = ControlledConnection if downloads is None else _with_downloads(downloads)
     return base if tls is None else _gated(tls, base)
 
 
@@ -339,7 +342,7 @@ def _with_downloads(downloads: Downloads) -> type[ServerConnection]:
     download goes to ``downloads`` (websockets never sees it), anything else to websockets
     as if nothing had happened. Until the first bytes say which, a timer bounds the wait."""
 
-    class SplitConnection(ServerConnection):
+    class SplitConnection(ControlledConnection):
         _peeked = b""
         _decided = False
         _held: asyncio.BaseTransport | None = None

@@ -267,3 +267,24 @@ async def test_schedules_fire_on_the_held_clock_and_everything_survives_a_restar
     finally:
         await w.close()
         await server.stop()
+
+
+async def test_a_task_paused_and_resumed_at_once_resumes(make_server, tmp_path):
+    """Issue 52, item 4: the pause and the resume written back to back, before either answer
+    is read (the stopped motion used to fail the task: "its motion was stopped")."""
+    _server, w = await fleet(make_server, tmp_path, ("a", 4.0, Y), ("b", 20.0, Y), speed=2.0)
+    try:
+        sent = await dispatch(w, target=pose(10.0, Y), robot="a")
+        assert sent["robot"] == "a", sent
+        await w.until(lambda: robots(w)["a"]["state"] == "moving", 10, "a on its way")
+        for i, service in enumerate(("/fleet/pause", "/fleet/resume")):
+            await w.client.send({"op": "call_service", "id": f"pr{i}", "service": service,
+                                 "args": {"task": sent["task"]}})
+        await w.until(lambda: {"pr0", "pr1"} <= set(w.replies), 10, "both answers")
+        assert all(w.replies[i]["values"]["success"] for i in ("pr0", "pr1")), w.replies
+        await w.until(lambda: state(w, sent["task"]) in ("succeeded", "failed"), 40,
+                      "the task ending")
+        assert state(w, sent["task"]) == "succeeded", task(w, sent["task"])
+        await w.until(lambda: at(w, "a", 10.0, Y), 3, "a listed at its target")
+    finally:
+        await w.close()

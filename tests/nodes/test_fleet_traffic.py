@@ -8,8 +8,14 @@ import asyncio
 
 import numpy as np
 
+from hitrobot_server.nodes.fleet.board import Board
+from hitrobot_server.nodes.fleet.member import OFFLINE
+from hitrobot_server.nodes.fleet.policy import ChargePolicy
+from hitrobot_server.nodes.fleet.roster import Roster
 from hitrobot_server.nodes.fleet.traffic import NEAR, Traffic
 from hitrobot_server.nodes.fleet.zones import Zone
+
+from .test_fleet import pose
 
 A = Zone("a", "door", ((2.0, -1.0), (3.0, -1.0), (3.0, 1.0), (2.0, 1.0)))
 B = Zone("b", "door", ((3.2, -1.0), (4.0, -1.0), (4.0, 1.0), (3.2, 1.0)))  # touches a's band
@@ -81,3 +87,38 @@ async def test_a_robot_standing_in_a_zone_holds_it_and_goes_first():
     await asyncio.sleep(0)
     assert waiting.result() is True and set(t.holders["c"]) == {"out"}
     assert t.holders["b"] == {}
+
+
+async def test_a_zone_drawn_over_two_robots_says_so_lets_them_out_and_no_other_in():
+    poses = {"r1": (2.5, 0.0), "r2": (2.5, 0.5), "r3": (0.0, 0.0)}
+    t = traffic(poses)
+    t.moved("r1")
+    t.moved("r2")
+    assert set(t.holders["a"]) == {"r1", "r2"}
+    assert t.crowded("a") == ("robots r1, r2 stand in zone a, more than its capacity of 1: "
+                              "no other robot goes in until they are out")
+    said: list[str] = []
+    outsider = asyncio.ensure_future(t.acquire("r3", frozenset({"a"}), said.append))
+    await asyncio.sleep(0)
+    assert not outsider.done() and said == ["waiting for zone a (held by r1, r2)"]
+    assert await t.acquire("r1", frozenset({"a", "b"}), said.append)  # it leaves through it
+    poses["r1"] = (6.0, 0.0)
+    t.passed("r1")
+    assert not outsider.done()  # r2 still stands in it
+    poses["r2"] = (-1.0, 0.0)
+    t.moved("r2")
+    assert await asyncio.wait_for(outsider, 1) and t.crowded("a") == ""
+
+
+def test_an_offline_robot_stays_where_it_was_last_seen():
+    roster = Roster(Board(None), ChargePolicy())
+    never = {"name": "n", "state": OFFLINE, "battery": 0.0, "pose": pose(0.0, 0.0)}
+    roster.heard(never)
+    assert roster.pose_of("n") is None  # never seen anywhere: not at the origin
+    roster.heard({**never, "name": "r", "state": "idle", "pose": pose(2.5, 0.0)})
+    roster.heard({**never, "name": "r"})  # its link lost: the report says (0, 0)
+    assert roster.pose_of("r") == (2.5, 0.0)
+    t = Traffic(roster.pose_of, lambda: None)
+    t.put(A)
+    t.moved("r")
+    assert t.holders["a"] == {"r": True}  # it still stands in the zone: held

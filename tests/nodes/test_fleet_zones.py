@@ -193,3 +193,32 @@ async def test_bad_zones_are_refused_and_stops_in_a_zone_too(make_server, tmp_pa
         assert (await w.call("/fleet/zone_remove", {"name": "door_e"}))["values"]["success"]
     finally:
         await w.close()
+
+
+def report(name: str, state: str, x: float, y: float) -> dict:
+    return {"name": name, "pose": pose(x, y), "state": state, "battery": 90.0, "task": 0,
+            "message": "", "in_service": True, "dock": pose(0, 0), "has_dock": False}
+
+
+async def test_an_offline_robot_holds_its_zone_until_an_operator_releases_it(make_server,
+                                                                           tmp_path):
+    """Issue 52, item 4: a robot that goes offline standing in a zone (its report then says
+    (0, 0)) keeps holding it where it was last seen; an operator's release lets it go, with a
+    warning, and only an offline holder can be released so."""
+    _server, w = await start(make_server, tmp_path, ("a", 4.0, Y))
+    try:
+        assert (await add_zone(w, "door", "door", DOOR))["success"]
+        await w.publish("/fleet/members", report("ghost", "idle", 14.5, 6.5),
+                        "hitrobot_msgs/FleetRobot")
+        await w.until(lambda: zones(w)["door"]["holders"] == ["ghost"], 5, "ghost holding it")
+        await w.publish("/fleet/members", report("ghost", "offline", 0.0, 0.0))
+        await w.until(lambda: robots(w).get("ghost", {}).get("state") == "offline", 5,
+                      "ghost listed offline")
+        assert zones(w)["door"]["holders"] == ["ghost"]  # still where it was last seen
+        released = (await w.call("/fleet/zone_release", {"name": "door"}))["values"]
+        assert released["success"] and "ghost (offline)" in released["message"], released
+        await w.until(lambda: zones(w)["door"]["holders"] == [], 5, "the zone free")
+        again = (await w.call("/fleet/zone_release", {"name": "door"}))["values"]
+        assert not again["success"] and "no offline robot" in again["message"]
+    finally:
+        await w.close()

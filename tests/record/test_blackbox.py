@@ -8,12 +8,14 @@ import asyncio
 from collections import Counter
 from pathlib import Path
 
+import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from hitrobot_server.record.blackbox_file import METADATA
 
-from ..helpers import ServerProcess, WsClient
+from ..helpers import ServerProcess, WsClient, round_trip
+from ..witness import MemoryPeak
 
 AWAY = (100.0, 100.0)  # a goal far off the map: move_base aborts it at once
 
@@ -155,3 +157,60 @@ async def test_a_replay_of_a_file_not_in_the_folder_is_refused(make_server, tmp_
         assert server.replays is not None and server.replays.process is None
     finally:
         await client.close()
+
+
+async def test_a_clients_fake_incidents_make_no_file_and_leave_no_names(make_server, tmp_path):
+    """Issue 52, item 2: aborted results and failing Connection / Health items published by a
+    client (a thousand distinct item names) are no incident: nothing gathers, nothing is
+    kept; the robot's own incidents still are (the first test)."""
+    folder = tmp_path / "recordings"
+    server = await make_server(robot="sim", black_box=30.0, record_dir=str(folder))
+    client = await WsClient.open(server.port)
+    try:
+        await client.send({"op": "advertise", "topic": "/move_base/result",
+                           "type": "move_base_msgs/MoveBaseActionResult"})
+        await client.send({"op": "advertise", "topic": "/diagnostics",
+                           "type": "diagnostic_msgs/DiagnosticArray"})
+        await client.send({"op": "publish", "topic": "/move_base/result", "msg": {
+            "status": {"goal_id": {"id": "fake"}, "status": 4, "text": "made up"}}})
+        for i in range(1000):
+            for level, text in ((0, "connected"), (2, "emergency stop pressed")):
+                await client.send({"op": "publish", "topic": "/diagnostics", "msg": {
+                    "status": [{"level": level, "name": f"/r{i}/Robot/Connection",
+                                "message": text},
+                               {"level": level, "name": f"/r{i}/Robot/Health",
+                                "message": text}]}})
+        await round_trip(client, timeout=30)  # every publish handled (the watch is a tap)
+        control = server.black_box
+        assert control._pending is None and control.count == 0 and control.suppressed == 0
+        kept = {*control.watch._connected, *control.watch._stopped}
+        assert kept <= {"/Robot/Connection", "/Robot/Health"}, len(kept)  # the robot's own
+        assert black_box_files(folder) == []
+    finally:
+        await client.close()
+
+
+@pytest.mark.serial  # the memory figure: run alone (tests/run.py)
+async def test_a_snapshot_flood_is_answered_without_keeping_memory(tmp_path):
+    """100 /record/snapshot calls at once from one real client: every one answered, the ones
+    that came while a file was written share it, the server's memory comes back."""
+    folder = tmp_path / "recordings"
+    server = ServerProcess("--black-box", "30", "--record-dir", str(folder), robot="sim")
+    try:
+        client = await WsClient.open(server.port)
+        first = await client.call("/record/snapshot", {"reason": "warm"}, timeout=60)
+        assert first["values"]["success"], first  # the writer process is up
+        memory = MemoryPeak(server.proc.pid)
+        for i in range(100):
+            await client.send({"op": "call_service", "id": f"s{i}",
+                               "service": "/record/snapshot", "args": {"reason": f"r{i}"}})
+        replies = [await client.expect(op="service_response", timeout=60) for _ in range(100)]
+        after = memory.now() - memory.base
+        memory.stop()
+        assert all(r["values"]["success"] for r in replies), replies[0]
+        names = {r["values"]["path"] for r in replies}
+        assert len(names) <= 10 and all((folder / n).is_file() for n in names)
+        assert after < 50_000_000, f"+{after / 1e6:.0f} MB after the flood"
+        await client.close()
+    finally:
+        server.stop()

@@ -4,6 +4,7 @@ publish, and the debounce of BlackBoxControl: one incident makes one file."""
 from __future__ import annotations
 
 import asyncio
+import os
 
 import pytest
 
@@ -11,7 +12,7 @@ from hitrobot_server.bus.core import Bus
 from hitrobot_server.bus.errors import ServiceError
 from hitrobot_server.record.blackbox_control import BlackBoxControl
 from hitrobot_server.record.blackbox_file import read_incident
-from hitrobot_server.record.incidents import IncidentWatch
+from hitrobot_server.record.incidents import MAX_NAMES, IncidentWatch
 from hitrobot_server.types.registry import TypeRegistry
 
 DIAG = "/diagnostics"
@@ -168,5 +169,71 @@ async def test_a_snapshot_that_cannot_be_written_says_so(tmp_path):
         control.folder = tmp_path / "recordings"
         reply = await bus.call_service("/record/snapshot", {"reason": "again"}, timeout=60)
         assert reply["success"] and (control.folder / reply["path"]).is_file()
+    finally:
+        await control.stop()
+
+
+def test_the_watch_keeps_a_bounded_set_of_item_names():
+    bus, reports = watched_bus()
+    for i in range(MAX_NAMES + 500):  # a node's ever new items: the oldest are forgotten
+        connection(bus, 0, "connected", name=f"/r{i}/Robot/Connection")
+    watch = next(t for t in bus.taps if isinstance(t, IncidentWatch))
+    assert len(watch._connected) == MAX_NAMES and reports == []
+
+
+def old_black_box_files(folder, count: int, size: int) -> list:
+    """``count`` black-box files of ``size`` bytes, an hour apart, the oldest first."""
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for i in range(count):
+        path = folder / f"blackbox-2026010{i}-000000-snapshot.mcap"
+        path.write_bytes(b"\0" * size)
+        os.utime(path, (1_700_000_000 + 3600 * i,) * 2)
+        paths.append(path)
+    return paths
+
+
+async def test_the_black_box_files_keep_a_disk_budget_oldest_first(tmp_path):
+    bus = Bus(TypeRegistry.default())
+    mb = 1024 * 1024
+    old = old_black_box_files(tmp_path, 5, mb)
+    (tmp_path / "recording.mcap").write_bytes(b"\0" * mb)  # not the black box's: kept
+    control = BlackBoxControl(bus, tmp_path, seconds=10.0, max_bytes=mb,
+                              disk_bytes=4 * mb + mb // 2)
+    await control.start()
+    try:  # the next file may take a little over 1 MiB: 3 MiB of old ones stay, oldest go first
+        reply = await bus.call_service("/record/snapshot", {"reason": "r"}, timeout=60)
+        assert reply["success"]
+        assert [p.exists() for p in old] == [False, False, True, True, True]
+        assert (tmp_path / "recording.mcap").exists() and (tmp_path / reply["path"]).exists()
+    finally:
+        await control.stop()
+
+
+async def test_a_black_box_file_keeps_the_free_space_reserve(tmp_path):
+    bus = Bus(TypeRegistry.default())
+    vfs = os.statvfs(tmp_path)
+    control = BlackBoxControl(bus, tmp_path, seconds=10.0, max_bytes=1 << 20,
+                              reserve=vfs.f_bavail * vfs.f_frsize)  # more than will be free
+    await control.start()
+    try:
+        with pytest.raises(ServiceError, match="MiB kept free"):
+            await bus.call_service("/record/snapshot", {"reason": "r"}, timeout=60)
+        assert list(tmp_path.glob("blackbox-*.mcap")) == []
+    finally:
+        control.reserve = 0  # the shutdown file
+        await control.stop()
+
+
+async def test_snapshots_asked_for_at_once_share_one_file(tmp_path):
+    bus = Bus(TypeRegistry.default())
+    control = BlackBoxControl(bus, tmp_path, seconds=10.0, max_bytes=1 << 20)
+    await control.start()
+    try:
+        replies = await asyncio.gather(*(bus.call_service(
+            "/record/snapshot", {"reason": f"r{i}"}, timeout=60) for i in range(100)))
+        assert all(r["success"] for r in replies)
+        names = {r["path"] for r in replies}
+        assert len(names) == 1 and (tmp_path / names.pop()).is_file()
     finally:
         await control.stop()

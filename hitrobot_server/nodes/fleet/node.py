@@ -30,7 +30,7 @@ from .runner import TaskFailed, TaskRunner
 from .scheduling import ScheduleServices
 from .takeover import TakeOver
 from .taskrequests import TaskRequests
-from .tasks import CANCELLED, CHARGE, FAILED, PAUSED, QUEUED, RUNNING, SUCCEEDED, Task
+from .tasks import CHARGE, FAILED, QUEUED, RUNNING, SUCCEEDED, Task
 from .zoning import ZoneServices
 
 log = logging.getLogger(__name__)
@@ -104,7 +104,7 @@ class FleetNode(RobotNode):
         if not self.lead.leading:
             return
         self.publish(ROBOTS, {"robots": self.roster.robots()})
-        await self.schedules.fire_due()
+        self.spawn(self.schedules.fire_due())
 
     # ------------------------------------------------------------------ robots
     def _on_member(self, message) -> None:
@@ -188,7 +188,7 @@ class FleetNode(RobotNode):
             reason = str(exc) or "failed"
         finally:
             self._busy.discard(robot)
-        if task.state in (CANCELLED, PAUSED):
+        if task.state != RUNNING:  # cancelled, paused (and perhaps resumed since): it stands
             pass
         elif not reason:
             self._finish(task, SUCCEEDED, f"{robot} arrived" if task.kind != CHARGE else

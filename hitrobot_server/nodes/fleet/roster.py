@@ -21,12 +21,17 @@ class Roster:
         self.board, self.policy = board, policy
         self.members: dict[str, tuple[float, dict]] = {}  # name → (heard at, FleetRobot)
         self._heard: dict[str, asyncio.Event] = {}
+        self._placed: set[str] = set()  # robots whose pose was reported once
 
     def heard(self, msg: dict) -> bool:
         """A robot's report; True when it changes what the robot may take (its state, or its
         battery crossing the charge threshold)."""
         name = msg["name"]
         before = self.members.get(name, (0.0, {}))[1]
+        if msg["state"] == OFFLINE and "pose" in before:  # it reports no pose: where it was
+            msg = {**msg, "pose": before["pose"]}
+        elif msg["state"] != OFFLINE:
+            self._placed.add(name)
         self.members[name] = (time.monotonic(), msg)
         heard = self._heard.pop(name, None)
         if heard is not None:
@@ -42,11 +47,18 @@ class Roster:
         return self.members.get(robot, (0.0, {}))[1]
 
     def pose_of(self, robot: str) -> tuple[float, float] | None:
+        """Where the robot was last seen; an offline robot stays where it was (it still
+        stands there), one never seen anywhere is nowhere (not at the origin)."""
         msg = self.members.get(robot, (0.0, None))[1]
-        if msg is None:
+        if msg is None or robot not in self._placed:
             return None
         p = msg["pose"]["position"]
         return float(p["x"]), float(p["y"])
+
+    def unplace(self, robot: str) -> None:
+        """Where the robot was is no longer known (an operator says it is not there): it has
+        no pose until it reports one again."""
+        self._placed.discard(robot)
 
     def forget_times(self) -> dict[str, dict]:
         """Every robot counts as not heard (a take-over: none is free until it reports again);

@@ -40,10 +40,10 @@ class ScheduleServices:
     async def _add(self, request: dict) -> dict:
         try:
             parse(request["when"])
-            if len(self.board.schedules) >= MAX_SCHEDULES:
-                raise Refused(f"{MAX_SCHEDULES} schedules already; remove one first")
+            self._check_room()
             task = {k: request[k] for k in TASK_FIELDS if k in request}
             await read_stops(self.bus, task)  # the targets are checked now
+            self._check_room()  # again, with no await until it is applied: others came meanwhile
         except (ScheduleError, Refused) as exc:
             return {"success": False, "message": str(exc), "id": 0}
         now = self.clock()
@@ -54,6 +54,10 @@ class ScheduleServices:
         self.board.save_schedules()
         return {"success": True, "id": schedule.id, "message": f"schedule {schedule.id}: next "
                 f"at {_local(schedule.next, self.zone)}"}
+
+    def _check_room(self) -> None:
+        if len(self.board.schedules) >= MAX_SCHEDULES:
+            raise Refused(f"{MAX_SCHEDULES} schedules already; remove one first")
 
     async def _list(self, _request: dict) -> dict:
         return {"schedules": [s.msg() for s in self.board.schedules.values()]}
@@ -78,14 +82,16 @@ class ScheduleServices:
 
     async def fire_due(self) -> None:
         """Dispatch the due slots; none while no robot is heard from (a server starting, its
-        robots not yet reporting: the slot waits for them rather than being refused)."""
+        robots not yet reporting: the slot waits for them rather than being refused). The
+        node runs it beside its tick, so a hundred slots dispatching hold up no robot list."""
         now = self.clock()
         if all(r["state"] == OFFLINE for r in self.robots()):
             return
         due = [s for s in self.board.schedules.values() if s.next <= now]
-        for schedule in due:
+        for schedule in due:  # all marked first: a check while these dispatch fires none again
             schedule.last = schedule.next
             schedule.next = slot_after(schedule, now, self.zone)
+        for schedule in due:
             try:
                 reply = await self.dispatch(dict(schedule.task))
             except Exception as exc:  # a slot never stops the schedules

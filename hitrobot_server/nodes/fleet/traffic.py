@@ -8,6 +8,9 @@ always on its way out, every hold ends, and the waiters go in the order they ask
 first served; a later request never overtakes an earlier one that wants a zone it wants). The
 one exception is a robot already standing in a zone (it stopped there: paused, failed, or a zone
 drawn over it): its request goes first, and it holds that zone while it waits for the others.
+A zone drawn over more robots than its capacity says so (the log, the add's reply): each of them
+holds it and may leave through it; no other robot goes in until they are all out. A robot gone
+offline holds its zone where it was last seen (it still stands there) until it is seen out.
 
 A zone is let go when the robot has gone past it on its path (the ``follow_path`` feedback) and
 its reported pose (``/fleet/members``) is :data:`RELEASE` m clear of it — or, for a robot that
@@ -18,6 +21,7 @@ from __future__ import annotations
 
 import asyncio
 import itertools
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -25,6 +29,8 @@ import numpy as np
 
 from .tasks import Refused, Stop
 from .zones import CAPACITY, Zone
+
+log = logging.getLogger(__name__)
 
 NEAR = 0.5
 """Metres from a zone within which a path point counts as in it: a robot waits at least this
@@ -149,6 +155,12 @@ class Traffic:
                 holders[robot] = True
         self.moved(robot)
 
+    def let_go(self, name: str, robot: str) -> None:
+        """``robot`` no longer holds zone ``name`` (an operator released it)."""
+        if self.holders.get(name, {}).pop(robot, None) is not None:
+            self._grant()
+            self.changed()
+
     def moved(self, robot: str) -> None:
         """A new pose of ``robot``: the holds it is past and clear of end; a zone it stands
         in without holding it (drawn over it, or after a restart) is its."""
@@ -160,6 +172,8 @@ class Traffic:
         for name, holders in self.holders.items():
             if name in here and robot not in holders:
                 holders[robot] = True
+                if len(holders) > CAPACITY:
+                    log.warning("fleet: %s", self.crowded(name), extra={"ros_node": "/fleet"})
                 self.changed()
             elif name not in here and holders.get(robot):
                 del holders[robot]
@@ -168,13 +182,20 @@ class Traffic:
             self._grant()
             self.changed()
 
+    def crowded(self, name: str) -> str:
+        """What a zone with more robots standing in it than its capacity says ("" if none)."""
+        inside = sorted(self.holders.get(name, {}))
+        if len(inside) <= CAPACITY:
+            return ""
+        return (f"robots {', '.join(inside)} stand in zone {name}, more than its capacity of "
+                f"{CAPACITY}: no other robot goes in until they are out")
+
     def _grant(self) -> None:
         """First come, first served; a robot already in one of its zones goes first."""
         order = sorted(self.queue, key=lambda r: (not self._holds_any(r), r.seq))
         wanted: set[str] = set()  # zones an earlier waiter asked for
         for request in order:
-            busy = any(set(self.holders.get(z, {})) - {request.robot} for z in request.zones)
-            if busy or request.zones & wanted:
+            if self._blocked(request) or request.zones & wanted:
                 wanted |= request.zones
                 continue
             for name in request.zones:
@@ -184,6 +205,12 @@ class Traffic:
             if not request.granted.done():
                 request.granted.set_result(True)
             self.changed()
+
+    def _blocked(self, request: Request) -> bool:
+        """Another robot holds a zone the request asks for; one the robot holds itself (it
+        stands in it, perhaps with others: a zone drawn over them) it may leave through."""
+        return any(held and request.robot not in held
+                   for held in (self.holders.get(z, {}) for z in request.zones))
 
     def _holds_any(self, request: Request) -> bool:
         return any(request.robot in self.holders.get(z, {}) for z in request.zones)

@@ -31,6 +31,7 @@ ACKS: dict[str, str] = {
     "/fleet/history": AT_ONCE,
     "/fleet/schedule_list": AT_ONCE,
     "/fleet/zone_list": AT_ONCE,
+    "/fleet/zone_release": AT_ONCE,  # who holds a zone is not kept (it is found from poses)
     "/fleet/policy": AT_ONCE,
     # the map manager (nodes/map_manager): POIs, layer switches, masks (the walls), loaded map
     "add_poi": KEPT,

@@ -5,6 +5,7 @@ take is answered with the reason and taken back."""
 
 from __future__ import annotations
 
+import asyncio
 from collections.abc import Callable
 
 from ...bus.topics import Message, RequestRejected
@@ -25,6 +26,7 @@ class PoiRequests:
                  grid: Callable[[], Grid | None] = lambda: None):
         self.node, self.pois, self.sections = node, pois, sections
         self.grid = grid  # the composed /map, where a new or moved POI must have room
+        self._due = False  # the list is to be kept and published (this turn of the loop)
         node.advertise(POIS_TOPIC, f"{PKG}/PointsOfInterest", latch=True)
 
     def listen(self) -> None:
@@ -41,6 +43,18 @@ class PoiRequests:
     def publish(self) -> None:
         self.node.publish(POIS_TOPIC, {"pois": self.pois.all()})
 
+    def _changed(self) -> None:
+        """Kept and published once per turn of the loop, however many requests it took (a
+        burst of adds copied the whole list twice each); before any of their answers waits."""
+        if not self._due:
+            self._due = True
+            asyncio.get_running_loop().call_soon(self._keep)
+
+    def _keep(self) -> None:
+        self._due = False
+        self.sections.remember("pois")
+        self.publish()
+
     def _placed(self, poi: dict, was: dict | None) -> None:
         """Refuse a POI on an obstacle, an unknown cell, or too near an obstacle (unless it
         stays where it ``was``)."""
@@ -56,8 +70,7 @@ class PoiRequests:
             text = change()
         except PoiError as exc:
             raise RequestRejected(f"{what}: {exc}") from None
-        self.sections.remember("pois")
-        self.publish()
+        self._changed()
 
         async def acknowledge() -> None:  # once the change is on disk
             try:

@@ -12,7 +12,8 @@ import pytest
 import yaml
 from PIL import Image
 
-from ...helpers import Watcher
+from ...helpers import Watcher, WsClient
+from ...witness import RoundTrips
 from .util import (
     BLOCKED,
     MASKING_LAYER,
@@ -331,3 +332,32 @@ async def test_home_dock_is_latched_and_follows_the_robot(make_server, tmp_path)
         assert got["pose"]["position"]["x"] == pytest.approx(moved.x)
     finally:
         await late.close()
+
+
+POI_BURST = 1000
+"""add_poi requests written back to back on one connection (issue 52: each copied the whole
+list twice, 8.7 s for a thousand and the witness stalled 1.3 s)."""
+
+
+@pytest.mark.serial  # the witness's bound: run alone (tests/run.py)
+async def test_a_burst_of_poi_adds_is_cheap_and_each_is_kept(make_server, tmp_path):
+    server, w = await start(make_server, tmp_path)
+    client = await WsClient.open(server.port)
+    try:
+        await client.send({"op": "set_level", "id": "lv", "level": "info"})
+        await client.expect(op="status", id="lv")
+        await client.send({"op": "advertise", "topic": f"{MM}/add_poi", "type": POI_T})
+        witness = await RoundTrips.open(server.port)
+        for i in range(POI_BURST):
+            await client.send({"op": "publish", "id": f"p{i}", "topic": f"{MM}/add_poi",
+                               "msg": poi(f"p{i}", 6.0 + (i % 10) * 0.1, 8.0)})
+        answers = [await client.expect(op="status", timeout=60) for _ in range(POI_BURST)]
+        worst = await witness.stop()
+        assert all(a["level"] == "info" for a in answers), answers[0]
+        listed = await w.call(f"{MM}/get_pois", timeout=30)
+        assert [p["name"] for p in listed["values"]["poi_list"]["pois"]] == [
+            f"p{i}" for i in range(POI_BURST)]
+        assert worst <= 0.5, witness.times
+    finally:
+        await client.close()
+        await w.close()
