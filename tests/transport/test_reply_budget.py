@@ -139,7 +139,7 @@ async def test_a_flood_of_bogus_ops_queues_a_bounded_number_of_error_statuses(bi
     junk = b'{"op":"no_such_op"}' * 20_000
     await client.send_bytes(junk)
     session = await tcp_session(server)
-    await until(lambda: session.core._errors_skipped > 0, "errors left out", timeout=20)
+    await until(lambda: session.limits._errors_skipped > 0, "errors left out", timeout=20)
     assert await witness_round_trips(witness, 5) <= 0.5
     assert session.outbox.control_bytes < 200_000  # not the ~2 MB of 20,000 statuses
     await client.close()
