@@ -10,8 +10,8 @@ imports, after the open and at its peak (``ru_maxrss``). Prints figures, asserts
     .venv/bin/python bench/bench_replay.py --sizes 10 100  # MB of messages
     .venv/bin/python bench/bench_replay.py --against HEAD~1  # also the code of another commit
 
-``--against REV`` runs the same child on ``git archive REV hitrobot_server schemas`` for a side-by-side
-(the replay of before this one held every message: expect its RSS to grow with the file).
+``--against REV`` runs the same child on ``git archive REV hitrobot_server schemas`` for a
+side-by-side (the replay before this one held every message: its RSS grows with the file).
 Files go to a temporary folder, removed at the end; every run is bounded in time.
 """
 

@@ -79,9 +79,14 @@ class Recording:
             self._reach.append(max(chunk.end, self._reach[-1] if self._reach else chunk.end))
         self._kept = set(tracks)
         self._latched = {cid for cid, track in tracks.items() if track.latched}
+        self._strict = True  # while opening, a chunk that cannot be read refuses the file
         self.start_ns = 0  # log time of the first message (the replay clock's origin)
-        self.start_ns = next(self.cursor(0.0))[1]
+        first = next(self.cursor(0.0), None)
+        if first is None:
+            raise RecordingError(f"{path} has no readable messages to replay")
+        self.start_ns = first[1]
         self.end_ns = self._last()
+        self._strict = False
 
     @property
     def messages(self) -> Messages:
@@ -100,12 +105,14 @@ class Recording:
 
     def _read(self, chunk: ChunkRef) -> list[Entry]:
         """A chunk's messages on replayed channels (file order); a chunk that cannot be read
-        now is skipped with a warning (what plays around it still plays)."""
+        while playing is skipped with a warning (what plays around it still plays)."""
         try:
             data = inflate(chunk.compression, read_exact(self.file, chunk.offset, chunk.packed),
                            chunk.claimed)
             return [m for m in chunk_messages(data) if m[0] in self._kept]
         except (RecordingError, OSError, ValueError) as exc:
+            if self._strict:
+                raise
             log.warning("replay: the chunk at byte %d of %s is skipped: %s", chunk.offset,
                         self.path.name, exc)
             return []
@@ -214,12 +221,9 @@ def _index(path: Path, file: BinaryIO, limit: int) -> FileIndex:
     if index is None:
         size = os.fstat(file.fileno()).st_size
         index = scan(file, size, limit)
-        if not index.complete:
-            broken = "" if index.end + 16 >= size else (
-                f" (a broken record after {index.end} bytes)")
-            log.warning("%s ends before the MCAP footer (a recording that was cut off%s): "
-                        "replaying the %d messages it holds", path.name, broken,
-                        sum(index.counts.values()))
+        if not index.complete and index.end + 16 < size:
+            log.warning("%s: a broken record after %d bytes; replaying what comes before",
+                        path.name, index.end)
     check_overlap(index.chunks, limit)
     return index
 
@@ -241,6 +245,9 @@ def load_recording(path: Path | str, types: TypeRegistry,
         if not count:
             raise RecordingError(f"{path} has no ROS 2 messages to replay"
                                  + ("" if index.complete else " (it is cut off before any)"))
+        if not index.complete:
+            log.warning("%s ends before the MCAP footer (a recording that was cut off): "
+                        "replaying the %d messages it holds", path.name, count)
         return Recording(path, file, tracks, index, count)
     except BaseException:
         file.close()

@@ -14,7 +14,18 @@ import tracemalloc
 from pathlib import Path
 
 import pytest
-from mcap.writer import CompressionType, Writer
+from mcap.data_stream import RecordBuilder
+from mcap.records import (
+    Channel,
+    Chunk,
+    ChunkIndex,
+    DataEnd,
+    Footer,
+    Header,
+    Schema,
+    Statistics,
+)
+from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
 from hitrobot_server.bus.core import Bus
 from hitrobot_server.record.player import Player
@@ -140,3 +151,37 @@ def test_an_honest_chunk_of_zeros_is_refused_at_its_first_block(tmp_path):
         tracemalloc.stop()
     print(f"1 GiB of zeros refused in {seconds:.2f} s, peak {peak >> 20} MiB")
     assert peak < 100 << 20 and seconds < 10
+
+
+def indexed_bomb(path: Path) -> Path:
+    """A 1 GiB chunk of zeros that the file's summary indexes as a chunk of one message."""
+    builder = RecordBuilder()
+    schema = Schema(id=1, name="std_msgs/msg/String", encoding="ros2msg", data=b"string data")
+    channel = Channel(id=1, topic="/chatter", message_encoding="cdr", schema_id=1, metadata={})
+    for record in (Header(profile="ros2", library="bomb"), schema, channel):
+        record.write(builder)
+    at = len(MCAP0_MAGIC) + builder.count
+    data = ZEROS * 64
+    Chunk(compression="zstd", data=data, message_start_time=1, message_end_time=1,
+          uncompressed_crc=0, uncompressed_size=1 << 30).write(builder)
+    length = len(MCAP0_MAGIC) + builder.count - at
+    DataEnd(data_section_crc=0).write(builder)
+    summary = len(MCAP0_MAGIC) + builder.count
+    for record in (schema, channel, ChunkIndex(
+            message_start_time=1, message_end_time=1, chunk_start_offset=at,
+            chunk_length=length, message_index_offsets={1: at + length},
+            message_index_length=0, compression="zstd", compressed_size=len(data),
+            uncompressed_size=1 << 30), Statistics(
+            message_count=1, schema_count=1, channel_count=1, attachment_count=0,
+            metadata_count=0, chunk_count=1, message_start_time=1, message_end_time=1,
+            channel_message_counts={1: 1})):
+        record.write(builder)
+    Footer(summary_start=summary, summary_offset_start=0, summary_crc=0).write(builder)
+    path.write_bytes(MCAP0_MAGIC + builder.end() + MCAP0_MAGIC)
+    return path
+
+
+def test_a_chunk_of_zeros_the_summary_indexes_is_refused_at_open(tmp_path):
+    path = indexed_bomb(tmp_path / "indexed.mcap")
+    with pytest.raises(RecordingError, match="does not begin with a record"):
+        load_recording(path, TypeRegistry())
