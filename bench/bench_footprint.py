@@ -6,7 +6,9 @@ process tree while it idles, drives a REST robot, and serves idle or light clien
     .venv/bin/python bench/bench_footprint.py --against HEAD~1 --seconds 15
 
 Each case measures a window of ``--seconds`` after a warm-up (``--warmup``): the CPU time of
-the server and its children (``/proc``), and their PSS (``smaps_rollup``) at the end. The REST
+the server and its children (``/proc``), their wake-ups (context switches of every thread, per
+second: the figure another engineer's load on a shared machine moves least), and their PSS
+(``smaps_rollup``) at the end. The REST
 robot is ``hitrobot-server sim-device`` in a process of its own (this tree's, not counted).
 ``--against REV`` runs the server of ``git archive REV hitrobot_server schemas``. Prints
 figures, asserts nothing; loopback only; every wait is bounded.
@@ -65,6 +67,23 @@ def cpu_seconds(pids: list[int]) -> float:
     return total / TICK
 
 
+def wakeups(pids: list[int]) -> int:
+    """Context switches of every thread of ``pids``, all told (each wake-up is one)."""
+    total = 0
+    for pid in pids:
+        try:
+            tasks = os.listdir(f"/proc/{pid}/task")
+        except OSError:
+            continue
+        for tid in tasks:
+            try:
+                text = Path(f"/proc/{pid}/task/{tid}/status").read_text()
+            except OSError:
+                continue
+            total += sum(int(n) for n in re.findall(r"ctxt_switches:\s+(\d+)", text))
+    return total
+
+
 def pss_mb(pids: list[int]) -> float:
     total = 0
     for pid in pids:
@@ -105,11 +124,13 @@ def stop(proc: subprocess.Popen) -> None:
 
 
 async def window(pid: int, seconds: float) -> str:
-    t0, c0 = time.monotonic(), cpu_seconds(tree(pid))
+    pids = tree(pid)
+    t0, c0, w0 = time.monotonic(), cpu_seconds(pids), wakeups(pids)
     await asyncio.sleep(seconds)
     pids = tree(pid)
-    cpu = 100 * (cpu_seconds(pids) - c0) / (time.monotonic() - t0)
-    return f"{cpu:6.2f} % | {pss_mb(pids):5.0f} MB"
+    spent = time.monotonic() - t0
+    cpu = 100 * (cpu_seconds(pids) - c0) / spent
+    return f"{cpu:5.2f} % {(wakeups(pids) - w0) / spent:5.0f}/s {pss_mb(pids):4.0f} MB"
 
 
 async def reader(ws) -> None:
@@ -121,11 +142,17 @@ async def cases(code: Path, folder: Path, seconds: float, warmup: float) -> dict
     base = ["--port", "0", "--tcp-port", "-1", "--address", "127.0.0.1",
             "--state-dir", str(folder / "state")]
     out: dict[str, str] = {}
-    server, _url = start([*base, "--robot", "none"], code, folder)
+    server, url = start([*base, "--robot", "none"], code, folder)
+    idle: list = []
     try:
         await asyncio.sleep(warmup)
         out["the bridge alone (--robot none)"] = await window(server.pid, seconds)
+        idle = [await websockets.connect(url) for _ in range(50)]
+        await asyncio.sleep(warmup / 2)
+        out["the bridge + 50 idle clients"] = await window(server.pid, seconds)
     finally:
+        for ws in idle:
+            await ws.close()
         stop(server)
     device, robot = start(["sim-device", "--port", "0"], ROOT, folder)
     server, url = start([*base, "--robot", robot], code, folder)
@@ -200,9 +227,9 @@ async def main() -> None:
         results = {name: await cases(code, folder, args.seconds, args.warmup)
                    for name, code in codes.items()}
     names = list(results)
-    print(f"{'case':36} | " + " | ".join(f"{n:^24}" for n in names))
+    print(f"{'case':36} | " + " | ".join(f"{n + ' (CPU, wake-ups, PSS)':^28}" for n in names))
     for case in results[names[0]]:
-        print(f"{case:36} | " + " | ".join(f"{results[n][case]:>24}" for n in names))
+        print(f"{case:36} | " + " | ".join(f"{results[n][case]:>28}" for n in names))
 
 
 if __name__ == "__main__":
