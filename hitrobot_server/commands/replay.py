@@ -40,8 +40,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="play at once (default: paused until a client subscribes to one of "
                         "the recording's topics)")
     parser.add_argument("--max-inflated", type=int, default=DEFAULT_MAX_INFLATED >> 20,
-                        metavar="MB", help="the most the recording may inflate to in memory; a "
-                        "file that claims more is refused before it is inflated (default: "
+                        metavar="MB", help="the most a replay may hold inflated at once (the "
+                        "chunks it reads together) and inflate to index a file without an index; a "
+                        "chunk that claims more is refused before it is inflated (default: "
                         f"{DEFAULT_MAX_INFLATED >> 20})")
     add_arguments(parser)
     return parser
@@ -74,6 +75,7 @@ async def serve(args: argparse.Namespace) -> None:
     finally:
         await player.stop()
         await server.stop()
+        recording.close()
 
 
 def main(argv: list[str] | None = None) -> int:

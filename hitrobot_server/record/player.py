@@ -11,7 +11,6 @@ Reading the file (what it holds, what it may inflate) is :mod:`.reading`.
 from __future__ import annotations
 
 import asyncio
-import bisect
 import contextlib
 import logging
 import math
@@ -21,7 +20,7 @@ from ..bus.cdr import Ros2Codec
 from ..bus.core import Bus
 from ..bus.errors import BusError, ServiceError
 from ..bus.names import CLIENT_NODE_PREFIX
-from .reading import Recording
+from .reading import Entry, Recording
 
 log = logging.getLogger(__name__)
 
@@ -47,7 +46,9 @@ class Player:
         self.loop = loop
         self.paused = not play
         self.waiting = not play  # paused until a client subscribes to a replayed topic
-        self._index = 0
+        self._cursor = iter(())  # the messages from the position on, read as they come
+        self._next: Entry | None = None  # the one due next; None: the end
+        self._played = 0
         self._origin = start  # recording seconds at wall time _wall
         self._wall = time.monotonic()
         self._start = start
@@ -124,8 +125,8 @@ class Player:
         self.bus.unregister_node(NODE)
 
     # ------------------------------------------------------------------ playing
-    def _publish(self, index: int) -> None:
-        channel, log_time, data = self.recording.messages[index]
+    def _publish(self, entry: Entry) -> None:
+        channel, log_time, data = entry
         if channel in self._skipped:
             return
         track = self.recording.tracks[channel]
@@ -133,29 +134,25 @@ class Player:
             msg = self.codec.decode(data, track.mtype)
         except Exception as exc:  # checked schemas, but the bytes may still be bad
             log.warning("replay: a %s message at %.3f s cannot be decoded (%s)", track.topic,
-                        self.recording.times[index], exc)
+                        self.recording.seconds(log_time), exc)
             return
         self.bus.publish(track.topic, msg, stamp=log_time / 1e9)
 
     def _seek_to(self, position: float) -> None:
         """Jump to ``position``; latched topics get their latest message before it (the map
         as it was then), so what a subscriber holds matches the new position."""
-        self._index = bisect.bisect_left(self.recording.times, position)
+        self._cursor = self.recording.cursor(position)  # (lets the chunks held before go)
+        self._next = None
         self._set_clock(position)
-        latest: dict[int, int] = {}
-        for i in range(self._index):
-            channel = self.recording.messages[i][0]
-            if self.recording.tracks[channel].latched:
-                latest[channel] = i
-        for i in sorted(latest.values()):
-            self._publish(i)
+        for entry in self.recording.latched_before(position):
+            self._publish(entry)
+        self._next = next(self._cursor, None)
         self._publish_state()
 
     async def _play(self) -> None:
-        times = self.recording.times
         while True:
             self._changed.clear()
-            if self._index >= len(times):
+            if self._next is None:
                 if self.loop and self.recording.duration > 0:  # (a single instant: once)
                     self._seek_to(0.0)
                     continue
@@ -167,15 +164,16 @@ class Player:
             if self.paused:
                 await self._changed.wait()
                 continue
-            delay = (times[self._index] - self._origin) / self.speed - (
+            delay = (self.recording.seconds(self._next[1]) - self._origin) / self.speed - (
                 time.monotonic() - self._wall)
             if delay > 0:
                 with contextlib.suppress(TimeoutError):
                     await asyncio.wait_for(self._changed.wait(), delay)
                 continue
-            self._publish(self._index)
-            self._index += 1
-            if self._index % 64 == 0:
+            self._publish(self._next)
+            self._next = next(self._cursor, None)
+            self._played += 1
+            if self._played % 64 == 0:
                 await asyncio.sleep(0)  # a burst (after a stall) still lets clients in
 
     async def _report(self) -> None:
@@ -208,7 +206,7 @@ class Player:
         self.waiting = False
         if self.paused:
             self.paused = False
-            if self._index >= len(self.recording.times):  # ended: from the start again
+            if self._next is None:  # ended: from the start again
                 self._seek_to(0.0)
             else:
                 self._set_clock(self._origin)

@@ -1,30 +1,31 @@
-"""Reading a recording for replay, whatever state the file is in.
+"""Reading a recording for replay, whatever state the file is in, a chunk at a time.
 
-The file is read as a stream (MCAP's non-seeking mode), so a recording cut by a power loss (no
-footer, no summary, a last chunk half written) plays up to its last whole record. What it
-inflates is bounded before anything is inflated: a chunk's ``uncompressed_size`` must be one its
-compressed bytes can produce (a zstd block of 128 KiB costs at least 3 bytes, an LZ4 match byte
-at most 255) and must fit what is left of the budget (``--max-inflated``); the inflation itself
-stops at the size the chunk claims. A bomb is refused in the time it takes to read its headers.
+Opening a file reads its index (:mod:`.index`: the MCAP summary, or one scan of a file cut
+before it has one); playing reads the chunks in log-time order as the clock reaches them and
+lets each go once played, and a seek jumps to the chunks that hold the time. What a replay holds
+is bounded: the chunks that overlap one instant (one or two of ~1 MiB as our recorder writes
+them; each, and their sum, at most ``--max-inflated``), plus one message per latched topic while
+a seek fetches them. Every chunk's inflation is bounded before it starts (:mod:`.inflate`), so a
+bomb is refused in the time it takes to read its headers.
 """
 
 from __future__ import annotations
 
+import bisect
+import heapq
 import logging
 import os
-import struct
+import weakref
 from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
 
-import lz4.frame
-import zstandard
-from mcap.exceptions import McapError
-from mcap.records import Channel, Chunk, Footer, McapRecord, Message, Schema
-from mcap.stream_reader import StreamReader, breakup_chunk
+from mcap.records import Channel
 
 from ..types.registry import MsgType, TypeRegistry
+from .index import ChunkRef, FileIndex, from_summary, scan
+from .inflate import Budget, chunk_messages, inflate, read_exact
 from .profile import AUDIT_TOPIC, is_latched
 from .schemas import RecordingError, Schemas
 
@@ -32,13 +33,12 @@ log = logging.getLogger(__name__)
 
 MAGIC = b"\x89MCAP0\r\n"
 DEFAULT_MAX_INFLATED = 1024 * 2**20
-"""Bytes a replay may hold of a recording by default (``--max-inflated``)."""
-MAX_RATIO = {"zstd": 131072 // 3 + 1, "lz4": 256, "": 1}
-"""The most a byte of each compression can inflate to (an upper bound, never reached)."""
-_READ = 1 << 20
+"""Bytes a replay may hold inflated at once, and inflate to index a file (``--max-inflated``)."""
 # the audit trail, and the state of a recorder or player at the time: the replaying server
 # has its own
 NOT_REPLAYED = frozenset({AUDIT_TOPIC, "/replay/state", "/record/state"})
+
+Entry = tuple[int, int, bytes]  # (channel id, log time ns, CDR)
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,143 +48,159 @@ class Track:
     latched: bool
 
 
-@dataclass
-class Recording:
-    """A readable recording: its tracks and messages (log time order), raw CDR."""
+class Messages:
+    """A recording's messages, read when iterated (log time order); ``len`` from the index."""
 
-    path: Path
-    tracks: dict[int, Track]
-    times: list[float]  # seconds from the first message
-    messages: list[tuple[int, int, bytes]]  # (channel id, log time ns, CDR)
-    complete: bool = True  # False: cut short, served as far as it goes
+    def __init__(self, recording: Recording):
+        self.recording = recording
+
+    def __len__(self) -> int:
+        return self.recording.count
+
+    def __iter__(self) -> Iterator[Entry]:
+        return self.recording.cursor(0.0)
+
+
+class Recording:
+    """A readable recording: its tracks and an index of its chunks; messages raw CDR, read from
+    the file a chunk at a time (:meth:`cursor`, :meth:`latched_before`)."""
+
+    def __init__(self, path: Path, file: BinaryIO, tracks: dict[int, Track], index: FileIndex,
+                 count: int):
+        self.path = path
+        self.file = file
+        weakref.finalize(self, file.close)
+        self.tracks = tracks
+        self.complete = index.complete  # False: cut short, served as far as it goes
+        self.count = count
+        self.chunks = sorted(index.chunks, key=lambda c: (c.start, c.offset))
+        self._reach: list[int] = []  # the latest end among the chunks up to each
+        for chunk in self.chunks:
+            self._reach.append(max(chunk.end, self._reach[-1] if self._reach else chunk.end))
+        self._kept = set(tracks)
+        self._latched = {cid for cid, track in tracks.items() if track.latched}
+        self._strict = True  # while opening, a chunk that cannot be read refuses the file
+        self.start_ns = 0  # log time of the first message (the replay clock's origin)
+        first = next(self.cursor(0.0), None)
+        if first is None:
+            raise RecordingError(f"{path} has no readable messages to replay")
+        self.start_ns = first[1]
+        self.end_ns = self._last()
+        self._strict = False
+
+    @property
+    def messages(self) -> Messages:
+        return Messages(self)
 
     @property
     def duration(self) -> float:
-        return self.times[-1] if self.times else 0.0
+        return self.seconds(self.end_ns)
 
-    @property
-    def start_ns(self) -> int:
-        """Log time of the first message (the replay clock's origin)."""
-        return self.messages[0][1] if self.messages else 0
+    def seconds(self, log_time: int) -> float:
+        """A log time as seconds from the first message."""
+        return (log_time - self.start_ns) / 1e9
 
+    def close(self) -> None:
+        self.file.close()
 
-class Budget:
-    """What is left of the bytes a replay may inflate."""
+    def _read(self, chunk: ChunkRef) -> list[Entry]:
+        """A chunk's messages on replayed channels (file order); a chunk that cannot be read
+        while playing is skipped with a warning (what plays around it still plays)."""
+        try:
+            data = inflate(chunk.compression, read_exact(self.file, chunk.offset, chunk.packed),
+                           chunk.claimed)
+            return [m for m in chunk_messages(data) if m[0] in self._kept]
+        except (RecordingError, OSError, ValueError) as exc:
+            if self._strict:
+                raise
+            log.warning("replay: the chunk at byte %d of %s is skipped: %s", chunk.offset,
+                        self.path.name, exc)
+            return []
 
-    def __init__(self, limit: int):
-        self.limit = limit
-        self.left = limit
+    def _holds(self, chunk: ChunkRef, channels: set[int]) -> bool:
+        return chunk.channels is None or not chunk.channels.isdisjoint(channels)
 
-    def take(self, size: int, what: str) -> None:
-        if size > self.left:
-            raise RecordingError(
-                f"{what} would inflate to {size} bytes, over what is left of the "
-                f"{self.limit // 2**20} MiB a replay may hold (--max-inflated): a "
-                "decompression bomb or a recording too big to replay")
-        self.left -= size
-
-
-def believable(chunk: Chunk) -> int:
-    """The size a chunk claims to inflate to, if its compressed bytes can produce it."""
-    claimed, packed = chunk.uncompressed_size, len(chunk.data)
-    ratio = MAX_RATIO.get(chunk.compression)
-    if ratio is None:
-        raise RecordingError(f"a chunk is compressed with {chunk.compression!r}, which replay "
-                             "does not read (zstd, lz4 or none)")
-    if claimed > max(packed, 1) * ratio:
-        raise RecordingError(
-            f"a chunk of {packed} bytes claims to inflate to {claimed}, more than "
-            f"{chunk.compression or 'an uncompressed chunk'} can: a corrupt or hostile file")
-    return claimed
-
-
-def inflate(chunk: Chunk, budget: Budget) -> Chunk:
-    """The chunk, uncompressed, after checking its claimed size; the inflation stops there."""
-    claimed = believable(chunk)
-    budget.take(claimed, f"a chunk of {len(chunk.data)} bytes")
-    if chunk.compression == "zstd":
-        data = _read_bounded(zstandard.ZstdDecompressor().stream_reader(
-            chunk.data, read_across_frames=True), claimed)
-    elif chunk.compression == "lz4":
-        data = lz4.frame.LZ4FrameDecompressor().decompress(chunk.data, max_length=claimed + 1)
-    else:
-        data = chunk.data
-    if len(data) != claimed:
-        raise RecordingError(f"a chunk inflates to {'more' if len(data) > claimed else 'less'} "
-                             f"than the {claimed} bytes it claims: a corrupt or hostile file")
-    return replace(chunk, compression="", data=data)
-
-
-def _read_bounded(stream: BinaryIO, claimed: int) -> bytes:
-    parts: list[bytes] = []
-    got = 0
-    while got <= claimed:
-        part = stream.read(min(_READ, claimed + 1 - got))
-        if not part:
-            break
-        parts.append(part)
-        got += len(part)
-    return b"".join(parts)
-
-
-def _stream(file: BinaryIO, limit: int) -> Iterator[McapRecord]:
-    file.seek(0)
-    return StreamReader(file, skip_magic=False, emit_chunks=True, record_size_limit=min(
-        limit, os.fstat(file.fileno()).st_size)).records
-
-
-def check_claims(file: BinaryIO, budget: Budget) -> None:
-    """Refuse a file whose chunks claim more than the budget in all, before inflating any (a
-    first pass over the compressed bytes; a cut file is checked as far as it goes)."""
-    total = 0
-    try:
-        for record in _stream(file, budget.limit):
-            if isinstance(record, Chunk):
-                total += believable(record)
-                if total > budget.limit:
-                    budget.take(total, "the file's chunks")
-    except RecordingError:
-        raise
-    except (McapError, ValueError, EOFError, struct.error):
-        return  # a cut or broken record: the reading pass says how far the file goes
-
-
-def records(file: BinaryIO, budget: Budget) -> Iterator[McapRecord]:
-    """Every record of the file in order, chunks opened within the budget."""
-    for record in _stream(file, budget.limit):
-        if isinstance(record, Chunk):
-            yield from breakup_chunk(inflate(record, budget))
-        else:
-            if isinstance(record, Message):
-                budget.take(len(record.data), "a message")
-            yield record
-
-
-class _Collect:
-    """The tracks and messages of a file, as its records come."""
-
-    def __init__(self, schemas: Schemas):
-        self.schemas = schemas
-        self.channels: dict[int, Channel] = {}
-        self.skipped: set[int] = set()
-        self.messages: list[tuple[int, int, bytes]] = []
-        self.complete = False
-
-    def add(self, record: McapRecord) -> None:
-        if isinstance(record, Schema):
-            self.schemas.add(record)
-        elif isinstance(record, Channel):
-            if record.id in self.channels or record.id in self.skipped:
+    def cursor(self, position: float) -> Iterator[Entry]:
+        """The messages at ``position`` (seconds) and after, in log time order (file order
+        among equal times); chunks are read as the order reaches them, overlapping ones
+        merged."""
+        floor = self.start_ns + int(position * 1e9) - 1
+        i = bisect.bisect_left(self._reach, floor)  # every chunk before ends before it
+        chunks, heap = self.chunks, []
+        while True:
+            while i < len(chunks) and (not heap or chunks[i].start <= heap[0][0]):
+                chunk = chunks[i]
+                i += 1
+                if chunk.end < floor or not self._holds(chunk, self._kept):
+                    continue
+                for seq, (channel, log_time, data) in enumerate(self._read(chunk)):
+                    if self.seconds(log_time) >= position:
+                        heapq.heappush(heap, (log_time, chunk.offset, seq, channel, data))
+            if not heap:
                 return
-            if record.topic in NOT_REPLAYED:
-                self.skipped.add(record.id)
-                return
-            self.schemas.check(record)
-            self.channels[record.id] = record
-        elif isinstance(record, Message) and record.channel_id in self.channels:
-            self.messages.append((record.channel_id, record.log_time, record.data))
-        elif isinstance(record, Footer):
-            self.complete = True
+            log_time, _offset, _seq, channel, data = heapq.heappop(heap)
+            yield channel, log_time, data
+
+    def latched_before(self, position: float) -> list[Entry]:
+        """Each latched topic's latest message before ``position``, in log time order: read
+        from the chunks that hold one, latest first, until no earlier chunk can hold a later
+        one."""
+        ceiling = self.start_ns + int(position * 1e9) + 1
+        found: dict[int, tuple[tuple[int, int, int], Entry]] = {}
+        candidates = [c for c in self.chunks
+                      if c.start < ceiling and self._holds(c, self._latched)]
+        candidates.sort(key=lambda c: min(c.end, ceiling), reverse=True)
+        for chunk in candidates:
+            bound = min(chunk.end, ceiling)
+            wanted = self._latched if chunk.channels is None else (
+                chunk.channels & self._latched)
+            if all(c in found and found[c][0][0] > bound for c in wanted):
+                continue
+            for seq, entry in enumerate(self._read(chunk)):
+                channel, log_time, _data = entry
+                key = (log_time, chunk.offset, seq)
+                if channel in self._latched and self.seconds(log_time) < position and (
+                        channel not in found or key > found[channel][0]):
+                    found[channel] = (key, entry)
+        return [entry for _key, entry in sorted(found.values(), key=lambda f: f[0])]
+
+    def _last(self) -> int:
+        """The log time of the last message: the chunks that end latest, read until no other
+        can hold a later one."""
+        last = self.start_ns
+        for chunk in sorted(self.chunks, key=lambda c: c.end, reverse=True):
+            if chunk.end <= last:
+                break
+            if self._holds(chunk, self._kept):
+                last = max([last, *(m[1] for m in self._read(chunk))])
+        return last
+
+
+def _tracks(index: FileIndex, schemas: Schemas) -> dict[int, Track]:
+    """The channels replay serves (ROS 2, with schemas that parse), each with its type."""
+    for schema in index.schemas:
+        schemas.add(schema)
+    channels: dict[int, Channel] = {}
+    for channel in index.channels:
+        if channel.id not in channels and channel.topic not in NOT_REPLAYED:
+            schemas.check(channel)
+            channels[channel.id] = channel
+    mtypes = schemas.adopt()
+    return {cid: Track(ch.topic, mtypes[cid], is_latched(dict(ch.metadata)))
+            for cid, ch in channels.items()}
+
+
+def check_overlap(chunks: list[ChunkRef], limit: int) -> None:
+    """Refuse a file whose chunks overlapping one instant (read together to merge them in log
+    time order) would inflate to more than ``--max-inflated`` at once."""
+    events = sorted([(c.start, 0, c.claimed) for c in chunks]
+                    + [(c.end, 1, -c.claimed) for c in chunks])
+    held = most = 0
+    for _time, _kind, size in events:
+        held += size
+        most = max(most, held)
+    if most > limit:
+        Budget(limit).take(most, "the chunks that overlap in time")
 
 
 def _mcap_of(path: Path) -> Path:
@@ -198,41 +214,41 @@ def _mcap_of(path: Path) -> Path:
     return files[0]
 
 
+def _index(path: Path, file: BinaryIO, limit: int) -> FileIndex:
+    if file.read(len(MAGIC)) != MAGIC:
+        raise RecordingError(f"{path} is not an MCAP file")
+    index = from_summary(file, limit)
+    if index is None:
+        size = os.fstat(file.fileno()).st_size
+        index = scan(file, size, limit)
+        if not index.complete and index.end + 16 < size:
+            log.warning("%s: a broken record after %d bytes; replaying what comes before",
+                        path.name, index.end)
+    check_overlap(index.chunks, limit)
+    return index
+
+
 def load_recording(path: Path | str, types: TypeRegistry,
                    max_inflated: int = DEFAULT_MAX_INFLATED) -> Recording:
-    """Read a recording (blocking; run it in a thread). Types the file defines differently from
-    ``types`` (or that ``types`` lacks) are taken into ``types`` from the file's own schemas, so
-    give it the replaying server's registry."""
+    """Open a recording (blocking; run it in a thread): its index, not its messages. Types the
+    file defines differently from ``types`` (or that ``types`` lacks) are taken into ``types``
+    from the file's own schemas, so give it the replaying server's registry."""
     path = _mcap_of(Path(path))
     try:
-        file = open(path, "rb")  # noqa: SIM115 - closed below
+        file = open(path, "rb")  # noqa: SIM115 - the recording closes it
     except OSError as exc:
         raise RecordingError(f"cannot open {path}: {exc.strerror or exc}") from None
-    with file:
-        if file.read(len(MAGIC)) != MAGIC:
-            raise RecordingError(f"{path} is not an MCAP file")
-        budget = Budget(max_inflated)
-        check_claims(file, budget)
-        collect = _Collect(Schemas(types))
-        try:
-            for record in records(file, budget):
-                collect.add(record)
-        except RecordingError:
-            raise
-        except Exception as exc:  # a cut or broken record: what came before it plays
-            log.warning("%s: broken after %d bytes (%s: %s); replaying the %d messages before",
-                        path.name, file.tell(), type(exc).__name__, exc or "bad record",
-                        len(collect.messages))
-    if not collect.complete:
-        log.warning("%s ends before the MCAP footer (a recording that was cut off): replaying "
-                    "the %d messages it holds", path.name, len(collect.messages))
-    if not collect.messages:
-        raise RecordingError(f"{path} has no ROS 2 messages to replay"
-                             + ("" if collect.complete else " (it is cut off before any)"))
-    mtypes = collect.schemas.adopt()
-    tracks = {cid: Track(ch.topic, mtypes[cid], is_latched(dict(ch.metadata)))
-              for cid, ch in collect.channels.items()}
-    messages = sorted(collect.messages, key=lambda m: m[1])
-    first = messages[0][1]
-    return Recording(path, tracks, [(m[1] - first) / 1e9 for m in messages], messages,
-                     collect.complete)
+    try:
+        index = _index(path, file, max_inflated)
+        tracks = _tracks(index, Schemas(types))
+        count = sum(index.counts.get(cid, 0) for cid in tracks)
+        if not count:
+            raise RecordingError(f"{path} has no ROS 2 messages to replay"
+                                 + ("" if index.complete else " (it is cut off before any)"))
+        if not index.complete:
+            log.warning("%s ends before the MCAP footer (a recording that was cut off): "
+                        "replaying the %d messages it holds", path.name, count)
+        return Recording(path, file, tracks, index, count)
+    except BaseException:
+        file.close()
+        raise

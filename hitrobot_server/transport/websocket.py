@@ -47,7 +47,9 @@ flood to a client that has just shown a standing queue is held within this many 
 
 
 class WindowTick:
-    """The windows' shared tick (every :data:`PERIOD` s, while some window uses it).
+    """The windows' shared tick (every :data:`PERIOD` s, while bytes flow to some client, and
+    :data:`LAG_MEMORY` s after: an idle client, or a server whose clients all listen to quiet
+    topics, wakes nothing).
 
     It measures how late this event loop runs a timer: the longest lateness over the last
     :data:`LAG_MEMORY` seconds. A busy server gets to each client once per turn of its loop,
@@ -61,8 +63,9 @@ class WindowTick:
 
     def __init__(self, loop: asyncio.AbstractEventLoop):
         self._loop = loop
-        self._users = 0
         self._timer: asyncio.TimerHandle | None = None
+        self._busy = False  # bytes went out since the last tick
+        self._quiet_since = 0.0
         self._due = 0.0
         self._worst = [0.0, 0.0]  # this half-memory's worst, the last one's
         self._turned = 0.0
@@ -72,18 +75,22 @@ class WindowTick:
     def lag(self) -> float:
         return max(self._worst)
 
-    def use(self) -> None:
-        self._users += 1
+    @property
+    def running(self) -> bool:
+        """The tick is due (bytes flowed to a client in the last :data:`LAG_MEMORY` s)."""
+        return self._timer is not None
+
+    def wake(self) -> None:
+        """Bytes went to a client: tick (from now, if it had stopped)."""
+        self._busy = True
         if self._timer is None:
-            self._turned = self._loop.time()
+            self._turned = self._quiet_since = self._loop.time()
             self._arm(self._turned)
 
-    def release(self) -> None:
-        self._users -= 1
-        if self._users <= 0 and self._timer is not None:
-            self._timer.cancel()
-            self._timer = None
-            self._worst = [0.0, 0.0]
+    def count_later(self, window: PongWindow) -> None:
+        """Count what ``window`` sends until the next tick then."""
+        self.pending.add(window)
+        self.wake()
 
     def _arm(self, now: float) -> None:
         self._due = now + self.PERIOD
@@ -101,6 +108,13 @@ class WindowTick:
             windows, self.pending = self.pending, set()
             for window in windows:
                 window.account(now)
+        if self._busy:
+            self._busy = False
+            self._quiet_since = now
+        elif now - self._quiet_since >= self.LAG_MEMORY:  # nothing sent for a while: stop
+            self._timer = None
+            self._worst = [0.0, 0.0]
+            return
         self._arm(now)
 
 
@@ -130,16 +144,14 @@ class PongWindow:
         self.flight = FlightWindow()
         self._loop = asyncio.get_running_loop()
         self._tick = window_tick()
-        self._tick.use()
         self._room = asyncio.Event()
         self._room.set()
         self._pinging: set[asyncio.Task] = set()
         self._uncounted = 0  # bytes sent while not held, counted at the next tick
 
     def close(self) -> None:
-        """The connection is over: the loop's tick may stop."""
+        """The connection is over: nothing of it is left to count."""
         self._tick.pending.discard(self)
-        self._tick.release()
 
     @property
     def open(self) -> bool:
@@ -153,12 +165,14 @@ class PongWindow:
         next tick (:class:`WindowTick`)."""
         if not self.flight.armed:
             if not self._uncounted:
-                self._tick.pending.add(self)
+                self._tick.count_later(self)
             self._uncounted += nbytes
             if self._uncounted < COUNT_EVERY:
                 return
             self._tick.pending.discard(self)
             nbytes = 0  # counted in what was uncounted
+        else:
+            self._tick.wake()
         self.account(self._loop.time(), nbytes)
 
     def account(self, now: float, nbytes: int = 0) -> None:

@@ -16,10 +16,10 @@ from websockets.client import ClientProtocol
 from websockets.frames import Frame, Opcode
 from websockets.uri import parse_uri
 
-from hitrobot_server.transport.flight import ARM_AGE, ARM_SPAN, INITIAL_WINDOW
-from hitrobot_server.transport.websocket import COUNT_EVERY
+from hitrobot_server.transport.flight import ARM_AGE, ARM_SPAN, INITIAL_WINDOW, WATCH_EVERY
+from hitrobot_server.transport.websocket import COUNT_EVERY, window_tick
 
-from ..helpers import WsClient, round_trip
+from ..helpers import WsClient, round_trip, until
 
 BIG, POSE = "/window/cloud", "/window/pose"
 
@@ -218,3 +218,36 @@ async def test_a_client_that_never_pongs_is_never_held(make_server):
         pass
     assert client.received - before >= 1_800_000 and client.pings
     client.close()
+
+
+async def test_an_idle_client_wakes_nothing_and_is_not_pinged(make_server):
+    """A client subscribed to a quiet topic (or to nothing) is not pinged while nothing is
+    sent to it, and the windows' tick stops: idle clients cost the server no wake-ups. A
+    message sent wakes the tick, and a ping follows it."""
+    server = await make_server()
+    tick = window_tick()
+    client = await PongWithholdingClient.open(server.port)
+    pub = await WsClient.open(server.port)
+    await pub.send({"op": "advertise", "topic": POSE, "type": "std_msgs/String"})
+    await client.send({"op": "subscribe", "topic": POSE, "type": "std_msgs/String"})
+    await client.send({"op": "call_service", "id": "ready", "service": "/rosapi/get_time"})
+    await client.read_until('"ready"', max_bytes=1 << 20)
+    await round_trip(pub)
+    await until(lambda: not tick.running, "the tick stopping once nothing flows", 5)
+    for _ in range(20):  # what was sent before (the reply's ping) is read
+        if not await client.read_some(0.1):
+            break
+    pings = len(client.pings)
+    assert not await client.read_some(WATCH_EVERY * 5)  # five watch periods: nothing at all
+    assert len(client.pings) == pings and not tick.running
+    await pub.send({"op": "publish", "topic": POSE, "msg": {"data": "quiet-1"}})
+    await client.read_until("quiet-1", max_bytes=1 << 16)
+    assert tick.running
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + 5.0
+    while len(client.pings) == pings and loop.time() < deadline:  # a ping follows the bytes
+        await client.read_some(deadline - loop.time())
+    assert len(client.pings) > pings
+    await until(lambda: not tick.running, "the tick stopping again", 5)
+    client.close()
+    await pub.close()
