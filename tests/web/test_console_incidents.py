@@ -1,26 +1,21 @@
 """The console's incidents (web/recordings.js) in Chromium: a server with a black box sees the
-robot link lost (reported on /diagnostics, as a diagnostics aggregator does); the Recordings
-panel lists the file it left with its cause, and two clicks (Replay, Open replay) open that
-file's replay in a tab of its own."""
+robot's emergency stop pressed (the simulator's ``/sim/emergency_stop``, reported by the robot's
+health on /diagnostics: an incident comes from the robot, never from what a client publishes);
+the Recordings panel lists the file it left with its cause, and two clicks (Replay, Open
+replay) open that file's replay in a tab of its own."""
 
 from __future__ import annotations
 
 from ..helpers import WsClient
 from .conftest import ARTIFACTS
 
-ROW = "#incident-list li[data-cause=link_lost]"
-
-
-def connection(level: int, text: str) -> dict:
-    return {"header": {"frame_id": ""}, "status": [
-        {"level": level, "name": "/Robot/Connection", "message": text, "hardware_id": "sim",
-         "values": []}]}
+ROW = "#incident-list li[data-cause=emergency_stop]"
 
 
 async def test_an_incident_is_listed_with_its_cause_and_replays_in_two_clicks(
         browser, make_server, tmp_path):
     folder = tmp_path / "recordings"
-    server = await make_server(black_box=30.0, record_dir=str(folder))
+    server = await make_server(robot="sim", black_box=30.0, record_dir=str(folder))
     page = browser.pages[0] if browser.pages else await browser.new_page()
     await page.goto(f"http://127.0.0.1:{server.port}/")
     await page.click(".tabs [data-tab=status]")
@@ -29,22 +24,18 @@ async def test_an_incident_is_listed_with_its_cause_and_replays_in_two_clicks(
 
     client = await WsClient.open(server.port)
     try:
-        await client.send({"op": "advertise", "topic": "/diagnostics",
-                           "type": "diagnostic_msgs/DiagnosticArray"})
-        await client.send({"op": "publish", "topic": "/diagnostics",
-                           "msg": connection(0, "connected")})
-        await client.send({"op": "publish", "topic": "/diagnostics",
-                           "msg": connection(2, "the robot does not answer: timeout")})
+        reply = await client.call("/sim/emergency_stop", {"data": True})
+        assert reply["result"] and reply["values"]["success"], reply
         row = page.locator(ROW)
         await row.wait_for(timeout=20_000)
-        assert await row.locator(".cause").inner_text() == "Robot link lost"
-        assert "the robot does not answer: timeout" in await row.locator(".detail").inner_text()
+        assert await row.locator(".cause").inner_text() == "Emergency stop"
+        assert "emergency stop" in (await row.locator(".detail").inner_text()).lower()
         name = await row.get_attribute("data-name")
-        assert name.startswith("blackbox-") and name.endswith("-link_lost.mcap")
+        assert name.startswith("blackbox-") and name.endswith("-emergency_stop.mcap")
         assert (folder / name).is_file()
         # the recordings list shows the file too, with its download link
         await page.locator(f'#recording-list li[data-name="{name}"] a').wait_for(timeout=10_000)
-        log = page.locator("#log li[data-level=warning]", has_text="Robot link lost")
+        log = page.locator("#log li[data-level=warning]", has_text="Emergency stop")
         await log.first.wait_for(timeout=10_000)
 
         await row.locator("button.replay").click()  # click 1
