@@ -22,6 +22,9 @@ from .base import Node
 from .options import NodeOptions
 
 ACTIONLIB_SUFFIXES = ("goal", "cancel", "status", "feedback", "result")
+ROS_PARAMS = {"/rosdistro": "noetic\n", "/rosversion": "1.16.0\n"}
+"""What roscore's roslaunch sets (``rosversion -d`` and ``rosversion roslaunch``, each with its
+newline): the ROS 1 Noetic this server presents itself as, so a client's distro check finds one."""
 
 
 class Rosapi(Node):
@@ -58,6 +61,10 @@ class Rosapi(Node):
             "service_response_details": ("rosapi/ServiceResponseDetails", self.response_details),
             "get_time": ("rosapi/GetTime", self.get_time),
         }
+        if params:  # the process that keeps the store seeds what every roscore sets
+            for name, value in ROS_PARAMS.items():
+                if not bus.params.has(name):
+                    bus.params.set(name, value)
         for name, (type_name, handler) in handlers.items():
             if not params and f"/rosapi/{name}" in PARAM_SERVICES:
                 continue
