@@ -25,6 +25,7 @@ from ...protocol.ops import (
     UnadvertiseAction,
 )
 from ...types.convert import ConversionError, from_json
+from ...types.generation import ros2_times
 from .services import args_to_request, split_id, too_many_in_flight
 
 if TYPE_CHECKING:
@@ -59,9 +60,13 @@ class ActionOps:
             )
         want_feedback = op.feedback
         frag = c.fragment_size(op)
+        action = c.bus.action(name)
+        assert action is not None  # (_goal_of found it)
+        atype, types = action.atype, c.bus.types
 
         def on_feedback(values: dict) -> None:
-            if want_feedback:
+            if want_feedback:  # a ROS 2 op: its times as ROS 2 spells them
+                values = ros2_times(values, atype.feedback, types)
                 c.send(ops.action_feedback(op.action, op_id, values), fragment_size=frag)
 
         c.bus.client_called("send_action_goal", name, c.origin)
@@ -78,7 +83,8 @@ class ActionOps:
             if t.cancelled():
                 return
             out: GoalOutcome = t.result()
-            c.send(ops.action_result(op.action, op_id, out.values, out.status, out.result),
+            values = ros2_times(out.values, atype.result, types) if out.result else out.values
+            c.send(ops.action_result(op.action, op_id, values, out.status, out.result),
                    fragment_size=frag)
 
         task.add_done_callback(done)
@@ -131,7 +137,8 @@ class ActionOps:
             handle.on_cancel.append(
                 lambda: c.send(ops.cancel_action_goal(gid, name))
             )
-            c.send(ops.send_action_goal(gid, name, type_name, handle.goal))
+            goal = ros2_times(handle.goal, handle.action.atype.goal, c.bus.types)
+            c.send(ops.send_action_goal(gid, name, type_name, goal))
             try:
                 return await fut
             finally:

@@ -21,7 +21,8 @@ from ...protocol.ops import (
     UnadvertiseService,
 )
 from ...types.convert import ConversionError, from_json
-from ...types.registry import MsgType
+from ...types.generation import is_ros2, ros2_times
+from ...types.registry import MsgType, TypeRegistry
 
 if TYPE_CHECKING:
     from .context import OpContext
@@ -115,6 +116,8 @@ class ServiceOps:
             return fail(exc.msg.removeprefix("call_service: "))
         if timeout is None:
             timeout = c.settings.call_service_timeout
+        if is_ros2(service.stype.name):  # its times as ROS 2 spells them (types/generation.py)
+            reply = _ros2_reply(reply, service.stype.response, c.bus.types)
         c.bus.client_called("call_service", name, c.origin)
         self.in_flight += 1
         # binary service replies would break JSON-only clients
@@ -228,3 +231,10 @@ class ServiceOps:
         for name in list(self.provided):
             self.client.bus.unadvertise_service(name, self.client)
         self.provided.clear()
+
+
+def _ros2_reply(reply: Reply, response: MsgType, types: TypeRegistry) -> Reply:
+    """``reply`` with a ROS 2 type's times spelled ``{sec, nanosec}`` in its values."""
+    def spelled(values: Any, result: bool) -> dict:
+        return reply(ros2_times(values, response, types) if result else values, result)
+    return spelled
