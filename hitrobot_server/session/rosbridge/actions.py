@@ -36,6 +36,7 @@ class ActionOps:
     def __init__(self, client: OpContext):
         self.client = client
         self.goals: dict[Any, GoalHandle] = {}  # goals this client sent, by its id
+        self.cancel_on_close: set[GoalHandle] = set()  # those it asked to end with it
         self.provided: set[str] = set()
         self.serving: dict[str, tuple[asyncio.Future, GoalHandle]] = {}  # goals we were handed
         self._counters: dict[str, itertools.count] = {}
@@ -77,9 +78,13 @@ class ActionOps:
             return
         key = op_id if op_id is not None else handle.goal_id
         self.goals[key] = handle
+        handle.sent_as = key
+        if op.cancel_on_disconnect:
+            self.cancel_on_close.add(handle)
 
         def done(t: asyncio.Task) -> None:
             self.goals.pop(key, None)
+            self.cancel_on_close.discard(handle)
             if t.cancelled():
                 return
             out: GoalOutcome = t.result()
@@ -112,11 +117,18 @@ class ActionOps:
             return exc.msg.removeprefix("send_action_goal: ")
 
     def cancel_action_goal(self, op: CancelActionGoal) -> None:
-        handle = self.goals.get(op.id)
+        """Cancel a goal by its sender's id: this client's own first, else any client's (a
+        goal outlives its sender's connection, so another may cancel it)."""
+        handle = self.goals.get(op.id) or self._anyones(op.id)
         if handle is None:
             raise ProtocolError(f"cancel_action_goal: no running goal with id {op.id!r}", op.id)
         handle.cancel()
         self.client.status("info", f"cancel requested for goal {op.id!r}", op.id)
+
+    def _anyones(self, goal_id: MessageId) -> GoalHandle | None:
+        actions = self.client.bus.actions.values()
+        return next((h for a in actions for h in a.goals.values()
+                     if h.sent_as == goal_id and not h.cancelled.is_set()), None)
 
     # ------------------------------------------------------------- provider side
     def advertise_action(self, op: AdvertiseAction) -> None:
@@ -196,8 +208,11 @@ class ActionOps:
                 fut.set_result(GoalOutcome(STATUS_ABORTED, text, False))
 
     def close(self) -> None:
-        for handle in list(self.goals.values()):
+        """The goals this client sent keep running (as rosbridge's), but those it sent with
+        ``cancel_on_disconnect``; what it provides goes."""
+        for handle in list(self.cancel_on_close):
             handle.cancel()
+        self.cancel_on_close.clear()
         self.goals.clear()
         self._fail_serving(None, f"the action provider ({self.client.node}) disconnected")
         for name in list(self.provided):
