@@ -131,10 +131,7 @@ class ServiceOps:
         try:
             values = await c.bus.call_service(name, request, timeout, c.origin)
         except ServiceError as exc:
-            if exc.values is not None:  # the provider's own failure values, as rosbridge
-                c.send(reply(exc.values, False), fragment_size=frag)
-            else:
-                fail(str(exc))
+            fail(str(exc))
             return
         finally:
             self.in_flight -= 1
@@ -183,6 +180,9 @@ class ServiceOps:
         c.status("info", f"unadvertised service '{name}'", op.id)
 
     def service_response(self, op: ServiceResponse) -> None:
+        """A provider's answer. As rosbridge, its ``result`` is not passed on: values that
+        convert are the caller's successful answer, ``result: false`` or not; only a failure
+        without values (or with values that do not convert) fails the call."""
         rid = op.id
         entry = self.pending.get(rid)  # a string or an integer: the spec's check
         if entry is None:
@@ -204,10 +204,7 @@ class ServiceOps:
         except ConversionError as exc:
             fut.set_exception(ServiceError(f"service '{name}' sent an invalid response: {exc}"))
             raise ProtocolError(f"service_response: field 'values': {exc}", rid) from None
-        if not op.result:
-            fut.set_exception(ServiceError(f"service '{name}' answered result:false", value))
-        else:
-            fut.set_result(value)
+        fut.set_result(value)  # a provider's result:false with its values: as rosbridge, ignored
 
     def invalid_response(self, obj: object, text: str) -> None:
         """A ``service_response`` too malformed to run (``result: null``, no ``result``) still
