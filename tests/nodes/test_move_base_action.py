@@ -76,3 +76,14 @@ async def test_a_refused_op_goal_fails_with_the_reason(client):
                        "args": {"target_pose": {**pose(*FAR), "header": {"frame_id": "odom"}}}})
     result = await client.expect(op="action_result", id="bad")
     assert result["result"] is False and "not the map frame" in result["values"]
+
+
+async def test_every_listed_action_is_reached_by_the_op(client):
+    """Each action rosapi lists (actionlib namespaces included) is one ``send_action_goal``
+    reaches: a goal of a wrong type is refused for its type, never as unknown."""
+    servers = (await client.call("/rosapi/action_servers"))["values"]["action_servers"]
+    for i, name in enumerate(servers):
+        await client.send({"op": "send_action_goal", "id": f"x{i}", "action": name,
+                           "action_type": "std_msgs/NoSuchAction", "args": {}})
+        result = await client.expect(op="action_result", id=f"x{i}")
+        assert result["result"] is False and "does not exist" not in result["values"], name
