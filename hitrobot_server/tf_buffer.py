@@ -118,8 +118,11 @@ class TFBuffer:
 
     def lookup(self, target: str, source: str) -> Transform | None:
         """``source``'s pose in ``target`` (tf2's ``lookupTransform(target, source, 0)``), or
-        None when the frames are not connected."""
+        None when the frames are not connected. A frame in itself is the identity, known or not
+        (as tf2: roslibpy's TFClient of ``world`` in ``world``)."""
         target, source = frame_name(target), frame_name(source)
+        if target and target == source:
+            return Transform(stamp=0.0)
         if target not in self.frames() or source not in self.frames():
             return None
         a, b = self._to_root(target), self._to_root(source)

@@ -6,12 +6,7 @@ class BusError(Exception):
 
 
 class ServiceError(BusError):
-    """A service call failed; the text becomes the failed ``service_response`` values, unless
-    the provider gave its own ``values`` with ``result: false`` (rosbridge passes those on)."""
-
-    def __init__(self, text: str, values: dict | None = None):
-        super().__init__(text)
-        self.values = values
+    """A service call failed; the text becomes the failed ``service_response`` values."""
 
 
 class ActionError(BusError):

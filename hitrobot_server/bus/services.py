@@ -120,6 +120,7 @@ class GoalHandle:
     uuid: bytes = field(default_factory=lambda: uuid.uuid4().bytes)  # the ROS 2 goal id
     accepted_at: float = 0.0  # bus clock seconds
     status: int = STATUS_EXECUTING
+    sent_as: Hashable = None  # the id its sender gave it (a client's op id): any may cancel by it
 
     def feedback(self, values: dict) -> None:
         if self.on_feedback is not None:

@@ -18,6 +18,7 @@ from .diagnostics import DiagnosticsNode
 from .fleet import ChargePolicy, FleetMemberNode, FleetNode
 from .graph import GraphNodeService
 from .ground.messages import slamware_topic
+from .ground.parameters import serve_parameters
 from .intelligent_navigation import IntelligentNavigationNode
 from .locomotion import LocomotionNode
 from .map_manager import MapManager
@@ -77,7 +78,7 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
     move_base = MoveBaseNode(bus, link, motion, localization, frame,
                              simple_goal=slamware_topic(goal_topic) if goal_topic else None)
     mapfiles = MapFilesNode(bus, link, localization, settings)
-    return [
+    nodes = [
         SlamwareNode(bus, robot, settings.slamware, simple_goals=False, state=state),
         ConventionalNode(bus, link, localization, frame),
         move_base,
@@ -93,6 +94,8 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
         LocomotionNode(bus, link, robot.locomotion, robot.sensors, robot.power, settings,
                        mapfiles.loaded),
     ]
+    serve_parameters(nodes, settings.params_filter.allows)  # ROS 2's view of their params
+    return nodes
 
 
 def map_manager_of(bus: Bus, settings: NodeOptions, robot: Robot,

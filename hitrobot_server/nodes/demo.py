@@ -3,8 +3,9 @@
 Client test suites (roslibpy's, roslibjs's examples) expect a ``/add_two_ints`` service and a
 ``/fibonacci`` action next to rosbridge; the types are the ROS 2 tutorial ones
 (``example_interfaces``). ``/fibonacci`` grows the sequence one term per
-:data:`FIBONACCI_PERIOD` (the ROS 2 tutorial server takes 1 s; shorter keeps suites quick while
-still leaving time to cancel), with the sequence so far as feedback; as in the tutorial the
+:data:`FIBONACCI_PERIOD`, 1 s as the ROS 2 tutorial server (roslibpy's own suite cancels an
+order-8 goal 3 s after sending it, so a faster one would have ended), with the sequence so far
+as feedback; as in the tutorial the
 sequence starts ``[0, 1]`` and ends with the ``order``-th Fibonacci number.
 """
 
@@ -26,8 +27,8 @@ from .base import Node
 
 ADD_TWO_INTS = "/add_two_ints"
 FIBONACCI = "/fibonacci"
-FIBONACCI_PERIOD = 0.1
-"""Seconds per term of ``/fibonacci``."""
+FIBONACCI_PERIOD = 1.0
+"""Seconds per term of ``/fibonacci`` (the ROS 2 tutorial's rate: one term a second)."""
 MAX_ORDER = 46
 """The largest order whose sequence fits the result's ``int32[]`` (F(47) does not)."""
 INT64 = (-(2**63), 2**63 - 1)

@@ -22,7 +22,11 @@ server side, with the semantics of ``move_base``'s SimpleActionServer:
 * a simple goal (``geometry_msgs/PoseStamped`` on ``move_base_simple/goal``, when the assembly
   hands the node that topic) is wrapped as an action goal, as ROS's ``move_base`` does: its id
   generated, it runs, is listed, gets feedback and a result, and preempts, exactly as a goal
-  received on ``/move_base/goal`` (a refused field is named by its path in the PoseStamped).
+  received on ``/move_base/goal`` (a refused field is named by its path in the PoseStamped);
+* the same server is a bus action ``/move_base`` (``move_base_msgs/MoveBase``, the
+  ``send_action_goal`` op and ``/move_base/_action/*``), over the one goal table: every goal,
+  whichever way it came, is a bus goal too, so it is listed, fed back and cancelled both ways
+  (a goal sent with the op has its ROS 2 goal id, in hex, as its actionlib id).
 """
 
 from __future__ import annotations
@@ -31,9 +35,17 @@ import asyncio
 import itertools
 import logging
 import time
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 
 from ..bus.core import Bus
+from ..bus.services import (
+    STATUS_ABORTED,
+    STATUS_CANCELED,
+    STATUS_SUCCEEDED,
+    GoalHandle,
+    GoalOutcome,
+)
 from ..bus.topics import Message, RequestRejected
 from ..robot import motion
 from ..robot.backend import (
@@ -59,6 +71,8 @@ STATUS_PERIOD = 0.1
 """Seconds between ``status`` messages (actionlib's default is 5 Hz; we send 10)."""
 STATUS_LIST_TIMEOUT = 5.0
 """Seconds a finished goal stays in the status list (actionlib's ``status_list_timeout``)."""
+_OUTCOMES = {SUCCEEDED: STATUS_SUCCEEDED, PREEMPTED: STATUS_CANCELED, RECALLED: STATUS_CANCELED}
+"""actionlib's terminal states as action_msgs' (every other one is ABORTED)."""
 NEW_GOAL_TEXT = "This goal was canceled because another goal was received by the action server"
 CANCEL_TEXT = "cancelled by a cancel request"
 
@@ -75,6 +89,8 @@ class Goal:
     finished: float | None = None
     message: Message | None = field(default=None, repr=False)
     task: asyncio.Task | None = field(default=None, repr=False)
+    handle: GoalHandle | None = field(default=None, repr=False)  # the bus action's goal
+    ended: asyncio.Event = field(default_factory=asyncio.Event, repr=False)
 
     @property
     def id(self) -> str:
@@ -86,8 +102,76 @@ class Goal:
         return s["secs"], s["nsecs"]
 
     @property
+    def status_msg(self) -> dict:
+        """Its ``actionlib_msgs/GoalStatus``."""
+        return {"goal_id": self.goal_id, "status": self.status, "text": self.text}
+
+    @property
     def done(self) -> bool:
         return self.status in TERMINAL
+
+
+def filled_id(sent_id: dict, server: str, ids: Iterator[int], now: float) -> dict:
+    """A goal id as actionlib fills one in: an empty id generated (GoalIDGenerator's
+    name-count-stamp, its count the next of ``ids``), a zero stamp made now."""
+    goal_id = {"stamp": dict(sent_id["stamp"]), "id": sent_id["id"]}
+    if not goal_id["id"]:
+        goal_id["id"] = f"{server}-{next(ids)}-{now:.6f}"
+    if goal_id["stamp"]["secs"] == 0 and goal_id["stamp"]["nsecs"] == 0:
+        goal_id["stamp"] = m.stamp(now)
+    return goal_id
+
+
+def cancelled_by(cancel: dict, goals: Iterable[Goal]) -> list[Goal]:
+    """The unfinished goals an ``actionlib_msgs/GoalID`` cancels: empty id and zero stamp,
+    every one; an id, that one; a stamp, every one stamped at or before it."""
+    cancel_id, stamp = cancel["id"], (cancel["stamp"]["secs"], cancel["stamp"]["nsecs"])
+    everything = not cancel_id and stamp == (0, 0)
+    return [g for g in goals if not g.done and (
+        everything or g.id == cancel_id or (stamp != (0, 0) and g.stamp <= stamp))]
+
+
+Accept = Callable[[Message | None, dict, dict, str, GoalHandle | None], Goal | None]
+
+
+class BusGoals:
+    """The bus action ``/move_base`` over the actionlib goal table: a goal of the bus action
+    (``send_action_goal``, ``/move_base/_action/send_goal``) is taken as an actionlib goal
+    (``accept``), and a goal from a topic is made a bus goal too (``adopt``), so each is
+    listed and cancelled both ways."""
+
+    def __init__(self, bus: Bus, server: str, accept: Accept,
+                 cancel: Callable[[Goal, str], None]):
+        self.bus, self.server, self.accept, self.cancel = bus, server, accept, cancel
+        self._adopting: dict[str, Goal] = {}  # goals that came on topics, by bus goal id
+
+    def adopt(self, goal: Goal, tp: dict) -> None:
+        """Start a bus goal for a goal that came on a topic; its handler, run once the loop
+        turns, finds it here rather than taking another."""
+        if self.bus.action(self.server) is None:  # replaced by a client's provider
+            return
+        handle, _task = self.bus.start_goal(self.server, {"target_pose": tp})
+        goal.handle = handle
+        self._adopting[handle.goal_id] = goal
+
+    async def run(self, handle: GoalHandle) -> GoalOutcome:
+        """Run one bus goal to its outcome (its actionlib id: the ROS 2 goal id in hex)."""
+        goal = self._adopting.pop(handle.goal_id, None)
+        if goal is None:
+            unset = {"stamp": {"secs": 0, "nsecs": 0}, "id": handle.uuid.hex()}
+            goal = self.accept(None, unset, handle.goal["target_pose"], "target_pose.", handle)
+            if goal is None:
+                return GoalOutcome(STATUS_ABORTED, f"goal id '{unset['id']}' is already known",
+                                   False)
+        handle.on_cancel.append(lambda: self.cancel(goal, CANCEL_TEXT))
+        if handle.cancelled.is_set():
+            self.cancel(goal, CANCEL_TEXT)
+        await goal.ended.wait()
+        status = _OUTCOMES.get(goal.status, STATUS_ABORTED)
+        if status == STATUS_SUCCEEDED:
+            return GoalOutcome(status, {}, True)
+        return GoalOutcome(status, goal.text or f"goal ended with actionlib status {goal.status}",
+                           False)
 
 
 class MoveBaseNode(RobotNode):
@@ -117,6 +201,8 @@ class MoveBaseNode(RobotNode):
         self.subscribe(f"{server}/cancel", "actionlib_msgs/GoalID", self._on_cancel)
         if simple_goal:  # ROS move_base's move_base_simple/goal
             self.subscribe(simple_goal, "geometry_msgs/PoseStamped", self._on_simple_goal)
+        self.bus_goals = BusGoals(bus, server, self._accept, self.cancel_goal)
+        self.action(server, "move_base_msgs/action/MoveBase", self.bus_goals.run)
 
     async def start(self) -> None:
         self.every(STATUS_PERIOD, self._tick, needs_robot=False)
@@ -134,23 +220,22 @@ class MoveBaseNode(RobotNode):
         seq = self._seqs.setdefault(topic, itertools.count(1))
         return m.header(frame, self.bus.clock(), next(seq))
 
-    @staticmethod
-    def _goal_status(goal: Goal) -> dict:
-        return {"goal_id": goal.goal_id, "status": goal.status, "text": goal.text}
-
     def _publish_status(self) -> None:
         self.publish(f"{self.server}/status", {
             "header": self._header("status"),
-            "status_list": [self._goal_status(g) for g in self.goals.values()],
+            "status_list": [g.status_msg for g in self.goals.values()],
         })
 
     def _publish_feedback(self, goal: Goal, pose: Pose2D) -> None:
+        feedback = {"base_position": {"header": self._header("pose", self.map_frame),
+                                      "pose": m.pose(pose)}}
         self.publish(f"{self.server}/feedback", {
             "header": self._header("feedback"),
-            "status": self._goal_status(goal),
-            "feedback": {"base_position": {"header": self._header("pose", self.map_frame),
-                                           "pose": m.pose(pose)}},
+            "status": goal.status_msg,
+            "feedback": feedback,
         })
+        if goal.handle is not None:
+            goal.handle.feedback(feedback)
 
     def _finish(self, goal: Goal, status: int, text: str = "") -> None:
         """Move ``goal`` to a terminal state: status first, then the result (roslibpy's Goal
@@ -158,11 +243,12 @@ class MoveBaseNode(RobotNode):
         if goal.done:
             return
         goal.status, goal.text, goal.finished = status, text, time.monotonic()
+        goal.ended.set()
         if self.current is goal:
             self.current = None
         self._publish_status()
         self.publish(f"{self.server}/result", {
-            "header": self._header("result"), "status": self._goal_status(goal), "result": {}})
+            "header": self._header("result"), "status": goal.status_msg, "result": {}})
         if goal.message is not None and status in (ABORTED, REJECTED):
             goal.message.reply.fail(f"goal '{goal.id}' "
                                     f"{'aborted' if status == ABORTED else 'rejected'}: {text}")
@@ -177,19 +263,19 @@ class MoveBaseNode(RobotNode):
         unset = {"stamp": {"secs": 0, "nsecs": 0}, "id": ""}
         self._accept(message, unset, message.msg, "")
 
-    def _accept(self, message: Message, sent_id: dict, tp: dict, path: str) -> None:
-        """Take a goal (``tp``: its target, a PoseStamped at ``path`` in the message)."""
-        goal_id = {"stamp": dict(sent_id["stamp"]), "id": sent_id["id"]}
-        now = self.bus.clock()
-        if not goal_id["id"]:  # actionlib's GoalIDGenerator: name-count-stamp
-            goal_id["id"] = f"{self.server}-{next(self._ids)}-{now:.6f}"
-        if goal_id["stamp"]["secs"] == 0 and goal_id["stamp"]["nsecs"] == 0:
-            goal_id["stamp"] = m.stamp(now)  # actionlib stamps goals sent without one
+    def _accept(self, message: Message | None, sent_id: dict, tp: dict, path: str,
+                handle: GoalHandle | None = None) -> Goal | None:
+        """Take a goal (``tp``: its target, a PoseStamped at ``path`` in the message), as
+        the bus goal ``handle`` (a goal from a topic is made one here)."""
+        goal_id = filled_id(sent_id, self.server, self._ids, self.bus.clock())
         if goal_id["id"] in self.goals:
-            message.reply.warn(f"goal id '{goal_id['id']}' is already known; goal ignored")
-            return
-        goal = Goal(goal_id, message=message)
+            if message is not None:
+                message.reply.warn(f"goal id '{goal_id['id']}' is already known; goal ignored")
+            return None
+        goal = Goal(goal_id, message=message, handle=handle)
         self.goals[goal.id] = goal
+        if handle is None:
+            self.bus_goals.adopt(goal, tp)
         try:
             frame = tp["header"]["frame_id"]
             if frame not in self.frames:
@@ -199,7 +285,7 @@ class MoveBaseNode(RobotNode):
             require_robot(self.link, "")
         except RequestRejected as exc:
             self._finish(goal, REJECTED, str(exc))  # tells the publisher too
-            return
+            return goal
         previous, self.current = self.current, goal
         self._publish_status()
         if previous is not None and not previous.done:
@@ -207,6 +293,7 @@ class MoveBaseNode(RobotNode):
             self._finish(previous, RECALLED if previous.status == PENDING else PREEMPTED,
                          NEW_GOAL_TEXT)
         goal.task = self.spawn(self._execute(goal))
+        return goal
 
     async def _execute(self, goal: Goal) -> None:
         assert goal.target is not None
@@ -249,12 +336,8 @@ class MoveBaseNode(RobotNode):
 
     # ------------------------------------------------------------------ cancel
     def _on_cancel(self, message: Message) -> None:
-        msg = message.msg
-        cancel_id = msg["id"]
-        stamp = (msg["stamp"]["secs"], msg["stamp"]["nsecs"])
-        everything = not cancel_id and stamp == (0, 0)
-        targets = [g for g in self.goals.values() if not g.done and (
-            everything or g.id == cancel_id or (stamp != (0, 0) and g.stamp <= stamp))]
+        cancel_id = message.msg["id"]
+        targets = cancelled_by(message.msg, self.goals.values())
         if not targets and cancel_id and cancel_id not in self.goals:
             message.reply.warn(f"no goal with id '{cancel_id}'")
         for goal in targets:

@@ -16,12 +16,22 @@ from ..bus.graph import whole_graph
 from ..bus.link import PARAM_SERVICES
 from ..bus.names import canonical
 from ..bus.params import ParamError, check_value_size
-from ..types.registry import UnknownType
+from ..types.registry import TypeRegistry, UnknownType
 from ..types.typedef import srv_request_typedefs, srv_response_typedefs, typedefs
 from .base import Node
 from .options import NodeOptions
 
 ACTIONLIB_SUFFIXES = ("goal", "cancel", "status", "feedback", "result")
+ROS_PARAMS = {"/rosdistro": "noetic\n", "/rosversion": "1.16.0\n"}
+"""What roscore's roslaunch sets (``rosversion -d`` and ``rosversion roslaunch``, each with its
+newline): the ROS 1 Noetic this server presents itself as, so a client's distro check finds one."""
+
+
+def interface_names(types: TypeRegistry) -> list[str]:
+    """``ros2 interface list`` of the registry: messages, services and actions, without the
+    parts ROS 2 makes of each action (``X_Goal``, ``X_SendGoal``, ...)."""
+    return sorted([n for n in types.msg_names() if "/msg/" in n]
+                  + [n for n in types.srv_names() if "/srv/" in n] + types.action_names())
 
 
 class Rosapi(Node):
@@ -57,7 +67,19 @@ class Rosapi(Node):
             "service_request_details": ("rosapi/ServiceRequestDetails", self.request_details),
             "service_response_details": ("rosapi/ServiceResponseDetails", self.response_details),
             "get_time": ("rosapi/GetTime", self.get_time),
+            # rosbridge 2.x's rosapi (ROS 2): the interfaces, the action parts, the version
+            "interfaces": ("rosapi/Interfaces", self.interfaces),
+            "action_goal_details": ("rosapi/ActionGoalDetails", self.action_details("goal")),
+            "action_result_details": ("rosapi/ActionResultDetails",
+                                      self.action_details("result")),
+            "action_feedback_details": ("rosapi/ActionFeedbackDetails",
+                                        self.action_details("feedback")),
+            "get_ros_version": ("rosapi/GetROSVersion", self.get_ros_version),
         }
+        if params:  # the process that keeps the store seeds what every roscore sets
+            for name, value in ROS_PARAMS.items():
+                if not bus.params.has(name):
+                    bus.params.set(name, value)
         for name, (type_name, handler) in handlers.items():
             if not params and f"/rosapi/{name}" in PARAM_SERVICES:
                 continue
@@ -179,6 +201,23 @@ class Rosapi(Node):
 
     async def message_details(self, req: dict) -> dict:
         return self._typedefs(typedefs, req["type"])
+
+    def action_details(self, part: str) -> Callable[[dict], Awaitable[dict]]:
+        """``action_<part>_details``: the typedefs of an action's goal, result or feedback."""
+        async def details(req: dict) -> dict:
+            try:
+                name = getattr(self.bus.types.action(req["type"]), part).name
+            except UnknownType as exc:
+                raise ServiceError(str(exc.args[0] if exc.args else exc)) from None
+            return self._typedefs(typedefs, name)
+        return details
+
+    async def interfaces(self, req: dict) -> dict:
+        return {"interfaces": interface_names(self.bus.types)}
+
+    async def get_ros_version(self, req: dict) -> dict:
+        """ROS 1 Noetic, as ``/rosdistro`` says (a ROS 1 master speaking ROS 2 ops too)."""
+        return {"version": 1, "distro": ROS_PARAMS["/rosdistro"].strip()}
 
     async def request_details(self, req: dict) -> dict:
         return self._typedefs(srv_request_typedefs, req["type"])

@@ -306,6 +306,7 @@ class SendActionGoal:
     action_type: str = _req("string")
     args: dict | list | None = _opt(*_ARGS)
     feedback: bool = _opt("boolean", default=False)
+    cancel_on_disconnect: bool = _opt("boolean", default=False)
     fragment_size: int | None = _opt("integer", "null", minimum=1)
     compression: str | None = _opt("string")
 

@@ -123,7 +123,9 @@ def failed_call(caller: roslibpy.Ros, name: str, type_name: str, a: int, b: int)
 
 
 def test_provider_result_false_values_reach_the_caller(ros):
-    """roslibpy's own AddTwoInts test: a handler returning False still hands over its values."""
+    """roslibpy's own AddTwoInts test: a handler returning False still hands over its values,
+    and, as rosbridge ignores a provider's ``result``, the caller's call succeeds (issue 49:
+    ``client.call`` returns ``{"sum": 42}``)."""
     provider, caller = ros(), ros()
 
     def add(request, response):
@@ -133,8 +135,8 @@ def test_provider_result_false_values_reach_the_caller(ros):
     service = roslibpy.Service(provider, "/rlp/add_two_ints", "rospy_tutorials/AddTwoInts")
     service.advertise(add)
     assert wait_for(lambda: "/rlp/add_two_ints" in caller.get_services())
-    errors = failed_call(caller, "/rlp/add_two_ints", "rospy_tutorials/AddTwoInts", 2, 40)
-    assert errors == [{"sum": 42}]
+    client = roslibpy.Service(caller, "/rlp/add_two_ints", "rospy_tutorials/AddTwoInts")
+    assert client.call(roslibpy.ServiceRequest({"a": 2, "b": 40}), timeout=5) == {"sum": 42}
     service.unadvertise()
 
 

@@ -132,13 +132,13 @@ async def _provider_and_call(
 
 
 async def test_provider_result_false_values_reach_the_caller(hub):
-    """rosbridge passes a provider's values with result:false; roslibpy's AddTwoInts test
-    relies on it."""
+    """rosbridge passes a provider's values with result:false, and ignores its result (the
+    caller's call succeeded: issue 49); roslibpy's AddTwoInts test relies on it."""
     provider, caller, req = await _provider_and_call(hub, "/sum", "rospy_tutorials/AddTwoInts")
     await provider.send({"op": "service_response", "id": req["id"], "service": "/sum",
                          "values": {"sum": 5}, "result": False})
     reply = await caller.expect(op="service_response", id="c")
-    assert reply["result"] is False and reply["values"] == {"sum": 5}
+    assert reply["result"] is True and reply["values"] == {"sum": 5}
 
 
 async def test_provider_result_null_still_answers_the_caller(hub):

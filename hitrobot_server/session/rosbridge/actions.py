@@ -25,6 +25,7 @@ from ...protocol.ops import (
     UnadvertiseAction,
 )
 from ...types.convert import ConversionError, from_json
+from ...types.generation import ros2_times
 from .services import args_to_request, split_id, too_many_in_flight
 
 if TYPE_CHECKING:
@@ -35,6 +36,7 @@ class ActionOps:
     def __init__(self, client: OpContext):
         self.client = client
         self.goals: dict[Any, GoalHandle] = {}  # goals this client sent, by its id
+        self.cancel_on_close: set[GoalHandle] = set()  # those it asked to end with it
         self.provided: set[str] = set()
         self.serving: dict[str, tuple[asyncio.Future, GoalHandle]] = {}  # goals we were handed
         self._counters: dict[str, itertools.count] = {}
@@ -59,9 +61,13 @@ class ActionOps:
             )
         want_feedback = op.feedback
         frag = c.fragment_size(op)
+        action = c.bus.action(name)
+        assert action is not None  # (_goal_of found it)
+        atype, types = action.atype, c.bus.types
 
         def on_feedback(values: dict) -> None:
-            if want_feedback:
+            if want_feedback:  # a ROS 2 op: its times as ROS 2 spells them
+                values = ros2_times(values, atype.feedback, types)
                 c.send(ops.action_feedback(op.action, op_id, values), fragment_size=frag)
 
         c.bus.client_called("send_action_goal", name, c.origin)
@@ -72,13 +78,18 @@ class ActionOps:
             return
         key = op_id if op_id is not None else handle.goal_id
         self.goals[key] = handle
+        handle.sent_as = key
+        if op.cancel_on_disconnect:
+            self.cancel_on_close.add(handle)
 
         def done(t: asyncio.Task) -> None:
             self.goals.pop(key, None)
+            self.cancel_on_close.discard(handle)
             if t.cancelled():
                 return
             out: GoalOutcome = t.result()
-            c.send(ops.action_result(op.action, op_id, out.values, out.status, out.result),
+            values = ros2_times(out.values, atype.result, types) if out.result else out.values
+            c.send(ops.action_result(op.action, op_id, values, out.status, out.result),
                    fragment_size=frag)
 
         task.add_done_callback(done)
@@ -106,11 +117,18 @@ class ActionOps:
             return exc.msg.removeprefix("send_action_goal: ")
 
     def cancel_action_goal(self, op: CancelActionGoal) -> None:
-        handle = self.goals.get(op.id)
+        """Cancel a goal by its sender's id: this client's own first, else any client's (a
+        goal outlives its sender's connection, so another may cancel it)."""
+        handle = self.goals.get(op.id) or self._anyones(op.id)
         if handle is None:
             raise ProtocolError(f"cancel_action_goal: no running goal with id {op.id!r}", op.id)
         handle.cancel()
         self.client.status("info", f"cancel requested for goal {op.id!r}", op.id)
+
+    def _anyones(self, goal_id: MessageId) -> GoalHandle | None:
+        actions = self.client.bus.actions.values()
+        return next((h for a in actions for h in a.goals.values()
+                     if h.sent_as == goal_id and not h.cancelled.is_set()), None)
 
     # ------------------------------------------------------------- provider side
     def advertise_action(self, op: AdvertiseAction) -> None:
@@ -131,7 +149,8 @@ class ActionOps:
             handle.on_cancel.append(
                 lambda: c.send(ops.cancel_action_goal(gid, name))
             )
-            c.send(ops.send_action_goal(gid, name, type_name, handle.goal))
+            goal = ros2_times(handle.goal, handle.action.atype.goal, c.bus.types)
+            c.send(ops.send_action_goal(gid, name, type_name, goal))
             try:
                 return await fut
             finally:
@@ -189,8 +208,11 @@ class ActionOps:
                 fut.set_result(GoalOutcome(STATUS_ABORTED, text, False))
 
     def close(self) -> None:
-        for handle in list(self.goals.values()):
+        """The goals this client sent keep running (as rosbridge's), but those it sent with
+        ``cancel_on_disconnect``; what it provides goes."""
+        for handle in list(self.cancel_on_close):
             handle.cancel()
+        self.cancel_on_close.clear()
         self.goals.clear()
         self._fail_serving(None, f"the action provider ({self.client.node}) disconnected")
         for name in list(self.provided):

@@ -20,14 +20,21 @@ from ...bus.topics import Memo, MemoKey, Message
 from ...protocol import cbor, ops, rawmsg
 from ...protocol.bulk import OFFLOAD_BYTES
 from ...types import jsoncodec
+from ...types.generation import is_ros2, ros2_times
 from ...types.registry import MsgType, TypeRegistry
 from ...wire.frames import Frame, Frames, PendingFrames
 from ...wire.memo import PUBLISHED_JSON, size_of
 from .frames import FrameBuilder, as_png, cut, fragments
 
 
+def json_msg(message: Message) -> dict:
+    """The message as a JSON client gets it: a ROS 2 type's times as ROS 2 spells them."""
+    t = message.topic
+    return ros2_times(message.msg, t.mtype, t.types) if is_ros2(t.mtype.name) else message.msg
+
+
 def _body(message: Message, _variant: None) -> bytes:
-    return jsoncodec.dumps(message.msg)
+    return jsoncodec.dumps(json_msg(message))
 
 
 def _publish_json(message: Message, topic: str) -> bytes:
@@ -35,7 +42,7 @@ def _publish_json(message: Message, topic: str) -> bytes:
 
 
 def _publish_png(message: Message, topic: str) -> bytes:
-    return publish_png(topic, message.msg, PUBLISH_JSON.get(message, topic))
+    return publish_png(topic, json_msg(message), PUBLISH_JSON.get(message, topic))
 
 
 def _publish_cbor(message: Message, topic: str) -> bytes:
@@ -113,7 +120,8 @@ def subscriber_frames(message: Message, topic: str, compression: str,
         and PUBLISH_JSON.peek(message, topic) is None  # (made already: cutting it is cheap)
         and size_of(message) >= OFFLOAD_BYTES
     ):
-        found = builder.offloaded(size_of(message), publish_frames_taken, topic, [message.msg],
+        found = builder.offloaded(size_of(message), publish_frames_taken, topic,
+                                  [json_msg(message)],
                                   compression, fragment_size)
     else:
         key_of = PUBLISH_PNG if compression == "png" else PUBLISH_JSON

@@ -8,6 +8,7 @@ from ...bus.names import GlobFilter, canonical, valid_name
 from ...protocol.errors import MessageId, ProtocolError
 from ...protocol.ops import ABSENT, Advertise, Publish, Unadvertise
 from ...types.convert import from_json_verbatim
+from ...types.generation import is_ros2
 from .encodings import seeded
 from .verbatim import VERBATIM_MIN, verbatim_publish
 
@@ -96,7 +97,7 @@ class PublishOps:
         seed = None
         if frame is not None and len(frame) >= VERBATIM_MIN:
             text = None
-            if verbatim and body is op.msg:
+            if verbatim and body is op.msg and not is_ros2(topic.mtype.name):  # (its times)
                 text = verbatim_publish(frame, op.raw)  # the client's text is the outgoing op
             seed = seeded(len(frame), op.topic, text)  # the op's length: the message's size
         if missing:

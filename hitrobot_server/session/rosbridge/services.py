@@ -21,7 +21,8 @@ from ...protocol.ops import (
     UnadvertiseService,
 )
 from ...types.convert import ConversionError, from_json
-from ...types.registry import MsgType
+from ...types.generation import is_ros2, ros2_times
+from ...types.registry import MsgType, TypeRegistry
 
 if TYPE_CHECKING:
     from .context import OpContext
@@ -115,6 +116,8 @@ class ServiceOps:
             return fail(exc.msg.removeprefix("call_service: "))
         if timeout is None:
             timeout = c.settings.call_service_timeout
+        if is_ros2(service.stype.name):  # its times as ROS 2 spells them (types/generation.py)
+            reply = _ros2_reply(reply, service.stype.response, c.bus.types)
         c.bus.client_called("call_service", name, c.origin)
         self.in_flight += 1
         # binary service replies would break JSON-only clients
@@ -128,10 +131,7 @@ class ServiceOps:
         try:
             values = await c.bus.call_service(name, request, timeout, c.origin)
         except ServiceError as exc:
-            if exc.values is not None:  # the provider's own failure values, as rosbridge
-                c.send(reply(exc.values, False), fragment_size=frag)
-            else:
-                fail(str(exc))
+            fail(str(exc))
             return
         finally:
             self.in_flight -= 1
@@ -180,6 +180,9 @@ class ServiceOps:
         c.status("info", f"unadvertised service '{name}'", op.id)
 
     def service_response(self, op: ServiceResponse) -> None:
+        """A provider's answer. As rosbridge, its ``result`` is not passed on: values that
+        convert are the caller's successful answer, ``result: false`` or not; only a failure
+        without values (or with values that do not convert) fails the call."""
         rid = op.id
         entry = self.pending.get(rid)  # a string or an integer: the spec's check
         if entry is None:
@@ -201,10 +204,7 @@ class ServiceOps:
         except ConversionError as exc:
             fut.set_exception(ServiceError(f"service '{name}' sent an invalid response: {exc}"))
             raise ProtocolError(f"service_response: field 'values': {exc}", rid) from None
-        if not op.result:
-            fut.set_exception(ServiceError(f"service '{name}' answered result:false", value))
-        else:
-            fut.set_result(value)
+        fut.set_result(value)  # a provider's result:false with its values: as rosbridge, ignored
 
     def invalid_response(self, obj: object, text: str) -> None:
         """A ``service_response`` too malformed to run (``result: null``, no ``result``) still
@@ -228,3 +228,10 @@ class ServiceOps:
         for name in list(self.provided):
             self.client.bus.unadvertise_service(name, self.client)
         self.provided.clear()
+
+
+def _ros2_reply(reply: Reply, response: MsgType, types: TypeRegistry) -> Reply:
+    """``reply`` with a ROS 2 type's times spelled ``{sec, nanosec}`` in its values."""
+    def spelled(values: Any, result: bool) -> dict:
+        return reply(ros2_times(values, response, types) if result else values, result)
+    return spelled
