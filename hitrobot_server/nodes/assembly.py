@@ -17,6 +17,7 @@ from .demo import DemoServices
 from .diagnostics import DiagnosticsNode
 from .fleet import ChargePolicy, FleetMemberNode, FleetNode
 from .graph import GraphNodeService
+from .ground.claims import MotionClaims
 from .ground.messages import slamware_topic
 from .intelligent_navigation import IntelligentNavigationNode
 from .locomotion import LocomotionNode
@@ -73,12 +74,16 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
     # move_base is handed the Slamware node's goal topic (/move_base_simple/goal) and runs its
     # simple goals as action goals, as ROS's move_base does; the Slamware node, always beside
     # it here, is told to leave them alone (simple_goals=False).
+    # Both share who took the robot over with a /cmd_vel (claims), so a goal it ended names them.
     goal_topic = settings.slamware.goal_topic
+    claims = MotionClaims()
     move_base = MoveBaseNode(bus, link, motion, localization, frame,
-                             simple_goal=slamware_topic(goal_topic) if goal_topic else None)
+                             simple_goal=slamware_topic(goal_topic) if goal_topic else None,
+                             claims=claims)
     mapfiles = MapFilesNode(bus, link, localization, settings)
     return [
-        SlamwareNode(bus, robot, settings.slamware, simple_goals=False, state=state),
+        SlamwareNode(bus, robot, settings.slamware, simple_goals=False, state=state,
+                     claims=claims),
         ConventionalNode(bus, link, localization, frame),
         move_base,
         ShellNode(bus, robot, settings.authenticate, move_base.cancel_all),
