@@ -233,6 +233,8 @@ export class Navigator {
       this.activity = null;
       this.cancelButton.disabled = true;
       this.show('idle', `Patrol stopped${state.message ? ` — ${fromOne(state.message)}` : ''}`);
+      // another client took the robot over (the server names who): a warning, not news
+      if (/taken over by/.test(state.message || '')) log('warning', `patrol ${state.message}`);
     }
   }
 

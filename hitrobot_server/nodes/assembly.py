@@ -74,7 +74,8 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
     # move_base is handed the Slamware node's goal topic (/move_base_simple/goal) and runs its
     # simple goals as action goals, as ROS's move_base does; the Slamware node, always beside
     # it here, is told to leave them alone (simple_goals=False).
-    # Both share who took the robot over with a /cmd_vel (claims), so a goal it ended names them.
+    # They share who took the robot over with a /cmd_vel (claims): a goal, a navigation or a
+    # patrol it ended names them.
     goal_topic = settings.slamware.goal_topic
     claims = MotionClaims()
     move_base = MoveBaseNode(bus, link, motion, localization, frame,
@@ -88,12 +89,12 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
         move_base,
         ShellNode(bus, robot, settings.authenticate, move_base.cancel_all),
         *([map_manager_of(bus, settings, robot, state)] if map_manager else []),
-        NavigationNode(bus, link, motion, localization),
+        NavigationNode(bus, link, motion, localization, claims),
         PointCloudNode(bus, link, robot.sensors, frame),
         Nav2ActionsNode(bus, link, motion, localization, robot.sensors, frame),
         IntelligentNavigationNode(bus, robot, frame),
         mapfiles,
-        PatrolNode(bus, link, motion, localization, settings, mapfiles, state),
+        PatrolNode(bus, link, motion, localization, settings, mapfiles, state, claims),
         GraphNodeService(bus, link, motion, localization, settings, mapfiles, state),
         LocomotionNode(bus, link, robot.locomotion, robot.sensors, robot.power, settings,
                        mapfiles.loaded),

@@ -67,3 +67,32 @@ async def test_a_console_that_takes_the_robot_over_is_named_as_a_warning(console
     text = await entry.first.text_content()
     assert "/cmd_vel" in text and "another client" not in text, text
     await other.close()
+
+
+async def test_a_patrol_outlives_a_watching_console_and_names_who_took_it_over(
+        console: Console, watcher, browser):
+    page = console.page
+    grid = await grid_map(watcher)
+    await page.click("[data-tool=waypoint]")
+    for x, y in (grid.nearest_clear(19.0, 12.5), grid.nearest_clear(11.5, 2.0)):
+        sx, sy = await console.to_client(x, y)
+        await page.mouse.click(sx, sy)
+    await page.wait_for_function(
+        "() => document.querySelectorAll('#waypoint-list li').length === 2", timeout=10_000)
+    await page.evaluate("() => document.getElementById('patrol-start').click()")
+    await console.wait_data("#patrol-state", "active", "true", timeout=15)
+    await console.wait_data("#patrol-state", "target", "0")
+    other = await open_second(console, browser)
+    await other.close()  # B only watched
+    # the patrol goes on: the robot reaches waypoint 1 and heads for waypoint 2
+    await console.wait_data("#patrol-state", "target", "1", timeout=90)
+    assert await page.get_attribute("#patrol-state", "data-active") == "true"
+    other = await open_second(console, browser)
+    await other.locator("#map").focus()
+    await other.keyboard.down("ArrowUp")  # B drives: that takes the robot over
+    await console.wait_data("#patrol-state", "active", "false", timeout=15)
+    await other.keyboard.up("ArrowUp")
+    entry = page.locator("#log li.warning", has_text="taken over by a /cmd_vel")
+    await entry.first.wait_for(timeout=10_000)
+    assert "patrol" in await entry.first.text_content()
+    await other.close()
