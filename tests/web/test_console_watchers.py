@@ -96,3 +96,40 @@ async def test_a_patrol_outlives_a_watching_console_and_names_who_took_it_over(
     await entry.first.wait_for(timeout=10_000)
     assert "patrol" in await entry.first.text_content()
     await other.close()
+
+
+async def test_choosing_another_robot_never_stops_the_one_left(make_server, browser, tmp_path):
+    """Fleet: b runs a task; the operator clicks b's radio button, then a's. The page never
+    drove b, so leaving it sends no stop: b's task still succeeds, as the page lists it."""
+    from hitrobot_server.robot.options import RobotEntry
+
+    from ..helpers import Watcher
+    from ..nodes.test_fleet import dispatch, pose
+
+    y = 8.0
+    server = await make_server(
+        robots=(RobotEntry("a", "sim", (4.0, y, 0.0)), RobotEntry("b", "sim", (12.0, y, 0.0))),
+        sim_speed=1, map_dir=str(tmp_path / "maps"))
+    page = browser.pages[0] if browser.pages else await browser.new_page()
+    await page.goto(f"http://127.0.0.1:{server.port}/")
+    await page.wait_for_function("""() => {
+        const h = window.hitrobot;
+        return Boolean(h && h.view.mapBounds && h.ros.isConnected && h.fleet.robots.length === 2
+            && h.fleet.robots.every((r) => r.state === 'idle'));
+    }""", timeout=30_000)
+    w = await Watcher.open(server.port)
+    try:
+        got = await dispatch(w, target=pose(8.0, y), robot="b")
+        assert got["accepted"] and got["robot"] == "b", got
+        await page.locator("#fleet-tasks li[data-state=running]").wait_for(timeout=10_000)
+        for name in ("b", "a"):
+            await page.check(f"#fleet-robots input[value={name}]")
+            await page.wait_for_function(
+                "(n) => document.querySelector('#fleet-panel').dataset.selected === n",
+                arg=name)
+        done = page.locator("#fleet-tasks li[data-state=succeeded]")
+        await done.wait_for(timeout=40_000)
+        assert "(b)" in await done.text_content()
+        assert await page.locator("#fleet-tasks li[data-state=failed]").count() == 0
+    finally:
+        await w.close()
