@@ -11,7 +11,7 @@ import sys
 from . import __version__
 from .commands import run_command
 from .config import Settings, add_arguments, load
-from .signals import serve_until_terminated
+from .signals import remove_parent_dir, serve_until_terminated, until_stdin_closed
 
 TOOLS = {
     "conformance": "hitrobot_server.conformance.runner",
@@ -62,13 +62,22 @@ async def serve(settings: Settings) -> None:
     server = HitrobotServer(settings)
     loop = asyncio.get_running_loop()
     logging.getLogger(__name__).info("event loop: %s", type(loop).__module__.split(".")[0])
+    orphaned = False
+
+    async def parent_gone() -> None:
+        nonlocal orphaned
+        await until_stdin_closed()
+        orphaned = True
+
     try:
         if settings.worker_id is None:
             await _run(server)
         else:  # one of --workers: also stop when the parent is gone, even while starting
-            await _first(_run(server), until_stdin_closed())
+            await _first(_run(server), parent_gone())
     finally:
         await server.stop()
+        if orphaned:  # a kill -9'd parent left its folder (the workers' sockets) behind
+            remove_parent_dir()
 
 
 async def _run(server) -> None:
@@ -88,21 +97,6 @@ async def _first(*waits) -> None:
             task.cancel()
     for task in done:
         task.result()
-
-
-async def until_stdin_closed() -> None:
-    """Return when stdin reaches its end: a worker's stdin is a pipe from its parent."""
-    closed = asyncio.Event()
-
-    class Watch(asyncio.Protocol):
-        def connection_lost(self, exc: Exception | None) -> None:
-            closed.set()
-
-    transport, _ = await asyncio.get_running_loop().connect_read_pipe(Watch, sys.stdin)
-    try:
-        await closed.wait()
-    finally:
-        transport.close()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -13,8 +13,10 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import os
+import shutil
 import signal
 import socket
+import sys
 from collections.abc import Mapping
 
 
@@ -71,3 +73,37 @@ async def serve_until_terminated(status: str = "") -> None:
     finally:
         alive.cancel()
         notifier.notify("STOPPING=1")
+
+
+PARENT_DIR = "HITROBOT_PARENT_DIR"
+"""The environment variable a server sets for a process it starts with stdin a pipe from
+itself (a ``--workers`` worker, the console's replay): the parent's temporary folder, which
+the child removes if the parent dies without doing it (``kill -9``)."""
+
+
+async def until_stdin_closed() -> None:
+    """Return when stdin reaches its end: the stdin of a process a server started is a pipe
+    from it, which ends when the parent does (whatever killed it)."""
+    closed = asyncio.Event()
+
+    class Watch(asyncio.Protocol):
+        def connection_lost(self, exc: Exception | None) -> None:
+            closed.set()
+
+    transport, _ = await asyncio.get_running_loop().connect_read_pipe(Watch, sys.stdin)
+    try:
+        await closed.wait()
+    finally:
+        transport.close()
+
+
+def started_by_a_server() -> bool:
+    """Whether a server started this process and will hear of its end (:data:`PARENT_DIR`)."""
+    return bool(os.environ.get(PARENT_DIR))
+
+
+def remove_parent_dir() -> None:
+    """The parent died without removing its temporary folder: remove it for it."""
+    folder = os.environ.get(PARENT_DIR)
+    if folder:
+        shutil.rmtree(folder, ignore_errors=True)

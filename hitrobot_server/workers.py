@@ -33,7 +33,7 @@ from pathlib import Path
 from . import __version__
 from .bus.zenoh.keys import endpoints
 from .config import Settings
-from .signals import serve_until_terminated
+from .signals import PARENT_DIR, serve_until_terminated
 
 log = logging.getLogger(__name__)
 
@@ -153,7 +153,8 @@ class Supervisor:
         return args  # only worker 0 starts the robots (StartPlan.primary)
 
     async def _spawn(self, worker: Worker) -> None:
-        proc = await start_worker(self._command(worker), {METRICS_DIR: self._dir})
+        proc = await start_worker(self._command(worker), {METRICS_DIR: self._dir,
+                                                          PARENT_DIR: self._dir})
         worker.proc = proc
         worker.started = time.monotonic()
         try:

@@ -28,7 +28,7 @@ ALLOWED: dict[str, set[str]] = {
     "transport": {"session", "protocol", "types"},
     "nodes": {"bus", "robot", "protocol", "types", "tf_buffer", "procmem", "state"},
     # a bus tap and a player, like a node without robot
-    "record": {"wire", "bus", "protocol", "types"},
+    "record": {"wire", "bus", "protocol", "types", "signals"},
     "conformance": {"protocol", "types"},  # a client tool: it talks to servers over sockets
     # the top: assembles the floors, so it may import any of them
     "config": {"session", "transport", "bus", "nodes", "robot", "record", "protocol", "types",

@@ -105,3 +105,62 @@ def test_a_pool_process_whose_parent_is_already_gone_exits():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          timeout=60, env={**os.environ})
     assert out.returncode == 0 and "still here" not in out.stdout
+
+
+def state_dir_of(pid: int) -> Path:
+    """The ``--state-dir`` a process was started with (the replay's temporary folder)."""
+    argv = Path(f"/proc/{pid}/cmdline").read_bytes().decode().split("\0")
+    return Path(argv[argv.index("--state-dir") + 1])
+
+
+@pytest.mark.parametrize("end", ["graceful", "kill -9"])
+async def test_the_consoles_replay_and_its_folder_end_with_the_server(end, tmp_path):
+    """"Open replay" starts a replay server; whichever way the live one ends, the replay (and
+    its children) end too and its /tmp/hitrobot-replay-* folder goes."""
+    from .record.test_player import make_recording
+
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    await make_recording(folder / "r.mcap")
+    server = ServerProcess("--record-dir", str(folder))
+    try:
+        client = await WsClient.open(server.port)
+        try:
+            reply = await client.call("/record/replay", {"name": "r"}, timeout=60)
+            assert reply["result"] and reply["values"]["success"], reply
+        finally:
+            await client.close()
+        tree = descendants(server.proc.pid)
+        replay = [p for p in tree if b"replay" in Path(f"/proc/{p}/cmdline").read_bytes()]
+        assert len(replay) == 1, tree
+        state = state_dir_of(replay[0])
+        assert state.name.startswith("hitrobot-replay-") and state.is_dir()
+        if end == "kill -9":
+            server.kill()
+        else:
+            server.stop()
+        assert await until_some(lambda: not any(alive(p) for p in tree), 20), (
+            [(p, Path(f"/proc/{p}/cmdline").read_bytes()[:120]) for p in tree if alive(p)])
+        assert await until_some(lambda: not state.exists(), 10), list(state.iterdir())
+    finally:
+        server.stop()
+
+
+async def test_a_killed_workers_parent_leaves_no_folder(tmp_path):
+    """kill -9 of a --workers parent: its workers learn it from their stdin and remove its
+    /tmp/hitrobot-workers-* folder (the parent cannot)."""
+    server = ServerProcess("--workers", "2")
+    try:
+        wait_for_line(server, "(2 workers)")
+        workers = [p for p in children(server.proc.pid)
+                   if b"--worker-id" in Path(f"/proc/{p}/cmdline").read_bytes()]
+        assert len(workers) == 2, workers
+        environ = Path(f"/proc/{workers[0]}/environ").read_bytes().split(b"\0")
+        shared = Path(next(v.split(b"=", 1)[1] for v in environ
+                           if v.startswith(b"HITROBOT_METRICS_DIR=")).decode())
+        assert shared.name.startswith("hitrobot-workers-") and shared.is_dir()
+        server.kill()
+        assert await until_some(lambda: not any(alive(p) for p in workers), 20)
+        assert await until_some(lambda: not shared.exists(), 10), list(shared.iterdir())
+    finally:
+        server.stop()

@@ -166,17 +166,30 @@ function buildPanels({ ros, view, layers, navigator, currentRobot }) {
   return { pois, shell, teleop, robotState, robotActions, patrol, maps, diagnostics, inspector, fleet, zones };
 }
 
-/** The map tools: what a pick on the map does with each. */
+/** Where a robot is sent: a goal, a waypoint or a POI must stand where it fits (placement.js). */
+const PLACED = new Set(['goal', 'waypoint', 'poi']);
+
+/** The map tools: what a pick on the map does with each. A goal or a waypoint where the robot
+ * cannot stand is refused at once, before anything is sent (it would drive and then abort). */
 function buildTools({ view, state, navigator, panels, editor }) {
+  const refused = (what, x, y) => {
+    const problem = panels.pois.warning(x, y);
+    if (!problem) return false;
+    if (what === 'goal') navigator.show('rejected', `REFUSED → ${formatPose(x, y, 0)} — ${problem}`);
+    log('error', `${what} refused: ${problem}`);
+    return true;
+  };
   return new MapTools(view, (tool, pick) => {
     const facing = () => (state.pose
       ? Math.atan2(pick.y - state.pose.y, pick.x - state.pose.x) : 0);
-    if (tool === 'goal') navigator.sendGoal(pick.x, pick.y, pick.yaw ?? facing());
-    else if (tool === 'pose') navigator.setInitialPose(pick.x, pick.y, pick.yaw ?? (state.pose ? state.pose.yaw : 0));
+    if (tool === 'goal') {
+      if (!refused('goal', pick.x, pick.y)) navigator.sendGoal(pick.x, pick.y, pick.yaw ?? facing());
+    } else if (tool === 'pose') navigator.setInitialPose(pick.x, pick.y, pick.yaw ?? (state.pose ? state.pose.yaw : 0));
     else if (tool === 'poi') panels.pois.addAt(pick.x, pick.y, pick.yaw ?? 0);
-    else if (tool === 'waypoint') panels.patrol.add(pick.x, pick.y);
-    else editor.pick(tool, pick);
-  }, (tool, x, y) => (tool === 'poi' ? panels.pois.warning(x, y) : ''));
+    else if (tool === 'waypoint') {
+      if (!refused('waypoint', pick.x, pick.y)) panels.patrol.add(pick.x, pick.y);
+    } else editor.pick(tool, pick);
+  }, (tool, x, y) => (PLACED.has(tool) ? panels.pois.warning(x, y) : ''));
 }
 
 /** On and off line: nothing that sends works while the bridge is down. */

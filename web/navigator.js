@@ -144,8 +144,10 @@ export class Navigator {
     if (TERMINAL.has(code)) {
       this.cancelButton.disabled = true;
       this.marker.hide();
-      // a cancel the operator asked for is news, not a warning
-      const level = code === 3 || code === 2 || code === 8 ? 'info' : 'error';
+      // a cancel this page asked for is news, not a warning; one it did not (another client
+      // took the robot over, the server names who) is
+      const asked = goal.cancelAsked && (code === 2 || code === 8);
+      const level = code === 3 || asked ? 'info' : code === 2 || code === 8 ? 'warning' : 'error';
       log(level, `goal ${shown(name).toLowerCase()}${text}`);
     }
   }
@@ -231,6 +233,8 @@ export class Navigator {
       this.activity = null;
       this.cancelButton.disabled = true;
       this.show('idle', `Patrol stopped${state.message ? ` — ${fromOne(state.message)}` : ''}`);
+      // another client took the robot over (the server names who): a warning, not news
+      if (/taken over by/.test(state.message || '')) log('warning', `patrol ${state.message}`);
     }
   }
 
@@ -315,6 +319,7 @@ export class Navigator {
       this.activity.cancel();
       log('info', `${this.activity.label}: cancel requested`);
     } else if (this.goal) {
+      this.goal.cancelAsked = true;
       this.goal.cancel();
       log('info', 'goal cancel requested');
     } else {

@@ -1,14 +1,18 @@
 // Driving by hand: arrow keys (or W/A/S/D) and the on-screen pad publish geometry_msgs/Twist on
 // /cmd_vel ten times a second while held. Dead-man: releasing the keys, lifting or losing the
 // pointer, leaving the window or hiding the page sends a stop at once (and the server stops
-// the robot by itself half a second after the last command). On a fleet server it drives the
-// robot chosen in the fleet panel (currentrobot.js): /NAME/cmd_vel.
+// the robot by itself half a second after the last command) -- but only from the page that is
+// driving (it sent a non-zero command within the last second): a page that only watched sends
+// nothing, since on the robot any /cmd_vel, a stop too, supersedes the goal, patrol or task
+// someone else started. On a fleet server it drives the robot chosen in the fleet panel
+// (currentrobot.js): /NAME/cmd_vel.
 /* global ROSLIB */
 import { CurrentRobot } from './currentrobot.js';
 import { dialogOpen } from './dialogs.js';
 import { TOPICS } from './names.js';
 
 const PERIOD_MS = 100;
+const DRIVING_MS = 1000; // a page that sent a non-zero command this recently is the one driving
 const KEYS = {
   ArrowUp: 'fwd', ArrowDown: 'back', ArrowLeft: 'left', ArrowRight: 'right',
   w: 'fwd', s: 'back', a: 'left', d: 'right',
@@ -23,6 +27,7 @@ export class Teleop {
     this.pad = null;
     this.timer = null;
     this.moving = false;
+    this.droveAt = -Infinity; // when this page last sent a non-zero command
     this.state = document.getElementById('drive-state');
     this.lin = document.getElementById('lin-speed');
     this.ang = document.getElementById('ang-speed');
@@ -91,12 +96,18 @@ export class Teleop {
     this.update();
   }
 
-  /** Stop now: forget every held key and the pad. */
+  /** Stop now: forget every held key and the pad; a stop goes out only if this page is the
+   * one driving, so a watching page never cancels what another started. */
   release() {
     this.keys.clear();
     this.pad = null;
     for (const b of document.querySelectorAll('#pad .held')) b.classList.remove('held');
-    this.update(true);
+    this.update(this.driving());
+  }
+
+  /** Whether this page sent a non-zero command within the last second. */
+  driving() {
+    return performance.now() - this.droveAt < DRIVING_MS;
   }
 
   command() {
@@ -145,6 +156,7 @@ export class Teleop {
 
   publish(linear, angular) {
     if (document.body.classList.contains('offline')) return;
+    if (linear !== 0 || angular !== 0) this.droveAt = performance.now();
     this.topic.publish(new ROSLIB.Message({
       linear: { x: linear, y: 0, z: 0 }, angular: { x: 0, y: 0, z: angular },
     }));

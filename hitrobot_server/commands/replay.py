@@ -12,7 +12,7 @@ from ..record.player import MAX_SPEED, Player
 from ..record.reading import DEFAULT_MAX_INFLATED, load_recording
 from ..robots import start_plan
 from ..server import HitrobotServer
-from ..signals import until_terminated
+from ..signals import remove_parent_dir, started_by_a_server, until_stdin_closed, until_terminated
 from ..types.registry import TypeRegistry
 from . import run_command
 
@@ -63,6 +63,7 @@ async def serve(args: argparse.Namespace) -> None:
                     play=args.play)
     server.bus.clock = player.clock
     await server.start()
+    orphaned = False
     try:
         await player.start()
         print(server.banner(), flush=True)
@@ -71,11 +72,29 @@ async def serve(args: argparse.Namespace) -> None:
         print(f"{PROG}: {recording.path.name}, {recording.duration:.1f} s, "
               f"{len(recording.messages)} messages on {len(recording.tracks)} topics{cut}{wait}",
               flush=True)
-        await until_terminated()
+        if started_by_a_server():  # the console's replay: it ends with the live server
+            orphaned = await _until_terminated_or_orphaned()
+        else:
+            await until_terminated()
     finally:
         await player.stop()
         await server.stop()
         recording.close()
+    if orphaned:  # the live server died without removing this replay's folder
+        remove_parent_dir()
+
+
+async def _until_terminated_or_orphaned() -> bool:
+    """Until SIGTERM/Ctrl-C (False) or the end of stdin, a pipe from the server that started
+    this replay (True: that server is gone, however it died)."""
+    stop = asyncio.ensure_future(until_terminated())
+    gone = asyncio.ensure_future(until_stdin_closed())
+    try:
+        await asyncio.wait({stop, gone}, return_when=asyncio.FIRST_COMPLETED)
+    finally:
+        for task in (stop, gone):
+            task.cancel()
+    return gone.done() and not gone.cancelled()
 
 
 def main(argv: list[str] | None = None) -> int:

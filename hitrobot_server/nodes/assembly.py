@@ -17,6 +17,7 @@ from .demo import DemoServices
 from .diagnostics import DiagnosticsNode
 from .fleet import ChargePolicy, FleetMemberNode, FleetNode
 from .graph import GraphNodeService
+from .ground.claims import MotionClaims
 from .ground.messages import slamware_topic
 from .ground.parameters import serve_parameters
 from .intelligent_navigation import IntelligentNavigationNode
@@ -74,22 +75,27 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
     # move_base is handed the Slamware node's goal topic (/move_base_simple/goal) and runs its
     # simple goals as action goals, as ROS's move_base does; the Slamware node, always beside
     # it here, is told to leave them alone (simple_goals=False).
+    # They share who took the robot over with a /cmd_vel (claims): a goal, a navigation or a
+    # patrol it ended names them.
     goal_topic = settings.slamware.goal_topic
+    claims = MotionClaims()
     move_base = MoveBaseNode(bus, link, motion, localization, frame,
-                             simple_goal=slamware_topic(goal_topic) if goal_topic else None)
+                             simple_goal=slamware_topic(goal_topic) if goal_topic else None,
+                             claims=claims)
     mapfiles = MapFilesNode(bus, link, localization, settings)
     nodes = [
-        SlamwareNode(bus, robot, settings.slamware, simple_goals=False, state=state),
+        SlamwareNode(bus, robot, settings.slamware, simple_goals=False, state=state,
+                     claims=claims),
         ConventionalNode(bus, link, localization, frame),
         move_base,
         ShellNode(bus, robot, settings.authenticate, move_base.cancel_all),
         *([map_manager_of(bus, settings, robot, state)] if map_manager else []),
-        NavigationNode(bus, link, motion, localization),
+        NavigationNode(bus, link, motion, localization, claims),
         PointCloudNode(bus, link, robot.sensors, frame),
-        Nav2ActionsNode(bus, link, motion, localization, robot.sensors, frame),
+        Nav2ActionsNode(bus, link, motion, localization, robot.sensors, frame, claims),
         IntelligentNavigationNode(bus, robot, frame),
         mapfiles,
-        PatrolNode(bus, link, motion, localization, settings, mapfiles, state),
+        PatrolNode(bus, link, motion, localization, settings, mapfiles, state, claims),
         GraphNodeService(bus, link, motion, localization, settings, mapfiles, state),
         LocomotionNode(bus, link, robot.locomotion, robot.sensors, robot.power, settings,
                        mapfiles.loaded),

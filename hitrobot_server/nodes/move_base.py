@@ -58,6 +58,7 @@ from ..robot.model import MoveOptions, Point2D, Pose2D
 from ..robot.motion import GOAL_FLAGS, cancel_if_current, watch
 from .base import RobotNode
 from .ground import messages as m
+from .ground.claims import MotionClaims
 from .ground.messages import map_frames, pose2d_of
 from .ground.requests import require_robot, robot_error
 
@@ -181,13 +182,12 @@ class MoveBaseNode(RobotNode):
 
     def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
                  localization: LocalizationBackend, map_frame: str = "/map",
-                 server: str = "/move_base", simple_goal: str | None = None):
+                 server: str = "/move_base", simple_goal: str | None = None,
+                 claims: MotionClaims | None = None):
         super().__init__(bus, server, link)
-        self.motion = motion
-        self.localization = localization
-        self.server = server
-        self.map_frame = map_frame
-        self.frames = map_frames(map_frame)
+        self.claims = claims or MotionClaims()  # who took the robot over from a goal
+        self.motion, self.localization, self.server = motion, localization, server
+        self.map_frame, self.frames = map_frame, map_frames(map_frame)
         self.goals: dict[str, Goal] = {}
         self.current: Goal | None = None
         self._lock = asyncio.Lock()  # one robot command at a time, in arrival order
@@ -327,7 +327,7 @@ class MoveBaseNode(RobotNode):
         elif end.kind == motion.FAILED:
             self._finish(goal, ABORTED, end.reason)
         elif end.kind == motion.PREEMPTED:  # cancelled or replaced on the robot, not through us
-            self._finish(goal, PREEMPTED, end.reason)
+            self._finish(goal, PREEMPTED, self.claims.why_ended(goal.action_id, end.reason))
 
     def _stop_watching(self, goal: Goal) -> None:
         task = goal.task

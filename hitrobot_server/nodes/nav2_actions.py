@@ -68,6 +68,7 @@ from ..robot.model import (
 from ..robot.motion import drive
 from .base import RobotNode
 from .ground import messages as m
+from .ground.claims import MotionClaims
 from .ground.messages import GoalRejected, goal_pose, map_frames, pose_stamped, rejected
 from .ground.names import COMPUTE_PATH, FOLLOW_PATH
 from .ground.requests import NOT_CONNECTED
@@ -190,9 +191,10 @@ class Nav2ActionsNode(RobotNode):
 
     def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
                  localization: LocalizationBackend, sensors: SensorBackend,
-                 map_frame: str = "/map"):
+                 map_frame: str = "/map", claims: MotionClaims | None = None):
         super().__init__(bus, "/nav2_actions", link)
         self.motion = motion
+        self.claims = claims or MotionClaims()  # who took the robot over from a path
         self.localization = localization
         self.sensors = sensors
         self.map_frame = map_frame
@@ -286,12 +288,20 @@ class Nav2ActionsNode(RobotNode):
                 "speed": abs(odometry.twist.vx),
             })
 
-        end = await drive(self.motion, handle.cancelled,
-                          lambda: self.motion.move_to(targets, options, planar[-1].yaw),
-                          self.sensors.get_odometry, on_poll)
+        started: list[int] = []
+
+        async def start() -> ActionInfo:
+            action = await self.motion.move_to(targets, options, planar[-1].yaw)
+            started.append(action.action_id)
+            return action
+
+        end = await drive(self.motion, handle.cancelled, start, self.sensors.get_odometry,
+                          on_poll)
         if end.kind == "succeeded":
             handle.feedback({"distance_to_goal": 0.0, "speed": 0.0})
             return GoalOutcome(STATUS_SUCCEEDED, {"result": {}}, True)
         if end.kind == "canceled":
             return GoalOutcome(STATUS_CANCELED, {"result": {}}, True)
+        if end.kind == "preempted" and (by := self.claims.taken_by(started[-1])):
+            return GoalOutcome(STATUS_ABORTED, f"follow_path: taken over by {by}", False)
         return GoalOutcome(STATUS_ABORTED, f"follow_path: {end.reason}", False)

@@ -30,6 +30,7 @@ from ..robot.model import ActionResult, MoveOptionFlag, MoveOptions, Point2D, Re
 from ..robot.motion import follow
 from .base import RobotNode, require_finite
 from .ground import messages as m
+from .ground.claims import MotionClaims
 from .ground.pois import find_poi
 from .ground.requests import answer, require_robot
 
@@ -71,9 +72,10 @@ class NavigationNode(RobotNode):
     GLOBAL_NAMES = (NODE_NAME,)
 
     def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
-                 localization: LocalizationBackend):
+                 localization: LocalizationBackend, claims: MotionClaims | None = None):
         super().__init__(bus, NODE_NAME, link)
         self.motion = motion
+        self.claims = claims or MotionClaims()  # who took the robot over from a navigation
         self.localization = localization
         self.advertise(UNREACHABLE_TOPIC, f"{PKG}/TargetUnreachable")
         self.subscribe(START_TOPIC, f"{PKG}/StartNavigation", self._on_start)
@@ -140,6 +142,8 @@ class NavigationNode(RobotNode):
                 why = action.reason or "unknown"
                 self.publish(UNREACHABLE_TOPIC, {"reason": unreachable_reason(why)})
                 reply.fail(f"{what}: target unreachable: {why}")
+            elif by := self.claims.taken_by(action.action_id):  # someone took the robot over
+                reply.warn(f"{what}: taken over by {by}")
             else:  # cancelled or superseded by another motion: not an error
                 reply.info(f"{what}: {action.reason or 'cancelled'}")
 

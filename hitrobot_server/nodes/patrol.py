@@ -44,6 +44,7 @@ from ..robot.model import ActionInfo, ActionResult, Point2D
 from ..robot.motion import cancel_if_current, follow
 from ..state import StateBinding
 from .base import RobotNode
+from .ground.claims import MotionClaims
 from .ground.loadedmap import ROUTE_FILE, MapDefaults
 from .ground.memory import NodeMemory
 from .ground.namedfiles import FileError, NamedFiles, dump_yaml, list_reply, load_yaml, number
@@ -175,8 +176,10 @@ class Patrol:
 
     def __init__(self, motion: MotionBackend, link: Link,
                  route: Route, changed: Callable[[], None],
-                 spawn: Callable[[Coroutine[Any, Any, None]], asyncio.Task]) -> None:
+                 spawn: Callable[[Coroutine[Any, Any, None]], asyncio.Task],
+                 claims: MotionClaims | None = None) -> None:
         self.motion = motion
+        self.claims = claims or MotionClaims()  # who took the robot over from the patrol
         self.link = link
         self._route = route
         self._changed = changed
@@ -250,7 +253,9 @@ class Patrol:
                         self._end(f"stopped: no waypoint is reachable ({final.reason})")
                         return
                 else:
-                    self._end(f"stopped: the robot's action ended ({final.reason or 'aborted'})")
+                    by = self.claims.taken_by(final.action_id)
+                    self._end(f"stopped: taken over by {by}" if by else
+                              f"stopped: the robot's action ended ({final.reason or 'aborted'})")
                     return
                 index = (index + 1) % len(self._route.waypoints)
                 if index == first % len(self._route.waypoints):
@@ -270,7 +275,8 @@ class PatrolNode(RobotNode):
 
     def __init__(self, bus: Bus, link: Link, motion: MotionBackend,
                  localization: LocalizationBackend, settings: NodeOptions,
-                 mapfiles: MapDefaults, state: StateBinding | None = None):
+                 mapfiles: MapDefaults, state: StateBinding | None = None,
+                 claims: MotionClaims | None = None):
         super().__init__(bus, NS, link)
         self.localization = localization
         self.mapfiles = mapfiles
@@ -279,7 +285,7 @@ class PatrolNode(RobotNode):
             log.info("routes: removed leftovers of interrupted saves: %s", ", ".join(removed))
         self.map_frames_extra = frozenset({"map", settings.slamware.map_frame.lstrip("/")})
         self.route = Route(NodeMemory(state, "patrol"))
-        self.patrol = Patrol(motion, link, self.route, self._publish, self.spawn)
+        self.patrol = Patrol(motion, link, self.route, self._publish, self.spawn, claims)
         self.advertise(STATE_TOPIC, f"{PKG}/PatrolState", latch=True)
         for name, type_name, handler in [
             ("list_waypoints_files", "ListWaypointsFiles", self._list),

@@ -8,6 +8,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import os
 import re
 import shutil
 import sys
@@ -16,6 +17,7 @@ from pathlib import Path
 
 from ..bus.core import Bus
 from ..bus.errors import ServiceError
+from ..signals import PARENT_DIR
 from .names import recording_name
 
 log = logging.getLogger(__name__)
@@ -71,7 +73,10 @@ class ReplayLauncher:
             "--tcp-port", "0", "--address", self.address, "--robot", "none",
             "--state-dir", self._state_dir, "--record-dir", str(self.folder),
             "--black-box", "0",  # a config file's black box is the live server's, not this
-            stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.STDOUT)
+            # stdin a pipe from us: its end (we died, even by kill -9) stops the replay, which
+            # then removes its folder (PARENT_DIR) and its own children die with it
+            stdin=asyncio.subprocess.PIPE, stdout=asyncio.subprocess.PIPE,
+            stderr=asyncio.subprocess.STDOUT, env={**os.environ, PARENT_DIR: self._state_dir})
         try:
             port = await asyncio.wait_for(self._banner(), START_TIMEOUT)
         except (TimeoutError, ValueError) as exc:

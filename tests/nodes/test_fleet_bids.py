@@ -55,3 +55,30 @@ def test_equal_finishes_go_to_the_first_name():
     offers, _ = bids(task, [Bidder("b", 50.0, 0.0), Bidder("a", 50.0, 0.0)],
                      [(1.0, PATH, ""), (1.0, PATH, "")], POLICY)
     assert winner(offers).robot == "a"
+
+
+def test_a_robot_below_the_threshold_charges_before_a_task_however_short():
+    """alpha at 24 % ("below 25 %: charges once free") beside the task, beta at 77 % farther:
+    alpha's bid counts its charge, so beta takes it (a re-offer after a failure and a
+    schedule's dispatch bid the same way)."""
+    task = goto(5.0, 0.0)
+    robots = [Bidder("alpha", 24.0, 0.0), Bidder("beta", 77.0, 0.0)]
+    alpha, beta = bids(task, robots, [(1.0, PATH, ""), (10.0, PATH, "")], POLICY)[0]
+    assert alpha.charge and alpha.finish == 1.0 / 0.5 + (90.0 - 24.0) / 0.25
+    assert not beta.charge and beta.finish == 10.0 / 0.5
+    assert winner([alpha, beta]).robot == "beta"
+    assert "charges first" in alpha.why(POLICY)
+
+
+def test_a_charging_robot_bids_with_the_rest_of_its_charge():
+    """A robot on its dock at 50 % takes no task before 90 %: its bid waits for that, so an
+    idle robot farther away wins instead of the task queuing behind the charge."""
+    task = goto(5.0, 0.0)
+    robots = [Bidder("alpha", 50.0, 0.0, charging=True), Bidder("beta", 77.0, 0.0)]
+    alpha, beta = bids(task, robots, [(1.0, PATH, ""), (10.0, PATH, "")], POLICY)[0]
+    assert alpha.charge and alpha.finish == 1.0 / 0.5 + (90.0 - 50.0) / 0.25
+    assert winner([alpha, beta]).robot == "beta"
+    # at charge_until the charge is done: nothing more to wait for
+    (done,), _ = bids(task, [Bidder("alpha", 90.0, 0.0, charging=True)], [(1.0, PATH, "")],
+                      POLICY)
+    assert done.finish == 1.0 / 0.5 and not done.charge

@@ -100,6 +100,44 @@ async def test_a_low_robot_charges_on_its_own_and_new_work_goes_to_the_other(mak
         await w.close()
 
 
+async def test_a_task_does_not_queue_behind_a_charge_while_another_robot_is_idle(make_server,
+                                                                                tmp_path):
+    """a is on its dock at 50 %, charging to 90 %: a task beside it goes to b, idle and
+    farther, at once (it used to be queued for a "(finishes first)", behind the charge; a
+    schedule's dispatch and a re-offer after a failure bid the same way)."""
+    _server, w = await fleet(make_server, tmp_path, ("a", 4.0, Y), ("b", 14.0, Y), speed=4.0)
+    try:
+        await battery(w, "a", 20.0)
+        await w.until(lambda: robots(w)["a"]["state"] == "charging", 40, "a on its dock")
+        await battery(w, "a", 50.0)  # above the threshold; its charge goes on to 90 %
+        charge = next(t for t in tasks(w) if t["kind"] == "charge" and t["robot"] == "a")
+        assert state(w, charge["id"]) == "running"
+        got = await dispatch(w, target=pose(5.0, Y))
+        assert got["accepted"] and got["robot"] == "b", got
+        assert "charges first" in got["message"], got
+        await w.until(lambda: state(w, got["task"]) == "succeeded", 40, "b arriving")
+    finally:
+        await w.close()
+
+
+async def test_a_task_a_cmd_vel_took_over_names_who(make_server, tmp_path):
+    """b's task ended by someone driving b by hand: the task says who took b over (it used to
+    say only "superseded by a new action")."""
+    _server, w = await fleet(make_server, tmp_path, ("a", 4.0, Y), ("b", 14.0, Y), speed=1.0)
+    try:
+        got = await dispatch(w, target=pose(8.0, Y), robot="b")
+        assert got["robot"] == "b", got
+        await w.until(lambda: state(w, got["task"]) == "running", 10, "b on its way")
+        await w.until(lambda: robots(w)["b"]["state"] != "idle", 10, "b moving")
+        await w.publish("/b/cmd_vel", {"linear": {"x": 0.2, "y": 0.0, "z": 0.0},
+                                       "angular": {"x": 0.0, "y": 0.0, "z": 0.0}},
+                        "geometry_msgs/Twist")
+        await w.until(lambda: "taken over by a /cmd_vel from" in
+                      (task(w, got["task"]) or {}).get("message", ""), 15, "who took b over")
+    finally:
+        await w.close()
+
+
 async def test_bids_say_why_and_a_battery_that_would_not_last_charges_first(make_server,
                                                                             tmp_path):
     _server, w = await fleet(make_server, tmp_path, ("a", 4.0, Y), ("b", 12.0, Y))

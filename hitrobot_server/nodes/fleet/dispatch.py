@@ -151,9 +151,15 @@ class Dispatcher:
         the plans, then :func:`.policy.bids` on a snapshot of the robots."""
         plans = await asyncio.gather(*(self.runner.plan(
             r["name"], task.target(), self._end_of_work(r["name"])) for r in robots))
-        bidders = [Bidder(r["name"], r["battery"], self._busy_seconds(r["name"]))
-                   for r in robots]
+        bidders = [Bidder(r["name"], r["battery"], self._busy_seconds(r["name"]),
+                          self._charging(r)) for r in robots]
         return offers_for(task, bidders, plans, self.policy)
+
+    def _charging(self, robot: dict) -> bool:
+        """A charge task open for it: a charge not finished (a robot merely resting on its
+        dock is not charging by the policy)."""
+        return any(t.kind == CHARGE and t.open and robot["name"] in (t.robot, t.assigned)
+                   for t in self.board.tasks.values())
 
     def _work(self, robot: str) -> list[Task]:
         return [t for t in self.board.tasks.values() if t.open and (

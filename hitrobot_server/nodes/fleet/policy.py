@@ -38,6 +38,16 @@ class ChargePolicy:
     def lasts(self, battery: float, metres: float) -> bool:
         return battery - self.needed(metres) >= self.reserve
 
+    def charges_first(self, robot: Bidder, metres: float) -> bool:
+        """The charging rule of every bid (a first dispatch, a schedule's, a re-offer after a
+        failure): a robot charges before a task of ``metres`` if it is charging now (until
+        :attr:`charge_until`), is below :attr:`charge_below` (it charges once free), or would
+        not last the task with its reserve. Its finish counts the charge, so a robot that can
+        go now wins over one that must charge first."""
+        return (robot.charging and robot.battery < self.charge_until
+                or robot.battery < self.charge_below
+                or not self.lasts(robot.battery, metres))
+
     def charge_time(self, battery: float) -> float:
         """Seconds on the dock from ``battery`` to :attr:`charge_until`."""
         return max(0.0, self.charge_until - battery) / self.charge_rate
@@ -64,12 +74,14 @@ class Bid:
 
 @dataclass(frozen=True)
 class Bidder:
-    """A robot as the bids see it: its name, its battery (%) and the seconds of work it has
-    before this task (its running and reserved tasks)."""
+    """A robot as the bids see it: its name, its battery (%), the seconds of work it has
+    before this task (its running and reserved tasks) and whether it is charging (a charge
+    not finished: it takes no task before :attr:`ChargePolicy.charge_until`)."""
 
     name: str
     battery: float
     busy: float
+    charging: bool = False
 
 
 def bids(task: Task, robots: Sequence[Bidder], plans: Sequence[Plan],
@@ -85,7 +97,7 @@ def bids(task: Task, robots: Sequence[Bidder], plans: Sequence[Plan],
             refusals.append(f"{robot.name}: {reason}")
             continue
         total = length + rest
-        charge = not policy.lasts(robot.battery, total)
+        charge = policy.charges_first(robot, total)
         finish = robot.busy + total / policy.speed + dwell
         if charge:
             finish += policy.charge_time(robot.battery)

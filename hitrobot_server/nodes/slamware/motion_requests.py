@@ -3,6 +3,9 @@ rotations, going home, cancelling, setting the pose and recovering localization.
 
 from __future__ import annotations
 
+import math
+import time
+
 from ...bus.topics import Message, RequestRejected
 from ...robot.backend import ACTION_PREFIX
 from ...robot.capabilities import Robot
@@ -11,17 +14,26 @@ from ...robot.motion import GOAL_FLAGS
 from ...robot.relocalization import GOOD_QUALITY, settled_quality
 from ..base import require_finite
 from ..ground import messages as m
+from ..ground.claims import MotionClaims, who
 from ..ground.slamware_params import SlamwareParams
 from .fields import enum_field, move_options, point, quaternion_yaw
 from .runner import Request, Runner
 from .topics import PKG
 
+VELOCITY_ACTION = "VelocityControlAction"
+"""What a robot calls the action ``/cmd_vel`` runs (a drive superseding a drive takes nothing
+over)."""
+DRIVE_GAP = 0.25
+"""s: commands this close together are one drive (publishers send at 10 Hz or more)."""
+
 
 class MotionRequests:
     """Moves the robot (through the locomotion gate) as the real node's request topics ask."""
 
-    def __init__(self, runner: Runner, robot: Robot):
+    def __init__(self, runner: Runner, robot: Robot, claims: MotionClaims | None = None):
         self.runner, self.robot = runner, robot
+        self.claims = claims or MotionClaims()
+        self._drove_at = -math.inf
 
     def requests(self, p: SlamwareParams, simple_goals: bool = True) -> list[Request]:
         """The request topics; ``simple_goals`` False leaves ``goal_topic`` to move_base."""
@@ -45,8 +57,19 @@ class MotionRequests:
         t = message.msg
         require_finite("linear.x", t["linear"]["x"])
         require_finite("angular.z", t["angular"]["z"])
-        self.runner.run(message, "cmd_vel", lambda: self.robot.motion.set_velocity(
-            t["linear"]["x"], t["angular"]["z"]))
+        linear, angular = t["linear"]["x"], t["angular"]["z"]
+        motion = self.robot.motion
+
+        async def drive() -> None:
+            # who ended the running action, asked once per drive (not of every command of it)
+            if time.monotonic() - self._drove_at > DRIVE_GAP:
+                running = await motion.get_current_action()
+                if running is not None and not running.action_name.endswith(VELOCITY_ACTION):
+                    self.claims.took_over(running.action_id, who(message.origin, "a /cmd_vel"))
+            self._drove_at = time.monotonic()
+            await motion.set_velocity(linear, angular)
+
+        self.runner.run(message, "cmd_vel", drive)
 
     def _on_goal(self, message: Message) -> None:
         p = message.msg["pose"]

@@ -19,6 +19,7 @@ from ...robot.capabilities import Robot
 from ...state import StateBinding
 from ..base import RobotNode
 from ..ground import messages as m
+from ..ground.claims import MotionClaims
 from ..ground.memory import NodeMemory
 from ..ground.names import TF
 from ..ground.slamware_params import SlamwareParams
@@ -36,10 +37,13 @@ class SlamwareNode(RobotNode):
     GLOBAL_NAMES = global_names(SlamwareParams())
 
     def __init__(self, bus: Bus, robot: Robot, params: SlamwareParams | None = None, *,
-                 simple_goals: bool = True, state: StateBinding | None = None):
+                 simple_goals: bool = True, state: StateBinding | None = None,
+                 claims: MotionClaims | None = None):
         """``simple_goals``: drive the goals of ``goal_topic`` itself, as the real node does;
         False when a ``/move_base`` node beside it takes them (the assembly decides).
-        ``state``: the robot's state folder (the extent of a cleared map is kept there)."""
+        ``state``: the robot's state folder (the extent of a cleared map is kept there).
+        ``claims``: where a ``/cmd_vel`` that takes the robot over is noted (shared with the
+        nodes whose goals it may end)."""
         super().__init__(bus, NODE_NAME, robot.link)
         self.robot = robot
         p = self.params = params or SlamwareParams()
@@ -53,7 +57,7 @@ class SlamwareNode(RobotNode):
         self.publishers = Publishers(self, robot, p, self.topics, self.map_copy)
         runner = Runner(self, robot.motion)
         self.map_requests = MapRequests(runner, robot, self.map_copy)
-        motion = MotionRequests(runner, robot).requests(p, simple_goals)
+        motion = MotionRequests(runner, robot, claims).requests(p, simple_goals)
         for topic, type_name, handler in (*motion, *self.map_requests.requests()):
             self.subscribe(m.slamware_topic(topic), type_name, handler)
         self.service(m.slamware_topic("sync_get_stcm"), f"{PKG}/SyncGetStcm",
