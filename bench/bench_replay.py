@@ -22,7 +22,6 @@ import os
 import struct
 import subprocess
 import sys
-import tarfile
 import tempfile
 import time
 from pathlib import Path
@@ -30,6 +29,9 @@ from pathlib import Path
 from mcap.writer import CompressionType, Writer
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_footprint import code_of  # noqa: E402  (a sibling script: one way to check out a revision)
+
 BLOB = 256 << 10
 TIMEOUT = 600.0
 
@@ -104,15 +106,6 @@ def run(path: Path, count: int, code: Path) -> str:
             return (f"open {float(opened):7.3f} s | RSS base {base:>4} MB, after open "
                     f"{after:>5} MB, peak {peak:>5} MB | played {got} in {played} s")
     return "failed: " + (out.stderr.strip().splitlines() or ["?"])[-1]
-
-
-def code_of(rev: str, folder: Path) -> Path:
-    archive = folder / "code.tar"
-    subprocess.run(["git", "-C", str(ROOT), "archive", "-o", str(archive), rev,
-                    "hitrobot_server", "schemas"], check=True)
-    with tarfile.open(archive) as tar:
-        tar.extractall(folder / "code", filter="data")
-    return folder / "code"
 
 
 def main() -> None:
