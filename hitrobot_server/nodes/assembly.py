@@ -167,9 +167,10 @@ NODE_CLASSES: tuple[type[Node], ...] = (
     TFRepublisherNode, DemoServices, DiagnosticsNode, FleetNode, FleetMemberNode, SlamwareNode,
     ConventionalNode, MoveBaseNode, ShellNode, MapManager, NavigationNode, PointCloudNode,
     Nav2ActionsNode, IntelligentNavigationNode, MapFilesNode, PatrolNode, GraphNodeService,
-    LocomotionNode, SimControlsNode,
+    LocomotionNode, SimControlsNode, Rosapi,
 )
-"""Every node class the assembly makes (rosapi's names are the bus's site-wide ones)."""
+"""Every node class the assembly makes (rosapi's services are the bus's site-wide names; its
+class declares roscore's parameters)."""
 BESIDE_THE_NODES = ("/record", "/recorder", "/replay", "/replay_launcher", "/black_box")
 """Global names served beside the nodes, by the recorder and the player (``record/``, which
 the nodes may not import; a test checks these are still theirs)."""
