@@ -119,7 +119,10 @@ class RestHttp:
                 self._send(method, path, query, None, None, timeout, bound))
             self._inflight[key] = task
             task.add_done_callback(lambda t, k=key: self._finished(k, t))
-        return await asyncio.shield(task)
+        try:
+            return await asyncio.shield(task)
+        finally:
+            del task  # else the task's exception, its traceback and this frame form a cycle
 
     def _finished(self, key: tuple, task: asyncio.Task) -> None:
         if self._inflight.get(key) is task:
@@ -146,9 +149,9 @@ class RestHttp:
                 async with session.request(method, self.base_url + path, **kwargs) as resp:
                     try:
                         body = await read_bounded(resp, bound)
-                    except BodyTooLarge as exc:
+                    except BodyTooLarge:
                         resp.close()  # the rest is never read: drop the connection
-                        raise BodyTooLarge(f"{method} {path}: {exc}") from None
+                        raise
                     if not resp.content.is_eof():
                         resp.close()  # a map's bytes past what its header declares
                     return Reply(resp.status, resp.content_type, body)
@@ -163,28 +166,35 @@ async def read_bounded(resp: aiohttp.ClientResponse, bound: Bound) -> bytes:
     stated = resp.content_length
     if stated is not None and stated > bound.most:
         raise BodyTooLarge(f"the answer states {stated} bytes, over the bound of {bound.most}")
-    body = bytearray()
     most = bound.most
-    if bound.sized is not None:
-        await _read_into(resp.content, body, bound.head)
-        try:
-            most = min(most, bound.sized(bytes(body)))
-        except ValueError as exc:
-            raise BodyTooLarge(str(exc)) from None
-        if len(body) >= most:  # a header-only answer, or no more than it declares
-            return bytes(body[:most])
-        await _read_into(resp.content, body, most)
-        return bytes(body)
-    await _read_into(resp.content, body, most + 1)
-    if len(body) > most:
+    if bound.sized is None:
+        body = await _read(resp.content, most + 1)
+        if len(body) <= most:
+            return body
+        del body  # the exception's frames must not keep the bytes alive
         raise BodyTooLarge(f"the answer runs past the bound of {most} bytes")
-    return bytes(body)
+    head = await _read(resp.content, bound.head)
+    try:
+        most = min(most, bound.sized(head))
+    except ValueError as exc:
+        raise BodyTooLarge(str(exc)) from None
+    if len(head) >= most:  # a header-only answer, or no more than it declares
+        return head[:most]
+    return head + await _read(resp.content, most - len(head))
 
 
-async def _read_into(content: aiohttp.StreamReader, body: bytearray, size: int) -> None:
-    """Read into ``body`` until it holds ``size`` bytes or the body ends."""
-    while len(body) < size:
-        chunk = await content.read(min(CHUNK, size - len(body)))
-        if not chunk:
-            return
-        body += chunk
+async def _read(content: aiohttp.StreamReader, size: int) -> bytes:
+    """Up to ``size`` bytes (fewer when the body ends first), joined once at the end."""
+    chunks: list[bytes] = []
+    got = 0
+    try:
+        while got < size:
+            chunk = await content.read(min(CHUNK, size - got))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            got += len(chunk)
+    except BaseException:
+        chunks.clear()  # a timeout's traceback must not keep what was read
+        raise
+    return b"".join(chunks)

@@ -27,7 +27,7 @@ from . import paths
 
 MiB = 1024 * 1024
 JSON_LIMIT = 1 * MiB
-LIST_LIMIT = 8 * MiB
+LIST_LIMIT = 2 * MiB
 STCM_LIMIT = 64 * MiB
 MAX_MAP_CELLS = 8192 * 8192
 """64 Mi cells: a 409.6 m square at 5 cm. A map region, or the known area, over it is refused."""
