@@ -170,17 +170,28 @@ class RestLink(Link):
                                              params=params, json=json, data=data,
                                              bound=bound_of(path))
         except BodyTooLarge as exc:
-            self._last_ok = time.monotonic()  # it answered, too much
-            raise self.refused(method, path, str(exc)) from None
+            text, timed_out = str(exc), None
         except TransportError as exc:
-            silent = time.monotonic() - self._last_ok
-            if not exc.timed_out or silent > 2.0 * self.timeout:
-                self.lose(f"{method} {path}: {exc}")
-            if not self._connected:
-                raise NotConnectedError(f"{method} {path}: {exc}") from None
-            raise BackendError(f"{method} {path}: {exc}") from None
-        self._last_ok = time.monotonic()
-        return reply
+            text, timed_out = str(exc), exc.timed_out
+        else:
+            self._last_ok = time.monotonic()
+            return reply
+        # raised out here from words only, so the error carries neither the failure's
+        # frames nor what they had read
+        raise self._failed(method, path, text, timed_out)
+
+    def _failed(self, method: str, path: str, text: str,
+                timed_out: bool | None) -> BackendError:
+        """The error for a body over its bound (``timed_out`` None) or a transport failure."""
+        if timed_out is None:
+            self._last_ok = time.monotonic()  # it answered, too much
+            return self.refused(method, path, text)
+        silent = time.monotonic() - self._last_ok
+        if not timed_out or silent > 2.0 * self.timeout:
+            self.lose(f"{method} {path}: {text}")
+        if not self._connected:
+            return NotConnectedError(f"{method} {path}: {text}")
+        return BackendError(f"{method} {path}: {text}")
 
     async def json(self, method: str, path: str, *, missing_ok: bool = False,
                    timeout: float | None = None, params: dict[str, Any] | None = None,

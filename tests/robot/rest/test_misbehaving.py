@@ -1,8 +1,9 @@
 """A robot that answers badly (issue 52, item 3): the server talks to a sim-device through a
-proxy that can be switched between behaving, HTTP 500, invalid JSON, 200 MB bodies and absurd
-map sizes. The server reads each answer only up to its endpoint's bound, says what is wrong
-on ``/diagnostics_agg`` and ``/healthz``, keeps its other clients served and its memory, and
-publishes the map again once the robot behaves."""
+proxy in its own process (:mod:`.misbehaving_robot`) that can be switched between behaving,
+HTTP 500, invalid JSON, 200 MB bodies and absurd map sizes. The server reads each answer only
+up to its endpoint's bound, says what is wrong on ``/diagnostics_agg`` and ``/healthz``,
+keeps its other clients served and its memory, and publishes the map again once the robot
+behaves."""
 
 from __future__ import annotations
 
@@ -10,16 +11,18 @@ import asyncio
 import json
 import os
 import struct
-import threading
+import sys
+from pathlib import Path
 
 import aiohttp
-from aiohttp import web
+import numpy as np
+import pytest
 
 from hitrobot_server import procmem
 from hitrobot_server.nodes.options import SlamwareParams
-from hitrobot_server.robot.device import SimDevice
-from hitrobot_server.robot.factory import build_simulator
-from hitrobot_server.robot.rest import paths
+from hitrobot_server.robot.backend import BackendError
+from hitrobot_server.robot.model import MapRegion, Rect
+from hitrobot_server.robot.rest import limits, mapformat, paths
 
 from ...helpers import Watcher
 from ...transport.test_http import http
@@ -27,91 +30,47 @@ from ...witness import MemoryPeak, RoundTrips
 
 NS = "/slamware_ros_sdk_server_node"
 MAP = f"{NS}/map"
-HUGE = 200 * 1024 * 1024
-CHUNK = b"7" * 65536
 MiB = 1024 * 1024
+ROOT = Path(__file__).resolve().parents[3]
 
 
-class MisbehavingRobot:
-    """A sim-device behind a proxy, both on their own event loop in a thread (so what they
-    cost is not the server's loop). :attr:`mode` says how the proxy answers every request."""
+class RobotProcess:
+    """:mod:`.misbehaving_robot` in its own process, switched over its control endpoints."""
 
-    def __init__(self) -> None:
-        self.mode = "behave"
-        self.url = ""
-        self.bad_answers = 0
-        self._loop = asyncio.new_event_loop()
-        self._thread = threading.Thread(target=self._loop.run_forever, daemon=True)
-        self._device: SimDevice | None = None
-        self._runner: web.AppRunner | None = None
-        self._session: aiohttp.ClientSession | None = None
+    def __init__(self, proc: asyncio.subprocess.Process, url: str):
+        self.proc, self.url = proc, url
 
-    async def start(self) -> None:
-        self._thread.start()
-        await asyncio.wrap_future(asyncio.run_coroutine_threadsafe(self._start(), self._loop))
+    @classmethod
+    async def start(cls) -> RobotProcess:
+        proc = await asyncio.create_subprocess_exec(
+            sys.executable, "-m", "tests.robot.rest.misbehaving_robot", cwd=ROOT,
+            stdin=asyncio.subprocess.PIPE, stdout=asyncio.subprocess.PIPE)
+        assert proc.stdout is not None
+        line = await asyncio.wait_for(proc.stdout.readline(), 30)
+        assert line.startswith(b"http://127.0.0.1:"), line
+        return cls(proc, line.decode().strip())
+
+    async def _call(self, method: str, path: str, body: str = "") -> str:
+        timeout = aiohttp.ClientTimeout(total=10)
+        async with aiohttp.ClientSession(timeout=timeout) as http_, http_.request(
+                method, self.url + path, data=body) as resp:
+            assert resp.status == 200, resp.status
+            return await resp.text()
+
+    async def mode(self, mode: str) -> None:
+        await self._call("PUT", "/mode", mode)
+
+    async def bad_answers(self) -> int:
+        return int(await self._call("GET", "/bad"))
 
     async def stop(self) -> None:
-        await asyncio.wrap_future(asyncio.run_coroutine_threadsafe(self._stop(), self._loop))
-        self._loop.call_soon_threadsafe(self._loop.stop)
-        self._thread.join(5)
-
-    async def _start(self) -> None:
-        self._device = SimDevice(build_simulator(), port=0, time_scale=4.0)
-        await self._device.start()
-        self._session = aiohttp.ClientSession()
-        app = web.Application(client_max_size=64 * MiB)
-        app.router.add_route("*", "/{tail:.*}", self._answer)
-        self._runner = web.AppRunner(app, access_log=None, shutdown_timeout=0.5)
-        await self._runner.setup()
-        site = web.TCPSite(self._runner, "127.0.0.1", 0)
-        await site.start()
-        port = site._server.sockets[0].getsockname()[1]  # type: ignore[union-attr]
-        self.url = f"http://127.0.0.1:{port}"
-
-    async def _stop(self) -> None:
-        assert self._runner and self._session and self._device
-        await self._runner.cleanup()
-        await self._session.close()
-        await self._device.stop()
-
-    async def _answer(self, request: web.Request) -> web.StreamResponse:
-        mode = self.mode
-        if mode == "behave" or (mode == "absurd" and request.path not in (
-                paths.KNOWN_AREA, paths.EXPLORE_MAP)):
-            return await self._forward(request)
-        self.bad_answers += 1
-        if mode == "http500":
-            return web.Response(status=500, text="internal error: the core agent crashed")
-        if mode == "garbage":
-            return web.Response(body=b"<html>{oops", content_type="application/json")
-        if mode == "absurd" and request.path == paths.KNOWN_AREA:
-            return web.json_response({"x": 0.0, "y": 0.0, "width": 1e9, "height": 1e9})
-        head = CHUNK[:36]
-        if mode == "absurd":  # a map header declaring 20000 x 20000 cells, then 200 MB
-            head = struct.pack("<ffIIf12xI", 0.0, 0.0, 20000, 20000, 0.05, 20000 * 20000)
-        return await self._stream(request, head)
-
-    async def _stream(self, request: web.Request, head: bytes) -> web.StreamResponse:
-        """200 MB, chunked (no Content-Length to refuse it by), until the client hangs up."""
-        resp = web.StreamResponse(headers={"Content-Type": "application/json"})
-        await resp.prepare(request)
+        assert self.proc.stdin is not None
+        self.proc.stdin.close()
         try:
-            await resp.write(head)
-            for _ in range(HUGE // len(CHUNK)):
-                await resp.write(CHUNK)
-            await resp.write_eof()
-        except ConnectionError:
-            pass  # the client stopped reading: what we want
-        return resp
-
-    async def _forward(self, request: web.Request) -> web.Response:
-        assert self._session and self._device
-        async with self._session.request(
-                request.method, self._device.url + request.path_qs, data=await request.read(),
-                headers={"Content-Type": request.content_type}) as got:
-            return web.Response(body=await got.read(), status=got.status,
-                                headers={"Content-Type": got.headers.get(
-                                    "Content-Type", "application/json")})
+            await asyncio.wait_for(self.proc.wait(), 10)
+        except TimeoutError:
+            self.proc.kill()
+            await self.proc.wait()
 
 
 async def health(port: int) -> tuple[int, dict]:
@@ -129,8 +88,7 @@ def rss() -> int:
 
 
 async def test_a_robot_answering_errors_nonsense_and_huge_bodies(make_server):
-    robot = MisbehavingRobot()
-    await robot.start()
+    robot = await RobotProcess.start()
     server = await make_server(robot=robot.url, slamware=SlamwareParams(reconn_wait_ms=300))
     w = await Watcher.open(server.port)
     witness = await RoundTrips.open(server.port)
@@ -146,8 +104,8 @@ async def test_a_robot_answering_errors_nonsense_and_huge_bodies(make_server):
         for mode, words in (("http500", "HTTP 500"), ("garbage", "not JSON"),
                             ("huge", "bound"), ("absurd", "bound")):
             peak = MemoryPeak(os.getpid())
-            robot.mode = mode
-            answers = robot.bad_answers
+            await robot.mode(mode)
+            answers = await robot.bad_answers()
 
             async def reasoned(words=words) -> str:
                 status, got = await health(server.port)
@@ -156,12 +114,12 @@ async def test_a_robot_answering_errors_nonsense_and_huge_bodies(make_server):
                         and any(words in r for r in reasons)) and reasons[0]
 
             reason = await until(reasoned, 15, f"/healthz saying the robot answers {mode}")
-            assert robot.bad_answers > answers
+            assert await robot.bad_answers() > answers
             await w.until(lambda words=words: connection_item(w).get("level") == 2
                           and words in connection_item(w)["message"], 10,
                           f"/diagnostics_agg reporting {mode}")
             figures[mode] = {"reason": reason}
-            robot.mode = "behave"
+            await robot.mode("behave")
             w.messages.pop(MAP, None)
 
             async def healthy() -> bool:
@@ -193,3 +151,44 @@ async def until(check, timeout: float, what: str):
             return value
         await asyncio.sleep(0.05)
     raise AssertionError(f"timed out after {timeout}s waiting for {what}")
+
+
+async def test_each_answer_is_read_up_to_its_endpoints_bound(fake, fake_client):
+    """The bounds of :mod:`hitrobot_server.robot.rest.limits`, one endpoint at a time, and the
+    link's trouble naming the latest bad answer until its endpoint answers well again."""
+    link = fake_client.link
+    assert link.trouble == ""
+    # a stated size over the bound is refused unread
+    fake.answer("GET", paths.POSE, b" " * (limits.JSON_LIMIT + 1))
+    with pytest.raises(BackendError, match=f"states {limits.JSON_LIMIT + 1} bytes"):
+        await fake_client.localization.get_pose()
+    assert paths.POSE in link.trouble and "bound" in link.trouble
+    # a list may be bigger than a pose, up to its own bound
+    scan = {"pose": {"x": 0.0, "y": 0.0, "z": 0.0, "yaw": 0.0},
+            "laser_points": [{"distance": 1.0, "angle": 0.0, "valid": True}] * 30_000}
+    fake.answer("GET", paths.LASERSCAN, json.dumps(scan))
+    assert limits.JSON_LIMIT < len(json.dumps(scan)) < limits.LIST_LIMIT
+    assert len((await fake_client.sensors.get_laser_scan()).ranges) == 30_000  # parsed off-loop
+    # an explore map's header declaring more cells than the bound is refused after 36 bytes
+    side = 8193
+    header = struct.pack("<ffIIf12xI", 0.0, 0.0, side, side, 0.05, side * side)
+    fake.answer("GET", paths.EXPLORE_MAP, header + b"\0" * 1024, 200, "application/octet-stream")
+    with pytest.raises(BackendError, match="over the bound of 67108864 cells"):
+        await fake_client.maps.get_map(Rect(0.0, 0.0, 1.0, 1.0))
+    # a known area the map could not hold at its resolution
+    fake.answer("GET", paths.KNOWN_AREA, json.dumps({"x": 0, "y": 0, "width": 500.0,
+                                                     "height": 500.0}))
+    with pytest.raises(BackendError, match="known area of 500 x 500 m"):
+        await fake_client.maps.get_known_area()
+    assert paths.KNOWN_AREA in link.trouble and "2 other endpoints" in link.trouble
+    # the same endpoints answering well: no trouble left
+    fake.answer("GET", paths.POSE, json.dumps({"x": 1.0, "y": 2.0, "z": 0.0, "yaw": 0.5}))
+    fake.answer("GET", paths.KNOWN_AREA, json.dumps({"x": 0, "y": 0, "width": 5.0,
+                                                     "height": 5.0}))
+    fake.answer("GET", paths.EXPLORE_MAP, mapformat.encode(MapRegion(
+        0.0, 0.0, 0.05, np.zeros((4, 4), dtype=np.uint8))), 200, "application/octet-stream")
+    assert (await fake_client.localization.get_pose()).x == 1.0
+    assert (await fake_client.maps.get_known_area()).width == 5.0
+    assert (await fake_client.maps.get_map(Rect(0.0, 0.0, 1.0, 1.0))).cells.shape == (4, 4)
+    assert link.trouble == ""
+    assert link.connected  # it answered all along
