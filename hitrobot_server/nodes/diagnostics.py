@@ -167,11 +167,8 @@ class DiagnosticsNode(RobotNode):
         assert b is not None
         info = await b.sensors.get_device_info()
         hw = self._device_id = info.device_id
-        trouble = b.link.trouble
-        items = [status("/Robot/Connection", ERROR if trouble else OK,
-                        f"connected, but the robot answers badly: {trouble}" if trouble
-                        else "connected", hw, backend=kind,
-                        model=info.model_name, software_version=info.software_version)]
+        items = [connection_item(b.link.trouble, hw, backend=kind, model=info.model_name,
+                                 software_version=info.software_version)]
 
         power = await b.power.get_power_status()
         pct = int(power.battery_percentage)
@@ -224,6 +221,14 @@ class DiagnosticsNode(RobotNode):
         items.append(status("/Robot/Health", level, text, hw,
                             board_temperature=temperature, **errors))
         return items
+
+
+def connection_item(trouble: str, hw: str, **values: object) -> dict:
+    """``/Robot/Connection`` of a reachable robot: ERROR while it answers badly."""
+    if trouble:
+        return status("/Robot/Connection", ERROR,
+                      f"connected, but the robot answers badly: {trouble}", hw, **values)
+    return status("/Robot/Connection", OK, "connected", hw, **values)
 
 
 def state_item(store: StateStore) -> dict:

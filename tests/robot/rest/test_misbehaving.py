@@ -87,6 +87,7 @@ def rss() -> int:
     return procmem.memory(os.getpid()).total
 
 
+@pytest.mark.serial  # the witness's and the memory's bounds: run alone (tests/run.py)
 async def test_a_robot_answering_errors_nonsense_and_huge_bodies(make_server):
     robot = await RobotProcess.start()
     server = await make_server(robot=robot.url, slamware=SlamwareParams(reconn_wait_ms=300))
