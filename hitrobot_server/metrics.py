@@ -11,6 +11,10 @@ of text at the bound) are formatted in a thread from a copy of the counts, at mo
 second; scrapes that come while a page is being made share it. A storm of 200 scrapes at once
 stalled the loop 2.9 s (each formatted on it); it costs the other clients nothing now.
 
+``/healthz``'s ``robots`` check fails for a robot that is not reachable, and for one that is
+but answers errors or nonsense (its link's ``trouble``: HTTP 500, not JSON, a body over its
+bound), with that answer as the link's ``reason``.
+
 With ``--workers N`` every sample carries a ``worker`` label, and a scrape, whichever worker
 the kernel hands it to, covers them all: each worker also serves its own samples on a unix
 socket in the workers' private folder (``$HITROBOT_METRICS_DIR``, set by the parent), and the
