@@ -11,6 +11,10 @@ of text at the bound) are formatted in a thread from a copy of the counts, at mo
 second; scrapes that come while a page is being made share it. A storm of 200 scrapes at once
 stalled the loop 2.9 s (each formatted on it); it costs the other clients nothing now.
 
+``/healthz``'s ``robots`` check fails for a robot that is not reachable, and for one that is
+but answers errors or nonsense (its link's ``trouble``: HTTP 500, not JSON, a body over its
+bound), with that answer as the link's ``reason``.
+
 With ``--workers N`` every sample carries a ``worker`` label, and a scrape, whichever worker
 the kernel hands it to, covers them all: each worker also serves its own samples on a unix
 socket in the workers' private folder (``$HITROBOT_METRICS_DIR``, set by the parent), and the
@@ -208,14 +212,14 @@ class ServerMetrics:
 
     # ------------------------------------------------------------------ health
     def health(self) -> dict[str, Any]:
-        robots = [{"robot": u.name or "robot", "connected": _link_up(u)}
-                  for u in self.sources.robots() if u.backend is not None]
+        robots = [_link_health(u) for u in self.sources.robots() if u.backend is not None]
         state = [_state_health(u) for u in self.sources.robots() if u.state.store is not None]
         site = self.sources.site().state.store
         recorder = _recorder_health(self.sources.recording())
         checks = {
             "loop": {"ok": self.loop.answering, "lag_seconds": round(self.loop.lag, 4)},
-            "robots": {"ok": all(r["connected"] for r in robots), "links": robots},
+            "robots": {"ok": all(r["connected"] and "reason" not in r for r in robots),
+                       "links": robots},
             "recorder": recorder,
             "state": {"ok": all(s["ok"] for s in state) and (site is None or site.healthy),
                       "stores": state,
@@ -381,6 +385,15 @@ def _merged(texts: list[str]) -> bytes:
 
 def _link_up(unit: RobotUnit) -> bool:
     return unit.backend is not None and unit.backend.link.connected
+
+
+def _link_health(unit: RobotUnit) -> dict[str, Any]:
+    """A robot's link: connected or not and, while a reachable robot answers errors or
+    nonsense, the reason (which makes the check fail)."""
+    assert unit.backend is not None
+    link = {"robot": unit.name or "robot", "connected": _link_up(unit)}
+    trouble = unit.backend.link.trouble if link["connected"] else ""
+    return {**link, "reason": trouble} if trouble else link
 
 
 def _write_failures(unit: RobotUnit) -> int:

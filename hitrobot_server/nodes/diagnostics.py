@@ -6,7 +6,9 @@ without one only the ``/Bridge`` group is published. While the robot is offline 
 item is ERROR and the other robot items are STALE.
 
 ==========================  ==================================================================
-``/Robot/Connection``       OK when reachable, ERROR when not
+``/Robot/Connection``       OK when reachable, ERROR when not, or when it answers errors or
+                            nonsense (the link's ``trouble``: HTTP 500, not JSON, a body
+                            over its bound), with the robot's answer as the reason
 ``/Robot/Battery``          WARN below 15 % (Slamware's "power low"), ERROR below 5 %, unless
                             charging; the charging / dock state in the message and values
 ``/Robot/Localization``     quality: WARN below 50, ERROR below 30; WARN when disabled
@@ -151,7 +153,10 @@ class DiagnosticsNode(RobotNode):
             except NotConnectedError:
                 pass
             except BackendError as exc:
-                level, text, stale = ERROR, f"the robot does not answer: {exc}", "no data"
+                trouble = self.robot.link.trouble
+                level, stale = ERROR, "no data"
+                text = (f"the robot answers badly: {trouble}" if trouble
+                        else f"the robot does not answer: {exc}")
         hw = self._device_id
         return [status("/Robot/Connection", level, text, hw, backend=kind),
                 *(status(f"/Robot/{name}", STALE, stale, hw)
@@ -162,8 +167,8 @@ class DiagnosticsNode(RobotNode):
         assert b is not None
         info = await b.sensors.get_device_info()
         hw = self._device_id = info.device_id
-        items = [status("/Robot/Connection", OK, "connected", hw, backend=kind,
-                        model=info.model_name, software_version=info.software_version)]
+        items = [connection_item(b.link.trouble, hw, backend=kind, model=info.model_name,
+                                 software_version=info.software_version)]
 
         power = await b.power.get_power_status()
         pct = int(power.battery_percentage)
@@ -216,6 +221,14 @@ class DiagnosticsNode(RobotNode):
         items.append(status("/Robot/Health", level, text, hw,
                             board_temperature=temperature, **errors))
         return items
+
+
+def connection_item(trouble: str, hw: str, **values: object) -> dict:
+    """``/Robot/Connection`` of a reachable robot: ERROR while it answers badly."""
+    if trouble:
+        return status("/Robot/Connection", ERROR,
+                      f"connected, but the robot answers badly: {trouble}", hw, **values)
+    return status("/Robot/Connection", OK, "connected", hw, **values)
 
 
 def state_item(store: StateStore) -> dict:

@@ -3,7 +3,8 @@ robot only; a REST robot has none of these names).
 
 * ``/sim/set_battery`` (``hitrobot_msgs/SimSetBattery``): the state of charge, 0–100 %.
 * ``/sim/kidnap`` (``hitrobot_msgs/SimKidnap``): move the true pose; the robot is not told, its
-  localization quality falls by itself.
+  localization quality falls by itself. A zero or non-normalisable quaternion is refused (the
+  pose is a place the robot is carried to, not a goal, so there is no "yaw 0" default).
 * ``/sim/emergency_stop`` (``std_srvs/SetBool``): press (``true``) or release the stop; a
   pressed stop is the Slamware health error "emergency stop pressed" (FATAL, motion), seen on
   ``/diagnostics_agg`` (``/Robot/Health``) and by the fleet, and aborts whatever the robot does.
@@ -44,7 +45,7 @@ class SimControlsNode(RobotNode):
 
     async def _kidnap(self, request: dict) -> dict:
         try:
-            pose = m.pose2d_of(request["pose"], "pose")
+            pose = m.unit_pose2d_of(request["pose"], "pose")
             self.controls.kidnap(pose)
         except (RequestRejected, BackendError) as exc:
             return {"success": False, "message": str(exc)}

@@ -76,6 +76,12 @@ class Link(Protocol):
     def connected(self) -> bool:
         """Whether the robot is reachable right now."""
 
+    @property
+    def trouble(self) -> str:
+        """Why the robot's answers cannot be used although it is reachable (errors, nonsense,
+        answers over their bound); "" while they can."""
+        return ""
+
     @abstractmethod
     async def start(self) -> None:
         """Connect (or start simulating); idempotent."""

@@ -77,6 +77,28 @@ async def test_sim_controls_battery_kidnap_and_emergency_stop(make_server, tmp_p
     assert server.port != single.port
 
 
+async def test_sim_kidnap_refuses_a_zero_or_non_normalisable_quaternion(make_server):
+    server = await make_server(robot="sim")
+    w = await Watcher.open(server.port)
+    try:
+        before = server.robot.simulator.true_pose
+        for q in ({"x": 0.0, "y": 0.0, "z": 0.0, "w": 0.0},
+                  {"x": 1e-300, "y": 0.0, "z": 0.0, "w": 0.0},
+                  {"x": 1e308, "y": 1e308, "z": 1e308, "w": 1e308}):
+            reply = await w.call("/sim/kidnap", {"pose": {**pose(5.0, 8.0), "orientation": q}})
+            assert not reply["values"]["success"], (q, reply)
+            assert "pose.orientation" in reply["values"]["message"]
+            assert "quaternion" in reply["values"]["message"]
+            assert server.robot.simulator.true_pose == before  # refused: nothing moved
+        unnormalised = {"x": 0.0, "y": 0.0, "z": 2.0, "w": 0.0}  # a half turn, length 2
+        moved = await w.call("/sim/kidnap", {"pose": {**pose(before.x + 0.5, before.y),
+                                                      "orientation": unnormalised}})
+        assert moved["values"]["success"], moved
+        assert abs(abs(server.robot.simulator.true_pose.yaw) - math.pi) < 1e-6
+    finally:
+        await w.close()
+
+
 async def test_a_low_robot_charges_on_its_own_and_new_work_goes_to_the_other(make_server,
                                                                              tmp_path):
     _server, w = await fleet(make_server, tmp_path, ("a", 4.0, Y), ("b", 14.0, Y), speed=4.0)

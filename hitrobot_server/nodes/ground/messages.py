@@ -181,6 +181,18 @@ def pose2d_of(pose: dict, path: str) -> Pose2D:
     return Pose2D(float(p["x"]), float(p["y"]), yaw_of(q))
 
 
+def unit_pose2d_of(pose: dict, path: str) -> Pose2D:
+    """:func:`pose2d_of` for a pose that must name a rotation: a zero quaternion, or one whose
+    length is not a finite, positive number, is refused instead of read as yaw 0."""
+    planar = pose2d_of(pose, path)
+    q = pose["orientation"]
+    length = math.hypot(float(q["x"]), float(q["y"]), float(q["z"]), float(q["w"]))
+    if not math.isfinite(length) or length < 1e-6:
+        raise RequestRejected(f"field '{path}.orientation' is not a rotation "
+                              "(a zero or non-normalisable quaternion)")
+    return planar
+
+
 class GoalRejected(Exception):
     """The goal cannot run at all; the text is the reason."""
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,6 +19,22 @@ import aiohttp
 import orjson
 
 CONNECT_TIMEOUT = 2.0
+CHUNK = 64 * 1024
+
+
+class BodyTooLarge(Exception):
+    """The robot's answer is bigger than its endpoint's bound (or declares an absurd size)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Bound:
+    """How much of an answer to read: at most ``most`` bytes; with ``sized``, the first
+    ``head`` bytes are read, then ``sized(head_bytes)`` says how many the body has (it may
+    raise ``ValueError`` for an absurd size) and nothing past that is read."""
+
+    most: int
+    head: int = 0
+    sized: Callable[[bytes], int] | None = None
 
 
 class TransportError(Exception):
@@ -90,18 +106,23 @@ class RestHttp:
         params: Mapping[str, Any] | None = None,
         json: Any = None,
         data: bytes | None = None,
+        bound: Bound,
     ) -> Reply:
         """Send one request; identical concurrent GETs share one round trip."""
         query = tuple(sorted((k, str(v)) for k, v in (params or {}).items()))
         if method != "GET":
-            return await self._send(method, path, query, json, data, timeout)
+            return await self._send(method, path, query, json, data, timeout, bound)
         key = (path, query)
         task = self._inflight.get(key)
         if task is None:
-            task = asyncio.ensure_future(self._send(method, path, query, None, None, timeout))
+            task = asyncio.ensure_future(
+                self._send(method, path, query, None, None, timeout, bound))
             self._inflight[key] = task
             task.add_done_callback(lambda t, k=key: self._finished(k, t))
-        return await asyncio.shield(task)
+        try:
+            return await asyncio.shield(task)
+        finally:
+            del task  # else the task's exception, its traceback and this frame form a cycle
 
     def _finished(self, key: tuple, task: asyncio.Task) -> None:
         if self._inflight.get(key) is task:
@@ -110,7 +131,7 @@ class RestHttp:
             task.exception()  # retrieved here so an unshared failure is never "unretrieved"
 
     async def _send(self, method: str, path: str, query: tuple, json: Any, data: bytes | None,
-                    timeout: float) -> Reply:
+                    timeout: float, bound: Bound) -> Reply:
         lock = self._locks.setdefault(path, asyncio.Lock())
         async with lock:
             session = self._open()
@@ -126,9 +147,54 @@ class RestHttp:
                 kwargs["headers"] = {"Content-Type": "application/octet-stream"}
             try:
                 async with session.request(method, self.base_url + path, **kwargs) as resp:
-                    body = await resp.read()
+                    try:
+                        body = await read_bounded(resp, bound)
+                    except BodyTooLarge:
+                        resp.close()  # the rest is never read: drop the connection
+                        raise
+                    if not resp.content.is_eof():
+                        resp.close()  # a map's bytes past what its header declares
                     return Reply(resp.status, resp.content_type, body)
             except TimeoutError:
                 raise TransportError(f"no answer within {timeout:g} s", timed_out=True) from None
             except (aiohttp.ClientConnectionError, aiohttp.ClientPayloadError, OSError) as exc:
                 raise TransportError(str(exc) or type(exc).__name__) from None
+
+
+async def read_bounded(resp: aiohttp.ClientResponse, bound: Bound) -> bytes:
+    """The body of ``resp``, read chunk by chunk and never past ``bound``."""
+    stated = resp.content_length
+    if stated is not None and stated > bound.most:
+        raise BodyTooLarge(f"the answer states {stated} bytes, over the bound of {bound.most}")
+    most = bound.most
+    if bound.sized is None:
+        body = await _read(resp.content, most + 1)
+        if len(body) <= most:
+            return body
+        del body  # the exception's frames must not keep the bytes alive
+        raise BodyTooLarge(f"the answer runs past the bound of {most} bytes")
+    head = await _read(resp.content, bound.head)
+    try:
+        most = min(most, bound.sized(head))
+    except ValueError as exc:
+        raise BodyTooLarge(str(exc)) from None
+    if len(head) >= most:  # a header-only answer, or no more than it declares
+        return head[:most]
+    return head + await _read(resp.content, most - len(head))
+
+
+async def _read(content: aiohttp.StreamReader, size: int) -> bytes:
+    """Up to ``size`` bytes (fewer when the body ends first), joined once at the end."""
+    chunks: list[bytes] = []
+    got = 0
+    try:
+        while got < size:
+            chunk = await content.read(min(CHUNK, size - got))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            got += len(chunk)
+    except BaseException:
+        chunks.clear()  # a timeout's traceback must not keep what was read
+        raise
+    return b"".join(chunks)

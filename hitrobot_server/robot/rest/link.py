@@ -9,7 +9,10 @@ False and every call raises :class:`NotConnectedError` without touching the netw
 The robot counts as lost when a connection fails (refused, reset, unreachable) or when nothing
 has answered for twice the request timeout. HTTP errors (400, 404 where it is not a normal
 answer, 500) and ``false`` replies from setters become :class:`BackendError` with the method,
-path and the robot's own text.
+path and the robot's own text. A read (``GET``) whose answer cannot be used (an HTTP error, not
+JSON, a shape we cannot read, a body over its bound of :mod:`.limits`) is also remembered in
+:attr:`RestLink.troubles`, which ``/diagnostics_agg`` and ``/healthz`` report until the
+robot answers well again. Bodies over :data:`.limits.PARSE_INLINE` are parsed in a thread.
 """
 
 from __future__ import annotations
@@ -25,8 +28,9 @@ from urllib.parse import urlsplit
 
 from ..backend import BackendError, Link, NotConnectedError
 from ..model import ActionInfo, Pose2D
-from . import paths, shapes
-from .http import Reply, RestHttp, TransportError
+from . import limits, mapformat, paths, shapes
+from .http import BodyTooLarge, Bound, Reply, RestHttp, TransportError
+from .trouble import Troubles
 
 log = logging.getLogger(__name__)
 
@@ -68,6 +72,11 @@ class RestLink(Link):
         self._task: asyncio.Task[None] | None = None
         self._lost: asyncio.Event | None = None
         self._last_ok = 0.0
+        self.troubles = Troubles()
+
+    @property
+    def trouble(self) -> str:
+        return self.troubles.reason
 
     # --- connection --------------------------------------------------------------------------
 
@@ -101,6 +110,7 @@ class RestLink(Link):
                 warned = False
                 self._last_ok = time.monotonic()
                 self._connected = True
+                self.troubles.clear()
                 log.info("connected to the Slamware robot at %s", self.url)
                 assert self._lost is not None
                 await self._lost.wait()
@@ -116,10 +126,15 @@ class RestLink(Link):
     async def _probe(self) -> tuple[bool, str]:
         """Poll ``capabilities`` as the manual asks; a robot without it is probed with
         ``robot/info``."""
-        reply = await self._http.request("GET", paths.CAPABILITIES, timeout=self.timeout)
-        if reply.status == 404:
-            reply = await self._http.request("GET", paths.ROBOT_INFO, timeout=self.timeout)
-            return reply.ok, f"robot/info answered HTTP {reply.status}"
+        try:
+            reply = await self._http.request("GET", paths.CAPABILITIES, timeout=self.timeout,
+                                             bound=bound_of(paths.CAPABILITIES))
+            if reply.status == 404:
+                reply = await self._http.request("GET", paths.ROBOT_INFO, timeout=self.timeout,
+                                                 bound=bound_of(paths.ROBOT_INFO))
+                return reply.ok, f"robot/info answered HTTP {reply.status}"
+        except BodyTooLarge as exc:
+            return False, str(exc)
         if not reply.ok:
             return False, f"capabilities answered HTTP {reply.status}"
         try:
@@ -152,16 +167,31 @@ class RestLink(Link):
         self.require_connection()
         try:
             reply = await self._http.request(method, path, timeout=timeout or self.timeout,
-                                             params=params, json=json, data=data)
+                                             params=params, json=json, data=data,
+                                             bound=bound_of(path))
+        except BodyTooLarge as exc:
+            text, timed_out = str(exc), None
         except TransportError as exc:
-            silent = time.monotonic() - self._last_ok
-            if not exc.timed_out or silent > 2.0 * self.timeout:
-                self.lose(f"{method} {path}: {exc}")
-            if not self._connected:
-                raise NotConnectedError(f"{method} {path}: {exc}") from None
-            raise BackendError(f"{method} {path}: {exc}") from None
-        self._last_ok = time.monotonic()
-        return reply
+            text, timed_out = str(exc), exc.timed_out
+        else:
+            self._last_ok = time.monotonic()
+            return reply
+        # raised out here from words only, so the error carries neither the failure's
+        # frames nor what they had read
+        raise self._failed(method, path, text, timed_out)
+
+    def _failed(self, method: str, path: str, text: str,
+                timed_out: bool | None) -> BackendError:
+        """The error for a body over its bound (``timed_out`` None) or a transport failure."""
+        if timed_out is None:
+            self._last_ok = time.monotonic()  # it answered, too much
+            return self.refused(method, path, text)
+        silent = time.monotonic() - self._last_ok
+        if not timed_out or silent > 2.0 * self.timeout:
+            self.lose(f"{method} {path}: {text}")
+        if not self._connected:
+            return NotConnectedError(f"{method} {path}: {text}")
+        return BackendError(f"{method} {path}: {text}")
 
     async def json(self, method: str, path: str, *, missing_ok: bool = False,
                    timeout: float | None = None, params: dict[str, Any] | None = None,
@@ -169,13 +199,28 @@ class RestLink(Link):
         """The JSON answer; ``None`` for a 404 when ``missing_ok``."""
         reply = await self.request(method, path, timeout=timeout, params=params, json=json)
         if reply.status == 404 and missing_ok:
+            self.answered(method, path)
             return None
         if not reply.ok:
-            raise failed(method, path, reply)
+            raise self.refused(method, path, http_error(reply))
         try:
-            return reply.json()
+            value = await parsed(reply, reply.json)
         except ValueError:
-            raise BackendError(f"{method} {path}: not JSON: {reply.text()}") from None
+            raise self.refused(method, path, f"not JSON: {reply.text()}") from None
+        self.answered(method, path)
+        return value
+
+    def refused(self, method: str, path: str, why: str) -> BackendError:
+        """The error for an answer that cannot be used; a read's is remembered as trouble."""
+        text = f"{method} {path}: {why}"
+        if method == "GET":
+            self.troubles.bad(path, text)
+        return BackendError(text)
+
+    def answered(self, method: str, path: str) -> None:
+        """A read answered well: its endpoint is no trouble any more."""
+        if method == "GET":
+            self.troubles.good(path)
 
     async def get(self, path: str, convert: Callable[[Any], T], *,
                   missing_ok: bool = False, timeout: float | None = None) -> T | None:
@@ -183,7 +228,10 @@ class RestLink(Link):
         value = await self.json("GET", path, missing_ok=missing_ok, timeout=timeout)
         if value is None and missing_ok:
             return None
-        return converted(path, convert, value)
+        try:
+            return convert(value)
+        except (ValueError, TypeError, KeyError) as exc:
+            raise self.refused("GET", path, f"unexpected answer: {exc}") from None
 
     async def boolean(self, path: str) -> bool:
         return bool(await self.get(path, lambda v: shapes.boolean(v, path)))
@@ -228,10 +276,28 @@ class RestLink(Link):
                 from None
 
 
+def bound_of(path: str) -> Bound:
+    """How much of ``path``'s answer is read (:mod:`.limits`)."""
+    if path == paths.EXPLORE_MAP:
+        return Bound(limits.body_limit(path), mapformat.HEADER_SIZE, mapformat.declared_size)
+    return Bound(limits.body_limit(path))
+
+
+async def parsed(reply: Reply, parse: Callable[[], T]) -> T:
+    """``parse()`` of ``reply``'s body: in a thread when the body is big."""
+    if len(reply.body) > limits.PARSE_INLINE:
+        return await asyncio.to_thread(parse)
+    return parse()
+
+
 def failed(method: str, path: str, reply: Reply) -> BackendError:
     """An HTTP error answer, worded with the method, path and the robot's own text."""
+    return BackendError(f"{method} {path}: {http_error(reply)}")
+
+
+def http_error(reply: Reply) -> str:
     text = reply.text()
-    return BackendError(f"{method} {path}: HTTP {reply.status}" + (f": {text}" if text else ""))
+    return f"HTTP {reply.status}" + (f": {text}" if text else "")
 
 
 def converted(path: str, convert: Callable[[Any], T], value: Any) -> T:

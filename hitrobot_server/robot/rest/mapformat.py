@@ -18,9 +18,11 @@ import struct
 import numpy as np
 
 from ..model import MapRegion
+from .limits import MAP_HEADER, MAX_MAP_CELLS, RESOLUTIONS
 
 HEADER = struct.Struct("<ffIIf12xI")
 HEADER_SIZE = HEADER.size  # 36: 5 fields of 4 bytes, 12 reserved, the length
+assert HEADER_SIZE == MAP_HEADER
 DEFAULT_RESOLUTION = 0.05
 """What a reply too short to carry a header is taken to have (the ROS node's default)."""
 
@@ -42,22 +44,40 @@ def encode(region: MapRegion) -> bytes:
     return header + cells.tobytes()
 
 
+def declared_size(head: bytes) -> int:
+    """The bytes of the map whose first :data:`HEADER_SIZE` bytes are ``head`` (all of
+    ``head`` when it is shorter: no map). Raises :class:`MapFormatError` when the header
+    declares more than :data:`~.limits.MAX_MAP_CELLS` cells or disagrees with itself, so an
+    absurd map is refused before its cells are read."""
+    if len(head) < HEADER_SIZE:
+        return len(head)
+    _ox, _oy, width, height, _resolution, length = HEADER.unpack_from(head, 0)
+    if length != width * height:
+        raise MapFormatError(
+            f"explore map header says {width}x{height} cells but {length} data bytes"
+        )
+    if length > MAX_MAP_CELLS:
+        raise MapFormatError(f"explore map of {width}x{height} cells is over the bound of "
+                             f"{MAX_MAP_CELLS} cells")
+    return HEADER_SIZE + length
+
+
 def decode(data: bytes) -> MapRegion | None:
     """The region in ``data``; ``None`` when the reply is too short to hold a header (the robot
     has no map yet). Raises :class:`MapFormatError` when the sizes disagree."""
     if len(data) < HEADER_SIZE:
         return None
+    declared_size(data[:HEADER_SIZE])
     ox, oy, width, height, resolution, length = HEADER.unpack_from(data, 0)
-    if length != width * height:
-        raise MapFormatError(
-            f"explore map header says {width}x{height} cells but {length} data bytes"
-        )
     if len(data) - HEADER_SIZE < length:
         raise MapFormatError(
             f"explore map truncated: {len(data) - HEADER_SIZE} of {length} data bytes"
         )
     if not (np.isfinite(resolution) and resolution > 0.0):
         raise MapFormatError(f"explore map resolution {resolution} is not positive")
+    if not RESOLUTIONS[0] <= resolution <= RESOLUTIONS[1]:
+        raise MapFormatError(f"explore map resolution {resolution:g} m is outside "
+                             f"{RESOLUTIONS[0]:g}-{RESOLUTIONS[1]:g} m")
     if not (np.isfinite(ox) and np.isfinite(oy)):
         raise MapFormatError("explore map origin is not finite")
     cells = np.frombuffer(data, dtype=np.uint8, count=length, offset=HEADER_SIZE)

@@ -20,8 +20,8 @@ from ..backend import BackendError, MapBackend, UnsupportedError
 from ..model import ArtifactUsage, Line, MapKind, MapRegion, Point2D, Pose2D, Rect
 from ..planning.costmap import Costmap, CostmapConfig, build_costmap
 from ..planning.grid import GridSpec
-from . import mapformat, paths, shapes
-from .link import RestLink, converted, failed, finite_pose
+from . import limits, mapformat, paths, shapes
+from .link import RestLink, converted, finite_pose, http_error, parsed
 
 log = logging.getLogger(__name__)
 
@@ -35,12 +35,21 @@ class RestMaps(MapBackend):
         self._blocked_lock = asyncio.Lock()
         self.blocked: tuple[tuple[Point2D, ...], ...] = ()
         """The blocked areas last sent, as polygons (the robot only keeps their cover)."""
+        self.resolution = mapformat.DEFAULT_RESOLUTION
+        """The last map's, which bounds the known area (:data:`.limits.MAX_MAP_CELLS`)."""
 
     # --- the explore map ---------------------------------------------------------------------
 
     async def get_known_area(self, kind: MapKind = MapKind.EXPLORERMAP) -> Rect:
         _explore_only(kind)
-        return await self._link.get(paths.KNOWN_AREA, shapes.rect_from)
+        area = await self._link.get(paths.KNOWN_AREA, shapes.rect_from)
+        assert area is not None
+        if max(area.width, 0.0) * max(area.height, 0.0) / self.resolution ** 2 \
+                > limits.MAX_MAP_CELLS:
+            raise self._link.refused(
+                "GET", paths.KNOWN_AREA, f"a known area of {area.width:g} x {area.height:g} m "
+                f"is over the bound of {limits.MAX_MAP_CELLS} cells at {self.resolution:g} m")
+        return area
 
     async def get_map(
         self, area: Rect | None = None, kind: MapKind = MapKind.EXPLORERMAP
@@ -56,11 +65,14 @@ class RestMaps(MapBackend):
         region = None
         if reply.status != 404:  # some robots answer 404 while they have no map
             if not reply.ok:
-                raise failed("GET", paths.EXPLORE_MAP, reply)
+                raise self._link.refused("GET", paths.EXPLORE_MAP, http_error(reply))
             try:
-                region = mapformat.decode(reply.body)
+                region = await parsed(reply, lambda: mapformat.decode(reply.body))
             except mapformat.MapFormatError as exc:
-                raise BackendError(f"GET {paths.EXPLORE_MAP}: {exc}") from None
+                raise self._link.refused("GET", paths.EXPLORE_MAP, str(exc)) from None
+            if region is not None:
+                self.resolution = region.resolution
+        self._link.answered("GET", paths.EXPLORE_MAP)
         if region is None:  # no map yet
             x, y = (area.x, area.y) if area is not None else (0.0, 0.0)
             region = MapRegion(x, y, mapformat.DEFAULT_RESOLUTION,
@@ -154,7 +166,8 @@ class RestMaps(MapBackend):
     async def get_composite_map(self) -> bytes:
         reply = await self._link.request("GET", paths.STCM, timeout=self._link.bulk_timeout)
         if not reply.ok:
-            raise failed("GET", paths.STCM, reply)
+            raise self._link.refused("GET", paths.STCM, http_error(reply))
+        self._link.answered("GET", paths.STCM)
         return reply.body
 
     async def check_composite_map(self, data: bytes) -> None:
