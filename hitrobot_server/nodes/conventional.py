@@ -39,7 +39,8 @@ class ConventionalNode(RobotNode):
                        self._on_initialpose)
 
     async def start(self) -> None:
-        self.every(ROBOT_POSE_PERIOD, self._publish_pose)
+        self.every(ROBOT_POSE_PERIOD, self._publish_pose,  # at full rate while it is read
+                   pace=self.pace(("/robot_pose",), ROBOT_POSE_PERIOD))
 
     async def _publish_pose(self) -> None:
         self.publish("/robot_pose", m.pose(await self.localization.get_pose()))

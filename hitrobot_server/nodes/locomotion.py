@@ -121,6 +121,8 @@ class LocomotionNode(RobotNode):
         self.wheel_vel = [0.0, 0.0]
         self.effort = [0.0, 0.0]
         self._last = time.monotonic()
+        # the odometry is fetched at full rate only while the state or an odometry is read
+        self._pace = self.pace((STATE_TOPIC, ODOM_TOPIC), STATE_PERIOD)
         if not bus.params.has(ROBOT_ID_PARAM):
             bus.params.set(ROBOT_ID_PARAM, DEFAULT_ROBOT_ID)
         self.advertise(STATE_TOPIC, f"{PKG}/RobotState")
@@ -131,7 +133,7 @@ class LocomotionNode(RobotNode):
 
     async def start(self) -> None:
         self.every(SLOW_PERIOD, self._slow)
-        self.every(STATE_PERIOD, self._tick, needs_robot=False)
+        self.every(STATE_PERIOD, self._tick, needs_robot=False, pace=self._pace)
 
     # ------------------------------------------------------------------ services
     async def _stand_up(self, request: dict) -> dict:
@@ -171,7 +173,8 @@ class LocomotionNode(RobotNode):
 
     async def _tick(self) -> None:
         now = time.monotonic()
-        dt, self._last = min(now - self._last, 0.5), now
+        # a slow tick (nobody reads) integrates its whole time; a stall at most half a second
+        dt, self._last = min(now - self._last, max(0.5, 2 * self._pace.period())), now
         connected = self.link.connected
         if connected:
             try:
@@ -254,4 +257,5 @@ class LocomotionNode(RobotNode):
                 self._refused = topic
                 return
             self.map_topic, self._refused = topic, None
+            self._pace.follow((STATE_TOPIC, ODOM_TOPIC, topic))
         self.publish(topic, self._odometry(odo, self.params.map_frame))

@@ -202,7 +202,8 @@ class PointCloudNode(RobotNode):
         self._next_merged = 0.0
 
     async def start(self) -> None:
-        self.every(TICK, self._tick)
+        self.every(TICK, self._tick,  # a tick with no reader fetches nothing: keep-alive
+                   pace=self.pace((CLOUD_TOPIC, MERGED_TOPIC, DOWNSAMPLED_TOPIC), TICK))
 
     def param(self, name: str, low: float, high: float) -> float:
         """A numeric parameter clamped to [low, high]; the default when unusable."""

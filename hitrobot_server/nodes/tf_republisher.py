@@ -111,8 +111,8 @@ class TFRepublisherNode(RobotNode):
         self._active = 0
         self._topic_ids = itertools.count(1)
         self._goal_ids = itertools.count(1)
-        for topic in (TF, TF_STATIC):
-            self.subscribe(topic, "tf2_msgs/TFMessage", self._on_tf)
+        for topic in (TF, TF_STATIC):  # kept in the buffer; /tf wanted while one streams
+            self.subscribe(topic, "tf2_msgs/TFMessage", self._on_tf, passive=True)
         action = "tf2_web_republisher/TFSubscriptionAction"
         self.advertise(f"{NODE_NAME}/feedback", f"{action}Feedback")
         self.advertise(f"{NODE_NAME}/result", f"{action}Result")
@@ -144,10 +144,18 @@ class TFRepublisherNode(RobotNode):
         return self._counted(sub.period, tick)
 
     def _counted(self, period: float, tick: Callable[[], Awaitable[None]]) -> asyncio.Task:
+        """A stream of TF to a client: ``/tf`` is wanted at its full rate while one runs."""
         self._active += 1
+        if self._active == 1:
+            self.bus.demand.want(TF, self)
         task = self.every(period, tick, needs_robot=False)
-        task.add_done_callback(lambda _t: setattr(self, "_active", self._active - 1))
+        task.add_done_callback(self._ended)
         return task
+
+    def _ended(self, _task: asyncio.Task) -> None:
+        self._active -= 1
+        if self._active == 0:
+            self.bus.demand.unwant(TF, self)
 
     # ------------------------------------------------------------------ ROS 1 actionlib
     def _header(self) -> dict:
