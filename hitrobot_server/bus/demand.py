@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Hashable, Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 from .link import RemoteGraph
 from .names import canonical
@@ -29,13 +29,21 @@ class Passive:
     key: Hashable
 
 
+class Watched(Protocol):
+    """What the demand reads of the bus (bus/core.py ``Bus``)."""
+
+    topics: dict[str, Topic]
+    taps: list[Any]
+
+    def remote_graph(self) -> RemoteGraph: ...
+
+
 class Demand:
     """Answers ``period(name)`` from the bus's subscribers, the link's and the taps'; tells
     the pollers watching a topic (``watch``) when its readers change."""
 
-    def __init__(self, topics: dict[str, Topic], taps: list[Any],
-                 remote: Callable[[], RemoteGraph]):
-        self._topics, self._taps, self._remote_graph = topics, taps, remote
+    def __init__(self, bus: Watched):
+        self._topics, self._taps, self._remote_graph = bus.topics, bus.taps, bus.remote_graph
         self._remote: set[str] | None = None  # topics subscribed elsewhere, made on a miss
         self._wanted: dict[str, set[Hashable]] = {}
         self._watchers: dict[str, list[Callable[[], None]]] = {}
@@ -88,7 +96,7 @@ class Demand:
 
         return unwatch
 
-    # ------------------------------------------------------------------ the bus tells
+    # ------------------------------------------------------------------ the bus tells (first)
     def changed(self, kind: str, name: str) -> None:
         """A local topic's publishers or subscribers changed."""
         if kind == "topic":

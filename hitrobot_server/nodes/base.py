@@ -6,15 +6,15 @@ import asyncio
 import contextlib
 import logging
 import math
-from collections.abc import Awaitable, Callable, Coroutine, Hashable, Iterable
+from collections.abc import Awaitable, Callable, Coroutine
 from typing import Any, ClassVar
 
 from ..bus.core import Bus
 from ..bus.demand import Passive
 from ..bus.services import ActionHandler, ServiceHandler
 from ..bus.topics import Message, RequestRejected
-from ..robot.backend import BackendError, Link, NotConnectedError
-from .ground.pacing import KEEP_ALIVE, Pace
+from ..robot.backend import Link
+from .ground.pacing import Pace, repeat
 
 log = logging.getLogger(__name__)
 
@@ -60,8 +60,8 @@ class Node:
                   passive: bool = False) -> None:
         """``callback`` gets the Message: ``.msg`` is the data; raising RequestRejected sends
         the publishing client a status error, and ``.reply`` answers it later. ``passive``:
-        the node listens but asks for nothing to be fetched for it (bus/demand.py)."""
-        key: Hashable = Passive((self, topic)) if passive else (self, topic)
+        listen, asking for nothing to be fetched (bus/demand.py)."""
+        key = Passive((self, topic)) if passive else (self, topic)
         self.bus.subscribe(topic, type_name, key, self.name, callback)
         self._subs.append((topic, key))
 
@@ -114,45 +114,12 @@ class RobotNode(Node):
               needs_robot: bool = True, *, pace: Pace | None = None) -> asyncio.Task:
         """Run ``work`` at a fixed rate without drift; ticks are skipped while the robot is
         offline (when ``needs_robot``) and a slow tick never causes a burst. With ``pace``
-        the rate follows who reads its topics (``period`` unused): a reader arriving brings
-        the next run forward, never closer than the full period to the last."""
-
-        async def loop() -> None:
-            clock = asyncio.get_running_loop()
-            due = clock.time()
-            while True:
-                began = clock.time()
-                if not needs_robot or self.robot_connected:
-                    await self._work_once(work)
-                due += pace.period() if pace is not None else period
-                delay = due - clock.time()
-                if delay < 0:
-                    due, delay = clock.time(), 0.0
-                if pace is None:
-                    await asyncio.sleep(delay)
-                    continue
-                while await pace.sleep(delay):  # the readers changed: look again
-                    due = max(began + pace.period(), clock.time())
-                    delay = due - clock.time()
-
-        task = self.spawn(loop())
+        the rate follows who reads its topics (ground/pacing.py)."""
+        task = self.spawn(repeat(period, work, self.name, pace,
+                                 lambda: not needs_robot or self.robot_connected))
         if pace is not None:
             task.add_done_callback(lambda _t: pace.unwatch())
         return task
-
-    async def _work_once(self, work: Callable[[], Awaitable[None]]) -> None:
-        try:
-            await work()
-        except NotConnectedError:
-            pass
-        except BackendError as exc:
-            log.warning("%s: %s", self.name, exc, extra={"ros_node": self.name})
-        except Exception:
-            log.exception("%s: worker failed", self.name, extra={"ros_node": self.name})
-
-    def pace(self, topics: Iterable[str], full: float, idle: float = KEEP_ALIVE) -> Pace:
-        """A pace for ``every``: ``full`` while ``topics`` are read, ``idle`` otherwise."""
-        return Pace(self.bus.demand, topics, full, idle)
 
     async def stop(self) -> None:
         for task in list(self._tasks):

@@ -35,6 +35,7 @@ from ..robot.model import Odometry, Pose2D, Twist2D
 from .base import RobotNode
 from .ground import messages as m
 from .ground.loadedmap import LoadedMap
+from .ground.pacing import Pace
 from .ground.requests import NOT_CONNECTED
 from .options import NodeOptions
 
@@ -122,7 +123,7 @@ class LocomotionNode(RobotNode):
         self.effort = [0.0, 0.0]
         self._last = time.monotonic()
         # the odometry is fetched at full rate only while the state or an odometry is read
-        self._pace = self.pace((STATE_TOPIC, ODOM_TOPIC), STATE_PERIOD)
+        self._pace = Pace(self.bus.demand, (STATE_TOPIC, ODOM_TOPIC), STATE_PERIOD)
         if not bus.params.has(ROBOT_ID_PARAM):
             bus.params.set(ROBOT_ID_PARAM, DEFAULT_ROBOT_ID)
         self.advertise(STATE_TOPIC, f"{PKG}/RobotState")

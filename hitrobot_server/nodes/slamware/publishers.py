@@ -14,7 +14,7 @@ from ...robot.model import ArtifactUsage, MapKind, Pose2D
 from ..base import RobotNode
 from ..ground import messages as m
 from ..ground.names import MAP_TOPIC, TF
-from ..ground.pacing import KEEP_ALIVE
+from ..ground.pacing import KEEP_ALIVE, Pace
 from ..ground.slamware_params import SlamwareParams
 from .map_copy import MapCopy
 from .topics import SlamwareTopics
@@ -64,7 +64,7 @@ class Publishers:
                 node.every(period, work)
         for period, work, topics, idle in paced:
             if period > 0:
-                node.every(period, work, pace=node.pace(topics, period, idle))
+                node.every(period, work, pace=Pace(node.bus.demand, topics, period, idle))
 
     async def _watch_connection(self) -> None:
         connected = self.node.link.connected
