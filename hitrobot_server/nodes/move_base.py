@@ -47,6 +47,7 @@ from ..robot.motion import GOAL_FLAGS, cancel_if_current, watch
 from .base import RobotNode
 from .ground import messages as m
 from .ground.messages import map_frames, pose2d_of
+from .ground.pacing import Pace
 from .ground.requests import require_robot, robot_error
 
 log = logging.getLogger(__name__)
@@ -119,7 +120,8 @@ class MoveBaseNode(RobotNode):
             self.subscribe(simple_goal, "geometry_msgs/PoseStamped", self._on_simple_goal)
 
     async def start(self) -> None:
-        self.every(STATUS_PERIOD, self._tick, needs_robot=False)
+        self.every(STATUS_PERIOD, self._tick, needs_robot=False,  # 10 Hz while it is read
+                   pace=Pace(self.bus.demand, (f"{self.server}/status",), STATUS_PERIOD))
 
     async def _tick(self) -> None:
         now = time.monotonic()

@@ -30,6 +30,7 @@ from ..bus.topics import Message, RequestRejected
 from ..tf_buffer import TFBuffer, Transform, frame_name
 from .base import RobotNode
 from .ground.names import TF, TF_STATIC
+from .ground.pacing import Pace
 
 NODE_NAME = "/tf2_web_republisher"
 SERVICE = "/republish_tfs"
@@ -123,7 +124,8 @@ class TFRepublisherNode(RobotNode):
         self.action(NODE_NAME, "tf2_web_republisher_interfaces/TFSubscription", self._ros2_goal)
 
     async def start(self) -> None:
-        self.every(STATUS_PERIOD, self._publish_status, needs_robot=False)
+        self.every(STATUS_PERIOD, self._publish_status, needs_robot=False,  # 5 Hz when read
+                   pace=Pace(self.bus.demand, (f"{NODE_NAME}/status",), STATUS_PERIOD))
 
     def _on_tf(self, message: Message) -> None:
         for stamped in message.msg["transforms"]:

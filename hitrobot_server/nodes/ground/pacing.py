@@ -14,7 +14,7 @@ from ...robot.backend import BackendError, NotConnectedError
 
 log = logging.getLogger(__name__)
 
-KEEP_ALIVE = 1.0
+KEEP_ALIVE = 2.0
 """Seconds between a poller's runs while nobody reads its topics: what a latched topic, the
 map copy and a late subscriber's first message are at most that old."""
 

@@ -21,7 +21,7 @@ from .topics import SlamwareTopics
 
 log = logging.getLogger(__name__)
 
-LINES_IDLE = 2.0
+LINES_IDLE = 5.0
 """Seconds between reads of the virtual walls and tracks while nobody reads them (latched)."""
 
 
@@ -40,7 +40,7 @@ class Publishers:
         """One worker per publisher. Those that fetch often run at their period only while
         someone reads their topics (a client, the recorder, another process, a node that
         needs them), at the black box's period when only it keeps them, and every
-        ``KEEP_ALIVE`` second otherwise; the basic state (battery, localization: the
+        ``KEEP_ALIVE`` seconds otherwise; the basic state (battery, localization: the
         incidents), the sensor list and the connection watch keep their own periods."""
         p, copy, t, node = self.params, self.map_copy, self.topics, self.node
         maps = (t.map, t.map_info, MAP_TOPIC)
