@@ -13,7 +13,7 @@ from ..bus.core import Bus
 from ..bus.demand import Passive
 from ..bus.services import ActionHandler, ServiceHandler
 from ..bus.topics import Message, RequestRejected
-from ..robot.backend import Link
+from ..robot.backend import BackendError, Link, NotConnectedError
 from .ground.pacing import Pace, repeat
 
 log = logging.getLogger(__name__)
@@ -115,7 +115,7 @@ class RobotNode(Node):
         """Run ``work`` at a fixed rate without drift; ticks are skipped while the robot is
         offline (when ``needs_robot``) and a slow tick never causes a burst. With ``pace``
         the rate follows who reads its topics (ground/pacing.py)."""
-        task = self.spawn(repeat(period, work, self.name, pace,
+        task = self.spawn(repeat(period, lambda: _work_once(work, self.name), pace,
                                  lambda: not needs_robot or self.robot_connected))
         if pace is not None:
             task.add_done_callback(lambda _t: pace.unwatch())
@@ -128,3 +128,16 @@ class RobotNode(Node):
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await task
         self.close()
+
+
+async def _work_once(work: Callable[[], Awaitable[None]], name: str) -> None:
+    """One tick of a node's worker: a robot away is no news, its errors are logged as the
+    node's (its name on /rosout)."""
+    try:
+        await work()
+    except NotConnectedError:
+        pass
+    except BackendError as exc:
+        log.warning("%s: %s", name, exc, extra={"ros_node": name})
+    except Exception:
+        log.exception("%s: worker failed", name, extra={"ros_node": name})

@@ -6,13 +6,8 @@ sleeping poller at once."""
 from __future__ import annotations
 
 import asyncio
-import logging
 from collections.abc import Awaitable, Callable, Hashable, Iterable
 from typing import Protocol
-
-from ...robot.backend import BackendError, NotConnectedError
-
-log = logging.getLogger(__name__)
 
 KEEP_ALIVE = 2.0
 """Seconds between a poller's runs while nobody reads its topics: what a latched topic, the
@@ -81,17 +76,17 @@ def _settle(future: asyncio.Future[bool], value: bool) -> None:
         future.set_result(value)
 
 
-async def repeat(period: float, work: Callable[[], Awaitable[None]], name: str,
-                 pace: Pace | None, ready: Callable[[], bool]) -> None:
+async def repeat(period: float, work: Callable[[], Awaitable[None]], pace: Pace | None,
+                 ready: Callable[[], bool]) -> None:
     """Run ``work`` every ``period`` (or as ``pace`` says) while ``ready()``, for ever, without
     drift or bursts; a reader arriving brings the next run forward, never closer than the
-    full period to the last. Failures are logged as node ``name``'s."""
+    full period to the last. ``work`` handles its own failures."""
     clock = asyncio.get_running_loop()
     due = clock.time()
     while True:
         began = clock.time()
         if ready():
-            await _once(work, name)
+            await work()
         due += pace.period() if pace is not None else period
         delay = due - clock.time()
         if delay < 0:
@@ -103,13 +98,3 @@ async def repeat(period: float, work: Callable[[], Awaitable[None]], name: str,
             due = max(began + pace.period(), clock.time())
             delay = due - clock.time()
 
-
-async def _once(work: Callable[[], Awaitable[None]], name: str) -> None:
-    try:
-        await work()
-    except NotConnectedError:
-        pass
-    except BackendError as exc:
-        log.warning("%s: %s", name, exc, extra={"ros_node": name})
-    except Exception:
-        log.exception("%s: worker failed", name, extra={"ros_node": name})
