@@ -133,7 +133,8 @@ class LocomotionNode(RobotNode):
         self.service("/set_listen", f"{PKG}/SetListen", self._set_listen)
 
     async def start(self) -> None:
-        self.every(SLOW_PERIOD, self._slow)
+        self.every(SLOW_PERIOD, self._slow,  # the battery and temperature of /robot_state
+                   pace=Pace(self.bus.demand, (STATE_TOPIC,), SLOW_PERIOD))
         self.every(STATE_PERIOD, self._tick, needs_robot=False, pace=self._pace)
 
     # ------------------------------------------------------------------ services
