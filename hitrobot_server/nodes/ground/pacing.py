@@ -53,7 +53,7 @@ class Pace:
             wanted = self.readers.period(name)
             if wanted is not None and (best is None or wanted < best):
                 best = wanted
-        return self.idle if best is None else max(self.full, best)
+        return self.idle if best is None else max(self.full, min(best, self.idle))
 
     async def sleep(self, delay: float) -> bool:
         """Sleep ``delay`` seconds; True when the readers changed meanwhile (run now)."""
