@@ -16,6 +16,7 @@ from typing import TypeVar
 from ..types.registry import TypeRegistry, UnknownType
 from .actions import ActionRegistry
 from .clock import wall_clock
+from .demand import Demand
 from .errors import ActionError, BusError, ServiceError
 from .link import BusLink, RemoteGraph
 from .names import canonical
@@ -64,16 +65,17 @@ class Bus:
         self.remote_watchers: list[Callable[[str, str], None]] = []  # the same, told by the link
         self.taps: list[BusTap] = []  # observers of every publish (the recorder)
         self._seqs = itertools.count(1)  # numbers every message published here
+        self.demand = Demand(self)  # who reads each topic, for the pollers behind them
 
     # ---------------------------------------------------------------- link hooks
     def _changed(self, kind: str, name: str) -> None:
         if self.link is not None:
             self.link.changed(kind, name)
-        _tell(self.watchers, kind, name)
+        _tell([self.demand.changed, *self.watchers], kind, name)
 
     def remote_changed(self, kind: str, name: str) -> None:
         """The link saw another process's ``kind`` ``name`` come or go."""
-        _tell(self.remote_watchers, kind, name)
+        _tell([self.demand.remote_changed, *self.remote_watchers], kind, name)
 
     def remote_graph(self) -> RemoteGraph:
         """What other processes joined to this bus have (empty without a link)."""

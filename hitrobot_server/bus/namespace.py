@@ -15,6 +15,7 @@ from typing import Any
 
 from ..types.registry import TypeRegistry
 from .core import Bus
+from .demand import ResolvedDemand
 from .link import RemoteGraph
 from .names import CLIENT_NODE_PREFIX, canonical
 from .params import ParamStore
@@ -133,6 +134,11 @@ class NamespacedBus:
 
     def remote_graph(self) -> RemoteGraph:
         return self._bus.remote_graph()
+
+    @property
+    def demand(self) -> ResolvedDemand:
+        """Who reads a topic, the robot's names resolved (bus/demand.py)."""
+        return ResolvedDemand(self._bus.demand, self.namespace.resolve)
 
     def remove_owner(self, owner: Hashable, keys: Iterable[Hashable] = ()) -> None:
         self._bus.remove_owner(owner, keys)

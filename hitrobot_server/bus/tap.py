@@ -2,7 +2,9 @@
 client op that changes the robot, with who sent it.
 
 A tap is called on the event loop for each publish, so it must only hand the message on (to a
-queue, a worker); it never blocks and never raises into the bus.
+queue, a worker); it never blocks and never raises into the bus. A tap that needs topics polled
+for it says so with a ``demand(name) -> float | None`` method (the period it asks for, 0 for
+the full rate: bus/demand.py); a tap without one asks for nothing.
 """
 
 from __future__ import annotations

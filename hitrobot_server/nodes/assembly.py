@@ -30,7 +30,7 @@ from .navigation import NavigationNode
 from .options import NodeOptions
 from .patrol import PatrolNode
 from .pointclouds import PointCloudNode
-from .rosapi import Rosapi
+from .rosapi import ROS_PARAMS, Rosapi
 from .shell import ShellNode
 from .sim_controls import SimControlsNode
 from .slamware import SlamwareNode
@@ -167,10 +167,10 @@ NODE_CLASSES: tuple[type[Node], ...] = (
     TFRepublisherNode, DemoServices, DiagnosticsNode, FleetNode, FleetMemberNode, SlamwareNode,
     ConventionalNode, MoveBaseNode, ShellNode, MapManager, NavigationNode, PointCloudNode,
     Nav2ActionsNode, IntelligentNavigationNode, MapFilesNode, PatrolNode, GraphNodeService,
-    LocomotionNode, SimControlsNode, Rosapi,
+    LocomotionNode, SimControlsNode,
 )
-"""Every node class the assembly makes (rosapi's services are the bus's site-wide names; its
-class declares roscore's parameters)."""
+"""Every node class the assembly makes (rosapi's names are the bus's site-wide ones, and
+roscore's parameters it sets, ``ROS_PARAMS``)."""
 BESIDE_THE_NODES = ("/record", "/recorder", "/replay", "/replay_launcher", "/black_box")
 """Global names served beside the nodes, by the recorder and the player (``record/``, which
 the nodes may not import; a test checks these are still theirs)."""
@@ -181,7 +181,7 @@ def reserved_names() -> frozenset[str]:
     bus's site-wide names and its own node, the recorder's and the player's, and the global
     names every node class declares (``Node.GLOBAL_NAMES``). The robot-name check of the
     configuration is handed this set."""
-    names = [*SITE_WIDE, *SITE_WIDE_TOPICS, SERVER_NODE, *BESIDE_THE_NODES,
+    names = [*SITE_WIDE, *SITE_WIDE_TOPICS, SERVER_NODE, *BESIDE_THE_NODES, *ROS_PARAMS,
              *(name for cls in NODE_CLASSES for name in cls.GLOBAL_NAMES)]
     return frozenset(name.strip("/").split("/")[0] for name in names)
 

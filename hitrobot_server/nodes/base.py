@@ -10,9 +10,11 @@ from collections.abc import Awaitable, Callable, Coroutine
 from typing import Any, ClassVar
 
 from ..bus.core import Bus
+from ..bus.demand import Passive
 from ..bus.services import ActionHandler, ServiceHandler
 from ..bus.topics import Message, RequestRejected
 from ..robot.backend import BackendError, Link, NotConnectedError
+from .ground.pacing import Pace, repeat
 
 log = logging.getLogger(__name__)
 
@@ -54,10 +56,12 @@ class Node:
     def publish(self, topic: str, msg: dict) -> Message:
         return self.bus.publish(topic, msg)
 
-    def subscribe(self, topic: str, type_name: str, callback: Callable[[Message], None]) -> None:
+    def subscribe(self, topic: str, type_name: str, callback: Callable[[Message], None], *,
+                  passive: bool = False) -> None:
         """``callback`` gets the Message: ``.msg`` is the data; raising RequestRejected sends
-        the publishing client a status error, and ``.reply`` answers it later."""
-        key = (self, topic)
+        the publishing client a status error, and ``.reply`` answers it later. ``passive``:
+        listen, asking for nothing to be fetched (bus/demand.py)."""
+        key = Passive((self, topic)) if passive else (self, topic)
         self.bus.subscribe(topic, type_name, key, self.name, callback)
         self._subs.append((topic, key))
 
@@ -107,31 +111,15 @@ class RobotNode(Node):
         return task
 
     def every(self, period: float, work: Callable[[], Awaitable[None]],
-              needs_robot: bool = True) -> asyncio.Task:
+              needs_robot: bool = True, *, pace: Pace | None = None) -> asyncio.Task:
         """Run ``work`` at a fixed rate without drift; ticks are skipped while the robot is
-        offline (when ``needs_robot``) and a slow tick never causes a burst."""
-
-        async def loop() -> None:
-            clock = asyncio.get_running_loop()
-            due = clock.time()
-            while True:
-                if not needs_robot or self.robot_connected:
-                    try:
-                        await work()
-                    except NotConnectedError:
-                        pass
-                    except BackendError as exc:
-                        log.warning("%s: %s", self.name, exc, extra={"ros_node": self.name})
-                    except Exception:
-                        log.exception("%s: worker failed", self.name,
-                                      extra={"ros_node": self.name})
-                due += period
-                delay = due - clock.time()
-                if delay < 0:
-                    due, delay = clock.time(), 0.0
-                await asyncio.sleep(delay)
-
-        return self.spawn(loop())
+        offline (when ``needs_robot``) and a slow tick never causes a burst. With ``pace``
+        the rate follows who reads its topics (ground/pacing.py)."""
+        task = self.spawn(repeat(period, lambda: _work_once(work, self.name), pace,
+                                 lambda: not needs_robot or self.robot_connected))
+        if pace is not None:
+            task.add_done_callback(lambda _t: pace.unwatch())
+        return task
 
     async def stop(self) -> None:
         for task in list(self._tasks):
@@ -140,3 +128,16 @@ class RobotNode(Node):
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await task
         self.close()
+
+
+async def _work_once(work: Callable[[], Awaitable[None]], name: str) -> None:
+    """One tick of a node's worker: a robot away is no news, its errors are logged as the
+    node's (its name on /rosout)."""
+    try:
+        await work()
+    except NotConnectedError:
+        pass
+    except BackendError as exc:
+        log.warning("%s: %s", name, exc, extra={"ros_node": name})
+    except Exception:
+        log.exception("%s: worker failed", name, extra={"ros_node": name})

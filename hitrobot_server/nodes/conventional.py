@@ -16,6 +16,7 @@ from ..robot.backend import Link, LocalizationBackend
 from .base import RobotNode
 from .ground import messages as m
 from .ground.messages import map_frames, pose2d_of
+from .ground.pacing import Pace
 from .ground.requests import answer, require_robot
 
 log = logging.getLogger(__name__)
@@ -39,7 +40,8 @@ class ConventionalNode(RobotNode):
                        self._on_initialpose)
 
     async def start(self) -> None:
-        self.every(ROBOT_POSE_PERIOD, self._publish_pose)
+        self.every(ROBOT_POSE_PERIOD, self._publish_pose,  # at full rate while it is read
+                   pace=Pace(self.bus.demand, ("/robot_pose",), ROBOT_POSE_PERIOD))
 
     async def _publish_pose(self) -> None:
         self.publish("/robot_pose", m.pose(await self.localization.get_pose()))

@@ -35,6 +35,7 @@ from ..robot.model import Odometry, Pose2D, Twist2D
 from .base import RobotNode
 from .ground import messages as m
 from .ground.loadedmap import LoadedMap
+from .ground.pacing import Pace
 from .ground.requests import NOT_CONNECTED
 from .options import NodeOptions
 
@@ -121,6 +122,8 @@ class LocomotionNode(RobotNode):
         self.wheel_vel = [0.0, 0.0]
         self.effort = [0.0, 0.0]
         self._last = time.monotonic()
+        # the odometry is fetched at full rate only while the state or an odometry is read
+        self._pace = Pace(self.bus.demand, (STATE_TOPIC, ODOM_TOPIC), STATE_PERIOD)
         if not bus.params.has(ROBOT_ID_PARAM):
             bus.params.set(ROBOT_ID_PARAM, DEFAULT_ROBOT_ID)
         self.advertise(STATE_TOPIC, f"{PKG}/RobotState")
@@ -130,8 +133,9 @@ class LocomotionNode(RobotNode):
         self.service("/set_listen", f"{PKG}/SetListen", self._set_listen)
 
     async def start(self) -> None:
-        self.every(SLOW_PERIOD, self._slow)
-        self.every(STATE_PERIOD, self._tick, needs_robot=False)
+        self.every(SLOW_PERIOD, self._slow,  # the battery and temperature of /robot_state
+                   pace=Pace(self.bus.demand, (STATE_TOPIC,), SLOW_PERIOD))
+        self.every(STATE_PERIOD, self._tick, needs_robot=False, pace=self._pace)
 
     # ------------------------------------------------------------------ services
     async def _stand_up(self, request: dict) -> dict:
@@ -171,7 +175,8 @@ class LocomotionNode(RobotNode):
 
     async def _tick(self) -> None:
         now = time.monotonic()
-        dt, self._last = min(now - self._last, 0.5), now
+        # a slow tick (nobody reads) integrates its whole time; a stall at most half a second
+        dt, self._last = min(now - self._last, max(0.5, 2 * self._pace.period())), now
         connected = self.link.connected
         if connected:
             try:
@@ -254,4 +259,5 @@ class LocomotionNode(RobotNode):
                 self._refused = topic
                 return
             self.map_topic, self._refused = topic, None
+            self._pace.follow((STATE_TOPIC, ODOM_TOPIC, topic))
         self.publish(topic, self._odometry(odo, self.params.map_frame))

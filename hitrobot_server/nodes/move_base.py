@@ -60,6 +60,7 @@ from .base import RobotNode
 from .ground import messages as m
 from .ground.claims import MotionClaims
 from .ground.messages import map_frames, pose2d_of
+from .ground.pacing import Pace
 from .ground.requests import require_robot, robot_error
 
 log = logging.getLogger(__name__)
@@ -205,7 +206,8 @@ class MoveBaseNode(RobotNode):
         self.action(server, "move_base_msgs/action/MoveBase", self.bus_goals.run)
 
     async def start(self) -> None:
-        self.every(STATUS_PERIOD, self._tick, needs_robot=False)
+        self.every(STATUS_PERIOD, self._tick, needs_robot=False,  # 10 Hz while it is read
+                   pace=Pace(self.bus.demand, (f"{self.server}/status",), STATUS_PERIOD))
 
     async def _tick(self) -> None:
         now = time.monotonic()

@@ -48,6 +48,7 @@ from ..robot.backend import Link, SensorBackend
 from ..robot.model import LaserScan
 from .base import RobotNode
 from .ground import messages as m
+from .ground.pacing import Pace
 
 log = logging.getLogger(__name__)
 
@@ -202,7 +203,8 @@ class PointCloudNode(RobotNode):
         self._next_merged = 0.0
 
     async def start(self) -> None:
-        self.every(TICK, self._tick)
+        self.every(TICK, self._tick,  # a tick with no reader fetches nothing: keep-alive
+                   pace=Pace(self.bus.demand, (CLOUD_TOPIC, MERGED_TOPIC, DOWNSAMPLED_TOPIC), TICK))
 
     def param(self, name: str, low: float, high: float) -> float:
         """A numeric parameter clamped to [low, high]; the default when unusable."""

@@ -38,8 +38,6 @@ class Rosapi(Node):
     """``params=False``: leave the parameter services to the process that keeps the store
     (a secondary worker of ``--workers``; its calls reach worker 0's over the link)."""
 
-    GLOBAL_NAMES = tuple(ROS_PARAMS)  # roscore's parameters: no robot may be named like them
-
     def __init__(self, bus: Bus, settings: NodeOptions, *, params: bool = True):
         super().__init__(bus, "/rosapi")
         self.settings = settings

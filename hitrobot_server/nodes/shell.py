@@ -38,6 +38,7 @@ from ..robot.capabilities import Robot
 from ..types.convert import default_message
 from .base import RobotNode
 from .ground.names import MAP_MANAGER_LOAD_MAP, MAP_MANAGER_SAVE_MAP
+from .ground.pacing import Pace
 from .ground.requests import answer, require_robot, robot_error
 
 log = logging.getLogger(__name__)
@@ -93,7 +94,8 @@ class ShellNode(RobotNode):
         }
 
     async def start(self) -> None:
-        self.every(MODE_POLL, self._follow_robot_mode)
+        self.every(MODE_POLL, self._follow_robot_mode,  # 2 Hz while the mode is read
+                   pace=Pace(self.bus.demand, MODE_TOPICS, MODE_POLL))
 
     # ------------------------------------------------------------------ mode
     def _publish_mode(self, mode: str) -> None:

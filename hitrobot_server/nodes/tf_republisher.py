@@ -30,6 +30,7 @@ from ..bus.topics import Message, RequestRejected
 from ..tf_buffer import TFBuffer, Transform, frame_name
 from .base import RobotNode
 from .ground.names import TF, TF_STATIC
+from .ground.pacing import Pace
 
 NODE_NAME = "/tf2_web_republisher"
 SERVICE = "/republish_tfs"
@@ -111,8 +112,8 @@ class TFRepublisherNode(RobotNode):
         self._active = 0
         self._topic_ids = itertools.count(1)
         self._goal_ids = itertools.count(1)
-        for topic in (TF, TF_STATIC):
-            self.subscribe(topic, "tf2_msgs/TFMessage", self._on_tf)
+        for topic in (TF, TF_STATIC):  # kept in the buffer; /tf wanted while one streams
+            self.subscribe(topic, "tf2_msgs/TFMessage", self._on_tf, passive=True)
         action = "tf2_web_republisher/TFSubscriptionAction"
         self.advertise(f"{NODE_NAME}/feedback", f"{action}Feedback")
         self.advertise(f"{NODE_NAME}/result", f"{action}Result")
@@ -123,7 +124,8 @@ class TFRepublisherNode(RobotNode):
         self.action(NODE_NAME, "tf2_web_republisher_interfaces/TFSubscription", self._ros2_goal)
 
     async def start(self) -> None:
-        self.every(STATUS_PERIOD, self._publish_status, needs_robot=False)
+        self.every(STATUS_PERIOD, self._publish_status, needs_robot=False,  # 5 Hz when read
+                   pace=Pace(self.bus.demand, (f"{NODE_NAME}/status",), STATUS_PERIOD))
 
     def _on_tf(self, message: Message) -> None:
         for stamped in message.msg["transforms"]:
@@ -144,10 +146,18 @@ class TFRepublisherNode(RobotNode):
         return self._counted(sub.period, tick)
 
     def _counted(self, period: float, tick: Callable[[], Awaitable[None]]) -> asyncio.Task:
+        """A stream of TF to a client: ``/tf`` is wanted at its full rate while one runs."""
         self._active += 1
+        if self._active == 1:
+            self.bus.demand.want(TF, self)
         task = self.every(period, tick, needs_robot=False)
-        task.add_done_callback(lambda _t: setattr(self, "_active", self._active - 1))
+        task.add_done_callback(self._ended)
         return task
+
+    def _ended(self, _task: asyncio.Task) -> None:
+        self._active -= 1
+        if self._active == 0:
+            self.bus.demand.unwant(TF, self)
 
     # ------------------------------------------------------------------ ROS 1 actionlib
     def _header(self) -> dict:

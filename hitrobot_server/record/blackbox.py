@@ -23,6 +23,9 @@ from .blackbox_file import Row
 
 log = logging.getLogger(__name__)
 
+PERIOD = 0.2
+"""Seconds between the polls the black box alone asks for (pose, odometry, scans: 5 Hz); a
+topic someone else reads comes at its full rate, and the box keeps all of it."""
 ITEM_OVERHEAD = 160
 """What one kept message costs besides its CDR (the tuple, its float and int, the bytes
 object's header), counted against the bound."""
@@ -53,10 +56,17 @@ class BlackBox:
 
     def start(self) -> None:
         self.bus.taps.append(self)
+        self.bus.demand.taps_changed()
 
     def stop(self) -> None:
         if self in self.bus.taps:
             self.bus.taps.remove(self)
+            self.bus.demand.taps_changed()
+
+    def demand(self, name: str) -> float | None:
+        """The black box asks for its topics at :data:`PERIOD` at most: enough to see what
+        the robot did before an incident, without polling it at full rate for nobody."""
+        return PERIOD if self._allows(name) else None
 
     @property
     def contents(self) -> Contents:

@@ -41,6 +41,7 @@ from typing import Any
 
 from ..bus.cdr import codec_for
 from ..bus.core import Bus
+from ..bus.demand import FULL
 from ..bus.names import CLIENT_NODE_PREFIX, GlobFilter
 from ..bus.tap import ClientOp
 from ..bus.topics import Message
@@ -171,6 +172,7 @@ class Recorder:
             self._loop = None  # no loop: each message goes at once
         self._feed = PipeFeed(writing, self._loop)
         self.bus.taps.append(self)
+        self.bus.demand.taps_changed()
         started = self.bus.clock()
         for topic in list(self.bus.topics.values()):
             if topic.latched and topic.last is not None and self.filter.allows(topic.name):
@@ -184,6 +186,7 @@ class Recorder:
             return
         if self in self.bus.taps:
             self.bus.taps.remove(self)
+            self.bus.demand.taps_changed()
         self._hand_off()
         process, self._process = self._process, None
         feed = self._feed
@@ -195,6 +198,10 @@ class Recorder:
         await asyncio.to_thread(process.join)
         log.info("recording finished: %s (%d messages, %d dropped, %d not encodable)",
                  ", ".join(map(str, self.files)), self.messages, self.dropped, self.failed)
+
+    def demand(self, name: str) -> float | None:
+        """A recording keeps every message of its topics: they are polled at full rate."""
+        return FULL if self.filter.allows(name) else None
 
     def message(self, message: Message) -> None:
         topic = message.topic

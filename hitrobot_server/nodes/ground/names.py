@@ -16,6 +16,9 @@ SLAMWARE_NODE = "/slamware_ros_sdk_server_node"
 SLAMWARE_SYNC_MAP = f"{SLAMWARE_NODE}/sync_map"
 """Asks the Slamware node to read the robot's whole map again (after the map manager replaced
 it)."""
+MAP_TOPIC = "/map"
+"""The map manager's composed map, made of the robot's: read by a client, it keeps the
+Slamware node's map copy at its full rate."""
 
 TF = "/tf"
 TF_STATIC = "/tf_static"

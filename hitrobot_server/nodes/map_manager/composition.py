@@ -65,22 +65,43 @@ class MapComposition:
         self._pending_scans: dict[tuple[int, int], dict] = {}
         self._dirty: asyncio.Event | None = None
         self._last_publish = -math.inf
+        self._scans_wanted = False
         self._blocked_lock = asyncio.Lock()
         self._blocked_sent: list | None = []
         self._blocked_stale = False
         node.advertise(MAP_TOPIC, "nav_msgs/OccupancyGrid", latch=True)
 
     def listen(self) -> None:
-        """Follow the robot's map, its scans and their poses (the obstacle layers)."""
+        """Follow the robot's map, its scans and their poses (the obstacle layers). They are
+        heard passively: the robot's map is fetched at its full rate only while someone reads
+        it or ``/map``, the scans and poses only while an obstacle layer is on
+        (:meth:`_follow_scans`)."""
         node = self.node
         node.subscribe(m.slamware_topic(self.params.map_topic), "nav_msgs/OccupancyGrid",
-                       self._on_slam_map)
-        node.subscribe(m.slamware_topic(self.params.scan_topic), "sensor_msgs/LaserScan",
-                       self._on_scan)
-        node.subscribe(TF, "tf2_msgs/TFMessage", self._on_tf)
+                       self._on_slam_map, passive=True)
+        node.subscribe(self._scan_topic, "sensor_msgs/LaserScan", self._on_scan, passive=True)
+        node.subscribe(TF, "tf2_msgs/TFMessage", self._on_tf, passive=True)
+
+    @property
+    def _scan_topic(self) -> str:
+        return m.slamware_topic(self.params.scan_topic)
+
+    def _follow_scans(self, stopping: bool = False) -> None:
+        """An obstacle layer paints the scans: while one is on, they are wanted whole."""
+        on = not stopping and bool(self.states.get(SICK_LAYER) or self.states.get(KINECT_LAYER))
+        if on != self._scans_wanted:
+            self._scans_wanted = on
+            demand = self.node.bus.demand
+            for name in (self._scan_topic, TF):
+                (demand.want if on else demand.unwant)(name, self)
+
+    def stop(self) -> None:
+        """The node stops: it wants the scans no more."""
+        self._follow_scans(stopping=True)
 
     def start(self) -> None:
         self._dirty = asyncio.Event()
+        self._follow_scans()
         self.node.spawn(self._publisher())
         self.node.spawn(self._watch_connection())
 
@@ -92,6 +113,7 @@ class MapComposition:
 
     def publish_map(self, force: bool = False) -> None:
         """Compose and publish ``/map``; unchanged pictures are skipped unless ``force``."""
+        self._follow_scans()
         grid = self.compose()
         if grid is None or (not force and grid.same_as(self.published)):
             return

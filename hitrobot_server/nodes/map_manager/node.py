@@ -86,3 +86,7 @@ class MapManager(RobotNode):
             log.info("map store: removed leftovers of interrupted saves: %s", ", ".join(removed))
         self.layers.start()
         self.robot_map.start()
+
+    async def stop(self) -> None:
+        self.layers.stop()
+        await super().stop()

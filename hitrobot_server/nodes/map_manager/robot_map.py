@@ -40,7 +40,8 @@ class RobotMap:
 
     def listen(self) -> None:
         self.node.subscribe(request_topic("do_mapping"), f"{PKG}/DoMapping", self._on_do_mapping)
-        self.node.subscribe(MAP_TOPIC, "nav_msgs/OccupancyGrid", self._on_client_map)
+        self.node.subscribe(MAP_TOPIC, "nav_msgs/OccupancyGrid", self._on_client_map,
+                            passive=True)  # a client's map to load: it asks for no polling
 
     def start(self) -> None:
         self.node.every(HOME_PERIOD, self._publish_home)

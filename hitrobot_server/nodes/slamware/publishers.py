@@ -13,14 +13,16 @@ from ...robot.capabilities import Robot
 from ...robot.model import ArtifactUsage, MapKind, Pose2D
 from ..base import RobotNode
 from ..ground import messages as m
-from ..ground.names import TF
+from ..ground.names import MAP_TOPIC, TF
+from ..ground.pacing import KEEP_ALIVE, Pace
 from ..ground.slamware_params import SlamwareParams
 from .map_copy import MapCopy
 from .topics import SlamwareTopics
 
 log = logging.getLogger(__name__)
 
-Worker = tuple[float, Callable[[], Awaitable[None]]]
+LINES_IDLE = 5.0
+"""Seconds between reads of the virtual walls and tracks while nobody reads them (latched)."""
 
 
 class Publishers:
@@ -35,24 +37,34 @@ class Publishers:
         self._was_connected = False
 
     def start(self) -> None:
-        p, copy = self.params, self.map_copy
-        workers: list[Worker] = [
-            (0.1, self._watch_connection),
-            (p.robot_pose_pub_period, self._publish_pose),
-            (p.scan_pub_period, self._publish_scan),
-            (p.map_update_period, copy.update),
-            (p.map_pub_period, copy.publish),
-            (p.basic_sensors_info_update_period, self._publish_sensors_info),
-            (p.basic_sensors_values_pub_period, self._publish_sensor_values),
-            (p.path_pub_period, self._publish_path),
-            (p.robot_basic_state_pub_period, self._publish_basic_state),
-            (p.virtual_walls_pub_period, lambda: self._publish_lines(ArtifactUsage.VIRTUAL_WALL)),
+        """One worker per publisher. Those that fetch often run at their period only while
+        someone reads their topics (a client, the recorder, another process, a node that
+        needs them), at the black box's period when only it keeps them, and every
+        ``KEEP_ALIVE`` seconds otherwise; the basic state (battery, localization: the
+        incidents), the sensor list and the connection watch keep their own periods."""
+        p, copy, t, node = self.params, self.map_copy, self.topics, self.node
+        maps = (t.map, t.map_info, MAP_TOPIC)
+        paced: list[tuple[float, Callable[[], Awaitable[None]], tuple[str, ...], float]] = [
+            (p.robot_pose_pub_period, self._publish_pose, (*t.odom, TF), KEEP_ALIVE),
+            (p.scan_pub_period, self._publish_scan, (*t.scan, TF), KEEP_ALIVE),
+            (p.map_update_period, copy.update, maps, KEEP_ALIVE),
+            (p.map_pub_period, copy.publish, maps, KEEP_ALIVE),
+            (p.basic_sensors_values_pub_period, self._publish_sensor_values,
+             (t.sensors_values,), KEEP_ALIVE),
+            (p.path_pub_period, self._publish_path, (t.path,), KEEP_ALIVE),
+            (p.virtual_walls_pub_period,
+             lambda: self._publish_lines(ArtifactUsage.VIRTUAL_WALL), (t.walls,), LINES_IDLE),
             (p.virtual_tracks_pub_period,
-             lambda: self._publish_lines(ArtifactUsage.VIRTUAL_TRACK)),
+             lambda: self._publish_lines(ArtifactUsage.VIRTUAL_TRACK), (t.tracks,), LINES_IDLE),
         ]
-        for period, work in workers:
-            if period > 0:  # the connection watch runs while the robot is away, too
-                self.node.every(period, work, needs_robot=work != self._watch_connection)
+        node.every(0.1, self._watch_connection, needs_robot=False)  # while away, too
+        for period, work in ((p.basic_sensors_info_update_period, self._publish_sensors_info),
+                             (p.robot_basic_state_pub_period, self._publish_basic_state)):
+            if period > 0:
+                node.every(period, work)
+        for period, work, topics, idle in paced:
+            if period > 0:
+                node.every(period, work, pace=Pace(node.bus.demand, topics, period, idle))
 
     async def _watch_connection(self) -> None:
         connected = self.node.link.connected

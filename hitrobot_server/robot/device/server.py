@@ -4,6 +4,7 @@ network), its robot-like errors and its system endpoints (identity, health, powe
 from __future__ import annotations
 
 import asyncio
+from collections import Counter
 from collections.abc import Awaitable, Callable
 
 from aiohttp import web
@@ -42,6 +43,7 @@ class SimDevice:
         self.address = address
         self.port = port
         self.requests = 0
+        self.hits: Counter[str] = Counter()  # requests by path (what a server polls, for tests)
         self._runner: web.AppRunner | None = None
         self._routes = (SlamRoutes(self.backend), ActionRoutes(self.backend),
                         LineRoutes(self.backend), AreaRoutes(self.backend))
@@ -122,6 +124,7 @@ class SimDevice:
         """Robot-like failures: 503 while the simulator is paused, 404 for what it lacks,
         400 with the reason for anything it refuses or cannot parse."""
         self.requests += 1
+        self.hits[request.path] += 1
         try:
             return await handler(request)
         except web.HTTPException:
