@@ -4,28 +4,13 @@ placement.js): nothing is sent, the robot does not move."""
 
 from __future__ import annotations
 
-import numpy as np
-
-from hitrobot_server.nodes.map_manager.layers import Grid
-from hitrobot_server.nodes.map_manager.placement import placement_problem
-
 from .conftest import Console, grid_map
-from .test_journeys import CLEAR
+from .test_journeys import CLEAR, west_of_clear
 
 
 def on_an_obstacle(grid_msg: dict) -> tuple[float, float]:
     """An occupied cell's centre west of CLEAR (a table or a wall of the office world)."""
-    info = grid_msg["info"]
-    res, origin = info["resolution"], info["origin"]["position"]
-    ox, oy = origin["x"], origin["y"]
-    data = np.asarray(grid_msg["data"], dtype=np.int8).reshape(info["height"], info["width"])
-    grid = Grid(ox, oy, res, data)
-    col, row = int((CLEAR[0] - ox) // res), int((CLEAR[1] - oy) // res)
-    for c in range(col, col - 200, -1):
-        x, y = ox + (c + 0.5) * res, oy + (row + 0.5) * res
-        if "on an obstacle" in (placement_problem(grid, x, y) or ""):
-            return x, y
-    raise AssertionError("no obstacle west of CLEAR")
+    return west_of_clear(grid_msg, "on an obstacle", 200)
 
 
 async def test_a_goal_on_an_obstacle_is_refused_at_once(console: Console, watcher):

@@ -46,20 +46,25 @@ DEVELOPER_SPEAK = re.compile(
     r"\b[a-z]+_[a-z_]+: |PREEMPT|ABORTED|SUCCEEDED|-0°|Error: |\bat \S+:\d+")
 
 
-def beside_an_obstacle(grid_msg: dict) -> tuple[float, float]:
-    """A free cell's centre west of CLEAR, nearer an obstacle than the robot's clearance."""
+def west_of_clear(grid_msg: dict, problem: str, cells: int) -> tuple[float, float]:
+    """The first cell's centre west of CLEAR (within ``cells``) whose placement problem, as
+    the map manager words it, says ``problem``."""
     info = grid_msg["info"]
     res, origin = info["resolution"], info["origin"]["position"]
     ox, oy = origin["x"], origin["y"]
     data = np.asarray(grid_msg["data"], dtype=np.int8).reshape(info["height"], info["width"])
     grid = Grid(ox, oy, res, data)
     col, row = int((CLEAR[0] - ox) // res), int((CLEAR[1] - oy) // res)
-    for c in range(col, col - 20, -1):
+    for c in range(col, col - cells, -1):
         x, y = ox + (c + 0.5) * res, oy + (row + 0.5) * res
-        problem = placement_problem(grid, x, y)
-        if problem and "from an obstacle" in problem:
+        if problem in (placement_problem(grid, x, y) or ""):
             return x, y
-    raise AssertionError("no spot beside an obstacle west of CLEAR")
+    raise AssertionError(f"no spot west of CLEAR whose placement is {problem!r}")
+
+
+def beside_an_obstacle(grid_msg: dict) -> tuple[float, float]:
+    """A free cell's centre west of CLEAR, nearer an obstacle than the robot's clearance."""
+    return west_of_clear(grid_msg, "from an obstacle", 20)
 
 
 def names(watcher) -> list[str]:
