@@ -28,6 +28,7 @@ from .robot.options import RobotEntry, RobotOptions, parse_robot
 from .session.options import SessionOptions
 from .state.options import StoreOptions
 from .transport.options import TransportOptions
+from .vda5050.options import Vda5050Options
 
 EVENT_LOOPS = ("auto", "uvloop", "asyncio")
 
@@ -65,7 +66,7 @@ class ProcessOptions:
 SECTIONS: dict[str, type] = {
     "transport": TransportOptions, "session": SessionOptions, "bus": BusOptions,
     "robot": RobotOptions, "store": StoreOptions, "record": RecordOptions,
-    "process": ProcessOptions, "nodes": NodeOptions,
+    "process": ProcessOptions, "vda5050": Vda5050Options, "nodes": NodeOptions,
 }
 
 # The flags in --help order (and the TOML keys): each is a field with a help text in one of
@@ -83,7 +84,8 @@ FLAG_ORDER = (
     "zenoh_domain", "workers", "event_loop", "record", "record_topics", "record_split_size",
     "record_split_time", "record_max_disk", "record_dir", "black_box", "black_box_max_mb",
     "black_box_localization", "demo_services", "charge_below", "charge_until", "site_timezone",
-    "site_map_robot",
+    "site_map_robot", "vda5050", "vda5050_manufacturer", "vda5050_serial", "vda5050_interface",
+    "vda5050_password_file", "vda5050_ca_file", "vda5050_cert_file", "vda5050_key_file",
 )
 
 
@@ -109,6 +111,7 @@ class Settings:
     store: StoreOptions
     record: RecordOptions
     process: ProcessOptions
+    vda5050: Vda5050Options
     nodes: NodeOptions
     # Named robots (``--robot NAME=SPEC``, repeatable); empty: the single unnamed ``robot``.
     robots: tuple[RobotEntry, ...] = ()
@@ -154,7 +157,8 @@ class Settings:
             raise ValueError("--ssl runs on asyncio's event loop: uvloop's start_tls loses TLS "
                              "handshakes taken over from a paused connection (use --event-loop "
                              "auto or asyncio)")
-        for part in (self.session, self.bus, self.robot, self.transport, self.record):
+        for part in (self.session, self.bus, self.robot, self.transport, self.record,
+                     self.vda5050):
             part.check()
         self.check_site_map()
 

@@ -38,6 +38,8 @@ from .transport.tcp import start_tcp
 from .transport.tls import HandshakeGate
 from .transport.websocket import start_websocket
 from .types.registry import TypeRegistry
+from .vda5050.service import RobotEntry as VdaRobot
+from .vda5050.service import Vda5050Service
 
 log = logging.getLogger(__name__)
 T = TypeVar("T", bound=ClientSession)
@@ -77,6 +79,7 @@ class HitrobotServer:
         self.tcp_port: int | None = None
         self._rosout: RosoutHandler | None = None
         self.recording: RecordingControl | None = None
+        self.vda5050: Vda5050Service | None = None  # --vda5050: every robot a vehicle
         self.metrics = ServerMetrics(Sources(
             sessions=lambda: self.sessions, robots=lambda: self.robots, site=lambda: self.site,
             recording=lambda: self.recording, worker=self.plan.worker_id
@@ -130,6 +133,11 @@ class HitrobotServer:
         tag = await self._start_link() if plan.zenoh else ""
         self._session_options = s.session.for_sessions(secret, tag)
         self.site, self.robots = await start_planned(self.bus, s, plan)
+        if s.vda5050.vda5050 and self.robots:  # worker 0, which runs the robots
+            self.vda5050 = Vda5050Service(
+                self.bus, s.vda5050, [VdaRobot(u.name, u.robot) for u in self.robots
+                                      if u.robot is not None], s.nodes.slamware.map_frame)
+            await self.vda5050.start()
         await self._start_listeners()
         if plan.worker and os.environ.get(METRICS_DIR):  # one scrape covers every worker
             await self.metrics.share(os.environ[METRICS_DIR])
@@ -253,6 +261,9 @@ class HitrobotServer:
         self.metrics.unshare()
         if self.black_box is not None:  # the robots stopping is no incident
             self.black_box.shutting_down()
+        if self.vda5050 is not None:  # OFFLINE to the master before the robots go
+            await self.vda5050.stop()
+            self.vda5050 = None
         await stop_robots(self.site, self.robots)
         self.robots.clear()
         if self.black_box is not None:  # after the nodes, as the recording

@@ -30,11 +30,13 @@ ALLOWED: dict[str, set[str]] = {
     # a bus tap and a player, like a node without robot
     "record": {"wire", "bus", "protocol", "types", "signals"},
     "conformance": {"protocol", "types"},  # a client tool: it talks to servers over sockets
+    # VDA 5050 vehicles: drive the robots over the bus, read them as a node does, MQTT out
+    "vda5050": {"bus", "nodes", "robot", "types"},
     # the top: assembles the floors, so it may import any of them
     "config": {"session", "transport", "bus", "nodes", "robot", "record", "protocol", "types",
-               "state"},
+               "state", "vda5050"},
     "server": {"config", "robots", "site", "transport", "session", "bus", "nodes", "robot",
-               "record", "protocol", "types", "state", "metrics"},
+               "record", "protocol", "types", "state", "metrics", "vda5050"},
     # /metrics and /healthz: read the server's parts when scraped (beside server, below it)
     "metrics": {"robots", "site", "state", "session", "bus", "record", "wire", "procmem"},
     # one robot = backend + nodes (+ its state folder, robot_state)

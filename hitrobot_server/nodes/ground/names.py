@@ -30,3 +30,10 @@ the first and drives it with the second."""
 
 FLEET_MEMBERS = "/fleet/members"
 """Each named robot's state (``hitrobot_msgs/FleetRobot``), heard by the site's fleet node."""
+
+VDA5050_LINK = "/vda5050/link"
+"""Every robot's VDA 5050 link (``hitrobot_msgs/VdaLinks``, latched): the fleet marks a robot
+running a master control's order busy, the console shows it."""
+FLEET_ROBOTS = "/fleet/robots"
+"""The fleet's robots (``hitrobot_msgs/FleetRobots``): a VDA 5050 vehicle refuses an order
+while its robot runs a fleet task."""
