@@ -39,7 +39,7 @@ HERE = Path(__file__).resolve().parent
 SHIPPED = {
     "hitrobot_server._schemas": ["*/*/*.msg", "*/*/*.srv", "*/*/*.action"],
     "hitrobot_server._protocol": ["*.md", "schemas/*.json", "vectors/*.json", "vda5050/*.schema",
-                                  "vda5050/*.json", "vda5050/*.txt", "vda5050/*.md"],
+                                  "vda5050/*.txt", "vda5050/*.md"],
     "hitrobot_server._web": WEB_FILES,
 }
 

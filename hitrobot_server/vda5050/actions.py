@@ -86,7 +86,10 @@ class Actions:
 
         async def finish() -> None:
             if stopped is not None:
-                await stopped
+                await asyncio.gather(stopped, return_exceptions=True)
+            # nothing ahead and cancelOrder FINISHED in one state, as a master expects them
+            self.book.cancel("cancelled by cancelOrder")
+            self.book.halted = self.book.paused = False
             self.end(action, FINISHED, "order cancelled")
 
         task = asyncio.get_running_loop().create_task(finish())

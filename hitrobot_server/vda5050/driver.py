@@ -5,6 +5,7 @@ itself, so a goal ended by anyone else (a console's cancel, another motion) is t
 
 from __future__ import annotations
 
+import asyncio
 import math
 from dataclasses import dataclass
 
@@ -57,6 +58,7 @@ class Driver:
         self.goal: GoalHandle | None = None
         self._stopping = False
         self._advertised = False
+        self.ended_at = 0.0  # loop time our last goal ended: a robot read before saw it run
 
     def name(self, name: str) -> str:
         return self.ns.resolve(name) if self.ns else name
@@ -75,6 +77,7 @@ class Driver:
             return Outcome(FAILED, str(exc))
         finally:
             self.goal = None
+            self.ended_at = asyncio.get_running_loop().time()
         values = result.values if isinstance(result.values, dict) else {}
         reason = str(values.get("message", result.values if isinstance(result.values, str)
                                 else ""))

@@ -58,6 +58,11 @@ class Inbox:
         version = message.get("version")
         if not isinstance(version, str) or f"v{version.split('.')[0]}" != MAJOR:
             return self._refuse(topic, message, f"version {str(version)[:20]!r} is not 2.x.x")
+        if topic == "instantActions":
+            message = with_actions(message)
+            if not isinstance(message.get("actions"), list):
+                return self._refuse(topic, message, "actions: an instantActions message "
+                                    "lists its actions")
         too_many = limits(topic, message)
         if too_many:
             return self._refuse(topic, message, too_many)
@@ -78,6 +83,15 @@ class Inbox:
             return Verdict(error=e.order_error(e.VALIDATION, why, message))
         header = message.get("headerId") if isinstance(message, dict) else None
         return Verdict(error=e.error(e.VALIDATION, why, topic=topic, headerId=header))
+
+
+def with_actions(message: dict) -> dict:
+    """The actions under 2.0.0's ``actions``: VDA 5050 1.1 (and vda-5050-lib 1.4 in 2.0.0
+    mode) names the list ``instantActions``; either is taken, checked by the same schema."""
+    if "actions" not in message and "instantActions" in message:
+        message = dict(message)
+        message["actions"] = message.pop("instantActions")
+    return message
 
 
 def limits(topic: str, message: dict) -> str | None:

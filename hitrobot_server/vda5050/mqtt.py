@@ -112,7 +112,11 @@ class MqttLink:
                     subtopic = str(message.topic).rsplit("/", 1)[-1]
                     payload = message.payload
                     if isinstance(payload, bytes | bytearray):
-                        self.vehicle.receive(subtopic, bytes(payload))
+                        try:
+                            self.vehicle.receive(subtopic, bytes(payload))
+                        except Exception:  # a fault of ours: logged, the link goes on
+                            log.exception("vda5050 %s: a %s message failed",
+                                          self.vehicle.serial, subtopic)
                         await asyncio.sleep(0)  # a flood shares the loop with the rest
             finally:
                 writer.cancel()

@@ -109,6 +109,7 @@ class OrderBook:
         self.instant: list[str] = []  # the instant actions' ids, oldest first
         self.errors = e.Errors()
         self.paused = False
+        self.halted = False  # a cancelOrder is stopping the robot: no node is driven to
         self.due: list[dict] = []  # actions of a node reached, to run now
 
     # ------------------------------------------------------------------ what it shows
@@ -126,7 +127,7 @@ class OrderBook:
 
     def next_node(self) -> dict | None:
         """The node to drive to now: the first one ahead, when released and not paused."""
-        if self.paused or not self.nodes or not self.nodes[0]["released"]:
+        if self.paused or self.halted or not self.nodes or not self.nodes[0]["released"]:
             return None
         return self.nodes[0]
 

@@ -13,7 +13,7 @@ MAJOR = "v2"
 FILES = {
     "order": "order.schema", "instantActions": "instantActions.schema",
     "state": "state.schema", "connection": "connection.schema",
-    "factsheet": "factsheet.json", "visualization": "visualization.schema",
+    "factsheet": "factsheet.schema", "visualization": "visualization.schema",
 }
 
 
@@ -25,14 +25,7 @@ def schema_dir() -> Path:
 
 
 def load(topic: str) -> dict:
-    """One topic's schema. The 2.0.0 factsheet lists its properties at its top level; they are
-    read as the ``properties`` they describe (else its schema would check only the names)."""
-    schema = json.loads((schema_dir() / FILES[topic]).read_text(encoding="utf-8"))
-    if "properties" not in schema:
-        skip = {"$schema", "title", "description", "required", "subtopic", "type"}
-        schema = {k: v for k, v in schema.items() if k in skip} | {
-            "properties": {k: v for k, v in schema.items() if k not in skip}}
-    return schema
+    return json.loads((schema_dir() / FILES[topic]).read_text(encoding="utf-8"))
 
 
 @functools.cache

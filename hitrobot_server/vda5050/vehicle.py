@@ -19,7 +19,7 @@ from . import messages as msgs
 from .actions import Actions
 from .driver import ARRIVED, STOPPED, TAKEN, Driver
 from .inbox import Inbox
-from .orders import OrderBook, Refused, check_order
+from .orders import OrderBook, Refused, check_order, key
 from .reader import read
 
 log = logging.getLogger(__name__)
@@ -53,6 +53,7 @@ class Vehicle:
         self.ignored: set[str] = set()  # kinds of ignored messages logged once
         self.on_change: Callable[[], None] = lambda: None  # the link's line on the bus
         self._dirty = asyncio.Event()
+        self._read_at = 0.0  # loop time the last reading of the robot began
         self._drive: asyncio.Task | None = None
         self._report: asyncio.Task | None = None
 
@@ -106,7 +107,8 @@ class Vehicle:
         """Who else drives the robot now: a fleet task, or a motion not ours."""
         if self.fleet_task:
             return f"the robot runs fleet task {self.fleet_task}"
-        if self.motion_running and self.driver.goal is None and not self.book.active:
+        if self.motion_running and self.driver.goal is None and not self.book.active \
+                and self._read_at > self.driver.ended_at:
             return "the robot runs a motion from another client (the console or a goal)"
         return None
 
@@ -147,7 +149,7 @@ class Vehicle:
             if node is None:
                 return
             outcome = await self.driver.go(node["nodePosition"])
-            if outcome.kind == ARRIVED and self.book.nodes and self.book.nodes[0] is node:
+            if outcome.kind == ARRIVED and self.book.nodes and key(self.book.nodes[0]) == key(node):
                 self.book.due += self.book.reached(node)
                 self.changed()
             elif outcome.kind == STOPPED:
@@ -171,9 +173,9 @@ class Vehicle:
         self.changed()
 
     def cancel_order(self) -> asyncio.Future | None:
-        """``cancelOrder``: stop the drive; the future ends once the robot stopped."""
-        self.book.cancel("cancelled by cancelOrder")
-        self.book.paused = False
+        """``cancelOrder``: stop the drive (the book is halted meanwhile); the future ends once
+        the robot stopped."""
+        self.book.halted = True
         self.driver.stop()
         return self._drive if self._drive is not None and not self._drive.done() else None
 
@@ -217,7 +219,9 @@ class Vehicle:
 
     async def _read(self) -> None:
         before = self.reading
+        started = asyncio.get_running_loop().time()
         self.reading, faults, self.motion_running = await read(self.robot, before)
+        self._read_at = started
         changed = False
         for kind in (e.ROBOT, e.LOCALIZATION):
             changed |= self.book.errors.replace(kind, [f for f in faults
