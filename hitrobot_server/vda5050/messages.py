@@ -133,7 +133,8 @@ def factsheet(headers: Headers, now: float, series: str) -> dict:
             "localizationTypes": ["NATURAL"], "navigationTypes": ["AUTONOMOUS"]},
         "physicalParameters": {
             "speedMin": 0.0, "speedMax": 0.7, "accelerationMax": 0.5,
-            "decelerationMax": 0.5, "heightMax": 0.4, "width": 0.4, "length": 0.4},
+            "decelerationMax": 0.5, "heightMin": 0.3, "heightMax": 0.4, "width": 0.4,
+            "length": 0.4},
         "protocolLimits": {
             "maxStringLens": {"msgLen": MAX_BYTES, "topicSerialLen": MAX_STRING,
                               "topicElemLen": MAX_STRING, "idLen": MAX_STRING,
