@@ -26,6 +26,8 @@ log = logging.getLogger(__name__)
 
 Send = Callable[[str, dict, bool], None]
 """``send(subtopic, message, retain)``: queued on the vehicle's link, never blocking."""
+MAX_PENDING = 8
+"""Orders waiting for a fresh reading of the robot; more are refused."""
 READ_DRIVING, READ_IDLE = 0.25, 1.0
 """Seconds between two readings of the robot while an order runs, and otherwise."""
 
@@ -54,6 +56,9 @@ class Vehicle:
         self.on_change: Callable[[], None] = lambda: None  # the link's line on the bus
         self._dirty = asyncio.Event()
         self._read_at = 0.0  # loop time the last reading of the robot began
+        self._order_turn = asyncio.Lock()  # orders read the robot afresh one at a time
+        self._pending = 0
+        self._later: set[asyncio.Task] = set()
         self._drive: asyncio.Task | None = None
         self._report: asyncio.Task | None = None
 
@@ -73,8 +78,10 @@ class Vehicle:
         for task in (self._drive, self._report):
             if task is not None:
                 task.cancel()
+        for task in self._later:
+            task.cancel()
         await asyncio.gather(*(t for t in (self._drive, self._report) if t is not None),
-                             return_exceptions=True)
+                             *self._later, return_exceptions=True)
 
     def offline_message(self, state: str) -> dict:
         return msgs.connection(self.headers, time.time(), state)
@@ -113,6 +120,29 @@ class Vehicle:
         return None
 
     def _order(self, order: dict) -> None:
+        """Take an order now; while some motion seemed to run at the last reading (or orders
+        wait already), after a fresh reading, in arrival order."""
+        if self._pending >= MAX_PENDING:
+            self.book.refuse(e.order_error(e.ORDER, f"{MAX_PENDING} orders wait already",
+                                           order))
+            self.changed()
+        elif self._pending or self.motion_running:
+            self._pending += 1
+            task = asyncio.get_running_loop().create_task(self._order_later(order))
+            self._later.add(task)
+            task.add_done_callback(self._later.discard)
+        else:
+            self._take(order)
+
+    async def _order_later(self, order: dict) -> None:
+        try:
+            async with self._order_turn:
+                await self._read()
+                self._take(order)
+        finally:
+            self._pending -= 1
+
+    def _take(self, order: dict) -> None:
         try:
             busy = self.other_work()
             if busy and order["orderId"] != self.book.order_id:

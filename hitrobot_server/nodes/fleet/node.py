@@ -19,6 +19,7 @@ from ...bus.core import Bus
 from ...state import StateBinding
 from ..base import RobotNode
 from ..ground.memory import Handler, acknowledged
+from ..ground.names import VDA5050_LINK
 from .board import Board
 from .dispatch import Dispatcher
 from .leader import Leadership
@@ -82,6 +83,8 @@ class FleetNode(RobotNode):
         self.advertise(TASKS, f"{PKG}/FleetTasks", latch=True)
         self.subscribe(MEMBERS, f"{PKG}/FleetRobot", self._on_member)
         self.subscribe(SITE_MAP, "nav_msgs/OccupancyGrid", self._on_map)
+        self.subscribe(VDA5050_LINK, "hitrobot_msgs/VdaLinks",  # a master control's orders
+                       lambda message: self.roster.vda_orders(message.msg["links"]))
         self.service("/fleet/dispatch", f"{PKG}/Dispatch", self.dispatcher.dispatch)
         TaskRequests(self.board, self.roster, self.traffic, finish=self._finish,
                      release=self.dispatcher.release, changed=self.changed, kick=self.kick,

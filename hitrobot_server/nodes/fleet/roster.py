@@ -9,7 +9,7 @@ import time
 from collections.abc import Callable
 
 from .board import Board
-from .member import OFFLINE, OFFLINE_AFTER
+from .member import CHARGING, IDLE, MOVING, OFFLINE, OFFLINE_AFTER
 from .policy import ChargePolicy
 from .tasks import RUNNING
 
@@ -22,6 +22,7 @@ class Roster:
         self.members: dict[str, tuple[float, dict]] = {}  # name → (heard at, FleetRobot)
         self._heard: dict[str, asyncio.Event] = {}
         self._placed: set[str] = set()  # robots whose pose was reported once
+        self.vda: dict[str, str] = {}  # robot → the VDA 5050 order it runs, and whose
 
     def heard(self, msg: dict) -> bool:
         """A robot's report; True when it changes what the robot may take (its state, or its
@@ -84,6 +85,11 @@ class Roster:
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(event.wait(), min(left, 3600.0))
 
+    def vda_orders(self, links: list[dict]) -> None:
+        """``/vda5050/link``: the robots a master control's order drives now are busy."""
+        self.vda = {link["robot"]: f"busy with VDA 5050 order {link['order_id']} of the "
+                    f"master control at {link['broker']}" for link in links if link["active"]}
+
     def robots(self) -> list[dict]:
         """The ``/fleet/robots`` list: each robot's report, its task, whether it serves."""
         now = time.monotonic()
@@ -95,5 +101,7 @@ class Roster:
                        in_service=name not in self.board.out_of_service)
             if now - heard > OFFLINE_AFTER:
                 msg.update(state=OFFLINE, message=f"not heard from for {now - heard:.0f} s")
+            elif name in self.vda and msg["state"] in (IDLE, CHARGING, MOVING):
+                msg.update(state=MOVING, message=self.vda[name])  # not free: no fleet task
             out.append(msg)
         return out
