@@ -11,6 +11,7 @@ import { MapEditor } from './editor.js';
 import { Fleet } from './fleet.js';
 import { Zones } from './zones.js';
 import { FleetOps } from './fleetops.js';
+import { VdaLinks } from './vda5050.js';
 import { Inspector } from './inspector.js';
 import { log } from './log.js';
 import { SavedMaps } from './maps.js';
@@ -363,6 +364,8 @@ function main() {
   window.hitrobot.timeline = new ReplayTimeline({ ros, parent: document.querySelector('.map-pane') });
   // fleet operations (fleetops.js): the Fleet tab, shown on a server with named robots
   window.hitrobot.fleetops = new FleetOps({ ros, tab: document.getElementById('fleet-tab'), parent: document.getElementById('fleetops') });
+  // the robots' VDA 5050 links (vda5050.js), on the Fleet tab
+  window.hitrobot.vda5050 = new VdaLinks({ ros, tab: document.getElementById('fleet-tab'), parent: document.getElementById('fleetops') });
 }
 
 main();

@@ -57,6 +57,7 @@ export const TOPICS = Object.freeze({
   recordState: '/record/state',
   recordIncident: '/record/incident',
   replayState: '/replay/state',
+  vda5050Link: '/vda5050/link',  // latched: each robot's VDA 5050 link (vda5050.js)
 });
 
 export const SERVICES = Object.freeze({
