@@ -47,13 +47,13 @@ def parse_broker(url: str) -> Broker:
 class Vda5050Options:
     vda5050: str | None = field(default=None, metadata={
         "help": "speak VDA 5050 2.0.0 to a master control through this MQTT broker "
-        "(mqtt://HOST:PORT, or mqtts://[USER:PASSWORD@]HOST:PORT): every robot a vehicle "
-        "(needs the [vda5050] extra; default: off)"})
+        "(mqtt://HOST:PORT, or mqtts://[USER:PASSWORD@]HOST:PORT): every robot a vehicle; "
+        "needs the [vda5050] extra (default: off)"})
     vda5050_manufacturer: str = field(default="hitrobot", metadata={
         "help": "VDA 5050: the manufacturer level of every vehicle's topics"})
     vda5050_serial: str = field(default="", metadata={
-        "help": "VDA 5050: the single robot's serial number (named robots use their names; "
-        "default: 'robot')"})
+        "help": "VDA 5050: the single robot's serial number; named robots use their names "
+        "(default: robot)"})
     vda5050_interface: str = field(default="uagv", metadata={
         "help": "VDA 5050: the interface name, the first level of every topic"})
     vda5050_password_file: str | None = field(default=None, metadata={

@@ -30,6 +30,14 @@ class Broker:
         self.config = folder / "mosquitto.conf"
         self.config.write_text(f"listener {self.port} 127.0.0.1\nallow_anonymous true\n"
                                "persistence false\nmax_packet_size 4194304\n")
+        self._start()
+
+    def restart(self) -> Broker:
+        """The same broker again, on the same port (after :meth:`stop`)."""
+        self._start()
+        return self
+
+    def _start(self) -> None:
         self.proc = subprocess.Popen([MOSQUITTO, "-c", str(self.config)],
                                      stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         deadline = time.monotonic() + START_TIMEOUT

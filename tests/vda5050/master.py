@@ -18,8 +18,10 @@ HEADER = {"timestamp": "2024-01-01T00:00:00.00Z", "version": "2.0.0"}
 
 
 class Master:
-    def __init__(self, port: int, serial: str = "robot", manufacturer: str = "hitrobot"):
+    def __init__(self, port: int, serial: str = "robot", manufacturer: str = "hitrobot",
+                 online: bool = True):
         self.port, self.serial, self.manufacturer = port, serial, manufacturer
+        self.online = online  # wait for the vehicle ONLINE on entering
         self.base = f"uagv/v2/{manufacturer}/{serial}"
         self.seen: dict[str, list[dict]] = {}
         self.invalid: list[str] = []
@@ -34,9 +36,10 @@ class Master:
             aiomqtt.Client("127.0.0.1", self.port, max_queued_incoming_messages=10_000))
         await self.client.subscribe(f"{self.base}/#")
         self._task = asyncio.get_running_loop().create_task(self._read())
-        await self.wait(lambda: any(c["connectionState"] == "ONLINE"
-                                    for c in self.seen.get("connection", [])),
-                        "the vehicle ONLINE (it listens from then on)")
+        if self.online:
+            await self.wait(lambda: any(c["connectionState"] == "ONLINE"
+                                        for c in self.seen.get("connection", [])),
+                            "the vehicle ONLINE (it listens from then on)")
         return self
 
     async def __aexit__(self, *exc) -> None:
