@@ -133,10 +133,10 @@ class HitrobotServer:
         tag = await self._start_link() if plan.zenoh else ""
         self._session_options = s.session.for_sessions(secret, tag)
         self.site, self.robots = await start_planned(self.bus, s, plan)
-        if s.vda5050.vda5050 and self.robots:  # worker 0, which runs the robots
-            self.vda5050 = Vda5050Service(
-                self.bus, s.vda5050, [VdaRobot(u.name, u.robot) for u in self.robots
-                                      if u.robot is not None], s.nodes.slamware.map_frame)
+        vehicles = [VdaRobot(u.name, u.robot) for u in self.robots if u.robot is not None]
+        if s.vda5050.vda5050 and vehicles:  # worker 0, which runs the robots
+            self.vda5050 = Vda5050Service(self.bus, s.vda5050, vehicles,
+                                          s.nodes.slamware.map_frame)
             await self.vda5050.start()
         await self._start_listeners()
         if plan.worker and os.environ.get(METRICS_DIR):  # one scrape covers every worker

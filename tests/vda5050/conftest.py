@@ -3,6 +3,7 @@ a temporary configuration (anonymous clients, no persistence), stopped after the
 
 from __future__ import annotations
 
+import os
 import shutil
 import socket
 import subprocess
@@ -22,14 +23,18 @@ def free_port() -> int:
 
 
 class Broker:
-    def __init__(self, folder: Path):
+    def __init__(self, folder: Path, extra: str = "", anonymous: bool = True):
         if not Path(MOSQUITTO).exists():
             raise RuntimeError("mosquitto is not installed: `apt-get install mosquitto` "
                                "(.ci/run does this)")
         self.port = free_port()
         self.config = folder / "mosquitto.conf"
-        self.config.write_text(f"listener {self.port} 127.0.0.1\nallow_anonymous true\n"
-                               "persistence false\nmax_packet_size 4194304\n")
+        self.config.write_text(f"listener {self.port} 127.0.0.1\n"
+                               f"allow_anonymous {'true' if anonymous else 'false'}\n"
+                               "persistence false\nmax_packet_size 4194304\n"
+                               # as root it would turn into the user mosquitto, who may not
+                               # read the test's files (certificates, passwords)
+                               + ("user root\n" if os.geteuid() == 0 else "") + extra)
         self._start()
 
     def restart(self) -> Broker:
@@ -47,9 +52,10 @@ class Broker:
                 break
             except OSError:
                 if self.proc.poll() is not None or time.monotonic() > deadline:
-                    self.stop()
-                    raise RuntimeError(f"mosquitto did not start: "
-                                       f"{self.proc.stderr.read().decode()}") from None
+                    if self.proc.poll() is None:
+                        self.proc.kill()
+                    why = self.proc.communicate(timeout=5)[1].decode()
+                    raise RuntimeError(f"mosquitto did not start: {why}") from None
                 time.sleep(0.05)
 
     @property
