@@ -77,6 +77,9 @@ class MqttLink:
                 self.last_error = str(exc) or type(exc).__name__
             except OSError as exc:
                 self.last_error = str(exc)
+            except Exception as exc:  # a fault of ours: logged, and the link tries again
+                log.exception("vda5050 %s: the link failed", self.vehicle.serial)
+                self.last_error = f"internal error: {exc}"
             was = self.connected
             self.connected = False
             self._client = None

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import functools
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -29,20 +30,21 @@ def load(topic: str) -> dict:
 
 
 @functools.cache
-def validator(topic: str) -> Any:
-    """The compiled validator of ``topic`` (jsonschema, draft 2020-12)."""
-    from jsonschema import Draft202012Validator
+def validator(topic: str) -> Callable[[Any], Any]:
+    """The compiled validator of ``topic`` (fastjsonschema: Python code made once from the
+    schema; a full order of 1,000 nodes is checked in milliseconds, on the event loop)."""
+    import fastjsonschema
 
-    schema = load(topic)
-    Draft202012Validator.check_schema(schema)
-    return Draft202012Validator(schema)
+    return fastjsonschema.compile(load(topic))
 
 
 def problem(topic: str, message: Any) -> str | None:
     """Why ``message`` fails ``topic``'s schema (the first failure, its field named), or None."""
-    error = next(iter(validator(topic).iter_errors(message)), None)
-    if error is None:
-        return None
-    where = ".".join(str(p) for p in error.absolute_path) or "the message"
-    text = error.message if len(error.message) <= 200 else error.message[:200] + "..."
-    return f"{where}: {text}"
+    import fastjsonschema
+
+    try:
+        validator(topic)(message)
+    except fastjsonschema.JsonSchemaValueException as exc:
+        text = exc.message.removeprefix("data.").replace("data ", "the message ", 1)
+        return text if len(text) <= 200 else text[:200] + "..."
+    return None

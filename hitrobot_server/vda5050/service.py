@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from importlib.util import find_spec
 
 from ..bus.core import Bus
 from ..bus.demand import Passive
@@ -20,6 +21,7 @@ from ..nodes.map_manager.placement import placement_problem
 from ..robot.capabilities import Robot
 from .mqtt import MqttLink, base_topic, tls_context
 from .options import Vda5050Options
+from .schemas import validator
 from .vehicle import Vehicle
 
 log = logging.getLogger(__name__)
@@ -45,7 +47,14 @@ class Vda5050Service:
     def __init__(self, bus: Bus, options: Vda5050Options, robots: list[RobotEntry],
                  map_frame: str):
         broker = options.broker
-        assert broker is not None, "started without --vda5050"
+        if broker is None:
+            raise ValueError("the VDA 5050 vehicles need --vda5050")
+        missing = [name for name in ("aiomqtt", "fastjsonschema") if find_spec(name) is None]
+        if missing:
+            raise RuntimeError(f"--vda5050 needs {' and '.join(missing)}: pip install "
+                               "'hitrobot-server[vda5050]'")
+        for topic in ("order", "instantActions"):  # compiled now, not on the first message
+            validator(topic)
         self.bus, self.options, self.broker = bus, options, broker
         tls = tls_context(options.vda5050_ca_file, options.vda5050_cert_file,
                           options.vda5050_key_file) if broker.tls else None

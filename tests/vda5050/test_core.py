@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import orjson
 import pytest
+from jsonschema import Draft202012Validator
 
 from hitrobot_server.vda5050 import errors as e
 from hitrobot_server.vda5050 import messages as msgs
@@ -18,7 +19,7 @@ from hitrobot_server.vda5050.orders import (
     Refused,
     check_order,
 )
-from hitrobot_server.vda5050.schemas import problem
+from hitrobot_server.vda5050.schemas import FILES, load, problem
 
 HEADER = {"timestamp": "2024-01-01T00:00:00.00Z", "version": "2.0.0",
           "manufacturer": "acme", "serialNumber": "r1"}
@@ -78,7 +79,7 @@ def test_a_schema_failure_names_the_field():
     bad["nodes"][0]["released"] = "yes"
     verdict = take(bad)
     assert verdict.error["errorType"] == e.VALIDATION
-    assert "nodes.0.released" in verdict.error["errorDescription"]
+    assert "nodes[0].released must be boolean" in verdict.error["errorDescription"]
     refs = {r["referenceKey"]: r["referenceValue"] for r in verdict.error["errorReferences"]}
     assert refs == {"topic": "order", "headerId": "1", "orderId": "o1", "orderUpdateId": "0"}
 
@@ -237,5 +238,13 @@ def test_every_message_we_build_passes_its_schema():
     }
     for topic, message in built.items():
         assert problem(topic, message) is None, (topic, problem(topic, message))
+        # and by a second implementation, of the schemas' own draft (2020-12)
+        checker = Draft202012Validator(load(topic))
+        assert not list(checker.iter_errors(message)), (topic, message)
     assert built["state"]["timestamp"] == "1970-01-01T00:00:00.00Z"
     assert msgs.state(headers, 1.0, book, reading, "map")["headerId"] == 1
+
+
+def test_the_kept_schemas_are_valid_2020_12_schemas():
+    for topic in FILES:
+        Draft202012Validator.check_schema(load(topic))
