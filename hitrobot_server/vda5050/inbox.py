@@ -30,6 +30,7 @@ class Verdict:
     message: dict | None = None
     error: dict | None = None
     ignored: str = ""
+    kind: str = ""  # of an ignored message: "stranger" or "repeat", logged once each
 
 
 @dataclass
@@ -52,7 +53,7 @@ class Inbox:
             return self._refuse(topic, None, "the message is not a JSON object")
         if (message.get("manufacturer"), message.get("serialNumber")) != (
                 self.manufacturer, self.serial):
-            return Verdict(ignored=f"{topic}: a message for manufacturer "
+            return Verdict(kind="stranger", ignored=f"{topic}: a message for manufacturer "
                            f"{str(message.get('manufacturer'))[:40]!r}, serial "
                            f"{str(message.get('serialNumber'))[:40]!r} is not for this vehicle")
         version = message.get("version")
@@ -72,7 +73,8 @@ class Inbox:
         header = message["headerId"]
         last = self.last_header.get(topic)
         if last is not None and header <= last and header != 0:  # 0: the master began again
-            return Verdict(ignored=f"{topic}: headerId {header} is not above the last one "
+            return Verdict(kind="repeat", ignored=f"{topic}: headerId {header} is not above the "
+                           f"last one "
                            f"({last}): a repeated or late message")
         self.last_header[topic] = header
         return Verdict(message=message)

@@ -94,8 +94,8 @@ class Vehicle:
     def receive(self, topic: str, payload: bytes) -> None:
         verdict = self.inbox.take(topic, payload)
         if verdict.ignored:
-            kind = verdict.ignored.split(":")[0] + verdict.ignored.split(" ")[-1]
-            if kind not in self.ignored and len(self.ignored) < 64:
+            kind = f"{topic} {verdict.kind}"
+            if kind not in self.ignored:
                 self.ignored.add(kind)
                 log.warning("vda5050 %s: ignored %s (logged once)", self.serial,
                             verdict.ignored)
