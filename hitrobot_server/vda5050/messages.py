@@ -97,7 +97,13 @@ def _parameter(key: str, kind: str, text: str, optional: bool = False) -> dict:
 
 
 INSTANT, NODE = "INSTANT", "NODE"
-ACTIONS = [
+BLOCKING = {INSTANT: " Blocking types: NONE, SOFT and HARD are taken; it runs at once.",
+            NODE: " Blocking types: NONE, SOFT and HARD are taken; on a node it runs as HARD "
+            "(the robot stands until it ends)."}
+# The blocking types are said in each description: the 2.0.0 schema's ``blockingTypes`` (an
+# array with a string ``enum``) admits no value at all, so a factsheet that had one would fail
+# every master's validation.
+_ACTIONS = [
     {"actionType": "cancelOrder", "actionScopes": [INSTANT],
      "actionDescription": "stop where the robot is and drop the order"},
     {"actionType": "startPause", "actionScopes": [INSTANT],
@@ -121,6 +127,8 @@ ACTIONS = [
     {"actionType": "factsheetRequest", "actionScopes": [INSTANT],
      "actionDescription": "send the factsheet now"},
 ]
+ACTIONS = [{**a, "actionDescription": f"{a['actionDescription']}.{BLOCKING[a['actionScopes'][-1]]}"}
+           for a in _ACTIONS]
 
 
 def factsheet(headers: Headers, now: float, series: str) -> dict:
