@@ -121,12 +121,19 @@ async def test_a_writer_that_dies_ends_the_recording_visibly(make_server, tmp_pa
         await client.close()
 
 
-async def test_no_downloads_with_authenticate(make_server, tmp_path):
-    """HTTP has no rosauth: with --authenticate a recording is not served to anyone."""
+async def test_downloads_with_authenticate_answer_the_roles_allowed(make_server, tmp_path):
+    """With --authenticate a recording is served to a token whose role may download (issue
+    47: authentication switches nothing off), to no one else."""
+    from hitrobot_server.state.tokens import add_token, tokens_path
+
     folder = folder_with_one(tmp_path)
-    secret = tmp_path / "secret"
-    secret.write_text("relaxthisisasecr\n")
-    server = await make_server(authenticate=True, auth_secret_file=str(secret),
-                               record_dir=str(folder))
+    state = tmp_path / "state"
+    viewer = add_token(tokens_path(state), "hall", "viewer", None)
+    monitor = add_token(tokens_path(state), "prom", "monitor", None)
+    server = await make_server(authenticate=True, record_dir=str(folder), state_dir=str(state))
     status, _h, body = await http(server.port, "GET", "/recordings/ok.mcap")
-    assert status == 404 and b"MCAP" not in body
+    assert status == 401 and b"MCAP" not in body
+    status, _h, body = await http(server.port, "GET", f"/recordings/ok.mcap?token={monitor}")
+    assert status == 403 and b"download" in body and b"MCAP" not in body
+    status, _h, body = await http(server.port, "GET", f"/recordings/ok.mcap?token={viewer}")
+    assert status == 200 and body.startswith(b"\x89MCAP")
