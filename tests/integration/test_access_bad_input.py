@@ -154,7 +154,7 @@ async def test_ten_thousand_wrong_tokens_in_bounded_time_beside_a_witness(site):
     while not task.done():
         t0 = time.monotonic()
         await witness.send({"op": "call_service", "service": "/rosapi/get_time",
-                            "id": f"w{calls}"})
+                            "id": f"w{len(times)}"})
         reply = await witness.recv(timeout=10)
         assert reply["op"] == "service_response" and reply["result"]
         times.append(time.monotonic() - t0)
