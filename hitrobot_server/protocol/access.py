@@ -191,8 +191,8 @@ def allowed(role: Role, kind: str, name: str, message: Any = None) -> str | None
         return (f"role '{role.name}' lacks the permission '{perm}' "
                 f"({PERMISSIONS.get(perm, perm)}) needed to {kind} {name}"
                 + (f" (built-in roles with it: {having})" if having else ""))
-    if role.limits is not None and message is not None:
-        return _within_limits(role, perm, name, message)
+    if role.limits is not None and (message is not None or kind in ("call", "goal")):
+        return _within_limits(role, perm, name, message)  # a goal without its pose: refused
     return None
 
 

@@ -146,6 +146,10 @@ def test_the_agent_sends_goals_to_pois_and_inside_its_zones_only():
     assert allowed(zoned, "publish", "/move_base/goal", {"goal": {"target_pose": outside}})
     assert allowed(zoned, "publish", "/navigation/navigate_to_poi", {"name": "dock"}) is None
     assert "no pose" in allowed(zoned, "goal", "/follow_path", {"path": {}})
+    assert "no pose" in allowed(zoned, "goal", "/move_base")  # no args: no pose
+    assert "no pose" in allowed(zoned, "call", "/move_base/_action/send_goal")
+    send_goal = {"goal_id": {}, "goal": {"target_pose": inside}}
+    assert allowed(zoned, "call", "/move_base/_action/send_goal", send_goal) is None
     assert allowed(AGENT, "publish", "/move_base_simple/goal", inside) is not None  # no zones
     assert allowed(AGENT, "publish", "/map_manager/add_poi", {}) is not None
     assert allowed(AGENT, "publish", "/cmd_string", {"data": "shutdown"}) is not None

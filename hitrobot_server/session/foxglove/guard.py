@@ -57,7 +57,7 @@ def _asked(session: Guarded, item: Any) -> Iterator[tuple[str, str, Any]]:
         case fg.ServiceCallRequest():
             entry = session.channel_ops.services.get(item.service_id)
             if entry is not None:
-                yield "call", entry[0], None
+                yield "call", entry[0], _request(session, entry[1], item.payload)
         case fg.GetParameters() | fg.SubscribeParameterUpdates():
             for name in item.parameter_names or ("/",):
                 yield "param_get", name, None
@@ -66,6 +66,16 @@ def _asked(session: Guarded, item: Any) -> Iterator[tuple[str, str, Any]]:
                 yield "param_set", name, None
         case str() if item == PLAYBACK:
             yield "playback", PLAYBACK, None
+
+
+def _request(session: Guarded, stype: Any, payload: bytes) -> Any:
+    """A call's decoded request, only for a role with limits (a goal's pose)."""
+    if session.shared.access.role_of(session.origin).limits is None:
+        return None
+    try:
+        return decode_cdr(session.codec, payload, stype.request)
+    except Exception:
+        return None  # unreadable: a goal without a pose, refused
 
 
 def _message(session: Guarded, chan: Any, payload: bytes) -> Any:
