@@ -56,6 +56,7 @@ def _parser() -> argparse.ArgumentParser:
     revoke.add_argument("name")
     for each in sub.choices.values():  # also after the action: token list --state-dir D
         each.add_argument("--state-dir", dest="sub_state_dir", help=argparse.SUPPRESS)
+        each.add_argument("--roles", dest="sub_roles", help=argparse.SUPPRESS)
     return parser
 
 
@@ -77,7 +78,8 @@ def main(argv: list[str]) -> int:
 def _run(args: argparse.Namespace, path: Path) -> int:
     now = time.time()
     if args.action == "add":
-        roles = roles_from(Path(args.roles).read_text()).roles if args.roles else ROLES
+        file = args.sub_roles or args.roles
+        roles = roles_from(Path(file).read_text(encoding="utf-8")).roles if file else ROLES
         if args.role not in roles:
             raise ValueError(f"--role {args.role!r}: known roles are {', '.join(roles)}")
         if not args.name.strip() or len(args.name) > 100:

@@ -71,6 +71,14 @@ def test_bad_arguments_are_refused_with_the_reason(tmp_path, args, words):
     assert not tokens_path(tmp_path).exists()
 
 
+def test_a_role_of_the_roles_file_is_accepted(tmp_path):
+    roles = tmp_path / "roles.json"
+    roles.write_text('{"kiosk": {"permissions": ["read", "console"]}}')
+    out = cli("add", "lobby", "--role", "kiosk", "--roles", str(roles), state=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert read_table(tokens_path(tmp_path))["lobby"].role == "kiosk"
+
+
 def test_list_reports_a_damaged_file(tmp_path):
     tokens_path(tmp_path).write_text('{"tokens": [{"name": "x"}]}')
     out = cli("list", state=tmp_path)
