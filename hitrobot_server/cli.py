@@ -17,12 +17,14 @@ TOOLS = {
     "conformance": "hitrobot_server.conformance.runner",
     "sim-device": "hitrobot_server.commands.sim_device",
     "replay": "hitrobot_server.commands.replay",
+    "token": "hitrobot_server.commands.tokens",
 }
 
 USAGE = """%(prog)s [options]
        %(prog)s conformance --url ws://HOST:PORT [options]
        %(prog)s sim-device [--port PORT] [options]
-       %(prog)s replay FILE.mcap [--speed X] [--loop] [--start SECONDS] [--play] [options]"""
+       %(prog)s replay FILE.mcap [--speed X] [--loop] [--start SECONDS] [--play] [options]
+       %(prog)s token add NAME --role ROLE [--expires 30d] | list | revoke NAME [--state-dir DIR]"""
 
 
 class HelpFormatter(argparse.HelpFormatter):

@@ -72,7 +72,8 @@ SECTIONS: dict[str, type] = {
 # The flags in --help order (and the TOML keys): each is a field with a help text in one of
 # the SECTIONS.
 FLAG_ORDER = (
-    "port", "address", "tcp_port", "authenticate", "auth_secret_file", "fragment_timeout",
+    "port", "address", "tcp_port", "authenticate", "auth_secret_file", "tokens_file", "roles",
+    "fragment_timeout",
     "max_message_size", "max_frame_size", "fragment_memory_limit", "delay_between_messages",
     "unregister_timeout", "call_service_timeout", "max_requests_in_flight", "topics_glob",
     "services_glob", "params_glob", "status_level", "send_buffer_limit", "send_window",

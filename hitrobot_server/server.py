@@ -7,6 +7,7 @@ import contextlib
 import logging
 import os
 import ssl
+from pathlib import Path
 from typing import TypeVar
 
 from . import __version__
@@ -15,6 +16,7 @@ from .bus.rosout import RosoutHandler
 from .bus.zenoh.keys import endpoints
 from .config import Settings
 from .metrics import METRICS_DIR, ServerMetrics, Sources
+from .protocol.access import Grant, RoleTable, roles_from
 from .protocol.auth import load_secret
 from .protocol.foxglove import SUBPROTOCOLS as FOXGLOVE_SUBPROTOCOLS
 from .record.blackbox_control import BlackBoxControl
@@ -22,6 +24,7 @@ from .record.control import RecordingControl
 from .record.replay_launcher import ReplayLauncher
 from .robot.capabilities import Robot
 from .robots import RobotUnit, StartPlan, start_plan, start_planned, stop_robots
+from .session.access import Access, WhoAmI
 from .session.client import ClientSession, WireProtocols
 from .session.foxglove.session import FoxgloveSession
 from .session.foxglove.shared import FoxgloveShared
@@ -31,6 +34,7 @@ from .session.options import SessionOptions
 from .session.rosbridge.session import Session, Shared
 from .site import SiteUnit
 from .state import StateBinding
+from .state.tokens import TokenBook, tokens_path
 from .transport.download import Downloads
 from .transport.http import StaticFiles, WithRecordings, default_web_root, missing_libraries
 from .transport.options import TransportOptions
@@ -86,6 +90,8 @@ class HitrobotServer:
             if self.plan.worker else None))
         self.black_box: BlackBoxControl | None = None
         self.replays: ReplayLauncher | None = None
+        self.access = Access(self.settings.session.authenticate)  # made at start (files read)
+        self.whoami = WhoAmI(self.bus, lambda: self.access)
 
     def _options(self) -> SessionOptions:
         return self._session_options or self.settings.session.for_sessions()
@@ -99,16 +105,17 @@ class HitrobotServer:
         session.on_close.append(self.heap.client_left)
         return session
 
-    def new_session(self, peer: str, transport: str) -> Session:
+    def new_session(self, peer: str, transport: str, grant: Grant | None = None) -> Session:
         return self._track(Session(
-            self.bus, self._options(), peer=peer, transport=transport, shared=self.shared
-        ))
+            self.bus, self._options(), peer=peer, transport=transport, shared=self.shared,
+            grant=grant))
 
-    def new_foxglove_session(self, peer: str, subprotocol: str) -> FoxgloveSession:
+    def new_foxglove_session(self, peer: str, subprotocol: str,
+                             grant: Grant | None = None) -> FoxgloveSession:
         """A client that asked for a Foxglove subprotocol (PROTOCOL.md §18)."""
         return self._track(FoxgloveSession(
-            self.bus, self._options(), self.foxglove, peer=peer, subprotocol=subprotocol
-        ))
+            self.bus, self._options(), self.foxglove, peer=peer, subprotocol=subprotocol,
+            grant=grant))
 
     async def start(self) -> None:
         """Start everything; on a failure, stop what was started (the Zenoh session's threads
@@ -125,6 +132,9 @@ class HitrobotServer:
     async def _start(self) -> None:
         s, plan = self.settings, self.plan
         secret = _secret(s.session)  # first: a missing secret is refused before anything starts
+        self.access = access_of(s)  # and a bad roles file
+        self.shared.access = self.foxglove.access = self.access
+        warn_if_open(s)
         await self._start_recording()
         self.bus.taps.append(self.metrics.publishes)
         self.metrics.loop.start()
@@ -158,9 +168,10 @@ class HitrobotServer:
                 self.bus, s.store.recordings, seconds=r.black_box, max_bytes=r.black_box_bytes,
                 topics=r.record_topics, localization_threshold=r.black_box_localization)
             await self.black_box.start()
-        if not s.session.authenticate:  # a replay's port would serve the files to anyone
-            self.replays = ReplayLauncher(self.bus, s.store.recordings, s.transport.address)
-            await self.replays.start()
+        self.replays = ReplayLauncher(self.bus, s.store.recordings, s.transport.address,
+                                      replay_access_flags(s))
+        await self.replays.start()
+        await self.whoami.start()
 
     async def _start_link(self) -> str:
         """Join the Zenoh network; the client tag that keeps this server's client node names
@@ -194,12 +205,12 @@ class HitrobotServer:
         ) if plan.tls else None
         console = _web_console()
         self._ws_console = console is not None
-        recordings = None if session.authenticate else self.settings.store.recordings
-        pages = None if session.authenticate else {
-            "/metrics": self.metrics.metrics_page, "/healthz": self.metrics.health_page}
-        http_handler = WithRecordings(console, recordings, pages)
+        pages = {"/metrics": self.metrics.metrics_page, "/healthz": self.metrics.health_page}
+        http_handler = WithRecordings(console, self.settings.store.recordings, pages,
+                                      self.access)
         worker = {WORKER_HEADER: str(plan.worker_id)} if plan.worker else None
-        self._downloads = Downloads(http_handler.resolve, (worker or {}).items())
+        self._downloads = Downloads(http_handler.resolve, (worker or {}).items(),
+                                    self.access.http_refusal)
         self._ws = await start_websocket(
             self.protocols,
             t.address,
@@ -215,6 +226,7 @@ class HitrobotServer:
             headers=worker,
             downloads=self._downloads,
             send_window=t.send_window,
+            access=self.access,
         )
         self.port = self._ws.sockets[0].getsockname()[1] if self._ws.sockets else t.port
         if plan.tcp:
@@ -272,6 +284,7 @@ class HitrobotServer:
         if self.replays is not None:
             await self.replays.stop()
             self.replays = None
+        self.whoami.stop()
         if self.recording is not None:  # after the nodes: their last messages are kept
             await self.recording.stop()
             self.recording = None
@@ -299,12 +312,48 @@ class HitrobotServer:
 
 
 def _secret(options: SessionOptions) -> str | None:
-    """The rosauth secret of ``--authenticate``, read from its file at start."""
-    if not options.authenticate:
+    """The rosauth secret of ``--authenticate``, read from its file at start (None without
+    the file: tokens only)."""
+    if not options.authenticate or not options.auth_secret_file:
         return None
-    if not options.auth_secret_file:
-        raise ValueError("--authenticate needs --auth-secret-file")
     return load_secret(options.auth_secret_file)
+
+
+def access_of(settings: Settings) -> Access:
+    """Tokens and roles as the settings say: the tokens file (``--tokens-file``, else
+    STATE_DIR/tokens.json) read on use, the roles of ``--roles`` (a bad file refuses the
+    start)."""
+    s = settings.session
+    roles = roles_from(Path(s.roles).read_text(encoding="utf-8")) if s.roles else RoleTable()
+    if not s.authenticate:
+        return Access(False, None, roles)
+    path = Path(s.tokens_file) if s.tokens_file else tokens_path(settings.store.state_root)
+    return Access(True, TokenBook(path).lookup, roles)
+
+
+def replay_access_flags(settings: Settings) -> list[str]:
+    """What a replay server (``/record/replay``) is started with so that it asks the same
+    tokens as this one (it serves the site's recordings)."""
+    s = settings.session
+    if not s.authenticate:
+        return []
+    path = s.tokens_file or str(tokens_path(settings.store.state_root))
+    return ["--authenticate", "--tokens-file", path, *(["--roles", s.roles] if s.roles else [])]
+
+
+LOOPBACK = ("127.", "::1", "localhost")
+
+
+def warn_if_open(settings: Settings) -> None:
+    """Without ``--authenticate`` every client is admin: said loudly when the server listens
+    beyond this machine."""
+    address = settings.transport.address
+    if settings.session.authenticate or address.startswith(LOOPBACK):
+        return
+    log.warning("listening on %s WITHOUT --authenticate: anyone who reaches this port can "
+                "drive the robot, change its maps and shut it down (every client is admin). "
+                "Make a token with 'hitrobot-server token add NAME --role operator' and start "
+                "with --authenticate", address or "every address")
 
 
 def _tls_context(options: TransportOptions) -> ssl.SSLContext:

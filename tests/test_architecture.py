@@ -44,7 +44,8 @@ ALLOWED: dict[str, set[str]] = {
     "robot_state": {"nodes", "robot", "state"},
     # the site of a fleet: its folder (moved into once), its nodes, its map manager
     "site": {"config", "bus", "nodes", "robot", "state", "robot_state"},
-    "commands": {"robot", "signals", "config", "types", "server", "robots", "record"},
+    "commands": {"robot", "signals", "config", "types", "server", "robots", "record", "state",
+                 "protocol"},
     "workers": {"config", "signals", "bus"},  # the --workers parent (bus: endpoint parsing)
     "cli": {"config", "server", "signals", "conformance", "commands", "workers"},
     "__main__": {"cli"},

@@ -87,13 +87,20 @@ async def test_healthz_is_503_when_the_robot_does_not_answer(make_server):
     assert m["hitrobot_robot_link_up"][(("robot", "robot"),)] == 0
 
 
-async def test_not_served_with_authenticate(make_server, tmp_path):
-    secret = tmp_path / "secret"
-    secret.write_text("relaxthisisasecr\n")
-    server = await make_server(authenticate=True, auth_secret_file=str(secret))
+async def test_with_authenticate_served_to_a_token_that_may(make_server, tmp_path):
+    """Issue 47: with --authenticate /metrics and /healthz answer a monitor's token (as a
+    Bearer header), and 401 without one."""
+    from hitrobot_server.state.tokens import add_token, tokens_path
+
+    state = tmp_path / "state"
+    token = add_token(tokens_path(state), "prometheus", "monitor", None)
+    server = await make_server(authenticate=True, state_dir=str(state))
     for path in ("/metrics", "/healthz"):
         status, _h, body = await http(server.port, "GET", path)
-        assert status == 404 and b"hitrobot" not in body, path
+        assert status == 401 and b"hitrobot_" not in body, path
+        status, _h, body = await http(server.port, "GET", path,
+                                      headers={"Authorization": f"Bearer {token}"})
+        assert status == 200, (path, body)
 
 
 async def test_one_scrape_covers_every_worker():

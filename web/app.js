@@ -30,6 +30,7 @@ import { RobotActions } from './robotpanel.js';
 import { RobotPresence } from './robotpresence.js';
 import { RobotState } from './robotstate.js';
 import { Shell } from './shell.js';
+import { followRole, signedIn } from './signin.js';
 import { showStateOnce } from './statenotice.js';
 import { Teleop } from './teleop.js';
 import { MapTools } from './tools.js';
@@ -332,8 +333,8 @@ function wireShortcuts({ view, tools }) {
 }
 
 function main() {
-  if (librariesMissing()) return;
   const ros = connect();
+  const role = followRole(ros); // the badge, and the controls this role lacks disabled
   const view = new MapView(document.getElementById('map'), ros);
   const layers = buildLayers(view);
   const currentRobot = new CurrentRobot(); // on a fleet server, the one the tools act on
@@ -356,7 +357,7 @@ function main() {
   wireShortcuts({ view, tools });
 
   // For debugging from the browser console, and for the tests: the page's own objects.
-  window.hitrobot = { ros, view, navigator, ...panels, tools, layers, editor, presence, showTab,
+  window.hitrobot = { ros, role, view, navigator, ...panels, tools, layers, editor, presence, showTab,
     robot, currentRobot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
       easeljs: createjs.EaselJS && createjs.EaselJS.version } };
   // record and replay (recordings.js): a panel in the Status tab, a timeline over the map
@@ -368,4 +369,9 @@ function main() {
   window.hitrobot.vda5050 = new VdaLinks({ ros, tab: document.getElementById('fleet-tab'), parent: document.getElementById('fleetops') });
 }
 
-main();
+async function start() {
+  if (librariesMissing()) return;
+  if (await signedIn()) main(); // else the sign-in box is shown (--authenticate)
+}
+
+start();

@@ -3,12 +3,13 @@
 // the server sends shown to the operator.
 /* global ROSLIB */
 import { log } from './log.js';
+import { withToken } from './signin.js';
 
 export function bridgeUrl() {
   const param = new URLSearchParams(location.search).get('url');
-  if (param) return param;
+  if (param) return withToken(param);
   const scheme = location.protocol === 'https:' ? 'wss' : 'ws';
-  return `${scheme}://${location.host}`;
+  return withToken(`${scheme}://${location.host}/`);
 }
 
 // Statuses that a caller of publishTracked() reports itself (so they are not shown twice).

@@ -11,6 +11,7 @@
 /* global ROSLIB */
 import { log } from './log.js';
 import { SERVICES, TOPICS } from './names.js';
+import { withToken } from './signin.js';
 import { el, plural } from './util.js';
 
 const SPEEDS = [0.25, 0.5, 1, 2, 4, 8];
@@ -88,7 +89,7 @@ export class Recordings {
     if (!reply) return;
     const files = reply.files || [];
     this.list.replaceChildren(...(files.length ? files.map((name, i) => el('li', { dataset: { name } },
-      el('a', { href: `recordings/${encodeURIComponent(name)}`, download: name, title: `Download ${name}` }, name),
+      el('a', { href: withToken(`recordings/${encodeURIComponent(name)}`), download: name, title: `Download ${name}` }, name),
       el('small', {}, ` ${formatBytes(Number(reply.sizes[i]))}`)))
       : [el('li', { class: 'empty' }, 'no recordings yet')]));
   }

@@ -28,10 +28,13 @@ class ClientOp:
     peer: str  # the connection's address
     auth_level: str | None
     stamp: float  # bus clock, seconds
+    who: str = ""  # the name of its token ("" without one)
+    role: str = ""  # its role
 
     @classmethod
     def of(cls, op: str, name: str, type_name: str, origin: Origin, stamp: float) -> ClientOp:
-        return cls(op, name, type_name, origin.node, origin.peer, origin.auth_level, stamp)
+        return cls(op, name, type_name, origin.node, origin.peer, origin.auth_level, stamp,
+                   origin.name, origin.role)
 
 
 def client_op(op: str, name: str, target: Service | Action | None, origin: Origin,

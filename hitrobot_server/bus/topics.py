@@ -145,6 +145,8 @@ class Origin:
     node: str
     auth_level: str | None = None  # the rosauth level a client authenticated with
     peer: str = ""  # the client's address (host:port), for the recorder's audit channel
+    name: str = ""  # the name of the token it presented ("" without one)
+    role: str = "admin"  # its role: admin without --authenticate, "none" before it signs in
 
 
 class RequestRejected(Exception):

@@ -8,8 +8,8 @@ sent it as a ``status`` error; so is an unknown command.
 
 ==================  ===========================================================================
 ``shutdown``        the robot (never the host running this server) powers off and stays off;
-                    admin only when the server runs with ``--authenticate``
-``reboot``          the robot restarts: offline now, back shortly with a fresh state; admin
+                    role admin only when the server runs with ``--authenticate``
+``reboot``          the robot restarts: offline now, back shortly with a fresh state; role admin
                     only with ``--authenticate``
 ``cancel``          cancel every ``/move_base`` goal and stop the robot's current motion
 ``gmapping``        mapping mode: ``busy``, map updates on, then ``gmapping``
@@ -148,10 +148,9 @@ class ShellNode(RobotNode):
 
     def _power(self, message: Message, command: str) -> None:
         origin = message.origin
-        if self.authenticate and origin is not None and origin.auth_level != ADMIN:
-            level = origin.auth_level or "none"
-            raise RequestRejected(f"{command}: only clients authenticated at level '{ADMIN}' "
-                                  f"may {command} the robot (yours: '{level}')")
+        if self.authenticate and origin is not None and origin.role != ADMIN:
+            raise RequestRejected(f"{command}: only clients of role '{ADMIN}' may {command} "
+                                  f"the robot (yours: '{origin.role}')")
         require_robot(self.link, command)
 
         async def power() -> str:

@@ -171,15 +171,22 @@ class SetLevel:
 @_register
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Auth:
+    """A named token (``token``), or rosauth's MAC with all of its fields; the session
+    refuses an op with neither."""
+
     OP: ClassVar[str] = "auth"
     id: MessageId = _optional_id()
-    mac: str = _req("string")
-    client: str = _req("string")
-    dest: str = _req("string")
-    rand: str = _req("string")
-    t: float = _req("number")
-    level: str = _req("string")
-    end: float = _req("number")
+    token: str | None = _opt("string")
+    mac: str | None = _opt("string")
+    client: str | None = _opt("string")
+    dest: str | None = _opt("string")
+    rand: str | None = _opt("string")
+    t: float | None = _opt("number")
+    level: str | None = _opt("string")
+    end: float | None = _opt("number")
+
+    MAC_FIELDS: ClassVar[tuple[str, ...]] = ("mac", "client", "dest", "rand", "t", "level",
+                                             "end")
 
 
 @_register

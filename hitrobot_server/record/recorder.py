@@ -227,6 +227,7 @@ class Recorder:
         secs = int(op.stamp)
         entry = {"op": op.op, "name": op.name, "type": op.type_name, "client": op.node,
                  "address": op.peer, "auth_level": op.auth_level or "",
+                 "token_name": op.who, "role": op.role,
                  "stamp": {"secs": secs, "nsecs": int((op.stamp - secs) * 1e9)}}
         data = self._codec.encode(entry, self.bus.types.msg(AUDIT_TYPE))
         ns = int(op.stamp * 1e9)

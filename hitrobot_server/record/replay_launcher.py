@@ -31,10 +31,13 @@ BANNER = re.compile(r"wss?://\S+:(\d+)")
 class ReplayLauncher:
     """Starts and stops the one replay process."""
 
-    def __init__(self, bus: Bus, folder: Path, address: str):
+    def __init__(self, bus: Bus, folder: Path, address: str, flags: list[str] | None = None):
+        """``flags``: added to the replay's command line (``--authenticate`` and its tokens:
+        the replay answers the same tokens as this server)."""
         self.bus = bus
         self.folder = folder
         self.address = address
+        self.flags = list(flags or ())
         self.process: asyncio.subprocess.Process | None = None
         self.port = 0
         self._state_dir: str | None = None
@@ -73,6 +76,7 @@ class ReplayLauncher:
             "--tcp-port", "0", "--address", self.address, "--robot", "none",
             "--state-dir", self._state_dir, "--record-dir", str(self.folder),
             "--black-box", "0",  # a config file's black box is the live server's, not this
+            *self.flags,
             # stdin a pipe from us: its end (we died, even by kill -9) stops the replay, which
             # then removes its folder (PARENT_DIR) and its own children die with it
             stdin=asyncio.subprocess.PIPE, stdout=asyncio.subprocess.PIPE,

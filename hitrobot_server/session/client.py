@@ -50,9 +50,9 @@ class StreamSession(ClientSession, Protocol):
         ...
 
 
-SessionFactory = Callable[[str, str], ClientSession]
-"""(peer, transport "ws"/"tcp" or the chosen subprotocol) → a new session."""
-StreamFactory = Callable[[str, str], StreamSession]
+SessionFactory = Callable[..., ClientSession]
+"""(peer, transport "ws"/"tcp" or the chosen subprotocol[, grant=]) → a new session."""
+StreamFactory = Callable[..., StreamSession]
 
 
 class WireProtocols:
@@ -75,9 +75,13 @@ class WireProtocols:
                 return name
         return None
 
-    def open(self, peer: str, subprotocol: str | None, transport: str = "ws") -> ClientSession:
-        """The session for a new connection that agreed on ``subprotocol``."""
+    def open(self, peer: str, subprotocol: str | None, transport: str = "ws",
+             grant: object = None) -> ClientSession:
+        """The session for a new connection that agreed on ``subprotocol``; ``grant``: who
+        its upgrade request's token says it is (``--authenticate``), handed to the factory
+        as ``grant=`` when there is one."""
         factory = self._by_subprotocol.get(subprotocol or "")
+        extra = {} if grant is None else {"grant": grant}
         if factory is None:
-            return self.default(peer, transport)
-        return factory(peer, subprotocol or "")
+            return self.default(peer, transport, **extra)
+        return factory(peer, subprotocol or "", **extra)

@@ -102,7 +102,9 @@ class ClientCore:
         self.bus = bus
         self.peer = peer
         self.node = f"{CLIENT_NODE_PREFIX}{settings.client_tag}{name}"
-        self.origin = Origin(self.node, peer=peer)  # who sends: changes when it authenticates
+        # who sends: admin without --authenticate, no role until it authenticates
+        self.origin = Origin(self.node, peer=peer, role="none" if settings.authenticate
+                             else "admin")
         self.reply_limit = settings.reply_buffer_limit
         self.outbox = Outbox(settings.send_buffer_limit, settings.reply_buffer_limit)
         self.outbox.on_thinned = self._thinned

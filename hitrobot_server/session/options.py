@@ -21,9 +21,17 @@ class SessionOptions:
     """Per-client limits and access rules."""
 
     authenticate: bool = field(default=False, metadata={
-        "help": "require a valid rosauth 'auth' op before any other op"})
+        "help": "require a token (hitrobot-server token add) or a rosauth MAC from every "
+        "client, on every port, and check each op against the client's role"})
     auth_secret_file: str | None = field(default=None, metadata={
-        "help": "file whose first line is the 16-character rosauth secret"})
+        "help": "file whose first line is the 16-character rosauth secret (rosauth MACs are "
+        "accepted only with it)"})
+    tokens_file: str | None = field(default=None, metadata={
+        "help": "the named tokens (default: STATE_DIR/tokens.json, where 'hitrobot-server "
+        "token' writes them)"})
+    roles: str | None = field(default=None, metadata={
+        "help": "JSON file of roles replacing or adding to the built-in viewer, operator, "
+        "admin, agent and monitor"})
     fragment_timeout: float = field(default=600.0, metadata={
         "help": "seconds an incomplete fragmented message is kept"})
     max_message_size: int | None = field(default=None, metadata={

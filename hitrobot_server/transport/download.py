@@ -36,6 +36,7 @@ CHUNK = 128 * 1024  # bytes read from the file and written at a time
 WRITE_BUFFER = 64 * 1024  # the transport's buffer: write the next chunk below this
 MAX_DOWNLOADS = 32  # at once, per server process
 RANGE = re.compile(r"bytes=(\d*)-(\d*)")
+Refusal = Callable[[str, "str | None", str], "tuple[int, str] | None"]
 
 
 def claims(peeked: bytes) -> bool | None:
@@ -68,11 +69,13 @@ class Downloads:
     """The recordings downloads of one server: ``take`` a connection, ``close`` them all."""
 
     def __init__(self, resolve: Callable[[str], Path | None],
-                 headers: Iterable[tuple[str, str]] = ()):
+                 headers: Iterable[tuple[str, str]] = (), refusal: Refusal | None = None):
         """``resolve``: the file a request path names, None for a 404 (it checks that the
-        file lies directly in the recordings folder); ``headers`` go on every response."""
+        file lies directly in the recordings folder); ``headers`` go on every response;
+        ``refusal``: (path, Authorization header, peer) → None, or (401 or 403, why)."""
         self.resolve = resolve
         self.headers = list(headers)
+        self.refusal = refusal
         self._tasks: set[asyncio.Task] = set()
 
     def take(self, transport: asyncio.Transport, peeked: bytes) -> None:
@@ -117,6 +120,12 @@ class Downloads:
         if not version.startswith("HTTP/1."):
             raise ValueError(version)
         headers = http.client.parse_headers(io.BytesIO(rest))
+        refused = None if self.refusal is None else self.refusal(
+            target, headers.get("Authorization"), _peer(writer))
+        if refused is not None:
+            extra = [("WWW-Authenticate", "Bearer")] if refused[0] == 401 else []
+            return await self._send(writer, refused[0], refused[1] + "\n", extra,
+                                    head=method == "HEAD")
         if len(self._tasks) > MAX_DOWNLOADS:
             return await self._send(writer, 503, "Too many downloads at once; try again\n")
         path = self.resolve(target)
@@ -170,6 +179,11 @@ class Downloads:
                  *(f"{k}: {v}" for k, v in [*extra, *self.headers]),
                  f"Content-Length: {length}"]
         return ("\r\n".join(lines) + "\r\n\r\n").encode("latin-1")
+
+
+def _peer(writer: asyncio.StreamWriter) -> str:
+    peer = writer.get_extra_info("peername")
+    return str(peer[0]) if peer else ""
 
 
 async def _drain(writer: asyncio.StreamWriter) -> None:

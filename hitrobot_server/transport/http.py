@@ -20,6 +20,8 @@ from urllib.parse import unquote
 from websockets.datastructures import Headers
 from websockets.http11 import Request, Response
 
+from ..session.access import Access
+
 log = logging.getLogger(__name__)
 
 CONTENT_TYPES = {
@@ -163,13 +165,15 @@ class WithRecordings:
     handler under ``/recordings/`` is refused (405 for another method, else 404)."""
 
     def __init__(self, static: StaticFiles | None, folder: Path | None,
-                 pages: dict[str, Page] | None = None):
-        """``folder`` None: downloads are off (``--authenticate``: HTTP has no rosauth, and a
-        recording is the robot's data). ``pages``: path → what answers it, made on each
-        request (``/metrics``, ``/healthz``)."""
+                 pages: dict[str, Page] | None = None, access: Access | None = None):
+        """``folder`` None: no downloads. ``pages``: path → what answers it, made on each
+        request (``/metrics``, ``/healthz``). ``access``: with ``--authenticate``, the pages
+        and downloads answer only a token whose role has their permission (the console's own
+        files, which hold no data of the site, are served to all: its sign-in is on them)."""
         self.static = static
         self.folder = folder
         self.pages = pages or {}
+        self.access = access or Access()
 
     def resolve(self, raw_path: str) -> Path | None:
         if self.folder is None or not raw_path.startswith(RECORDINGS_PREFIX):
@@ -187,7 +191,8 @@ class WithRecordings:
     async def __call__(self, ws, request: Request) -> Response:
         page = self.pages.get(request.path.split("?", 1)[0])
         if page is not None:
-            return await _page(request, page)
+            refused = self.refusal(ws, request)
+            return refused if refused is not None else await _page(request, page)
         if not request.path.startswith(RECORDINGS_PREFIX):
             if self.static is None:
                 return ws.respond(426, "This is a WebSocket endpoint (hitrobot protocol).\n")
@@ -195,6 +200,18 @@ class WithRecordings:
         _method, refusal = _lookup(request, lambda _path: None)  # nothing served here
         assert isinstance(refusal, Response)
         return refusal
+
+
+    def refusal(self, ws, request: Request) -> Response | None:
+        """401 or 403 for a request its token does not allow (``--authenticate``)."""
+        peer = ws.remote_address[0] if getattr(ws, "remote_address", None) else ""
+        refused = self.access.http_refusal(request.path, request.headers.get("Authorization"),
+                                           peer)
+        if refused is None:
+            return None
+        status, text = refused
+        extra = [("WWW-Authenticate", "Bearer")] if status == 401 else []
+        return _response(status, f"{text}\n".encode(), extra)
 
 
 async def _page(request: Request, page: Page) -> Response:

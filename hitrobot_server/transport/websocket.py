@@ -22,6 +22,7 @@ from websockets.http11 import Request, Response
 from websockets.protocol import State
 from websockets.typing import Subprotocol
 
+from ..session.access import Access, presented_token
 from ..session.client import ClientSession, WireProtocols
 from . import download
 from .connection import DIRECT_WRITE_LIMIT, keep_reading, limit_read, run_session
@@ -260,6 +261,7 @@ async def start_websocket(
     headers: dict[str, str] | None = None,
     downloads: Downloads | None = None,
     send_window: bool = False,
+    access: Access | None = None,
 ) -> Server:
     """Serve WebSocket (``wss://`` with ``tls``, its handshakes bounded by the gate); with
     ``ping_interval`` > 0 each client is pinged that often and dropped when it does not answer
@@ -267,7 +269,8 @@ async def start_websocket(
     ``protocols`` has, any other the default (rosbridge). ``reuse_port``: share the port with
     other processes (SO_REUSEPORT, ``--workers``); ``headers`` go on every response (handshake
     and HTTP); ``downloads`` takes the connections that ask for a recording (streamed, not
-    through websockets)."""
+    through websockets); ``access``: with ``--authenticate``, the token of an upgrade request
+    (refused with 401 when wrong, or when a protocol without an auth op comes without one)."""
 
     async def handler(ws: ServerConnection) -> None:
         await _serve(ws, protocols, delay_between_messages, send_window)
@@ -285,7 +288,7 @@ async def start_websocket(
         port,
         max_size=max_frame_size,
         compression="deflate" if compression else None,
-        process_request=_http_requests(http_handler),
+        process_request=_http_requests(http_handler, protocols, access or Access()),
         select_subprotocol=select_subprotocol,
         process_response=process_response if headers else None,
         reuse_port=reuse_port,
@@ -301,7 +304,7 @@ async def _serve(ws: ServerConnection, protocols: WireProtocols, delay: float,
                  send_window: bool) -> None:
     """One client connection: its session, served until either side ends it."""
     peer = ws.remote_address[0] if ws.remote_address else ""
-    session = protocols.open(peer, ws.subprotocol)
+    session = protocols.open(peer, ws.subprotocol, grant=GRANTS.pop(ws, None))
     window = PongWindow(ws) if send_window else None
     limit_read(ws.transport)
 
@@ -329,12 +332,44 @@ async def _serve(ws: ServerConnection, protocols: WireProtocols, delay: float,
             await ws.close()
 
 
-def _http_requests(http_handler: HttpHandler | None):
-    """Plain HTTP GETs on the WebSocket port: the handler's answer, else 426."""
+GRANTS: weakref.WeakKeyDictionary[ServerConnection, object] = weakref.WeakKeyDictionary()
+"""The grant of each upgrade request's token, until its session is opened."""
+
+
+def _admit(ws: ServerConnection, request: Request, protocols: WireProtocols,
+           access: Access) -> Response | None:
+    """The token of an upgrade request (``?token=`` or ``Authorization: Bearer``): its grant
+    kept for the session, or 401. Without one a rosbridge client may still send an ``auth``
+    op; a protocol without it (Foxglove) is refused. Without ``--authenticate`` a token is
+    ignored."""
+    if not access.enabled:
+        return None
+    peer = ws.remote_address[0] if ws.remote_address else ""
+    token = presented_token(request.path, request.headers.get("Authorization"))
+    if token is None:
+        offered = [p.strip() for v in request.headers.get_all("Sec-WebSocket-Protocol")
+                   for p in v.split(",")]
+        if protocols.choose(offered) is None:
+            return None
+        found: object = ("a token is required (--authenticate): add ?token=TOKEN to the URL "
+                         "or send 'Authorization: Bearer TOKEN'")
+    else:
+        found = access.admit(token, peer)
+    if isinstance(found, str):
+        response = ws.respond(401, f"{found}\n")
+        response.headers["WWW-Authenticate"] = "Bearer"
+        return response
+    GRANTS[ws] = found
+    return None
+
+
+def _http_requests(http_handler: HttpHandler | None, protocols: WireProtocols, access: Access):
+    """Plain HTTP GETs on the WebSocket port: the handler's answer, else 426; an upgrade's
+    token checked (:func:`_admit`)."""
 
     async def process_request(ws: ServerConnection, request: Request) -> Response | None:
         if request.headers.get("Upgrade", "").lower() == "websocket":
-            return None
+            return _admit(ws, request, protocols, access)
         if http_handler is not None:
             response = http_handler(ws, request)
             return await response if inspect.isawaitable(response) else response

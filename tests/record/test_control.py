@@ -121,12 +121,58 @@ async def test_a_writer_that_dies_ends_the_recording_visibly(make_server, tmp_pa
         await client.close()
 
 
-async def test_no_downloads_with_authenticate(make_server, tmp_path):
-    """HTTP has no rosauth: with --authenticate a recording is not served to anyone."""
+async def test_downloads_with_authenticate_answer_the_roles_allowed(make_server, tmp_path):
+    """With --authenticate a recording is served to a token whose role may download (issue
+    47: authentication switches nothing off), to no one else."""
+    from hitrobot_server.state.tokens import add_token, tokens_path
+
     folder = folder_with_one(tmp_path)
-    secret = tmp_path / "secret"
-    secret.write_text("relaxthisisasecr\n")
-    server = await make_server(authenticate=True, auth_secret_file=str(secret),
-                               record_dir=str(folder))
+    state = tmp_path / "state"
+    viewer = add_token(tokens_path(state), "hall", "viewer", None)
+    monitor = add_token(tokens_path(state), "prom", "monitor", None)
+    server = await make_server(authenticate=True, record_dir=str(folder), state_dir=str(state))
     status, _h, body = await http(server.port, "GET", "/recordings/ok.mcap")
-    assert status == 404 and b"MCAP" not in body
+    assert status == 401 and b"MCAP" not in body
+    status, _h, body = await http(server.port, "GET", f"/recordings/ok.mcap?token={monitor}")
+    assert status == 403 and b"download" in body and b"MCAP" not in body
+    status, _h, body = await http(server.port, "GET", f"/recordings/ok.mcap?token={viewer}")
+    assert status == 200 and body.startswith(b"\x89MCAP")
+
+
+async def test_replay_with_authenticate_asks_the_same_tokens(make_server, tmp_path):
+    """Issue 47: /record/replay is not switched off by --authenticate: an operator starts a
+    replay, which asks the same tokens (a viewer's token is served there, none is refused)."""
+    from websockets.asyncio.client import connect
+    from websockets.exceptions import InvalidStatus
+
+    from hitrobot_server.state.tokens import add_token, tokens_path
+
+    from .test_player import make_recording
+
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    await make_recording(folder / "r.mcap")
+    state = tmp_path / "state"
+    operator = add_token(tokens_path(state), "tablet", "operator", None)
+    viewer = add_token(tokens_path(state), "hall", "viewer", None)
+    server = await make_server(authenticate=True, record_dir=str(folder), state_dir=str(state))
+    client = await WsClient.open(server.port, additional_headers={
+        "Authorization": f"Bearer {viewer}"})
+    refused = await client.call("/record/replay", {"name": "r"})
+    assert not refused["result"] and "lacks the permission 'record'" in refused["values"]
+    await client.close()
+    client = await WsClient.open(server.port, additional_headers={
+        "Authorization": f"Bearer {operator}"})
+    reply = await client.call("/record/replay", {"name": "r"}, timeout=60)
+    await client.close()
+    assert reply["result"] and reply["values"]["success"], reply
+    port = reply["values"]["port"]
+    try:
+        async with connect(f"ws://127.0.0.1:{port}/",
+                           subprotocols=["foxglove.websocket.v1"]):
+            raise AssertionError("the replay served a Foxglove client without a token")
+    except InvalidStatus as exc:
+        assert exc.response.status_code == 401
+    async with connect(f"ws://127.0.0.1:{port}/?token={viewer}",
+                       subprotocols=["foxglove.websocket.v1"]) as ws:
+        assert '"serverInfo"' in await ws.recv()

@@ -124,3 +124,32 @@ async def test_garbage_before_auth_closes_a_tcp_connection(auth_server):
     status = await c.expect(op="status")
     assert status["level"] == "error" and "not authenticated" in status["msg"]
     assert await asyncio.wait_for(c.reader.read(), 3) == b""
+
+
+@pytest.mark.parametrize(("level", "role"), [("admin", "admin"), ("user", "operator")])
+async def test_a_rosauth_level_maps_to_a_role(auth_server, level, role):
+    """Issue 47: rosauth keeps working; ``admin`` is the admin role, any other level
+    operator (who may not publish /cmd_string)."""
+    c = await WsClient.open(auth_server.port)
+    await c.send(auth_op(level, rand=f"r-{level}"))
+    who = json.loads((await c.call("/hitrobot/whoami"))["values"]["message"])
+    assert who["role"] == role and who["name"] == "rosauth:127.0.0.1"
+    await c.send({"op": "publish", "id": "p", "topic": "/cmd_string", "msg": {"data": "x"}})
+    await c.send({"op": "call_service", "id": "s", "service": "/rosapi/get_time"})
+    statuses = []
+    while True:
+        message = await c.recv()
+        if message.get("id") == "s":
+            break
+        statuses.append(message)
+    refused = [s for s in statuses if "lacks the permission 'shell'" in s.get("msg", "")]
+    assert bool(refused) == (role != "admin")
+    await c.close()
+
+
+async def test_an_auth_op_with_neither_a_token_nor_a_whole_mac_closes(auth_server):
+    c = await WsClient.open(auth_server.port)
+    await c.send({"op": "auth", "mac": "m", "id": "a"})
+    status = await c.expect(op="status", id="a")
+    assert "give 'token'" in status["msg"] and "client" in status["msg"]
+    await asyncio.wait_for(c.ws.wait_closed(), 3)

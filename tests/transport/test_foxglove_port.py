@@ -64,14 +64,23 @@ async def test_foxglove_over_wss(make_server, cert):  # noqa: F811
         assert (await first_json(ws))["op"] == "advertise"
 
 
-async def test_authenticate_refuses_foxglove_with_the_reason(make_server, tmp_path):
-    secret = tmp_path / "secret"
-    secret.write_text("0123456789abcdef")
-    server = await make_server(authenticate=True, auth_secret_file=str(secret))
-    async with connect(f"ws://127.0.0.1:{server.port}",
+async def test_authenticate_asks_foxglove_for_a_token_at_the_upgrade(make_server, tmp_path):
+    """The Foxglove protocol has no auth op: with --authenticate its upgrade without a token is
+    refused (401, with the reason), and one with a token in the URL is served (issue 47)."""
+    from websockets.exceptions import InvalidStatus
+
+    from hitrobot_server.state.tokens import add_token, tokens_path
+
+    state = tmp_path / "state"
+    token = add_token(tokens_path(state), "studio", "viewer", None)
+    server = await make_server(authenticate=True, state_dir=str(state))
+    try:
+        async with connect(f"ws://127.0.0.1:{server.port}",
+                           subprotocols=["foxglove.websocket.v1"]):
+            raise AssertionError("served without a token")
+    except InvalidStatus as exc:
+        assert exc.response.status_code == 401
+        assert b"token" in exc.response.body
+    async with connect(f"ws://127.0.0.1:{server.port}/?token={token}",
                        subprotocols=["foxglove.websocket.v1"]) as ws:
-        status = await first_json(ws)
-        assert status["op"] == "status" and status["level"] == 2
-        assert "--authenticate" in status["message"]
-        frames = [frame async for frame in ws]  # the server closes: nothing else was served
-        assert frames == []
+        assert (await first_json(ws))["op"] == "serverInfo"

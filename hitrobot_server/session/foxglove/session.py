@@ -23,13 +23,16 @@ from ...bus.core import Bus
 from ...bus.errors import BusError
 from ...bus.params import ParamError, without_gc
 from ...protocol import foxglove as fg
+from ...protocol.access import Grant
 from ...protocol.foxglove_playback import CLIENT_PLAYBACK_CONTROL_REQUEST
+from ..access import origin_of
 from ..client import Pending
 from ..core import ClientCore
 from ..options import SessionOptions
 from .channels import ChannelOps
 from .frames import FoxgloveOutput, status_frames
 from .graph import GraphOps
+from .guard import PLAYBACK, refusal
 from .params import ParamOps
 from .playback import PlaybackOps
 from .publish import PublishOps
@@ -66,6 +69,7 @@ class FoxgloveSession:
         peer: str = "",
         subprotocol: str = fg.SUBPROTOCOL_V1,
         server_name: str = "hitrobot-server",
+        grant: Grant | None = None,
     ):
         self.bus = bus
         self.settings = settings
@@ -76,6 +80,8 @@ class FoxgloveSession:
         self.core = ClientCore(bus, settings, f"foxglove_{next(shared.client_ids)}", peer,
                                lambda text: status_frames(fg.ERROR, text))
         self.peer, self.node, self.outbox = peer, self.core.node, self.core.outbox
+        if grant is not None and settings.authenticate:  # the token of its upgrade request
+            self.core.origin = origin_of(self.node, peer, grant)
         self.origin = self.core.origin
         self.on_close: list[Callable[[FoxgloveSession], None]] = self.core.on_close
         self.pool = shared.pool
@@ -94,11 +100,11 @@ class FoxgloveSession:
         self._wake = asyncio.Event()  # set when _changes has something to sync
         self._time_handle: asyncio.TimerHandle | None = None
         log.info("foxglove client %s connected from %s (%s)", self.node, peer or "?", subprotocol)
-        if settings.authenticate:
-            # The protocol has no auth op: with --authenticate nothing is served to it.
-            self.out.status(fg.ERROR, "this server requires authentication (--authenticate), "
-                            "which the Foxglove protocol cannot carry: use a rosbridge connection "
-                            "with 'auth'; closing")
+        if settings.authenticate and grant is None:
+            # The protocol has no auth op: the token comes with the upgrade request.
+            self.out.status(fg.ERROR, "this server requires a token (--authenticate): give it "
+                            "as ?token= in the URL or an 'Authorization: Bearer' header; "
+                            "closing")
             self.outbox.close()
             return
         self.out.send(self.playback.describe(
@@ -147,14 +153,17 @@ class FoxgloveSession:
             if binary:
                 raw = data if isinstance(data, bytes) else data.encode()
                 if raw[:1] == PLAYBACK_REQUEST:  # replay's playbackControl
-                    return self.playback.request(raw)
-                return self._binary(fg.parse_binary(raw))
+                    return None if self._refused(PLAYBACK) else self.playback.request(raw)
+                frame = fg.parse_binary(raw)
+                return None if self._refused(frame) else self._binary(frame)
             if len(data) > MAX_TEXT_BYTES:
                 raise fg.FoxgloveError(
                     f"text frame of {len(data)} bytes: JSON ops are at most "
                     f"{MAX_TEXT_BYTES} bytes; message data goes in binary frames"
                 )
             op = _parse_op(data)
+            if self._refused(op):
+                return None
             field = op.LISTS
             if field is not None and len(getattr(op, field)) > BATCH:
                 return self.spawn(self._batched(op, field))
@@ -167,6 +176,16 @@ class FoxgloveSession:
             log.exception("foxglove client %s: frame failed", self.node)
             self.out.status(fg.ERROR, f"internal error: {exc}")
         return None
+
+    def _refused(self, item: object) -> bool:
+        """The one role check of every op (guard.py); a refused call also fails."""
+        reason = refusal(self, item)
+        if reason is None:
+            return False
+        if isinstance(item, fg.ServiceCallRequest):
+            self.out.send(fg.service_call_failure(item.service_id, item.call_id, reason))
+        self.out.status(fg.ERROR, reason)
+        return True
 
     def _binary(self, frame: fg.ClientMessage | fg.ServiceCallRequest) -> Pending:
         if isinstance(frame, fg.ClientMessage):

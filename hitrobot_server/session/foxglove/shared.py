@@ -14,6 +14,7 @@ from ...bus.graph import GraphView
 from ...bus.topics import Topic
 from ...protocol import foxglove as fg
 from ...types.registry import SrvType
+from ..access import Access
 from ..offload import WorkerPool
 
 log = logging.getLogger(__name__)
@@ -29,6 +30,7 @@ class FoxgloveShared:
     codec: Ros2Codec
     graph: GraphView  # the channels' and services' source: this bus and its link
     pool: WorkerPool = field(default_factory=WorkerPool)  # the server's: big decodes
+    access: Access = field(default_factory=Access)  # tokens and roles (the server's)
     _channels: dict[tuple[str, str], dict] = field(default_factory=dict)
     _services: dict[tuple[str, str], dict] = field(default_factory=dict)
     _ids: itertools.count = field(default_factory=lambda: itertools.count(1))

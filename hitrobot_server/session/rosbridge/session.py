@@ -12,24 +12,26 @@ import asyncio
 import functools
 import itertools
 import logging
-import time
 from collections.abc import Callable, Coroutine
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Any
 
 from ...bus.core import Bus
 from ...bus.errors import BusError
 from ...bus.topics import Origin
 from ...protocol import auth, bulk, cbor, ops, png
+from ...protocol.access import Grant
 from ...protocol.errors import ProtocolError, message_id, should_send, status_op
 from ...protocol.fragment import MIN_FRAGMENT_SIZE, FragmentBudget
 from ...types import jsoncodec
 from ...types.convert import ConversionError
 from ...wire.frames import Frames
+from ..access import Access, origin_of
 from ..client import Pending
 from ..core import STREAM_ERRORS_PER_SECOND, ClientCore
 from ..offload import WorkerPool
 from ..options import SessionOptions
+from . import signin
 from .actions import ActionOps
 from .fragments import IncomingFragments
 from .frames import FrameBuilder, json_frames
@@ -50,6 +52,7 @@ class Shared:
 
     fragments: FragmentBudget  # bytes of incoming fragments held, all clients together
     auth_replays: auth.ReplayCache  # auth MACs already accepted (each grants access once)
+    access: Access = field(default_factory=Access)  # tokens and roles (the server's)
     pool: WorkerPool = field(default_factory=WorkerPool)  # big ops off the event loop
     client_ids: itertools.count = field(default_factory=lambda: itertools.count(1))
     frames: FrameBuilder = field(init=False)  # builds every client's frames (one fragment
@@ -61,7 +64,7 @@ class Shared:
     @classmethod
     def for_options(cls, options: SessionOptions, pool: WorkerPool | None = None) -> Shared:
         return cls(FragmentBudget(options.fragment_memory_limit), auth.ReplayCache(),
-                   pool or WorkerPool())
+                   Access(options.authenticate), pool or WorkerPool())
 
 
 class Session:
@@ -75,6 +78,7 @@ class Session:
         peer: str = "",
         transport: str = "ws",
         shared: Shared | None = None,
+        grant: Grant | None = None,
     ):
         self.bus = bus
         self._own_pool = shared is None  # made here (no server): its workers go with it
@@ -98,6 +102,8 @@ class Session:
         self.service_ops = ServiceOps(self)
         self.action_ops = ActionOps(self)
         self._handlers = self._op_table()
+        if grant is not None and settings.authenticate:  # its upgrade request's token
+            self.authorize(grant)
         log.info("client %s connected from %s over %s", self.node, peer or "?", transport)
 
     def _op_table(self) -> dict[type, Callable[[Any], Pending]]:
@@ -191,6 +197,8 @@ class Session:
             return None
         try:
             op = ops.validate_op(ops.parse_message(obj))
+            if self._refused(op):
+                return None
             if isinstance(op, ops.Publish):
                 return self.publishing.publish(op, frame)
             if isinstance(op, REFUSED_WHEN_FULL) and self._replies_full(op):
@@ -243,25 +251,29 @@ class Session:
         self.status_level = op.level  # one of LEVELS: the op's spec checked it
         self.status("info", f"status level set to {self.status_level}", op.id)
 
+    def _refused(self, op: object) -> bool:
+        """The one role check of every rosbridge op, before it acts (:func:`checked_op`);
+        a refusal is an error status naming the role and the permission (a call also gets its
+        failed ``service_response``)."""
+        what = checked_op(op)
+        if what is None:
+            return False
+        reason = self.shared.access.check(self.origin, *what)
+        if reason is None:
+            return False
+        if isinstance(op, ops.CallService):
+            self.send(ops.service_response(op.service, op.id, reason, False))
+        self.status("error", f"{getattr(op, 'OP', 'op')}: {reason}", getattr(op, "id", None))
+        return True
+
+    def authorize(self, grant: Grant, auth_level: str | None = None) -> None:
+        """The client is ``grant`` (a token at the upgrade, or an ``auth`` op)."""
+        self.authenticated = True
+        self.auth_level = auth_level
+        self.core.origin = origin_of(self.node, self.peer, grant, auth_level)
+
     def _op_auth(self, op: ops.Auth) -> None:
-        if not self.settings.authenticate:
-            self.status("info", "auth: authentication is not enabled; ignored", op.id)
-            return
-        if self.authenticated:
-            self.status("warning", "auth: already authenticated", op.id)
-            return
-        now = time.time()
-        if not auth.verify(asdict(op), self.settings.auth_secret or "", now):
-            self.status("error", "auth: authentication failed; closing", op.id)
-            self.close_connection()
-        elif not self.shared.auth_replays.use(op.mac, op.t, now):
-            self.status("error", "auth: this MAC was already used; closing", op.id)
-            self.close_connection()
-        else:
-            self.authenticated = True
-            self.auth_level = op.level
-            self.core.origin = Origin(self.node, self.auth_level, peer=self.peer)
-            self.status("info", f"authenticated at level {self.auth_level!r}", op.id)
+        signin.auth(self, op)
 
     def _reject_unauthenticated(self, what: str, op_id: Any) -> None:
         self.status("error", f"{what}: not authenticated; send 'auth' first", op_id)
@@ -347,6 +359,29 @@ async def _handle_big(
     more = session.handle(obj)
     if more is not None:
         await more
+
+
+def checked_op(op: object) -> tuple[str, str, object] | None:
+    """What an op asks, for the role check: (kind, name, message); None for an op that acts
+    only on what the client already holds (unsubscribe, a response to a call it served)."""
+    match op:
+        case ops.Publish():
+            return "publish", op.topic, op.msg
+        case ops.Advertise():
+            return "publish", op.topic, None
+        case ops.Subscribe():
+            return "subscribe", op.topic, None
+        case ops.CallService():
+            return "call", op.service, op.args
+        case ops.AdvertiseService():
+            return "provide", op.service, None
+        case ops.AdvertiseAction():
+            return "provide", op.action, None
+        case ops.SendActionGoal():
+            return "goal", op.action, op.args
+        case ops.CancelActionGoal():
+            return "cancel", op.action, None
+    return None
 
 
 def _error_frames(text: str) -> Frames:
