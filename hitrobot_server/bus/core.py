@@ -64,6 +64,9 @@ class Bus:
         self.watchers: list[Callable[[str, str], None]] = []
         self.remote_watchers: list[Callable[[str, str], None]] = []  # the same, told by the link
         self.taps: list[BusTap] = []  # observers of every publish (the recorder)
+        # Called with a node's name when its last registration goes: a client's session ends
+        # (the drive lease of a robot ends with the connection that held it).
+        self.departures: list[Callable[[str], None]] = []
         self._seqs = itertools.count(1)  # numbers every message published here
         self.demand = Demand(self)  # who reads each topic, for the pollers behind them
 
@@ -321,6 +324,12 @@ class Bus:
         else:
             self.nodes.pop(node, None)
         self._changed("node", node)
+        if left <= 0:
+            for departed in list(self.departures):
+                try:
+                    departed(node)
+                except Exception:
+                    log.exception("bus departure watcher %r failed", departed)
 
     def remove_owner(self, owner: Hashable, keys: Iterable[Hashable] = ()) -> None:
         """Forget everything a participant registered (its subscriptions under ``keys``)."""

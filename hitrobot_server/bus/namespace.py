@@ -136,6 +136,12 @@ class NamespacedBus:
         return self._bus.remote_graph()
 
     @property
+    def departures(self) -> list[Callable[[str], None]]:
+        """Told the (absolute) name of each node that goes: a robot's drive lease ends with
+        the client that held it."""
+        return self._bus.departures
+
+    @property
     def demand(self) -> ResolvedDemand:
         """Who reads a topic, the robot's names resolved (bus/demand.py)."""
         return ResolvedDemand(self._bus.demand, self.namespace.resolve)
