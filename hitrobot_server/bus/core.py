@@ -33,7 +33,7 @@ from .services import (
     calling_as,
 )
 from .tap import BusTap, client_op
-from .topics import Memo, Message, Origin, Subscriber, Topic
+from .topics import Memo, Message, Origin, RequestRejected, Subscriber, Topic
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -145,6 +145,12 @@ class Bus:
             raise BusError(f"topic '{canonical(name)}' does not exist")
         message = Message(topic, msg, self.clock() if stamp is None else stamp, reply, origin,
                           seed)
+        if topic.guard is not None:
+            try:
+                topic.guard(message)
+            except RequestRejected as exc:  # refused before any subscriber, tap or peer saw it
+                message.reply.fail(str(exc))
+                return message
         topic.fan_out(message)
         if self.link is not None:
             self.link.published(message)

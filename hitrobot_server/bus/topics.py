@@ -163,6 +163,7 @@ class Topic:
         "publishers",
         "subscribers",
         "seqs",
+        "guard",
         "_expiry",
     )
 
@@ -177,6 +178,8 @@ class Topic:
         self.subscribers: dict[Hashable, tuple[str, Subscriber]] = {}  # key -> (node, callback)
         self.seqs = itertools.count(1) if seqs is None else seqs  # numbers its messages (the
         # bus hands every topic its one counter, so a recording's sequence is the bus's)
+        self.guard: Subscriber | None = None  # the owning node's: may refuse a message
+        # (RequestRejected) before anyone sees it (a robot's drive lease on its /cmd_vel)
         self._expiry = None
 
     @property

@@ -13,8 +13,8 @@ import asyncio
 import time
 
 from ...bus.services import service_caller
-from ...bus.topics import Origin, RequestRejected
-from ..base import RobotNode
+from ...bus.topics import Message, Origin, RequestRejected, Topic
+from ..base import RobotNode, require_finite
 from ..ground.drive_lease import Change, DriveLease, Verdict, driver_name, may_take_over
 
 LEASE_TOPIC = "/drive_lease"
@@ -33,15 +33,28 @@ class Driving:
         self.lease = DriveLease(time.monotonic)
         self.stopping = False  # True while the lease's own stop is being published
         self._timer: asyncio.TimerHandle | None = None
+        self._guarded: Topic | None = None
         node.advertise(LEASE_TOPIC, LEASE_TYPE, latch=True)
         node.service(TAKE_SERVICE, "std_srvs/Trigger", self._take)
         node.bus.departures.append(self._departed)
         self._publish(Change(None, None, ""))
 
+    def guard(self, topic: Topic) -> None:
+        """Refuse another's command on ``topic`` (the node's velocity topic, subscribed)
+        before anyone sees it: no subscriber, recording or peer takes a refused command for
+        one that moved the robot."""
+        topic.guard = self._guard
+        self._guarded = topic
+
+    def _guard(self, message: Message) -> None:
+        self.verdict(message.origin, moving(message.msg))
+
     def close(self) -> None:
         """The node stops: no more timing or listening."""
         if self._timer is not None:
             self._timer.cancel()
+        if self._guarded is not None and self._guarded.guard == self._guard:
+            self._guarded.guard = None
         if self._departed in self.node.bus.departures:
             self.node.bus.departures.remove(self._departed)
 
@@ -126,3 +139,12 @@ class Driving:
             self.node.publish(self.stop_topic, ZERO)
         finally:
             self.stopping = False
+
+
+def moving(twist: dict) -> bool:
+    """Whether a ``Twist`` moves the robot (a stop does not); NaN and infinities are
+    refused, naming the field."""
+    linear, angular = twist["linear"]["x"], twist["angular"]["z"]
+    require_finite("linear.x", linear)
+    require_finite("angular.z", angular)
+    return linear != 0 or angular != 0

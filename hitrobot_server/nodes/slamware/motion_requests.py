@@ -17,7 +17,7 @@ from ..ground import messages as m
 from ..ground.claims import MotionClaims, who
 from ..ground.drive_lease import Verdict
 from ..ground.slamware_params import SlamwareParams
-from .driving import Driving
+from .driving import Driving, moving
 from .fields import enum_field, move_options, point, quaternion_yaw
 from .runner import Request, Runner
 from .topics import PKG
@@ -62,12 +62,11 @@ class MotionRequests:
 
     def _on_cmd_vel(self, message: Message) -> None:
         t = message.msg
-        require_finite("linear.x", t["linear"]["x"])
-        require_finite("angular.z", t["angular"]["z"])
+        is_moving = moving(t)
         linear, angular = t["linear"]["x"], t["angular"]["z"]
-        moving = linear != 0 or angular != 0
+        # the lease's guard refused another's command before it got here: this asks again
         verdict = Verdict.DRIVE if self.driving is None else \
-            self.driving.verdict(message.origin, moving)
+            self.driving.verdict(message.origin, is_moving)
         if verdict is Verdict.IDLE_STOP:
             self.runner.run(message, "cmd_vel", lambda: self._idle_stop(message))
             return
@@ -75,11 +74,11 @@ class MotionRequests:
 
         async def drive() -> None:
             # who ended the running action, asked once per drive (not of every command of it)
-            if moving and time.monotonic() - self._drove_at > DRIVE_GAP:
+            if is_moving and time.monotonic() - self._drove_at > DRIVE_GAP:
                 running = await motion.get_current_action()
                 if running is not None and not running.action_name.endswith(VELOCITY_ACTION):
                     self.claims.took_over(running.action_id, who(message.origin, "a /cmd_vel"))
-            if moving:
+            if is_moving:
                 self._drove_at = time.monotonic()
             await motion.set_velocity(linear, angular)
 

@@ -64,6 +64,9 @@ class SlamwareNode(RobotNode):
         motion = MotionRequests(runner, robot, claims, self.driving).requests(p, simple_goals)
         for topic, type_name, handler in (*motion, *self.map_requests.requests()):
             self.subscribe(m.slamware_topic(topic), type_name, handler)
+        velocity = self.bus.topic(m.slamware_topic(p.vel_control_topic))
+        if velocity is not None:
+            self.driving.guard(velocity)
         self.service(m.slamware_topic("sync_get_stcm"), f"{PKG}/SyncGetStcm",
                      self.map_requests.sync_get_stcm)
         self.service(m.slamware_topic("sync_set_stcm"), f"{PKG}/SyncSetStcm",
