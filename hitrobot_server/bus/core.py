@@ -33,7 +33,7 @@ from .services import (
     calling_as,
 )
 from .tap import BusTap, client_op
-from .topics import Memo, Message, Origin, RequestRejected, Subscriber, Topic
+from .topics import Memo, Message, Origin, Subscriber, Topic
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -64,9 +64,6 @@ class Bus:
         self.watchers: list[Callable[[str, str], None]] = []
         self.remote_watchers: list[Callable[[str, str], None]] = []  # the same, told by the link
         self.taps: list[BusTap] = []  # observers of every publish (the recorder)
-        # Called with a node's name when its last registration goes: a client's session ends
-        # (the drive lease of a robot ends with the connection that held it).
-        self.departures: list[Callable[[str], None]] = []
         self._seqs = itertools.count(1)  # numbers every message published here
         self.demand = Demand(self)  # who reads each topic, for the pollers behind them
 
@@ -136,22 +133,16 @@ class Bus:
     ) -> Message:
         """Fan ``msg`` (canonical dict) out to every subscriber of an existing topic.
 
-        ``reply`` reaches the publisher when a subscriber refuses the message; ``seed`` is
-        what the publisher already has of its encodings (a client's own text of it, its size:
-        the wire floor's ``Memo``, kept in the message's ``wire`` slot without a look).
+        ``reply`` reaches the publisher when a subscriber or the topic's guard refuses it;
+        ``seed`` is what the publisher already has of its encodings (a client's own text of it,
+        its size: the wire floor's ``Memo``, kept in the message's ``wire`` slot unread).
         """
         topic = self.topics.get(name) or self.topics.get(canonical(name))
         if topic is None:
             raise BusError(f"topic '{canonical(name)}' does not exist")
-        message = Message(topic, msg, self.clock() if stamp is None else stamp, reply, origin,
-                          seed)
-        if topic.guard is not None:
-            try:
-                topic.guard(message)
-            except RequestRejected as exc:  # refused before any subscriber, tap or peer saw it
-                message.reply.fail(str(exc))
-                return message
-        topic.fan_out(message)
+        message = Message(topic, msg, self.clock() if stamp is None else stamp, reply, origin, seed)
+        if not topic.fan_out(message):  # its guard refused it: no peer or tap sees it either
+            return message
         if self.link is not None:
             self.link.published(message)
         for tap in self.taps:
@@ -330,12 +321,6 @@ class Bus:
         else:
             self.nodes.pop(node, None)
         self._changed("node", node)
-        if left <= 0:
-            for departed in list(self.departures):
-                try:
-                    departed(node)
-                except Exception:
-                    log.exception("bus departure watcher %r failed", departed)
 
     def remove_owner(self, owner: Hashable, keys: Iterable[Hashable] = ()) -> None:
         """Forget everything a participant registered (its subscriptions under ``keys``)."""

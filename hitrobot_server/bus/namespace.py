@@ -136,10 +136,10 @@ class NamespacedBus:
         return self._bus.remote_graph()
 
     @property
-    def departures(self) -> list[Callable[[str], None]]:
-        """Told the (absolute) name of each node that goes: a robot's drive lease ends with
-        the client that held it."""
-        return self._bus.departures
+    def watchers(self) -> list[Callable[[str, str], None]]:
+        """Told of every change of the whole graph, names absolute (a robot's drive lease
+        ends when the client node that held it goes)."""
+        return self._bus.watchers
 
     @property
     def demand(self) -> ResolvedDemand:

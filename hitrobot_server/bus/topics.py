@@ -215,8 +215,15 @@ class Topic:
             self._expiry.cancel()
             self._expiry = None
 
-    def fan_out(self, message: Message) -> None:
-        """Deliver to every subscriber; one failing callback never starves the others."""
+    def fan_out(self, message: Message) -> bool:
+        """Deliver to every subscriber (one failing callback never starves the others) unless
+        the topic's guard refuses the message first: then False, and nobody saw it."""
+        if self.guard is not None:
+            try:
+                self.guard(message)
+            except RequestRejected as exc:
+                message.reply.fail(str(exc))
+                return False
         if self.latched:
             self.last = message
         for key, (_node, callback) in list(self.subscribers.items()):
@@ -226,3 +233,4 @@ class Topic:
                 message.reply.fail(str(exc))
             except Exception:
                 log.exception("subscriber %r of %s failed", key, self.name)
+        return True

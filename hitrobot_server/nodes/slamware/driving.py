@@ -1,6 +1,7 @@
 """The robot's drive lease on the bus (the logic is :mod:`..ground.drive_lease`): asked per
-velocity command, published latched on ``/drive_lease``, timed to lapse, ended by its holder's
-disconnect (``Bus.departures``), taken over on ``/drive_lease/take``.
+velocity command, published latched on ``/drive_lease``, timed to lapse, ended by its
+holder's disconnect (its client node leaving, seen among ``Bus.watchers``), taken over on
+``/drive_lease/take``.
 
 When a lease ends while its holder was still moving the robot, the robot gets one stop: a zero
 ``Twist`` the node publishes on its own velocity topic, so every subscriber (and a recording)
@@ -36,7 +37,7 @@ class Driving:
         self._guarded: Topic | None = None
         node.advertise(LEASE_TOPIC, LEASE_TYPE, latch=True)
         node.service(TAKE_SERVICE, "std_srvs/Trigger", self._take)
-        node.bus.departures.append(self._departed)
+        node.bus.watchers.append(self._graph_changed)
         self._publish(Change(None, None, ""))
 
     def guard(self, topic: Topic) -> None:
@@ -55,8 +56,8 @@ class Driving:
             self._timer.cancel()
         if self._guarded is not None and self._guarded.guard == self._guard:
             self._guarded.guard = None
-        if self._departed in self.node.bus.departures:
-            self.node.bus.departures.remove(self._departed)
+        if self._graph_changed in self.node.bus.watchers:
+            self.node.bus.watchers.remove(self._graph_changed)
 
     def verdict(self, origin: Origin | None, moving: bool) -> Verdict:
         """What to do with a velocity command from ``origin``; another's while the lease is
@@ -96,10 +97,12 @@ class Driving:
         if change is not None:
             self._publish(change)
 
-    def _departed(self, node: str) -> None:
-        change = self.lease.leave(node)
-        if change is not None:
-            self._publish(change)
+    def _graph_changed(self, kind: str, name: str) -> None:
+        """A node that went (a client's session ends) gives its lease back."""
+        if kind == "node" and self.lease.driving(name) and name not in self.node.bus.nodes:
+            change = self.lease.leave(name)
+            if change is not None:
+                self._publish(change)
 
     async def _take(self, request: dict) -> dict:
         origin = service_caller()
