@@ -175,10 +175,10 @@ async def test_an_admin_takes_the_lease_over_and_a_user_may_not(make_server, tmp
             await client.close()
 
 
-async def joystick(w: Watcher) -> None:
+async def joystick(w: Watcher, topic: str = "/cmd_vel") -> None:
     """Drive at a joystick's 10 Hz until cancelled (bounded: a minute)."""
     for _ in range(600):
-        await w.publish("/cmd_vel", twist(0.2))
+        await w.publish(topic, twist(0.2))
         await asyncio.sleep(0.1)  # the drive's own rate, not a synchronisation
 
 
@@ -228,3 +228,35 @@ async def test_a_stop_from_a_watcher_never_cancels_a_goal(devices, make_server, 
     finally:
         await watcher.close()
         await owner.close()
+
+
+async def test_each_robot_of_a_fleet_has_its_own_lease(make_server, tmp_path):
+    from hitrobot_server.robot.options import RobotEntry
+
+    server = await make_server(
+        robots=(RobotEntry("a", "sim", (4.0, 8.0, 0.0)), RobotEntry("b", "sim", (12.0, 8.0, 0.0))),
+        map_dir=str(tmp_path / "maps"))
+    w = await Watcher.open(server.port)
+    one, two = await Watcher.open(server.port), await Watcher.open(server.port)
+    drive = asyncio.ensure_future(asyncio.sleep(0))
+    try:
+        for name in ("a", "b"):
+            await w.subscribe(f"/{name}/drive_lease")
+        await one.publish("/a/cmd_vel", twist(0.0, 0.3), TWIST, op_id="one-a")
+        drive = asyncio.ensure_future(joystick(one, "/a/cmd_vel"))  # one keeps driving a
+        await two.publish("/b/cmd_vel", twist(0.0, 0.3), TWIST, op_id="two-b")
+        holders = await w.until(lambda: all((w.latest(f"/{n}/drive_lease") or {}).get("holder")
+                                            for n in "ab") and
+                                [w.latest(f"/{n}/drive_lease")["holder"] for n in "ab"], 5,
+                                "both robots driven")
+        assert holders[0] != holders[1]
+        await two.publish("/a/cmd_vel", twist(0.0, 0.3), TWIST, op_id="two-a")
+        refused = await two.until(lambda: next((s for s in two.statuses
+                                                if s.get("id") == "two-a"), None), 5, "refusal")
+        assert f"driven by {holders[0]}" in refused["msg"] and "/a/drive_lease/take" in \
+            refused["msg"], refused
+        assert not [s for s in one.statuses + two.statuses if s.get("id") in ("one-a", "two-b")]
+    finally:
+        drive.cancel()
+        for client in (w, one, two):
+            await client.close()
