@@ -21,6 +21,7 @@ export const TOPICS = Object.freeze({
   virtualTracks: slamware('virtual_tracks'),
   // driving, navigation and the robot's actions
   cmdVel: '/cmd_vel',
+  driveLease: '/drive_lease', // latched: who drives the robot (one driver at a time)
   initialPose: '/initialpose',
   navigateToPoi: '/navigation/navigate_to_poi',
   cancelAction: slamware('cancel_action'),

@@ -5,7 +5,8 @@
 // driving (it sent a non-zero command within the last second): a page that only watched sends
 // nothing, since on the robot any /cmd_vel, a stop too, supersedes the goal, patrol or task
 // someone else started. On a fleet server it drives the robot chosen in the fleet panel
-// (currentrobot.js): /NAME/cmd_vel.
+// (currentrobot.js): /NAME/cmd_vel. One client drives a robot at a time (the server's drive
+// lease, /drive_lease): the pad shows who does; another's commands are refused meanwhile.
 /* global ROSLIB */
 import { CurrentRobot } from './currentrobot.js';
 import { dialogOpen } from './dialogs.js';
@@ -45,6 +46,7 @@ export class Teleop {
     document.addEventListener('visibilitychange', () => { if (document.hidden) this.release(); });
     window.addEventListener('pagehide', () => this.release());
     this.bindPad();
+    this.showLease();
     // another robot chosen: stop this one, then drive that one
     robot.follow(() => {
       this.release();
@@ -76,6 +78,19 @@ export class Teleop {
       };
       for (const ev of ['pointerup', 'pointercancel', 'lostpointercapture']) b.addEventListener(ev, up);
     }
+  }
+
+  /** Who holds the chosen robot's drive lease: "driven by NAME" under the pad. */
+  showLease() {
+    const shown = document.getElementById('drive-lease');
+    const show = (lease) => {
+      const holder = lease ? lease.holder : '';
+      shown.hidden = !holder;
+      shown.dataset.holder = holder;
+      shown.textContent = holder ? `driven by ${holder}` : '';
+    };
+    this.robot.subscribe(this.ros, TOPICS.driveLease, 'hitrobot_msgs/DriveLease', {}, show,
+      () => show(null));
   }
 
   /** /cmd_vel of the chosen robot. */

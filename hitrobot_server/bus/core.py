@@ -133,16 +133,16 @@ class Bus:
     ) -> Message:
         """Fan ``msg`` (canonical dict) out to every subscriber of an existing topic.
 
-        ``reply`` reaches the publisher when a subscriber refuses the message; ``seed`` is
-        what the publisher already has of its encodings (a client's own text of it, its size:
-        the wire floor's ``Memo``, kept in the message's ``wire`` slot without a look).
+        ``reply`` reaches the publisher when a subscriber or the topic's guard refuses it;
+        ``seed`` is what the publisher already has of its encodings (a client's own text of it,
+        its size: the wire floor's ``Memo``, kept in the message's ``wire`` slot unread).
         """
         topic = self.topics.get(name) or self.topics.get(canonical(name))
         if topic is None:
             raise BusError(f"topic '{canonical(name)}' does not exist")
-        message = Message(topic, msg, self.clock() if stamp is None else stamp, reply, origin,
-                          seed)
-        topic.fan_out(message)
+        message = Message(topic, msg, self.clock() if stamp is None else stamp, reply, origin, seed)
+        if not topic.fan_out(message):  # its guard refused it: no peer or tap sees it either
+            return message
         if self.link is not None:
             self.link.published(message)
         for tap in self.taps:

@@ -136,6 +136,12 @@ class NamespacedBus:
         return self._bus.remote_graph()
 
     @property
+    def watchers(self) -> list[Callable[[str, str], None]]:
+        """Told of every change of the whole graph, names absolute (a robot's drive lease
+        ends when the client node that held it goes)."""
+        return self._bus.watchers
+
+    @property
     def demand(self) -> ResolvedDemand:
         """Who reads a topic, the robot's names resolved (bus/demand.py)."""
         return ResolvedDemand(self._bus.demand, self.namespace.resolve)

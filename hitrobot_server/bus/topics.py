@@ -165,6 +165,7 @@ class Topic:
         "publishers",
         "subscribers",
         "seqs",
+        "guard",
         "_expiry",
     )
 
@@ -179,6 +180,8 @@ class Topic:
         self.subscribers: dict[Hashable, tuple[str, Subscriber]] = {}  # key -> (node, callback)
         self.seqs = itertools.count(1) if seqs is None else seqs  # numbers its messages (the
         # bus hands every topic its one counter, so a recording's sequence is the bus's)
+        self.guard: Subscriber | None = None  # the owning node's: may refuse a message
+        # (RequestRejected) before anyone sees it (a robot's drive lease on its /cmd_vel)
         self._expiry = None
 
     @property
@@ -214,8 +217,15 @@ class Topic:
             self._expiry.cancel()
             self._expiry = None
 
-    def fan_out(self, message: Message) -> None:
-        """Deliver to every subscriber; one failing callback never starves the others."""
+    def fan_out(self, message: Message) -> bool:
+        """Deliver to every subscriber (one failing callback never starves the others) unless
+        the topic's guard refuses the message first: then False, and nobody saw it."""
+        if self.guard is not None:
+            try:
+                self.guard(message)
+            except RequestRejected as exc:
+                message.reply.fail(str(exc))
+                return False
         if self.latched:
             self.last = message
         for key, (_node, callback) in list(self.subscribers.items()):
@@ -225,3 +235,4 @@ class Topic:
                 message.reply.fail(str(exc))
             except Exception:
                 log.exception("subscriber %r of %s failed", key, self.name)
+        return True

@@ -85,7 +85,7 @@ def robot_nodes(bus: Bus, settings: NodeOptions, robot: Robot,
     mapfiles = MapFilesNode(bus, link, localization, settings)
     nodes = [
         SlamwareNode(bus, robot, settings.slamware, simple_goals=False, state=state,
-                     claims=claims),
+                     claims=claims, authenticate=settings.authenticate),
         ConventionalNode(bus, link, localization, frame),
         move_base,
         ShellNode(bus, robot, settings.authenticate, move_base.cancel_all),

@@ -22,7 +22,6 @@ NOT_ON_THE_VIEW: dict[str, str] = {
     "remote_changed": "the link's news of another process's entity",
     # name-free, and none of a node's business
     "link": "the server joins the bus to other processes, before any robot starts",
-    "watchers": "the Foxglove sessions follow the whole bus",
     "remote_watchers": "the Foxglove sessions follow the whole graph (bus/graph.py GraphView)",
     "taps": "the recorder observes the whole bus",
     "unregister_timeout": "the server's setting for unused topics",

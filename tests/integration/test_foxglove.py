@@ -10,7 +10,8 @@ from .test_roslibjs import node_modules, run_checks  # noqa: F401  (the fixture 
 
 CHECKS = ["server_info", "channels_for_every_topic", "every_channel_decodes",
           "odom_scan_map_tf_at_their_rates",
-          "cmd_vel_from_foxglove_turns_the_robot", "service_call", "parameters_get_set_subscribe",
+          "cmd_vel_from_foxglove_turns_the_robot", "cmd_vel_one_driver_at_a_time",
+          "service_call", "parameters_get_set_subscribe",
           "connection_graph", "foxglove_and_roslibjs_on_one_topic", "bad_input_gets_error_status",
           "sdk_subprotocol"]
 

@@ -163,6 +163,43 @@ await check('cmd_vel_from_foxglove_turns_the_robot', async () => {
   }
 });
 
+await check('cmd_vel_one_driver_at_a_time', async () => {
+  // roslibjs drives; Foxglove's command meanwhile is refused naming it; once roslibjs stops,
+  // the lease lapses and Foxglove's next command takes it
+  const lease = subscribe(fox, '/drive_lease');
+  const holder = () => (lease.got.length ? lease.got.at(-1).msg : null);
+  await until(5000, 'nobody driving', () => holder() && holder().holder === '');
+  const twist = 'geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n' +
+    '================================================================================\n' +
+    'MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n';
+  const writer = new MessageWriter(parse(twist, { ros2: true }));
+  const chan = fox.client.advertise({ topic: '/cmd_vel', encoding: 'cdr',
+    schemaName: 'geometry_msgs/msg/Twist', schema: twist, schemaEncoding: 'ros2msg' });
+  const turn = { linear: { x: 0, y: 0, z: 0 }, angular: { x: 0, y: 0, z: 0.4 } };
+  const rcmd = new ROSLIB.Topic({ ros, name: '/cmd_vel', messageType: 'geometry_msgs/Twist' });
+  rcmd.publish(turn);
+  const timer = setInterval(() => rcmd.publish(turn), 100);
+  let driver;
+  try {
+    await until(5000, 'roslibjs holding the lease', () => holder().holder !== '');
+    driver = holder().holder;
+    const before = fox.statuses.length;
+    fox.client.sendMessage(chan, writer.writeMessage(turn));
+    await until(5000, 'the refusal', () => fox.statuses.slice(before).some((st) =>
+      st.level === 2 && st.message.includes(`driven by ${driver}`)));
+  } finally {
+    clearInterval(timer);
+  }
+  await until(5000, 'the lease lapsing', () => holder().reason === 'lapsed' && holder().stopped);
+  fox.client.sendMessage(chan, writer.writeMessage(turn));
+  await until(5000, 'Foxglove holding the lease', () => holder().holder !== '' &&
+    holder().holder !== driver);
+  fox.client.sendMessage(chan, writer.writeMessage({ linear: { x: 0, y: 0, z: 0 },
+    angular: { x: 0, y: 0, z: 0 } }));
+  fox.client.unadvertise(chan);
+  fox.client.unsubscribe(lease.id);
+});
+
 function service(name) {
   return [...fox.services.values()].find((s) => s.name === name);
 }

@@ -143,7 +143,8 @@ class TopicBridge:
             return
         message = Message(topic, msg, bus.clock(), None, REMOTE)
         message.cdr_bytes = payload  # a recorder (bus tap) writes these very bytes
-        topic.fan_out(message)
+        if not topic.fan_out(message):  # the topic's guard refused it
+            return
         for tap in bus.taps:
             tap.message(message)
 

@@ -15,7 +15,9 @@ from ...robot.relocalization import GOOD_QUALITY, settled_quality
 from ..base import require_finite
 from ..ground import messages as m
 from ..ground.claims import MotionClaims, who
+from ..ground.drive_lease import Verdict
 from ..ground.slamware_params import SlamwareParams
+from .driving import Driving, moving
 from .fields import enum_field, move_options, point, quaternion_yaw
 from .runner import Request, Runner
 from .topics import PKG
@@ -23,6 +25,8 @@ from .topics import PKG
 VELOCITY_ACTION = "VelocityControlAction"
 """What a robot calls the action ``/cmd_vel`` runs (a drive superseding a drive takes nothing
 over)."""
+MANUAL_ACTIONS = (VELOCITY_ACTION, "MoveByAction")
+"""Actions a stop may end: manual driving (a REST robot drives by hand with short MoveBys)."""
 DRIVE_GAP = 0.25
 """s: commands this close together are one drive (publishers send at 10 Hz or more)."""
 
@@ -30,9 +34,12 @@ DRIVE_GAP = 0.25
 class MotionRequests:
     """Moves the robot (through the locomotion gate) as the real node's request topics ask."""
 
-    def __init__(self, runner: Runner, robot: Robot, claims: MotionClaims | None = None):
+    def __init__(self, runner: Runner, robot: Robot, claims: MotionClaims | None = None,
+                 driving: Driving | None = None):
+        """``driving``: the robot's drive lease (None: any client drives, as a tool's node)."""
         self.runner, self.robot = runner, robot
         self.claims = claims or MotionClaims()
+        self.driving = driving
         self._drove_at = -math.inf
 
     def requests(self, p: SlamwareParams, simple_goals: bool = True) -> list[Request]:
@@ -55,21 +62,41 @@ class MotionRequests:
 
     def _on_cmd_vel(self, message: Message) -> None:
         t = message.msg
-        require_finite("linear.x", t["linear"]["x"])
-        require_finite("angular.z", t["angular"]["z"])
+        is_moving = moving(t)
         linear, angular = t["linear"]["x"], t["angular"]["z"]
+        # the lease's guard refused another's command before it got here: this asks again
+        verdict = Verdict.DRIVE if self.driving is None else \
+            self.driving.verdict(message.origin, is_moving)
+        if verdict is Verdict.IDLE_STOP:
+            self.runner.run(message, "cmd_vel", lambda: self._idle_stop(message))
+            return
         motion = self.robot.motion
 
         async def drive() -> None:
             # who ended the running action, asked once per drive (not of every command of it)
-            if time.monotonic() - self._drove_at > DRIVE_GAP:
+            if is_moving and time.monotonic() - self._drove_at > DRIVE_GAP:
                 running = await motion.get_current_action()
                 if running is not None and not running.action_name.endswith(VELOCITY_ACTION):
                     self.claims.took_over(running.action_id, who(message.origin, "a /cmd_vel"))
-            self._drove_at = time.monotonic()
+            if is_moving:
+                self._drove_at = time.monotonic()
             await motion.set_velocity(linear, angular)
 
         self.runner.run(message, "cmd_vel", drive)
+
+    async def _idle_stop(self, message: Message) -> None:
+        """A stop from someone not driving (a watcher, the lease's end): it stops manual
+        driving, but never reaches the robot while a goal, a patrol or a task runs (on a
+        Slamware robot any velocity command supersedes the running action)."""
+        motion = self.robot.motion
+        running = await motion.get_current_action()
+        if running is not None and not running.action_name.endswith(MANUAL_ACTIONS):
+            message.reply.info(
+                f"cmd_vel: a stop from a client that is not driving leaves the running "
+                f"{running.action_name.removeprefix(ACTION_PREFIX)} alone (cancel_action "
+                f"stops it)")
+            return
+        await motion.set_velocity(0.0, 0.0)
 
     def _on_goal(self, message: Message) -> None:
         p = message.msg["pose"]

@@ -23,6 +23,8 @@ from ..ground.claims import MotionClaims
 from ..ground.memory import NodeMemory
 from ..ground.names import TF
 from ..ground.slamware_params import SlamwareParams
+from .driving import NAMES as LEASE_NAMES
+from .driving import Driving
 from .map_copy import MapCopy
 from .map_requests import MapRequests
 from .motion_requests import MotionRequests
@@ -34,16 +36,17 @@ from .topics import NODE_NAME, PKG, SlamwareTopics, global_names
 class SlamwareNode(RobotNode):
     """Publishes the robot's state and executes requests exactly where the real node does."""
 
-    GLOBAL_NAMES = global_names(SlamwareParams())
+    GLOBAL_NAMES = (*global_names(SlamwareParams()), *LEASE_NAMES)
 
     def __init__(self, bus: Bus, robot: Robot, params: SlamwareParams | None = None, *,
                  simple_goals: bool = True, state: StateBinding | None = None,
-                 claims: MotionClaims | None = None):
+                 claims: MotionClaims | None = None, authenticate: bool = False):
         """``simple_goals``: drive the goals of ``goal_topic`` itself, as the real node does;
         False when a ``/move_base`` node beside it takes them (the assembly decides).
         ``state``: the robot's state folder (the extent of a cleared map is kept there).
         ``claims``: where a ``/cmd_vel`` that takes the robot over is noted (shared with the
-        nodes whose goals it may end)."""
+        nodes whose goals it may end). ``authenticate``: clients log in (only an admin may
+        then take the drive lease over)."""
         super().__init__(bus, NODE_NAME, robot.link)
         self.robot = robot
         p = self.params = params or SlamwareParams()
@@ -57,9 +60,13 @@ class SlamwareNode(RobotNode):
         self.publishers = Publishers(self, robot, p, self.topics, self.map_copy)
         runner = Runner(self, robot.motion)
         self.map_requests = MapRequests(runner, robot, self.map_copy)
-        motion = MotionRequests(runner, robot, claims).requests(p, simple_goals)
+        self.driving = Driving(self, m.slamware_topic(p.vel_control_topic), authenticate)
+        motion = MotionRequests(runner, robot, claims, self.driving).requests(p, simple_goals)
         for topic, type_name, handler in (*motion, *self.map_requests.requests()):
             self.subscribe(m.slamware_topic(topic), type_name, handler)
+        velocity = self.bus.topic(m.slamware_topic(p.vel_control_topic))
+        if velocity is not None:
+            self.driving.guard(velocity)
         self.service(m.slamware_topic("sync_get_stcm"), f"{PKG}/SyncGetStcm",
                      self.map_requests.sync_get_stcm)
         self.service(m.slamware_topic("sync_set_stcm"), f"{PKG}/SyncSetStcm",
@@ -67,3 +74,7 @@ class SlamwareNode(RobotNode):
 
     async def start(self) -> None:
         self.publishers.start()
+
+    async def stop(self) -> None:
+        self.driving.close()
+        await super().stop()
