@@ -27,9 +27,9 @@ ADMIN = "admin"
 
 
 def driver_name(origin: Origin) -> str:
-    """How a driver is shown: its token's name once clients have one, else its session's node
+    """How a driver is shown: its token's name, else (no ``--authenticate``) its session's node
     (unique per connection)."""
-    return getattr(origin, "name", None) or origin.node
+    return origin.name or origin.node
 
 
 def may_take_over(origin: Origin | None, authenticate: bool) -> bool:
@@ -37,7 +37,7 @@ def may_take_over(origin: Origin | None, authenticate: bool) -> bool:
     level); anyone on a server that does not authenticate its clients."""
     if origin is None or not authenticate:
         return True
-    return (getattr(origin, "role", None) or origin.auth_level) == ADMIN
+    return origin.role == ADMIN
 
 
 class Verdict(enum.Enum):
