@@ -67,10 +67,12 @@ def documented(parser: argparse.ArgumentParser, skip: set[str] = frozenset()):
 
 
 def table(actions, toml: bool) -> list[str]:
-    head = "| flag | TOML key | meaning |\n|---|---|---|" if toml else "| flag | meaning |\n|---|---|"
-    rows = [head]
+    """One Markdown table row per flag (its TOML key too for a server setting)."""
+    rows = ["| flag | TOML key | meaning |", "|---|---|---|"] if toml else [
+        "| flag | meaning |", "|---|---|"]
     for action in actions:
-        help_text = cell((action.help or "") % {"prog": "hitrobot-server", "default": action.default})
+        values = {"prog": "hitrobot-server", "default": action.default}
+        help_text = cell((action.help or "") % values)
         if toml:
             rows.append(f"| {invocation(action)} | `{action.dest}` | {help_text} |")
         else:
