@@ -96,3 +96,19 @@ def test_the_readme_has_no_measured_figures():
     """Figures of a run (rates, latencies, sizes measured) belong in docs/benchmarks.md."""
     readme = (REPO / "README.md").read_text()
     assert not re.search(r"\d\s*(k )?msgs?/s|\d\s*µs|\bp99\b|\bp50\b", readme)
+
+
+def test_every_module_path_architecture_names_exists():
+    """ARCHITECTURE.md is the map of the tree as it is: each `dir/file.py` or `dir/` it names is
+    a file or folder of the repository (under hitrobot_server/ its path may start at any
+    package, as the page writes `ground/acks.py` inside "Inside nodes/")."""
+    text = (REPO / "ARCHITECTURE.md").read_text()
+    named = {m for m in re.findall(r"`([\w./-]+/[\w./-]*)`", text)
+             if not m.startswith(("/", ".")) and "//" not in m}
+    tree = [p.relative_to(REPO).as_posix() for p in REPO.rglob("*")
+            if not {".git", "node_modules", ".venv-ci", ".venv"} & set(p.parts)]
+    named |= set(re.findall(r"`(\w+\.(?:py|js|md))`", text))  # a bare file name, in context
+    missing = sorted(n for n in named
+                     if not any(t == n.rstrip("/") or t.endswith("/" + n.rstrip("/"))
+                                for t in tree))
+    assert not missing, f"ARCHITECTURE.md names paths the tree does not have: {missing}"
