@@ -288,3 +288,16 @@ async def test_every_snippet_of_the_page_runs(page, docs_server, tmp_path):
             await run_fence(fence, ports, tmp_path, n)
         elif fence.language in CHECKED:
             check_fence(fence, tmp_path, n)
+
+
+async def test_a_snippet_that_fails_fails_the_test(tmp_path):
+    """The runner itself: a script's exit status and a server that never serves are failures."""
+    with pytest.raises(AssertionError, match="exited 3"):
+        await run_fence(Fence(REPO / "README.md", 1, "python", "raise SystemExit(3)\n"), {},
+                        tmp_path, 0)
+    with pytest.raises(AssertionError, match="printed no banner"):
+        await run_fence(Fence(REPO / "README.md", 1, "bash",
+                              "hitrobot-server --world no-such-world.yaml\n"), {}, tmp_path, 1)
+    with pytest.raises(AssertionError, match="not both"):
+        await run_fence(Fence(REPO / "README.md", 1, "bash",
+                              "echo hi\nhitrobot-server --robot none\n"), {}, tmp_path, 2)
