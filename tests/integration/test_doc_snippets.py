@@ -275,6 +275,9 @@ def docs_server(tmp_path_factory):
     proc.stop()
 
 
+# A page may start several servers one after another (Zenoh pairs, --workers): each start is
+# bounded by TIMEOUT, the page by this, above pytest's default for one test.
+@pytest.mark.timeout(300)
 @pytest.mark.parametrize("page", PAGES, ids=[p.name for p in PAGES])
 async def test_every_snippet_of_the_page_runs(page, docs_server, tmp_path):
     found = fences(page)
