@@ -19,15 +19,29 @@ import socket
 import sys
 from collections.abc import Mapping
 
+# The event SIGINT/SIGTERM set, and the event loop whose handlers set it.
+_terminated: tuple[asyncio.Event, asyncio.AbstractEventLoop] | None = None
 
-async def until_terminated() -> None:
-    """Return when SIGINT or SIGTERM arrives, so the caller can shut down cleanly."""
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
+
+def catch_termination() -> None:
+    """From now on SIGINT and SIGTERM are caught for :func:`until_terminated`, never the default
+    kill: a command calls this as its event loop starts, before it prints its banner or tells
+    systemd it is ready, so a signal sent the moment that line is read (a script, a test,
+    systemd) still stops it cleanly; one that comes while it starts stops it once started."""
+    global _terminated
+    stop, loop = asyncio.Event(), asyncio.get_running_loop()
+    _terminated = (stop, loop)
     for sig in (signal.SIGINT, signal.SIGTERM):
         with contextlib.suppress(NotImplementedError):  # platforms without signal handlers
             loop.add_signal_handler(sig, stop.set)
-    await stop.wait()
+
+
+async def until_terminated() -> None:
+    """Return when SIGINT or SIGTERM arrives (or has arrived since :func:`catch_termination`),
+    so the caller can shut down cleanly."""
+    if _terminated is None or _terminated[1] is not asyncio.get_running_loop():
+        catch_termination()
+    await _terminated[0].wait()
 
 
 class ServiceNotifier:

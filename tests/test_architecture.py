@@ -48,6 +48,8 @@ ALLOWED: dict[str, set[str]] = {
                  "protocol"},
     "workers": {"config", "signals", "bus"},  # the --workers parent (bus: endpoint parsing)
     "cli": {"config", "server", "signals", "conformance", "commands", "workers"},
+    # the manual's flags page, written from the parsers of the command line and its tools
+    "docs_flags": {"cli", "config", "commands", "conformance"},
     "__main__": {"cli"},
 }
 

@@ -9,6 +9,8 @@ import sys
 from collections.abc import Callable, Coroutine
 from typing import Any
 
+from ..signals import catch_termination
+
 LOG_FORMAT = "%(asctime)s %(levelname)s %(name)s: %(message)s"
 
 
@@ -27,6 +29,12 @@ def loop_factory(event_loop: str = "auto") -> Callable[[], asyncio.AbstractEvent
     return uvloop.new_event_loop
 
 
+async def _caught(main: Callable[[], Coroutine[Any, Any, None]]) -> None:
+    """``main()`` with SIGINT/SIGTERM caught from its first step (:func:`catch_termination`)."""
+    catch_termination()
+    await main()
+
+
 def run_command(prog: str, main: Callable[[], Coroutine[Any, Any, None]], log_level: str,
                 event_loop: str = "asyncio", log_tag: str = "") -> int:
     """Run ``main()`` until it returns; the exit code of the command. ``log_tag`` goes in
@@ -35,7 +43,7 @@ def run_command(prog: str, main: Callable[[], Coroutine[Any, Any, None]], log_le
     logging.basicConfig(level=log_level.upper(), format=log_format)
     try:
         with asyncio.Runner(loop_factory=loop_factory(event_loop)) as runner:
-            runner.run(main())
+            runner.run(_caught(main))
     except (OSError, ValueError) as exc:
         print(f"{prog}: {exc}", file=sys.stderr)
         return 1

@@ -1,13 +1,14 @@
 """The README's "Connecting" snippets run verbatim against a real server: the roslibjs one under
 Node with tests/js's roslib 2 (an ES module, imported), the roslibpy one under this Python, the
-raw TCP one under bash. Only the ports are changed (9090/9091 → the test server's ephemeral
-ones); each snippet must end by itself and print what the README says it prints."""
+Foxglove one under Node with @foxglove/ws-protocol, the raw TCP one under bash. Only the ports
+are changed (9090/9091 → the test server's ephemeral ones); each snippet must end by itself and
+print what the README says it prints. (Every other fence of the README and docs/:
+test_doc_snippets.py.)"""
 
 from __future__ import annotations
 
 import asyncio
 import json
-import os
 import re
 import shutil
 import sys
@@ -65,6 +66,7 @@ async def test_the_roslibjs_snippet_runs_under_node_with_roslib_2(ports, tmp_pat
 
 
 async def test_require_of_roslib_2_fails_as_the_readme_says(tmp_path):
+    assert "`require('roslib')`\nfails on roslib 2" in (REPO / "docs" / "connecting.md").read_text()
     (tmp_path / "node_modules").symlink_to(JS / "node_modules")
     (tmp_path / "old.cjs").write_text("require('roslib');\n")
     rc, _out, err = await run("node", "old.cjs", cwd=tmp_path)
@@ -81,17 +83,23 @@ async def test_the_roslibpy_snippet_runs(ports, tmp_path):
 
 
 async def test_the_raw_tcp_snippet_runs_in_bash(ports, tmp_path):
-    bash_part, _, nc_part = snippet("Raw TCP", "bash").partition("# or with netcat")
-    (tmp_path / "tcp.sh").write_text(on_ports(bash_part, *ports))
+    (tmp_path / "tcp.sh").write_text(on_ports(snippet("Raw TCP", "bash"), *ports))
     rc, out, err = await run("bash", "tcp.sh", cwd=tmp_path)
     assert rc == 0, err
     reply = json.loads(out.splitlines()[0])
     assert reply["op"] == "service_response" and reply["id"] == "1" and reply["result"] is True
     assert reply["values"]["time"]["secs"] > 0
-    if shutil.which("nc") and os.path.realpath(shutil.which("nc")).endswith("openbsd"):
-        (tmp_path / "nc.sh").write_text(on_ports(nc_part, *ports))
-        rc, out, err = await run("bash", "nc.sh", cwd=tmp_path)
-        assert rc == 0 and json.loads(out.splitlines()[0])["id"] == "1", (out, err)
+
+
+async def test_the_foxglove_snippet_gets_a_message_under_node(make_server, tmp_path):
+    server = await make_server(robot="sim")  # /odom: the simulated robot's
+    ports = server.port, server.tcp_port
+    code = snippet("Foxglove / Lichtblick", "js")
+    (tmp_path / "node_modules").symlink_to(JS / "node_modules")
+    (tmp_path / "odom.mjs").write_text(on_ports(code, *ports))
+    rc, out, err = await run("node", "odom.mjs", cwd=tmp_path)
+    assert rc == 0, err
+    assert re.fullmatch(r"/odom: \d+ bytes of CDR\n", out), (out, err)
 
 
 def test_the_test_step_never_reinstalls_the_quick_starts_environment():
