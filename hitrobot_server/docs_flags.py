@@ -8,7 +8,7 @@ import argparse
 import sys
 
 from .cli import build_parser
-from .commands import replay, sim_device
+from .commands import replay, sim_device, tokens
 from .config import setting_fields
 from .conformance import runner
 
@@ -21,6 +21,7 @@ SECTION_TITLES = {
     "bus": "The bus: Zenoh",
     "process": "The process: log, event loop, workers",
     "record": "Recording and the black box",
+    "vda5050": "VDA 5050: a master control over MQTT",
     "nodes": "Nodes: the fleet and the site",
 }
 
@@ -97,6 +98,25 @@ def tool_section(title: str, parser: argparse.ArgumentParser, skip: set[str],
     return ["", f"## {title}", "", note, "", *table(documented(parser, skip), toml=False)]
 
 
+def token_section() -> list[str]:
+    """``hitrobot-server token``: its options, then each action with its own."""
+    parser = tokens._parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    lines = ["", "## Tokens: `hitrobot-server token`", "",
+             "Makes, lists and revokes the named tokens of `--authenticate` "
+             "([security](security.md#managing-tokens)); the options go before or after the "
+             "action.", "",
+             *table([a for a in documented(parser) if a is not sub], toml=False)]
+    for choice in sub._choices_actions:
+        usage = sub.choices[choice.dest].format_usage().removeprefix("usage: ")
+        words = [w for w in usage.split() if w != "[-h]"]
+        lines += ["", f"`{' '.join(words)}`: {choice.help}."]
+        own = [a for a in documented(sub.choices[choice.dest]) if a.option_strings]
+        if own:
+            lines += ["", *table(own, toml=False)]
+    return lines
+
+
 def page() -> str:
     """The whole page, as ``docs/flags.md`` holds it."""
     server_flags = {"config", "version", *setting_fields()}
@@ -105,6 +125,7 @@ def page() -> str:
         "Replay: `hitrobot-server replay FILE`", replay.build_parser(), server_flags,
         "Serves a recording in place of a robot ([record and replay](recording.md)); every "
         "server flag above applies too. Its own:")
+    lines += token_section()
     lines += tool_section(
         "The simulated device: `hitrobot-server sim-device`", sim_device.build_parser(), set(),
         "Serves the simulator over the Slamware REST API ([the robot](robot.md)).")

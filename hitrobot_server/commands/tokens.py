@@ -49,7 +49,8 @@ def _parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="action", required=True)
     add = sub.add_parser("add", help="make a token for NAME and print it once")
     add.add_argument("name")
-    add.add_argument("--role", required=True)
+    add.add_argument("--role", required=True, help="the token's role: monitor, viewer, "
+                     "operator, admin, agent, or one of the --roles file")
     add.add_argument("--expires", help="a duration (90m, 12h, 30d, 2w) or a date")
     sub.add_parser("list", help="the tokens' names, roles, creation and expiry (no secrets)")
     revoke = sub.add_parser("revoke", help="remove NAME's token")

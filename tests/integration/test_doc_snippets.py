@@ -14,6 +14,11 @@ against a real server, as docs/index.md ("How the examples are tested") says:
 
 Ports: 9090/9091 become the shared server's, 9190/9191/7447/1448 fresh free loopback ports (one
 mapping per page); a server command without ``--port`` gets ``--port 0`` (and ``--tcp-port -1``).
+``hitrobot-server token …`` and ``… conformance`` are commands that end, not servers.
+A page that names an MQTT broker (``mqtt://127.0.0.1:1883``: VDA 5050) gets a mosquitto of its
+own and its own server with the simulated robot as a VDA 5050 vehicle on it (9090/9091/1883
+become theirs); a server one of its fences starts gets a port where no broker listens, so it
+does not take that vehicle's MQTT session over (it serves on without a broker).
 Each page runs in its own temporary folder, which is also HOME and the XDG folders."""
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ import pytest
 
 from hitrobot_server.config import load
 from tests.helpers import ServerProcess
+from tests.vda5050.conftest import Broker
 
 REPO = Path(__file__).resolve().parents[2]
 JS = REPO / "tests" / "js"
@@ -52,6 +58,8 @@ NOT_HERE = re.compile(
 # The ports a snippet is written with (the defaults, and the examples' second server's).
 SHARED_PORTS = ("9090", "9091")
 FRESH_PORTS = ("9190", "9191", "7447", "1448")
+BROKER = "mqtt://127.0.0.1:1883"  # a page naming it gets a broker and a vehicle (above)
+VEHICLE = "uagv/v2/hitrobot/robot"  # the page server's topic tree: the defaults
 SERVER_ONLY = re.compile(r"^hitrobot-server[^:\n]*: \S+://", re.M)
 
 
@@ -107,7 +115,7 @@ def commands(code: str) -> list[str]:
 def starts_a_server(command: str) -> bool:
     argv = shlex.split(command, comments=True)
     return bool(argv) and argv[0] == "hitrobot-server" and not (
-        {"--help", "-h", "--version"} & set(argv) or argv[1:2] == ["conformance"])
+        {"--help", "-h", "--version"} & set(argv) or argv[1:2] in (["conformance"], ["token"]))
 
 
 def environment(home: Path) -> dict[str, str]:
@@ -195,6 +203,8 @@ async def run_fence(fence: Fence, ports: dict[str, int], cwd: Path, n: int) -> N
         (cwd / f"snippet{n}.mjs").write_text(code)
         rc, out = await run(["node", f"snippet{n}.mjs"], cwd, env)
     elif all(starts_a_server(command) for command in commands(code)):
+        if "1883" in ports:  # not the page's broker: its vehicle would be taken over
+            code = on_ports(fence.code, {**ports, "1883": free_port()})
         await run_servers(fence, code, cwd, env)
         return
     else:
@@ -262,6 +272,12 @@ def test_a_runnable_command_in_an_sh_fence_is_refused(tmp_path):
     check_fence(Fence(REPO / "README.md", 1, "sh", "sudo systemctl enable x\n"), tmp_path, 0)
 
 
+def test_token_commands_end_and_are_not_servers():
+    assert not starts_a_server("hitrobot-server token add tablet-1 --role operator")
+    assert not starts_a_server("hitrobot-server token list")
+    assert starts_a_server("hitrobot-server --authenticate --port 9190")
+
+
 @pytest.fixture(scope="module")
 def docs_server(tmp_path_factory):
     """The server the python, js and bash snippets talk to: the simulated robot, its folders
@@ -277,15 +293,50 @@ def docs_server(tmp_path_factory):
 
 # A page may start several servers one after another (Zenoh pairs, --workers): each start is
 # bounded by TIMEOUT, the page by this, above pytest's default for one test.
+async def vehicle_online(port: int) -> None:
+    """Once the page server's vehicle is on the broker: its retained ``connection`` ONLINE."""
+    import aiomqtt  # the vda5050 extra, which the test extra installs
+
+    async with asyncio.timeout(TIMEOUT), aiomqtt.Client("127.0.0.1", port) as client:
+        await client.subscribe(f"{VEHICLE}/connection")
+        async for message in client.messages:
+            if json.loads(message.payload).get("connectionState") == "ONLINE":
+                return
+
+
+@pytest.fixture
+async def page_server(request, docs_server, tmp_path):
+    """The server (and the ports) a page's snippets talk to: the shared one, or for a page that
+    names a broker, a mosquitto and a server of its own whose robot is a vehicle on it."""
+    if BROKER not in request.node.callspec.params["page"].read_text(encoding="utf-8"):
+        yield docs_server, {}
+        return
+    broker = Broker(tmp_path)
+    tcp = free_port()
+    try:
+        server = ServerProcess("--vda5050", broker.url, "--tcp-port", str(tcp), robot="sim")
+    except BaseException:
+        broker.stop()
+        raise
+    server.tcp_port = tcp
+    try:
+        await vehicle_online(broker.port)
+        yield server, {"1883": broker.port}
+    finally:
+        server.stop()
+        broker.stop()
+
+
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("page", PAGES, ids=[p.name for p in PAGES])
-async def test_every_snippet_of_the_page_runs(page, docs_server, tmp_path):
+async def test_every_snippet_of_the_page_runs(page, page_server, tmp_path):
     found = fences(page)
     unknown = [str(f) for f in found if f.language not in RUN | CHECKED | SHOWN]
     assert not unknown, f"fences in a language the snippet test does not know: {unknown}"
-    ports = {"9090": docs_server.port, "9091": docs_server.tcp_port,
-             **{written: free_port() for written in FRESH_PORTS}}
-    assert set(ports) == {*SHARED_PORTS, *FRESH_PORTS}
+    server, own_ports = page_server
+    ports = {"9090": server.port, "9091": server.tcp_port,
+             **{written: free_port() for written in FRESH_PORTS}, **own_ports}
+    assert set(ports) - set(own_ports) == {*SHARED_PORTS, *FRESH_PORTS}
     for n, fence in enumerate(found):
         if fence.language in RUN:
             await run_fence(fence, ports, tmp_path, n)

@@ -1,4 +1,4 @@
-"""The user documentation's master (docs/_incoming/vda48.md, "Trying it from Python") runs as
+"""The manual's master (docs/vda5050.md, "Trying it from Python") runs as
 written against a real server and broker (only the port changed) and prints what the text
 says."""
 
@@ -11,7 +11,7 @@ from pathlib import Path
 
 from tests.helpers import until
 
-DOC = Path(__file__).resolve().parents[2] / "docs" / "_incoming" / "vda48.md"
+DOC = Path(__file__).resolve().parents[2] / "docs" / "vda5050.md"
 
 
 def snippet() -> str:
