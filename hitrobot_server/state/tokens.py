@@ -94,7 +94,9 @@ def _record(entry: Any) -> TokenRecord | None:
 
 
 def write_table(path: Path, table: dict[str, TokenRecord]) -> None:
-    """The whole table, atomically (0600)."""
+    """The whole table, atomically (0600); the state folder and its parents made (0700) if
+    missing, as the server makes them: a site's first token comes before its first start."""
+    path.parent.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
     make_folder(path.parent)
     body = {"tokens": [asdict(r) for r in sorted(table.values(), key=lambda r: r.name)]}
     atomic_write(path, (json.dumps(body, indent=1) + "\n").encode())

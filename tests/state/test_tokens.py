@@ -47,6 +47,19 @@ def test_add_prints_the_token_once_and_keeps_only_its_hash(tmp_path):
     assert 11.9 * 3600 < entry["expires"] - entry["created"] < 12.1 * 3600
 
 
+def test_the_first_token_before_any_server_makes_the_state_folders(tmp_path):
+    """On a fresh machine neither $XDG_STATE_HOME nor its hitrobot-server folder exists yet."""
+    env = {**os.environ, "XDG_STATE_HOME": str(tmp_path / "nothing" / "yet")}
+    out = subprocess.run([sys.executable, "-m", "hitrobot_server", "token", "add", "tablet-1",
+                          "--role", "operator"], capture_output=True, text=True, timeout=60,
+                         env=env)
+    assert out.returncode == 0, out.stderr
+    folder = tmp_path / "nothing" / "yet" / "hitrobot-server"
+    assert stat.S_IMODE(os.stat(folder).st_mode) == 0o700
+    (entry,) = json.loads(tokens_path(folder).read_text())["tokens"]
+    assert entry["name"] == "tablet-1" and entry["role"] == "operator"
+
+
 def test_list_shows_no_secret_and_revoke_removes(tmp_path):
     token = cli("add", "bob", "--role", "viewer", state=tmp_path).stdout.strip()
     listed = cli("list", state=tmp_path)
