@@ -1,7 +1,8 @@
 """Dispatch by cost: every capable robot bids its estimated finish time for the task (see
 :mod:`.policy`); the reply says who won and why. A named robot is sent as asked. A target is
-checked before it is accepted: finite, on the map and reachable (each bidder plans it; a target
-no robot can reach is refused with the planners' reasons). The charging policy lives here too:
+checked before it is accepted: finite, where a robot can stand on the map (the POIs' placement
+rule) and reachable (each bidder plans it; a target no robot can reach is refused with the
+planners' reasons). The charging policy lives here too:
 a free robot below ``charge_below`` gets a ``charge`` task to its dock; robots sharing a dock
 take turns."""
 
@@ -9,7 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from ...bus.core import Bus
 from ...bus.services import service_caller
@@ -19,7 +20,7 @@ from .board import MAX_OPEN, Board
 from .member import ERROR, OFFLINE
 from .policy import Bid, Bidder, ChargePolicy, metres, winner
 from .policy import bids as offers_for
-from .requests import check_on_map, read_stops
+from .requests import check_placed, read_stops
 from .roster import Roster
 from .runner import TaskRunner
 from .tasks import CHARGE, QUEUED, RUNNING, Refused, Stop, Task
@@ -101,7 +102,7 @@ class Dispatcher:
         board.check_room(wanted)
         kind, stops, laps = await read_stops(self.bus, request)
         for stop in stops:
-            check_on_map(self.site_map(), stop)
+            check_placed(self.site_map(), stop)
             self.traffic.check_stop(stop)
         self._check_client(client)
         priority = max(-100, min(100, int(request.get("priority") or 0)))
@@ -127,19 +128,46 @@ class Dispatcher:
 
     async def rebid(self, task: Task) -> None:
         """A task that failed on a robot: the others bid again (once, on that event)."""
+        await self.offer(task, task.message, exclude=task.tried,
+                         none="no other robot can take it")
+
+    async def offer(self, task: Task, note: str, exclude: Sequence[str] = (),
+                    none: str = "no robot can take it") -> None:
+        """Offer a queued task again (one the operator gave no robot), saying ``note`` first:
+        the robots in service but ``exclude`` bid, the charging rule in every bid
+        (``ChargePolicy.charges_first``), and the winner reserves it; one that charges first
+        is sent to charge. The one decision of a re-offer after a failure, a resumed task and
+        a robot back in or out of service, as of a first dispatch (a schedule's too) in
+        :meth:`accept`."""
         robots = [r for r in self.roster.robots() if r["state"] not in (OFFLINE, ERROR)
-                  and r["in_service"] and r["name"] not in task.tried]
+                  and r["in_service"] and r["name"] not in exclude]
         task.reserved = BIDDING  # no robot takes it while the others bid
         offers, refusals = await self.bids(task, robots)
         task.reserved = ""
-        if task.state != QUEUED:
+        if task.state != QUEUED or task.robot:  # paused or cancelled meanwhile
             return
         if not offers:
-            task.message += "; no other robot can take it: " + "; ".join(refusals)
+            task.message = f"{note}; {none}: " + ("; ".join(refusals) or
+                                                 "every robot is out of service")
         else:
-            task.reserved = winner(offers).robot
+            best = winner(offers)
+            task.reserved = best.robot
+            why = "; ".join(b.why(self.policy) for b in sorted(offers, key=lambda b: b.finish))
+            task.message = f"{note}; queued for {best.robot} — bids: {why}"
+            if best.charge:
+                self.charge(best.robot, f"task {task.id} needs more than its battery")
         self.changed()
         self.kick()
+
+    async def offer_queued(self, note: str) -> None:
+        """Every queued task no robot was named for, offered again, one after the other (a
+        robot came back into service or went out of it: the bids changed)."""
+        ids = [t.id for t in self.board.queued() if not t.robot and t.kind != CHARGE
+               and t.reserved != BIDDING]
+        for task_id in ids:
+            task = self.board.tasks.get(task_id)
+            if task is not None and task.state == QUEUED and task.reserved != BIDDING:
+                await self.offer(task, note)
 
     def changed(self) -> None:
         """A task changed: kept, and the list published."""
@@ -186,8 +214,9 @@ class Dispatcher:
     # ------------------------------------------------------------------ handing out
     def next_for(self, robot: dict) -> Task | None:
         """The task ``robot`` (free) starts now, if any: its charge first; nothing else while
-        its battery is below the charge threshold or a charge is not finished; a task its
-        battery would not last is left for another (its bid said so)."""
+        the charging rule says it charges first (``ChargePolicy.charges_first``, the rule of
+        every bid: below the threshold, a charge not finished, a task its battery would not
+        last); a task reserved for another robot is left to it."""
         name, board = robot["name"], self.board
         for task in board.queued():
             if task.robot not in ("", name) or task.reserved not in ("", name):
@@ -197,7 +226,10 @@ class Dispatcher:
                     return task
                 task.message = f"{name} waits for its dock"
                 continue
-            if robot["battery"] < self.policy.charge_below:
+            here = robot.get("pose", {}).get("position", {"x": 0.0, "y": 0.0})
+            bidder = Bidder(name, robot["battery"], 0.0, self._charging(robot))
+            if self.policy.charges_first(bidder, metres(task.route[task.leg:],
+                                                        (here["x"], here["y"]))):
                 continue
             return task
         return None

@@ -85,7 +85,8 @@ class FleetNode(RobotNode):
         self.service("/fleet/dispatch", f"{PKG}/Dispatch", self.dispatcher.dispatch)
         TaskRequests(self.board, self.roster, self.traffic, finish=self._finish,
                      release=self.dispatcher.release, changed=self.changed, kick=self.kick,
-                     serve=self.service)
+                     serve=self.service, offer=self.dispatcher.offer,
+                     offer_queued=lambda note: self.spawn(self.dispatcher.offer_queued(note)))
         self.publish_tasks()
         self.zoning.publish()
 
