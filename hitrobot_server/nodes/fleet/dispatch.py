@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 from ...bus.core import Bus
 from ...bus.services import service_caller
@@ -33,6 +33,23 @@ CHARGE_PRIORITY = 1000
 MAX_PER_CLIENT = 50
 """Open tasks one bridge client may have asked for (the board bounds them in all and per
 robot)."""
+
+
+def bidding(robots: Iterable[dict], exclude: Sequence[str] = ()) -> tuple[list[dict], list[str]]:
+    """The robots that bid for a task (heard from, not in error, in service, not
+    ``exclude``) and, for the bids' reader, why each other one was skipped."""
+    bidders, skipped = [], []
+    for r in robots:
+        name, state = r["name"], r["state"]
+        why = ("offline" if state == OFFLINE else
+               f"in error ({r.get('message') or 'no reason given'})" if state == ERROR else
+               "out of service" if not r["in_service"] else
+               "tried it already" if name in exclude else "")
+        if why:
+            skipped.append(f"{name}: skipped, {why}")
+        else:
+            bidders.append(r)
+    return bidders, skipped
 
 
 class Dispatcher:
@@ -107,14 +124,14 @@ class Dispatcher:
         self._check_client(client)
         priority = max(-100, min(100, int(request.get("priority") or 0)))
         task = Task(0, kind, stops, wanted, priority, laps, created=self.clock())
-        offers, refusals = await self.bids(task, [robots[wanted]] if wanted else [
-            r for r in robots.values() if r["state"] not in (OFFLINE, ERROR) and r["in_service"]])
+        bidders, skipped = ([robots[wanted]], []) if wanted else bidding(robots.values())
+        offers, refusals = await self.bids(task, bidders)
         if not offers:
-            raise Refused("no robot can take it: " + ("; ".join(refusals) or
+            raise Refused("no robot can take it: " + ("; ".join(refusals + skipped) or
                                                        "every robot is out of service"))
         best = winner(offers)
         task.id = board.new_id()
-        why = "; ".join(b.why(self.policy) for b in sorted(offers, key=lambda b: b.finish))
+        why = self._why(offers, skipped)
         free = {r["name"] for r in self.free()}
         board.add(task)
         if best.charge:
@@ -122,9 +139,15 @@ class Dispatcher:
         if best.robot in free and not best.charge:
             return task, f"{best.robot} is on its way — bids: {why}", best.robot
         task.reserved = best.robot
-        task.message = f"queued for {best.robot} (finishes first) — bids: {why}"
+        task.message = f"queued for {best.robot} " + (
+            "(asked for)" if wanted else "(finishes first)") + f" — bids: {why}"
         self.changed()
         return task, task.message, ""
+
+    def _why(self, offers: list[Bid], skipped: list[str]) -> str:
+        """The bids, best first, then the robots that did not bid and why."""
+        return "; ".join([*(b.why(self.policy) for b in sorted(offers, key=lambda b: b.finish)),
+                          *skipped])
 
     async def rebid(self, task: Task) -> None:
         """A task that failed on a robot: the others bid again (once, on that event)."""
@@ -139,21 +162,20 @@ class Dispatcher:
         is sent to charge. The one decision of a re-offer after a failure, a resumed task and
         a robot back in or out of service, as of a first dispatch (a schedule's too) in
         :meth:`accept`."""
-        robots = [r for r in self.roster.robots() if r["state"] not in (OFFLINE, ERROR)
-                  and r["in_service"] and r["name"] not in exclude]
+        robots, skipped = bidding(self.roster.robots(), exclude)
         task.reserved = BIDDING  # no robot takes it while the others bid
         offers, refusals = await self.bids(task, robots)
         task.reserved = ""
         if task.state != QUEUED or task.robot:  # paused or cancelled meanwhile
             return
         if not offers:
-            task.message = f"{note}; {none}: " + ("; ".join(refusals) or
+            task.message = f"{note}; {none}: " + ("; ".join(refusals + skipped) or
                                                  "every robot is out of service")
         else:
             best = winner(offers)
             task.reserved = best.robot
-            why = "; ".join(b.why(self.policy) for b in sorted(offers, key=lambda b: b.finish))
-            task.message = f"{note}; queued for {best.robot} — bids: {why}"
+            task.message = f"{note}; queued for {best.robot} — bids: " \
+                f"{self._why(offers, skipped)}"
             if best.charge:
                 self.charge(best.robot, f"task {task.id} needs more than its battery")
         self.changed()

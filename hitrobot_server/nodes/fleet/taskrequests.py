@@ -65,7 +65,9 @@ class TaskRequests:
         except Refused as exc:
             return {"success": False, "message": str(exc)}
         was = task.state
-        task.state, task.message = PAUSED, f"paused ({was})"
+        task.state = PAUSED
+        task.message = f"paused on its way: {task.assigned} stopped" if was == RUNNING else \
+            "paused before it started"
         if task.goal is not None:
             task.goal.cancel()
         if was == RUNNING:
