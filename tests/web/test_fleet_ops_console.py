@@ -163,7 +163,8 @@ async def test_service_schedules_refusals_and_charging(ops: Console):
     await page.click("#fleetops-dispatch")  # the best robot: a is out, so b
     assert await replied(page) == ("true", "b"), await page.inner_text("#fleetops-reply")
     bids = await page.locator("#fleetops-reply .bids li").all_inner_texts()
-    assert [b.split(" ")[0] for b in bids] == ["b"], bids
+    assert [b.split(" ")[0] for b in bids] == ["b", "a:"], bids  # a skipped, and why:
+    assert bids[1] == "a: skipped, out of service", bids
     await a.locator("[data-action=service]").click()
     await page.locator("#fleetops-robots li[data-robot=a][data-service=in]").wait_for()
 
@@ -248,9 +249,11 @@ async def test_the_fleets_words(ops: Console):
     await page.select_option("#fleetops-robot", "a")
     await page.fill("#fleetops-x", "10.5")
     await page.click("#fleetops-dispatch")
-    assert await replied(page) == ("true", "a"), await page.inner_text("#fleetops-reply")
+    assert (await replied(page))[0] == "true", await page.inner_text("#fleetops-reply")
     failing = await page.get_attribute("#fleetops-reply", "data-id")
-    assert "a is on its way" in await page.inner_text("#fleetops-reply .headline")
+    said = await page.inner_text("#fleetops-reply .headline")  # on its way, or queued for a
+    assert said.startswith(f"task {failing}: ") and " a " in f"{said} ", said
+    await wait_state(page, "fleetops-tasks", failing, "running")
     await moving.wait_for(timeout=10_000)
     w = await Watcher.open(ops.server.port)
     try:
