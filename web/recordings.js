@@ -105,7 +105,7 @@ const CAUSES = {
 };
 
 function clock(seconds) {
-  return new Date(seconds * 1000).toLocaleString([], { dateStyle: 'short', timeStyle: 'medium' });
+  return new Date(seconds * 1000).toLocaleString([], { dateStyle: 'short', timeStyle: 'medium', hour12: false });
 }
 
 class Incidents {

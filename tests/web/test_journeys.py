@@ -34,8 +34,8 @@ import re
 
 import numpy as np
 
+from hitrobot_server.nodes.ground.placement import placement_problem
 from hitrobot_server.nodes.map_manager.layers import Grid
-from hitrobot_server.nodes.map_manager.placement import placement_problem
 
 from .conftest import Console, add_poi, grid_map
 
