@@ -1,4 +1,4 @@
-"""Where a POI may stand (nodes/map_manager/placement.py), checked directly on small grids:
+"""Where a POI may stand (nodes/ground/placement.py), checked directly on small grids:
 a known free cell at least the robot's clearance from every obstacle."""
 
 from __future__ import annotations
