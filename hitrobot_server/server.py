@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import json
 import logging
 import os
 import ssl
@@ -15,6 +16,7 @@ from .bus.rosout import RosoutHandler
 from .bus.zenoh.keys import endpoints
 from .config import Settings
 from .metrics import METRICS_DIR, ServerMetrics, Sources
+from .protocol import foxglove_layout
 from .protocol.auth import load_secret
 from .protocol.foxglove import SUBPROTOCOLS as FOXGLOVE_SUBPROTOCOLS
 from .record.blackbox_control import BlackBoxControl
@@ -43,6 +45,9 @@ log = logging.getLogger(__name__)
 T = TypeVar("T", bound=ClientSession)
 PACKAGE_LOGGER = "hitrobot_server"  # every record of ours goes to /rosout too
 WORKER_HEADER = "X-Hitrobot-Worker"  # which worker of --workers answered (handshake, HTTP)
+LAYOUT_PATH = "/foxglove/layout.json"  # the Foxglove layout of this server's topics (HTTP)
+POOL_MODULES = ("hitrobot_server.session.rosbridge.encodings",  # what the big ops run
+                "hitrobot_server.session.rosbridge.frames", "hitrobot_server.protocol.bulk")
 
 
 class HitrobotServer:
@@ -122,6 +127,8 @@ class HitrobotServer:
     async def _start(self) -> None:
         s, plan = self.settings, self.plan
         secret = _secret(s.session)  # first: a missing secret is refused before anything starts
+        if plan.warm_pool:  # spawned before the first client, warming in the background
+            self.pool.warm(*POOL_MODULES)
         await self._start_recording()
         self.bus.taps.append(self.metrics.publishes)
         self.metrics.loop.start()
@@ -187,8 +194,9 @@ class HitrobotServer:
         console = _web_console()
         self._ws_console = console is not None
         recordings = None if session.authenticate else self.settings.store.recordings
-        pages = None if session.authenticate else {
-            "/metrics": self.metrics.metrics_page, "/healthz": self.metrics.health_page}
+        pages = {LAYOUT_PATH: self.layout_page}  # topic names only: served with rosauth too
+        if not session.authenticate:
+            pages |= {"/metrics": self.metrics.metrics_page, "/healthz": self.metrics.health_page}
         http_handler = WithRecordings(console, recordings, pages)
         worker = {WORKER_HEADER: str(plan.worker_id)} if plan.worker else None
         self._downloads = Downloads(http_handler.resolve, (worker or {}).items())
@@ -223,6 +231,12 @@ class HitrobotServer:
         log.info("hitrobot-server: ws://%s:%s tcp:%s", t.address, self.port, self.tcp_port)
         if self._ws_console:
             log.info("web console: %s", console_url(t.address, self.port, tls=t.ssl))
+
+    async def layout_page(self) -> tuple[int, str, bytes]:
+        """``GET /foxglove/layout.json``: a Foxglove layout of every robot's topics here."""
+        named = [e.name for e in self.settings.robot_entries() if e.spec != "none"]
+        found = foxglove_layout.layout(named, fleet=bool(self.settings.robots))
+        return 200, "application/json", json.dumps(found, indent=1).encode() + b"\n"
 
     def banner(self) -> str:
         """The line printed once the server listens (tests and scripts parse it)."""

@@ -11,6 +11,11 @@ export function bridgeUrl() {
   return `${scheme}://${location.host}`;
 }
 
+/** The top bar's "Open in Foxglove": beside the layout's link, the URL to connect to. */
+export function showFoxgloveUrl() {
+  document.getElementById('foxglove-url').textContent = bridgeUrl();
+}
+
 // Statuses that a caller of publishTracked() reports itself (so they are not shown twice).
 const tracked = new Map();
 
