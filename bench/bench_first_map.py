@@ -74,7 +74,11 @@ def one_run(extra: list[str]) -> tuple[float, float, float, float, int]:
             later, _ = asyncio.run(first_map(port))
         finally:
             proc.terminate()
-            proc.wait(10)
+            try:
+                proc.wait(30)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(10)
         warm = warm_up((Path(folder) / "server.log").read_text())
     return startup, warm, first, later, size
 
