@@ -150,12 +150,17 @@ class WorkerPool:
     async def warmed(self, timeout: float) -> list[int]:
         """The pids of the warmed processes once each has run its first task ([] if the
         pool was not warmed, or it broke or took longer than ``timeout``)."""
-        if self._warming is None:
+        warming = self._warming
+        if warming is None:
             return []
         try:
-            return await asyncio.wait_for(asyncio.shield(self._warming), timeout)
-        except (TimeoutError, asyncio.CancelledError, BrokenProcessPool, OSError):
+            return await asyncio.wait_for(asyncio.shield(warming), timeout)
+        except (TimeoutError, BrokenProcessPool, OSError):
             return []
+        except asyncio.CancelledError:
+            if warming.cancelled():  # the pool was shut down meanwhile
+                return []
+            raise  # the caller's own cancellation
 
     @property
     def started(self) -> bool:
