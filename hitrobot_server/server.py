@@ -127,8 +127,6 @@ class HitrobotServer:
     async def _start(self) -> None:
         s, plan = self.settings, self.plan
         secret = _secret(s.session)  # first: a missing secret is refused before anything starts
-        if plan.warm_pool:  # spawned before the first client, warming in the background
-            self.pool.warm(*POOL_MODULES)
         await self._start_recording()
         self.bus.taps.append(self.metrics.publishes)
         self.metrics.loop.start()
@@ -137,6 +135,8 @@ class HitrobotServer:
         tag = await self._start_link() if plan.zenoh else ""
         self._session_options = s.session.for_sessions(secret, tag)
         self.site, self.robots = await start_planned(self.bus, s, plan)
+        if plan.warm_pool:  # spawned before the first client (after the robots' CPU-heavy
+            self.pool.warm(*POOL_MODULES)  # start), warming in the background
         await self._start_listeners()
         if plan.worker and os.environ.get(METRICS_DIR):  # one scrape covers every worker
             await self.metrics.share(os.environ[METRICS_DIR])
