@@ -9,6 +9,7 @@ hard-coded port 9090 is free; both run at once.
 from __future__ import annotations
 
 import importlib.metadata
+import os
 import re
 import shutil
 import subprocess
@@ -23,11 +24,15 @@ TRANSPORTS = ("twisted", "asyncio")
 TIMEOUT = 200
 
 
+# a network namespace: as root, or in a user namespace of its own where user namespaces are on
+UNSHARE = ["unshare", "-n"] if os.geteuid() == 0 else ["unshare", "-r", "-n"]
+
+
 def _namespaces() -> bool:
-    """Whether this machine lets us make a network namespace (root, or user namespaces)."""
+    """Whether this machine lets us make a network namespace."""
     if not (shutil.which("unshare") and shutil.which("ip")):
         return False
-    return subprocess.run(["unshare", "-n", "true"], capture_output=True).returncode == 0
+    return subprocess.run([*UNSHARE, "true"], capture_output=True).returncode == 0
 
 
 def _suite(into: Path) -> Path:
@@ -57,7 +62,7 @@ def test_roslibpy_own_suite_passes_whole(tmp_path):
         state = tmp_path / f"state-{transport}"
         state.mkdir()
         runs[transport] = subprocess.Popen(
-            ["unshare", "-n", sys.executable, str(RUNNER), str(suite), transport, str(state)],
+            [*UNSHARE, sys.executable, str(RUNNER), str(suite), transport, str(state)],
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
         )
     outputs = {t: p.communicate(timeout=TIMEOUT)[0] for t, p in runs.items()}
