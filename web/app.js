@@ -2,7 +2,7 @@
 // navigation, POIs, map editing and saved maps, patrols, the robot's actions and state,
 // diagnostics and sensors, system commands, driving and the topic inspector together.
 /* global ROSLIB, ROS2D, createjs */
-import { connect, showBroken } from './connection.js';
+import { connect, showBroken, showFoxgloveUrl } from './connection.js';
 import { CurrentRobot } from './currentrobot.js';
 import { Diagnostics } from './diagnostics.js';
 import { dialogOpen } from './dialogs.js';
@@ -335,6 +335,7 @@ function wireShortcuts({ view, tools }) {
 function main() {
   const ros = connect();
   const role = followRole(ros); // the badge, and the controls this role lacks disabled
+  showFoxgloveUrl();
   const view = new MapView(document.getElementById('map'), ros);
   const layers = buildLayers(view);
   const currentRobot = new CurrentRobot(); // on a fleet server, the one the tools act on

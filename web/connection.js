@@ -5,11 +5,24 @@
 import { log } from './log.js';
 import { withToken } from './signin.js';
 
-export function bridgeUrl() {
+/** The WebSocket URL this page connects to, without the tab's token (safe to show). */
+function plainBridgeUrl() {
   const param = new URLSearchParams(location.search).get('url');
-  if (param) return withToken(param);
+  if (param) return param;
   const scheme = location.protocol === 'https:' ? 'wss' : 'ws';
-  return withToken(`${scheme}://${location.host}/`);
+  return `${scheme}://${location.host}/`;
+}
+
+export function bridgeUrl() {
+  return withToken(plainBridgeUrl());
+}
+
+/** The top bar's "Open in Foxglove": beside the layout's link (with the tab's token, which
+ * --authenticate asks of it), the URL to connect to (never showing the token on screen). */
+export function showFoxgloveUrl() {
+  const link = document.getElementById('foxglove-layout');
+  link.href = withToken(link.getAttribute('href'));
+  document.getElementById('foxglove-url').textContent = plainBridgeUrl();
 }
 
 // Statuses that a caller of publishTracked() reports itself (so they are not shown twice).
