@@ -17,8 +17,8 @@ from .bus.rosout import RosoutHandler
 from .bus.zenoh.keys import endpoints
 from .config import Settings
 from .metrics import METRICS_DIR, ServerMetrics, Sources
-from .protocol.access import Grant, RoleTable, roles_from
 from .protocol import foxglove_layout
+from .protocol.access import Grant, RoleTable, roles_from
 from .protocol.auth import load_secret
 from .protocol.foxglove import SUBPROTOCOLS as FOXGLOVE_SUBPROTOCOLS
 from .record.blackbox_control import BlackBoxControl
