@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 from ...bus.core import Bus
 from ...bus.services import service_caller
@@ -35,16 +35,19 @@ MAX_PER_CLIENT = 50
 robot)."""
 
 
-def bidding(robots: Iterable[dict], exclude: Sequence[str] = ()) -> tuple[list[dict], list[str]]:
-    """The robots that bid for a task (heard from, not in error, in service, not
-    ``exclude``) and, for the bids' reader, why each other one was skipped."""
+def bidding(robots: Iterable[dict], exclude: Sequence[str] = (),
+            held: Mapping[str, str] | None = None) -> tuple[list[dict], list[str]]:
+    """The robots that bid for a task (heard from, not in error, in service, not ``exclude``,
+    not ``held`` by another master's order) and, for the bids' reader, why each other one was
+    skipped."""
     bidders, skipped = [], []
+    held = held or {}
     for r in robots:
         name, state = r["name"], r["state"]
         why = ("offline" if state == OFFLINE else
                f"in error ({r.get('message') or 'no reason given'})" if state == ERROR else
                "out of service" if not r["in_service"] else
-               "tried it already" if name in exclude else "")
+               held.get(name, "tried it already" if name in exclude else ""))
         if why:
             skipped.append(f"{name}: skipped, {why}")
         else:
@@ -116,6 +119,8 @@ class Dispatcher:
             raise Refused("every robot is offline")
         if wanted and robots[wanted]["state"] == OFFLINE:
             raise Refused(f"robot '{wanted}' is offline")
+        if wanted in self.roster.vda:
+            raise Refused(f"robot '{wanted}' is {self.roster.vda[wanted]}")
         board.check_room(wanted)
         kind, stops, laps = await read_stops(self.bus, request)
         for stop in stops:
@@ -124,7 +129,8 @@ class Dispatcher:
         self._check_client(client)
         priority = max(-100, min(100, int(request.get("priority") or 0)))
         task = Task(0, kind, stops, wanted, priority, laps, created=self.clock())
-        bidders, skipped = ([robots[wanted]], []) if wanted else bidding(robots.values())
+        bidders, skipped = (([robots[wanted]], []) if wanted
+                            else bidding(robots.values(), held=self.roster.vda))
         offers, refusals = await self.bids(task, bidders)
         if not offers:
             raise Refused("no robot can take it: " + ("; ".join(refusals + skipped) or
@@ -162,7 +168,7 @@ class Dispatcher:
         is sent to charge. The one decision of a re-offer after a failure, a resumed task and
         a robot back in or out of service, as of a first dispatch (a schedule's too) in
         :meth:`accept`."""
-        robots, skipped = bidding(self.roster.robots(), exclude)
+        robots, skipped = bidding(self.roster.robots(), exclude, self.roster.vda)
         task.reserved = BIDDING  # no robot takes it while the others bid
         offers, refusals = await self.bids(task, robots)
         task.reserved = ""
