@@ -161,13 +161,14 @@ export class MapView extends EventTarget {
     this.dispatchEvent(new Event('view'));
   }
 
-  /** Show the whole map, centred in the part of the canvas below the toolbar. */
+  /** Show the whole map, centred in the part of the canvas below the toolbar (and above
+   * `bottomInset` CSS px: the replay's timeline). */
   fit() {
     const b = this.mapBounds;
     if (!b || b.w <= 0 || b.h <= 0) return;
     const top = FIT_TOP_INSET * this.dpr;
     const { width } = this.canvas;
-    const height = Math.max(1, this.canvas.height - top);
+    const height = Math.max(1, this.canvas.height - top - (this.bottomInset || 0) * this.dpr);
     const fitting = Math.min(width / b.w, height / b.h) * 0.96;
     const s = Math.min(MAX_SCALE, Math.max(MIN_SCALE, fitting));
     this.stage.scaleX = this.stage.scaleY = s;
