@@ -158,6 +158,10 @@ function buildPanels({ ros, view, layers, navigator, currentRobot }) {
   const inspector = new Inspector({ ros });
   const zones = new Zones({ ros, view }); // under the robots; shown with named robots only
   const fleet = new Fleet({ ros, view, robot: currentRobot }); // shown with named robots only
+  // the fleet's panels scroll with the others above the Drive pad
+  const scroll = document.getElementById('operate-scroll');
+  scroll.prepend(fleet.panel);
+  scroll.append(zones.panel);
   patrol.onState = (s) => navigator.patrolState(s, () => patrol.call('stop', {}));
   pois.onGo = (poi) => {
     navigator.goToPoi(poi);

@@ -266,6 +266,17 @@ export class PoiLayer extends Layer {
   }
 }
 
+export const SONAR_NEAR = 0.5; // m: a sonar echo nearer than this is shown as triggered
+
+/** Whether a sensor reading (basic_sensors_values' `value`) of a sensor of `type` (0 bumper,
+ * 1 cliff, 2 sonar) is triggered. A Slamware analog sonar always reports `is_in_impact`
+ * (slamware_ros_sdk's rule): its range against SONAR_NEAR says it instead. */
+export function sensorTriggered(type, value) {
+  if (!value) return false;
+  if (type === 2) return Number.isFinite(value.value) && value.value > 0 && value.value < SONAR_NEAR;
+  return Boolean(value.is_in_impact);
+}
+
 /** Distance from (x, y) to the segment a–b. */
 export function segmentDistance(x, y, a, b) {
   const dx = b.x - a.x;
@@ -533,7 +544,8 @@ export class GraphLayer extends Layer {
 
 /**
  * Bumpers, cliff sensors and sonars (basic_sensors_info + basic_sensors_values), drawn where
- * they sit on the robot: green when quiet, red when triggered; sonars as a cone to their range.
+ * they sit on the robot: green when quiet, red when triggered; sonars as a cone to their range
+ * (red when nearer than SONAR_NEAR).
  */
 export class SensorLayer extends Layer {
   constructor(view) {
@@ -570,7 +582,7 @@ export class SensorLayer extends Layer {
     const sin = Math.sin(yaw);
     for (const [id, s] of this.info) {
       const v = this.values.get(id);
-      const hit = Boolean(v && v.value && v.value.is_in_impact);
+      const hit = sensorTriggered(s.sensor_type.type, v && v.value);
       const p = s.install_pose.position;
       const a = yaw + yawOf(s.install_pose.orientation);
       const x = rx + p.x * cos - p.y * sin;
