@@ -145,7 +145,7 @@ function followScan({ ros, layers, state, currentRobot }) {
 }
 
 /** The side panels. The drive pad, the navigator and the fleet view share the current robot. */
-function buildPanels({ ros, view, layers, navigator, currentRobot }) {
+function buildPanels({ ros, view, layers, navigator, currentRobot, marker }) {
   const pois = new Pois({ ros, layer: layers.pois, warning: (x, y) => placementProblem(layers.costmap.grid, x, y) });
   const shell = new Shell({ ros, robot: currentRobot });
   const teleop = new Teleop({ ros, robot: currentRobot });
@@ -157,7 +157,7 @@ function buildPanels({ ros, view, layers, navigator, currentRobot }) {
   showStateOnce(ros);
   const inspector = new Inspector({ ros });
   const zones = new Zones({ ros, view }); // under the robots; shown with named robots only
-  const fleet = new Fleet({ ros, view, robot: currentRobot }); // shown with named robots only
+  const fleet = new Fleet({ ros, view, robot: currentRobot, marker }); // shown with named robots only
   // the fleet's panels scroll with the others above the Drive pad
   const scroll = document.getElementById('operate-scroll');
   scroll.prepend(fleet.panel);
@@ -359,7 +359,7 @@ function main() {
   followPose({ ros, view, layers, navigator, robot, state, currentRobot });
   followScan({ ros, layers, state, currentRobot });
 
-  const panels = buildPanels({ ros, view, layers, navigator, currentRobot });
+  const panels = buildPanels({ ros, view, layers, navigator, currentRobot, marker: robot });
   const tools = buildTools({ view, state, navigator, panels, editor });
   followBridge({ ros, tools, navigator });
   const presence = followPresence({ ros, tools, navigator, robotState: panels.robotState });

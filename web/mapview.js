@@ -6,6 +6,7 @@
 //   canvas = (stage.x + x * scale, stage.y - y * scale)
 // and the canvas is devicePixelRatio times the CSS size, for crisp lines on HiDPI screens.
 /* global createjs, ROS2D */
+import { placeLabels } from './labels.js';
 import { TOPICS } from './names.js';
 
 const MIN_SCALE = 2; // canvas px per metre
@@ -99,9 +100,19 @@ export class MapView extends EventTarget {
     }
     if (!this.needsRender) return;
     this.needsRender = false;
+    this.placeLabels();
     const ctx = this.canvas.getContext('2d');
     ctx.imageSmoothingEnabled = false; // map cells stay sharp squares when zoomed in
     this.stage.update();
+  }
+
+  /** The names on the map kept apart (labels.js); their boxes, in client px, for the tests. */
+  placeLabels() {
+    const r = this.canvas.getBoundingClientRect();
+    const kx = r.width / this.canvas.width;
+    const ky = r.height / this.canvas.height;
+    this.labelBoxes = placeLabels(this.overlay, this.dpr).map((b) => ({ name: b.name,
+      left: r.left + b.left * kx, right: r.left + b.right * kx, top: r.top + b.top * ky, bottom: r.top + b.bottom * ky }));
   }
 
   onMap() {

@@ -1,6 +1,7 @@
 // Overlay layers drawn over the map, in metres (ROS y flipped, as ros2d draws). Sizes given in
 // CSS pixels stay the same on screen at any zoom: each layer is redrawn when the scale changes.
 /* global createjs */
+import { avoid, label as named } from './labels.js';
 import { ROBOT_RADIUS, SAFETY_MARGIN } from './placement.js';
 import { degrees, yawOf } from './util.js';
 
@@ -191,15 +192,39 @@ class PoseMarker extends Layer {
   }
 }
 
-/** The robot: its footprint (at least 9 px) and an arrow for its heading. */
+/** The robot: its footprint (at least 9 px) and an arrow for its heading; on a fleet server
+ * the chosen robot's ring and name (setLabel), drawn here once, where the robot is now. */
 export class RobotMarker extends PoseMarker {
   constructor(view, radius = 0.2) {
     super(view);
     this.radius = radius;
+    this.label = null;
+    avoid(this.shape, 9);
+  }
+
+  /** Name the robot beside it (`text` in `color`), or no name (null). */
+  setLabel(text, color) {
+    if (this.label && this.label.text === text && this.label.color === color) return;
+    if (this.label) this.node.removeChild(this.label);
+    this.label = text ? named(new createjs.Text(text, 'bold 12px sans-serif', color), text) : null;
+    if (this.label) this.node.addChild(this.label);
+    this.view.requestRender();
+  }
+
+  setPose(x, y, yaw) {
+    super.setPose(x, y, yaw);
+    this.node.rotation = 0; // the name stays upright: only the body turns
+    this.shape.rotation = -degrees(yaw);
   }
 
   draw(g, u) {
     const r = Math.max(this.radius / u, 9);
+    this.shape.avoidRadius = r;
+    if (this.label) {
+      this.label.x = r + 4;
+      this.label.y = this.label.baseY = -r - 10;
+      g.setStrokeStyle(3).beginStroke('#ffeb3b').drawCircle(0, 0, r + 4).endStroke();
+    }
     g.setStrokeStyle(2).beginStroke(COLORS.robotEdge).beginFill(COLORS.robot).drawCircle(0, 0, r);
     g.endStroke().endFill();
     g.beginFill('#ffffff').moveTo(r * 0.75, 0).lineTo(-r * 0.35, r * 0.45).lineTo(-r * 0.1, 0)
@@ -258,9 +283,12 @@ export class PoiLayer extends Layer {
       label.x = 15;
       label.y = -15;
       const tag = new createjs.Shape();
-      tag.graphics.beginFill('rgba(33, 26, 10, 0.85)')
-        .drawRoundRect(label.x - 5, label.y - 9, label.getMeasuredWidth() + 10, 18, 4);
-      marker.addChild(shape, tag, label);
+      const width = label.getMeasuredWidth() + 10;
+      tag.graphics.beginFill('rgba(33, 26, 10, 0.85)').drawRoundRect(label.x - 5, label.y - 9, width, 18, 4);
+      const tagged = new createjs.Container(); // the name and its tag move together (labels.js)
+      tagged.addChild(tag, label);
+      tagged.setBounds(label.x - 5, label.y - 9, width, 18);
+      marker.addChild(shape, named(tagged, poi.name));
       this.node.addChild(marker);
     }
   }
