@@ -91,12 +91,14 @@ async def test_the_panels_above_the_drive_pad_are_never_under_it(console: Consol
     await console.frame()
     covered = await page.evaluate("""() => {
       const drive = document.getElementById('drive-panel').getBoundingClientRect();
-      const parts = [...document.querySelectorAll('#patrol-panel button, #poi-list, #patrol-panel h2')];
+      const parts = [...document.querySelectorAll(
+        '#patrol-panel button, #poi-list, #patrol-panel h2')];
       const out = [];
       for (const tab of [0, 1]) {
         const scroller = document.querySelector('[data-tab-panel=operate]');
         for (const box of [scroller, ...scroller.querySelectorAll('*')]) {
-          if (box.scrollHeight > box.clientHeight + 1 && getComputedStyle(box).overflowY === 'auto') {
+          if (box.scrollHeight > box.clientHeight + 1 &&
+              getComputedStyle(box).overflowY === 'auto') {
             box.scrollTop = tab ? box.scrollHeight : 0;
           }
         }
@@ -110,7 +112,8 @@ async def test_the_panels_above_the_drive_pad_are_never_under_it(console: Consol
                   top: Math.max(r.top, c.top), bottom: Math.min(r.bottom, c.bottom) };
           }
           if (r.bottom <= r.top || r.right <= r.left) continue; // scrolled out of view
-          if (r.top < drive.bottom && drive.top < r.bottom && r.left < drive.right && drive.left < r.right) {
+          if (r.top < drive.bottom && drive.top < r.bottom &&
+              r.left < drive.right && drive.left < r.right) {
             out.push({ part: part.id || part.textContent.trim(), shown: r, drive: drive.toJSON() });
           }
         }
@@ -119,7 +122,8 @@ async def test_the_panels_above_the_drive_pad_are_never_under_it(console: Consol
     }""")
     assert covered == [], covered
     # the pad is still in view and the Messages below it
-    pad = await page.evaluate("() => document.getElementById('pad').getBoundingClientRect().toJSON()")
+    pad = await page.evaluate(
+        "() => document.getElementById('pad').getBoundingClientRect().toJSON()")
     assert pad["bottom"] <= 860 and pad["top"] >= 0, pad
     assert console.errors == []
 
@@ -130,7 +134,7 @@ async def test_sonars_are_red_only_when_something_is_near(console: Console):
     await page.wait_for_selector("#sensors li[data-id]", timeout=15_000)
     rows = await page.evaluate("""() => [...document.querySelectorAll('#sensors li')]
       .filter((li) => li.textContent.startsWith('sonar')).map((li) => ({
-        text: li.textContent, hit: Boolean(li.querySelector('.hit')) }))""")
+        text: li.children[1].textContent, hit: Boolean(li.querySelector('.hit')) }))""")
     assert rows, "no sonar listed"
     for row in rows:
         m = re.search(r"([\d.]+) m", row["text"])

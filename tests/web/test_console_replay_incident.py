@@ -18,8 +18,10 @@ SAMPLER = """window.__seen = []; setInterval(() => {
   const box = document.getElementById('goal-status');
   const cancel = document.getElementById('cancel-goal');
   if (!box || !cancel) return;
-  const live = [...document.querySelectorAll('[data-tab-panel=operate] button')].filter((b) => !b.disabled);
-  window.__seen.push({ replaying: document.body.classList.contains('replaying'), status: box.dataset.status, text: box.textContent, cancel: cancel.disabled,
+  const live = [...document.querySelectorAll('[data-tab-panel=operate] button')]
+    .filter((b) => !b.disabled);
+  window.__seen.push({ replaying: document.body.classList.contains('replaying'),
+    status: box.dataset.status, text: box.textContent, cancel: cancel.disabled,
     enabled: live.map((b) => b.id || b.dataset.drive || b.textContent) });
 }, 50);"""
 BOXES = """() => {
@@ -82,7 +84,8 @@ async def test_a_black_box_replay_opens_on_its_incident(browser, make_server, tm
     assert "the robot stopped" in aborted and "inside an obstacle" in aborted, aborted
     seen = await replay.evaluate("window.__seen")
     texts = [s["text"] for s in seen]
-    active = next(i for i, t in enumerate(texts) if t.startswith("ACTIVE → a motion sent elsewhere"))
+    active = next(i for i, t in enumerate(texts)
+                  if t.startswith("ACTIVE → a motion sent elsewhere"))
     assert any("inside an obstacle" in t for t in texts[active:])
     # nothing that would drive was on once the page knew it shows a replay (its first
     # /replay/state): Cancel goal included, while the motion was shown
