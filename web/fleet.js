@@ -6,8 +6,8 @@
 // Cancel. It stays hidden on a single-robot server (no /fleet/robots).
 /* global ROSLIB, createjs */
 import { CurrentRobot } from './currentrobot.js';
-import { log } from './log.js';
 import { avoid, label as named } from './labels.js';
+import { log } from './log.js';
 import { SERVICES, TOPICS } from './names.js';
 import { yawOf } from './util.js';
 

@@ -11,7 +11,7 @@ import { operatorText, publishTracked } from './connection.js';
 import { CurrentRobot } from './currentrobot.js';
 import { ArrowMarker, COLORS } from './overlays.js';
 import { log } from './log.js';
-import { ACTIONS, TOPICS } from './names.js';
+import { ACTIONS, TOPICS, resultTopic } from './names.js';
 import { fromOne } from './patrol.js';
 import { formatPose, quatOfYaw, yawOf } from './util.js';
 
@@ -55,7 +55,7 @@ export class Navigator {
     this.replaying = false; // a replay's page: nothing is sent, Cancel stays off
     this.elsewhereEnded = -Infinity; // when a motion sent elsewhere was last seen to stop
     // how a goal sent elsewhere ends: its abort and the reason (the recorded one in a replay)
-    robot.subscribe(ros, `${serverName}/result`, 'move_base_msgs/MoveBaseActionResult', {},
+    robot.subscribe(ros, resultTopic(serverName), 'move_base_msgs/MoveBaseActionResult', {},
       (result) => this.resultElsewhere(result));
   }
 
