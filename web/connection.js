@@ -27,6 +27,13 @@ export function showFoxgloveUrl() {
 
 // Statuses that a caller of publishTracked() reports itself (so they are not shown twice).
 const tracked = new Map();
+// Tests of statuses that are no news to the operator (quietWhen): a replay's missing services.
+const quiet = [];
+
+/** Statuses for which `test(text)` is true are not shown (e.g. a service a replay has not). */
+export function quietWhen(test) {
+  quiet.push(test);
+}
 
 /**
  * Publish and hear what the server answers to this very publish (its `status` ops, e.g. the
@@ -102,7 +109,9 @@ export function connect(url = bridgeUrl()) {
     const id = (message && message.id) || '';
     if (tracked.has(id)) return;
     if (level === 'info' && !id.startsWith('publish:')) return;
-    log(level, operatorText(message && message.msg ? message.msg : 'status', id));
+    const text = message && message.msg ? message.msg : 'status';
+    if (quiet.some((test) => test(text))) return;
+    log(level, operatorText(text, id));
   });
   ros.setStatusLevel('info');
   return ros;

@@ -7,6 +7,7 @@
 /* global ROSLIB, createjs */
 import { CurrentRobot } from './currentrobot.js';
 import { BEST_ROBOT, STATE_WORDS } from './fleetwords.js';
+import { avoid, label as named } from './labels.js';
 import { log } from './log.js';
 import { SERVICES, TOPICS } from './names.js';
 import { yawOf } from './util.js';
@@ -26,8 +27,10 @@ export const FLEET_COLORS = ['#e53935', '#43a047', '#fb8c00', '#8e24aa', '#00897
 
 /** A map layer with a coloured marker and the name of every robot. */
 class FleetLayer {
-  constructor(view) {
+  /** `marker`: the chosen robot's live marker (app.js's RobotMarker), which draws that one. */
+  constructor(view, marker = null) {
     this.view = view;
+    this.marker = marker;
     this.node = new createjs.Container();
     this.node.mouseEnabled = false;
     this.robots = [];
@@ -44,7 +47,12 @@ class FleetLayer {
   render(view) {
     const u = view.metresPerPixel;
     this.node.removeAllChildren();
+    if (this.marker) this.marker.setLabel(null);
     for (const r of this.robots) {
+      if (r.selected && this.marker) { // drawn once, where it is now: by its live marker
+        this.marker.setLabel(`${r.name} · ${stateWords(r)}`, r.color);
+        continue;
+      }
       const at = new createjs.Container();
       at.alpha = r.selected ? 1 : FAINT;
       at.x = r.pose.position.x;
@@ -62,7 +70,7 @@ class FleetLayer {
       const label = new createjs.Text(`${r.name} · ${stateWords(r)}`, 'bold 12px sans-serif', r.color);
       label.x = radius + 4;
       label.y = -radius - 10;
-      at.addChild(body, label);
+      at.addChild(avoid(body, radius), named(label, r.name));
       this.node.addChild(at);
     }
   }
@@ -70,13 +78,13 @@ class FleetLayer {
 
 export class Fleet {
   /** `robot`: the current robot (a CurrentRobot), which this panel chooses and shows. */
-  constructor({ ros, view, robot = new CurrentRobot() }) {
+  constructor({ ros, view, robot = new CurrentRobot(), marker = null }) {
     this.robot = robot;
     this.robots = [];
     this.tasks = [];
     this.pois = [];
     this.colors = new Map();
-    this.layer = new FleetLayer(view);
+    this.layer = new FleetLayer(view, marker);
     this.panel = this.buildPanel();
     robot.follow((name) => this.showSelected(name));
     this.dispatchService = new ROSLIB.Service({ ros, name: SERVICES.fleetDispatch, serviceType: 'hitrobot_msgs/Dispatch' });
