@@ -23,6 +23,7 @@ SECTION_TITLES = {
     "record": "Recording and the black box",
     "vda5050": "VDA 5050: a master control over MQTT",
     "nodes": "Nodes: the fleet and the site",
+    "vda5050": "VDA 5050: a master control over MQTT",
 }
 
 HEADER = """# Flags
@@ -86,7 +87,9 @@ def server_section() -> list[str]:
     actions = list(documented(build_parser()))
     lines = ["## The server: `hitrobot-server`", "", *table(
         [a for a in actions if a.dest not in owner], toml=False)]
-    for section, title in SECTION_TITLES.items():
+    sections = dict.fromkeys([*SECTION_TITLES, *(s for s, *_ in owner.values())])
+    for section in sections:  # a section without a title still shows, under its own name
+        title = SECTION_TITLES.get(section, section)
         mine = [a for a in actions if owner.get(a.dest, ("",))[0] == section]
         if mine:
             lines += ["", f"### {title}", "", *table(mine, toml=True)]

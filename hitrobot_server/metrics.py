@@ -66,7 +66,9 @@ Page = tuple[int, str, bytes]  # status, content type, body
 
 class ClientPublishes:
     """A bus tap: messages and bytes clients published, per topic (the op's size), for at
-    most :data:`~.session.traffic.MAX_TOPICS` topics by name (the rest together)."""
+    most :data:`~.session.traffic.MAX_TOPICS` topics by name (the rest together). Every
+    message counts its bytes: a small one nobody subscribed to used to count none (its size
+    was only known once a subscriber asked)."""
 
     def __init__(self) -> None:
         self.received: dict[str, list[int]] = {}
@@ -75,7 +77,7 @@ class ClientPublishes:
         origin = message.origin
         if origin is None or not origin.node.startswith(CLIENT_NODE_PREFIX):
             return
-        size = 0 if message.wire is None else size_of(message)  # (no memo: nothing known)
+        size = size_of(message)  # the op's length, or (no op seen: Foxglove) an estimate
         counts = self.received.get(message.topic.name)
         if counts is None:
             counts = counts_of(self.received, message.topic.name, lambda: [0, 0])

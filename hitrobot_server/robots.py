@@ -73,6 +73,7 @@ class StartPlan:
     worker_id: int | None  # one of --workers: shared ports, parameters in worker 0
     tcp: bool  # the raw TCP port
     tls: bool  # wss:// and TLS on the TCP port
+    warm_pool: bool = False  # a robot publishes a big map: the worker pool warmed at start
 
     @property
     def worker(self) -> bool:
@@ -103,6 +104,8 @@ def start_plan(settings: Settings, *, robot: str | None = None) -> StartPlan:
         worker_id=settings.worker_id,
         tcp=bool(settings.transport.tcp_port),
         tls=settings.transport.ssl,
+        # every worker of --workers too: each encodes the map for its own clients
+        warm_pool=any(entry.spec != "none" for entry in entries),
     )
 
 

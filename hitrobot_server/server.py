@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import json
 import logging
 import os
 import ssl
@@ -16,6 +17,7 @@ from .bus.rosout import RosoutHandler
 from .bus.zenoh.keys import endpoints
 from .config import Settings
 from .metrics import METRICS_DIR, ServerMetrics, Sources
+from .protocol import foxglove_layout
 from .protocol.access import Grant, RoleTable, roles_from
 from .protocol.auth import load_secret
 from .protocol.foxglove import SUBPROTOCOLS as FOXGLOVE_SUBPROTOCOLS
@@ -49,6 +51,9 @@ log = logging.getLogger(__name__)
 T = TypeVar("T", bound=ClientSession)
 PACKAGE_LOGGER = "hitrobot_server"  # every record of ours goes to /rosout too
 WORKER_HEADER = "X-Hitrobot-Worker"  # which worker of --workers answered (handshake, HTTP)
+LAYOUT_PATH = "/foxglove/layout.json"  # the Foxglove layout of this server's topics (HTTP)
+POOL_MODULES = ("hitrobot_server.session.rosbridge.encodings",  # what the big ops run
+                "hitrobot_server.session.rosbridge.frames", "hitrobot_server.protocol.bulk")
 
 
 class HitrobotServer:
@@ -148,6 +153,8 @@ class HitrobotServer:
             self.vda5050 = Vda5050Service(self.bus, s.vda5050, vehicles,
                                           s.nodes.slamware.map_frame)
             await self.vda5050.start()
+        if plan.warm_pool:  # spawned before the first client (after the robots' CPU-heavy
+            self.pool.warm(*POOL_MODULES)  # start), warming in the background
         await self._start_listeners()
         if plan.worker and os.environ.get(METRICS_DIR):  # one scrape covers every worker
             await self.metrics.share(os.environ[METRICS_DIR])
@@ -205,7 +212,8 @@ class HitrobotServer:
         ) if plan.tls else None
         console = _web_console()
         self._ws_console = console is not None
-        pages = {"/metrics": self.metrics.metrics_page, "/healthz": self.metrics.health_page}
+        pages = {LAYOUT_PATH: self.layout_page,  # topic names: any role's console
+                 "/metrics": self.metrics.metrics_page, "/healthz": self.metrics.health_page}
         http_handler = WithRecordings(console, self.settings.store.recordings, pages,
                                       self.access)
         worker = {WORKER_HEADER: str(plan.worker_id)} if plan.worker else None
@@ -243,6 +251,12 @@ class HitrobotServer:
         log.info("hitrobot-server: ws://%s:%s tcp:%s", t.address, self.port, self.tcp_port)
         if self._ws_console:
             log.info("web console: %s", console_url(t.address, self.port, tls=t.ssl))
+
+    async def layout_page(self) -> tuple[int, str, bytes]:
+        """``GET /foxglove/layout.json``: a Foxglove layout of every robot's topics here."""
+        named = [e.name for e in self.settings.robot_entries() if e.spec != "none"]
+        found = foxglove_layout.layout(named, fleet=bool(self.settings.robots))
+        return 200, "application/json", json.dumps(found, indent=1).encode() + b"\n"
 
     def banner(self) -> str:
         """The line printed once the server listens (tests and scripts parse it)."""

@@ -66,6 +66,28 @@ async def test_metrics_count_clients_topics_and_memory(make_server):
         await listener.close()
 
 
+async def test_received_bytes_grow_with_the_messages_nobody_subscribed_to(make_server):
+    """Issue 46, friction 5: small publishes on a topic no client reads (a console's
+    /cmd_vel) counted their messages but 0 bytes; each counts its op's length now."""
+    server = await make_server(robot="sim")
+    publisher = await WsClient.open(server.port)
+    try:
+        await publisher.send({"op": "advertise", "topic": "/lonely", "type": "std_msgs/String"})
+        ops = [{"op": "publish", "topic": "/lonely", "msg": {"data": f"message {i}"}}
+               for i in range(3)]
+        for op in ops:
+            await publisher.send(op)
+        await round_trip(publisher)
+        m = await scrape(server.port)
+        lonely = (("topic", "/lonely"),)
+        assert m["hitrobot_messages_received_total"][lonely] == 3
+        sent = sum(len(json.dumps(op)) for op in ops)  # as the client sent them
+        assert sent - 10 <= m["hitrobot_received_bytes_total"][lonely] <= sent + 20, m[
+            "hitrobot_received_bytes_total"]
+    finally:
+        await publisher.close()
+
+
 async def test_healthz_says_ok_and_what_it_checked(make_server):
     server = await make_server(robot="sim")
     status, headers, body = await http(server.port, "GET", "/healthz")

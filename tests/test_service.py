@@ -114,3 +114,21 @@ def test_systemd_analyze_verifies_the_unit(tmp_path):
                          timeout=60)
     assert out.returncode == 0, out.stderr
     assert "Unknown" not in out.stderr and "hitrobot-server.service" not in out.stderr, out.stderr
+
+
+def test_the_install_steps_build_the_console_and_say_how_to_authenticate():
+    """Issue 46 (friction 8): the install steps run ``npm ci --prefix web`` before pip (else the
+    console has no libraries), the unit names no documentation pip does not install, and its
+    0.0.0.0 says how to add authentication."""
+    unit = unit_sections()
+    assert "Documentation" not in unit["Unit"] or \
+        unit["Unit"]["Documentation"].startswith(("http://", "https://"))
+    text = UNIT.read_text()
+    before_exec = text[:text.index("ExecStart=")].rsplit("\n\n", 1)[-1]
+    assert "--authenticate" in before_exec and "security page of the manual" in before_exec
+    steps = (UNIT.parent.parent / "docs" / "operations.md").read_text()  # the manual's page
+    block = steps[steps.index("### systemd"):]
+    block = block[block.index("```sh"):block.index("```", block.index("```sh") + 5)]
+    assert "npm ci --prefix web" in block
+    assert block.index("npm ci --prefix web") < block.index("pip install")
+    assert "--authenticate" in steps[steps.index("### systemd"):]

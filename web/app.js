@@ -2,7 +2,7 @@
 // navigation, POIs, map editing and saved maps, patrols, the robot's actions and state,
 // diagnostics and sensors, system commands, driving and the topic inspector together.
 /* global ROSLIB, ROS2D, createjs */
-import { connect, showBroken } from './connection.js';
+import { connect, showBroken, showFoxgloveUrl } from './connection.js';
 import { CurrentRobot } from './currentrobot.js';
 import { Diagnostics } from './diagnostics.js';
 import { dialogOpen } from './dialogs.js';
@@ -147,7 +147,7 @@ function followScan({ ros, layers, state, currentRobot }) {
 }
 
 /** The side panels. The drive pad, the navigator and the fleet view share the current robot. */
-function buildPanels({ ros, view, layers, navigator, currentRobot }) {
+function buildPanels({ ros, view, layers, navigator, currentRobot, marker }) {
   const pois = new Pois({ ros, layer: layers.pois, warning: (x, y) => placementProblem(layers.costmap.grid, x, y) });
   const shell = new Shell({ ros, robot: currentRobot });
   const teleop = new Teleop({ ros, robot: currentRobot });
@@ -159,7 +159,11 @@ function buildPanels({ ros, view, layers, navigator, currentRobot }) {
   showStateOnce(ros);
   const inspector = new Inspector({ ros });
   const zones = new Zones({ ros, view }); // under the robots; shown with named robots only
-  const fleet = new Fleet({ ros, view, robot: currentRobot }); // shown with named robots only
+  const fleet = new Fleet({ ros, view, robot: currentRobot, marker }); // shown with named robots only
+  // the fleet's panels scroll with the others above the Drive pad
+  const scroll = document.getElementById('operate-scroll');
+  scroll.prepend(fleet.panel);
+  scroll.append(zones.panel);
   patrol.onState = (s) => navigator.patrolState(s, () => patrol.call('stop', {}));
   pois.onGo = (poi) => {
     navigator.goToPoi(poi);
@@ -213,13 +217,15 @@ function followBridge({ ros, tools, navigator }) {
   if (!ros.isConnected) setOnline(false);
 }
 
+/** What would drive or change a robot (the view, layers, inspector and whatever is marked
+ * data-robotless, such as the recordings panel, keep working). */
+const robotControls = () => [...document.querySelectorAll(
+  '.side button:not([data-tab]):not([data-tool]), .side input:not([data-layer]), .side select')]
+  .filter((c) => !c.closest('[data-tab-panel=inspect], [data-robotless]') && c.id !== 'maps-refresh');
+
 /** No robot behind the bridge (--robot none, or its server gone): say so, and disable
- * everything that would drive or change it (the view, layers, inspector and whatever is
- * marked data-robotless, such as the recordings panel, keep working). */
+ * everything that would drive or change it. */
 function followPresence({ ros, tools, navigator, robotState }) {
-  const robotControls = () => [...document.querySelectorAll(
-    '.side button:not([data-tab]):not([data-tool]), .side input:not([data-layer]), .side select')]
-    .filter((c) => !c.closest('[data-tab-panel=inspect], [data-robotless]') && c.id !== 'maps-refresh');
   return new RobotPresence({
     ros,
     onChange: (present, seen) => {
@@ -240,13 +246,19 @@ function followPresence({ ros, tools, navigator, robotState }) {
 /** A replaying server (`hitrobot-server replay`, recordings.js's timeline): the page says one
  * thing, "Replaying NAME — playing t / T", in the hint, the robot pill and the goal status,
  * where it would say "No robot" (and the recorded "robot connected" is not shown as live). */
-function followReplay({ navigator, robotState }) {
+function followReplay({ navigator, robotState, tools }) {
   let shown = '';
   window.addEventListener('replay', (e) => {
     const { summary } = e.detail;
     if (summary === shown) return;
     const name = summary.split(' — ')[0];
-    if (!shown) log('info', `${name}: a recording, not a live robot`);
+    if (!shown) {
+      log('info', `${name}: a recording, not a live robot`);
+      // nothing that would drive a robot works in a replay (Cancel goal included)
+      navigator.setReplaying();
+      tools.setEnabled(false);
+      for (const control of robotControls()) control.disabled = true;
+    }
     // the goal box follows the recorded goals; it names the replay where it would say "No robot"
     if (!shown || navigator.statusBox.dataset.status === 'offline') navigator.show('replay', name);
     shown = summary;
@@ -335,7 +347,11 @@ function wireShortcuts({ view, tools }) {
 function main() {
   const ros = connect();
   const role = followRole(ros); // the badge, and the controls this role lacks disabled
+  showFoxgloveUrl();
   const view = new MapView(document.getElementById('map'), ros);
+  // record and replay (recordings.js): a timeline over the map, first: the page knows it is a
+  // replay's before the recorded topics reach the panels
+  const timeline = new ReplayTimeline({ ros, parent: document.querySelector('.map-pane'), view });
   const layers = buildLayers(view);
   const currentRobot = new CurrentRobot(); // on a fleet server, the one the tools act on
   const navigator = new Navigator({ ros, view, robot: currentRobot });
@@ -346,11 +362,11 @@ function main() {
   followPose({ ros, view, layers, navigator, robot, state, currentRobot });
   followScan({ ros, layers, state, currentRobot });
 
-  const panels = buildPanels({ ros, view, layers, navigator, currentRobot });
+  const panels = buildPanels({ ros, view, layers, navigator, currentRobot, marker: robot });
   const tools = buildTools({ view, state, navigator, panels, editor });
   followBridge({ ros, tools, navigator });
   const presence = followPresence({ ros, tools, navigator, robotState: panels.robotState });
-  followReplay({ navigator, robotState: panels.robotState });
+  followReplay({ navigator, robotState: panels.robotState, tools });
   const showTab = wireTabs(panels);
   wireScaleBar(view);
   wireToolbar({ view, layers, tools, state });
@@ -360,9 +376,9 @@ function main() {
   window.hitrobot = { ros, role, view, navigator, ...panels, tools, layers, editor, presence, showTab,
     robot, currentRobot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
       easeljs: createjs.EaselJS && createjs.EaselJS.version } };
-  // record and replay (recordings.js): a panel in the Status tab, a timeline over the map
+  // record and replay (recordings.js): a panel in the Status tab
   window.hitrobot.recordings = new Recordings({ ros, parent: document.querySelector('[data-tab-panel=status]') });
-  window.hitrobot.timeline = new ReplayTimeline({ ros, parent: document.querySelector('.map-pane') });
+  window.hitrobot.timeline = timeline;
   // fleet operations (fleetops.js): the Fleet tab, shown on a server with named robots
   window.hitrobot.fleetops = new FleetOps({ ros, tab: document.getElementById('fleet-tab'), parent: document.getElementById('fleetops') });
   // the robots' VDA 5050 links (vda5050.js), on the Fleet tab

@@ -5,15 +5,35 @@
 import { log } from './log.js';
 import { withToken } from './signin.js';
 
-export function bridgeUrl() {
+/** The WebSocket URL this page connects to, without the tab's token (safe to show). */
+function plainBridgeUrl() {
   const param = new URLSearchParams(location.search).get('url');
-  if (param) return withToken(param);
+  if (param) return param;
   const scheme = location.protocol === 'https:' ? 'wss' : 'ws';
-  return withToken(`${scheme}://${location.host}/`);
+  return `${scheme}://${location.host}/`;
+}
+
+export function bridgeUrl() {
+  return withToken(plainBridgeUrl());
+}
+
+/** The top bar's "Open in Foxglove": beside the layout's link (with the tab's token, which
+ * --authenticate asks of it), the URL to connect to (never showing the token on screen). */
+export function showFoxgloveUrl() {
+  const link = document.getElementById('foxglove-layout');
+  link.href = withToken(link.getAttribute('href'));
+  document.getElementById('foxglove-url').textContent = plainBridgeUrl();
 }
 
 // Statuses that a caller of publishTracked() reports itself (so they are not shown twice).
 const tracked = new Map();
+// Tests of statuses that are no news to the operator (quietWhen): a replay's missing services.
+const quiet = [];
+
+/** Statuses for which `test(text)` is true are not shown (e.g. a service a replay has not). */
+export function quietWhen(test) {
+  quiet.push(test);
+}
 
 /**
  * Publish and hear what the server answers to this very publish (its `status` ops, e.g. the
@@ -89,7 +109,9 @@ export function connect(url = bridgeUrl()) {
     const id = (message && message.id) || '';
     if (tracked.has(id)) return;
     if (level === 'info' && !id.startsWith('publish:')) return;
-    log(level, operatorText(message && message.msg ? message.msg : 'status', id));
+    const text = message && message.msg ? message.msg : 'status';
+    if (quiet.some((test) => test(text))) return;
+    log(level, operatorText(text, id));
   });
   ros.setStatusLevel('info');
   return ros;

@@ -3,6 +3,7 @@
 // listed and drawn on the map.
 /* global ROSLIB */
 import { TOPICS } from './names.js';
+import { sensorTriggered } from './overlays.js';
 import { el } from './util.js';
 
 const LEVELS = ['OK', 'WARN', 'ERROR', 'STALE'];
@@ -46,7 +47,7 @@ export class Diagnostics {
     if (!values.length) return;
     this.sensorList.replaceChildren(...values.map((v) => {
       const type = SENSOR_TYPES[v.info.sensor_type.type] || 'sensor';
-      const hit = v.value.is_in_impact;
+      const hit = sensorTriggered(v.info.sensor_type.type, v.value);
       const range = Number.isFinite(v.value.value) ? `${v.value.value.toFixed(2)} m` : 'no echo';
       const reading = type === 'sonar' ? range : hit ? 'triggered' : 'clear';
       return el('li', { dataset: { id: String(v.info.id), impact: String(hit) } },

@@ -30,8 +30,10 @@ export function confirmAction(question, okLabel = 'OK') {
 /**
  * Show a form dialog. `validate(name)` returns '' when the name is fine, else the reason: the
  * dialog then stays open with the reason under the field and the operator's input kept.
+ * `submit(form)`, when given, is asked on OK and resolves '' once done or why it was refused
+ * (the server's answer): a refusal keeps the dialog open the same way.
  */
-function formDialog(id, { title, where = '', warning = '', values = {}, validate = () => '' }) {
+function formDialog(id, { title, where = '', warning = '', values = {}, validate = () => '', submit = null }) {
   const dialog = document.getElementById(id);
   const form = dialog.querySelector('form');
   const error = dialog.querySelector('.form-error');
@@ -42,13 +44,24 @@ function formDialog(id, { title, where = '', warning = '', values = {}, validate
   for (const [key, value] of Object.entries(values)) form.elements[key].value = value;
   error.textContent = '';
   dialog.returnValue = '';
+  const ok = form.querySelector('button[value="ok"]');
+  const refuse = (problem) => {
+    error.textContent = problem;
+    form.elements.name.focus();
+  };
   const check = (e) => {
     if (e.submitter && e.submitter.value !== 'ok') return;
     const problem = validate(form.elements.name.value.trim());
-    if (problem) {
-      e.preventDefault();
-      error.textContent = problem;
-      form.elements.name.focus();
+    if (problem || submit) e.preventDefault();
+    if (problem) refuse(problem);
+    else if (submit && !ok.disabled) {
+      ok.disabled = true;
+      error.textContent = '';
+      submit(form).then((refused) => {
+        ok.disabled = false;
+        if (refused) refuse(refused);
+        else dialog.close('ok');
+      });
     }
   };
   // Enter in a field confirms (the form's first submit button is Cancel, which implicit
@@ -73,10 +86,14 @@ function formDialog(id, { title, where = '', warning = '', values = {}, validate
   });
 }
 
-/** The POI form; resolves {name, remarks} or null when cancelled. */
-export async function poiForm({ title, name = '', remarks = '', where = '', warning = '', validate }) {
-  const form = await formDialog('poi-dialog', { title, where, warning, values: { name, remarks }, validate });
-  return form && { name: form.elements.name.value.trim(), remarks: form.elements.remarks.value.trim() };
+const poiValues = (form) => ({ name: form.elements.name.value.trim(), remarks: form.elements.remarks.value.trim() });
+
+/** The POI form; resolves {name, remarks} or null when cancelled. `submit({name, remarks})`:
+ * as formDialog's (the dialog stays open with the server's refusal and the typed name). */
+export async function poiForm({ title, name = '', remarks = '', where = '', warning = '', validate, submit }) {
+  const form = await formDialog('poi-dialog', { title, where, warning, values: { name, remarks }, validate,
+    submit: submit && ((f) => submit(poiValues(f))) });
+  return form && poiValues(form);
 }
 
 /** Ask for a name; resolves it, or null when cancelled. */

@@ -2,10 +2,12 @@
 // /fleet/robots on the map in its own colour with its state, a choice of the robot that the
 // drive pad, the goal and set-pose tools and "Go" act on (the current robot, currentrobot.js:
 // those panels follow it and move their names under /NAME/), the POIs with a Dispatch button
-// each (/fleet/dispatch picks the nearest idle robot), and the task list of /fleet/tasks with
-// Cancel. It stays hidden on a single-robot server (no /fleet/robots).
+// each (/fleet/dispatch picks the best robot by cost: the soonest to finish, its charge counted),
+// and the task list of /fleet/tasks with Cancel; a dispatch's reply says so when its task ends. It stays hidden on a single-robot server (no /fleet/robots).
 /* global ROSLIB, createjs */
 import { CurrentRobot } from './currentrobot.js';
+import { BEST_ROBOT, STATE_WORDS } from './fleetwords.js';
+import { avoid, label as named } from './labels.js';
 import { log } from './log.js';
 import { SERVICES, TOPICS } from './names.js';
 import { yawOf } from './util.js';
@@ -15,16 +17,20 @@ const FAINT = 0.45; // the robots not chosen, on the map
 /** A robot's state in the operator's words. */
 export function stateWords(r) {
   if (r.in_service === false) return 'out of service';
+  if (r.state === 'waiting') return r.message || 'waiting for a zone'; // before a mutex zone
   return { idle: 'idle', moving: 'moving', charging: 'charging', error: 'in error', offline: 'offline' }[r.state] || r.state;
 }
+
 
 export const FLEET_COLORS = ['#e53935', '#43a047', '#fb8c00', '#8e24aa', '#00897b', '#3949ab',
   '#6d4c41', '#c0ca33'];
 
 /** A map layer with a coloured marker and the name of every robot. */
 class FleetLayer {
-  constructor(view) {
+  /** `marker`: the chosen robot's live marker (app.js's RobotMarker), which draws that one. */
+  constructor(view, marker = null) {
     this.view = view;
+    this.marker = marker;
     this.node = new createjs.Container();
     this.node.mouseEnabled = false;
     this.robots = [];
@@ -41,7 +47,12 @@ class FleetLayer {
   render(view) {
     const u = view.metresPerPixel;
     this.node.removeAllChildren();
+    if (this.marker) this.marker.setLabel(null);
     for (const r of this.robots) {
+      if (r.selected && this.marker) { // drawn once, where it is now: by its live marker
+        this.marker.setLabel(`${r.name} · ${stateWords(r)}`, r.color);
+        continue;
+      }
       const at = new createjs.Container();
       at.alpha = r.selected ? 1 : FAINT;
       at.x = r.pose.position.x;
@@ -59,7 +70,7 @@ class FleetLayer {
       const label = new createjs.Text(`${r.name} · ${stateWords(r)}`, 'bold 12px sans-serif', r.color);
       label.x = radius + 4;
       label.y = -radius - 10;
-      at.addChild(body, label);
+      at.addChild(avoid(body, radius), named(label, r.name));
       this.node.addChild(at);
     }
   }
@@ -67,13 +78,13 @@ class FleetLayer {
 
 export class Fleet {
   /** `robot`: the current robot (a CurrentRobot), which this panel chooses and shows. */
-  constructor({ ros, view, robot = new CurrentRobot() }) {
+  constructor({ ros, view, robot = new CurrentRobot(), marker = null }) {
     this.robot = robot;
     this.robots = [];
     this.tasks = [];
     this.pois = [];
     this.colors = new Map();
-    this.layer = new FleetLayer(view);
+    this.layer = new FleetLayer(view, marker);
     this.panel = this.buildPanel();
     robot.follow((name) => this.showSelected(name));
     this.dispatchService = new ROSLIB.Service({ ros, name: SERVICES.fleetDispatch, serviceType: 'hitrobot_msgs/Dispatch' });
@@ -99,7 +110,7 @@ export class Fleet {
     panel.innerHTML = `<h2>Fleet <span class="count" id="fleet-count"></span></h2>
       <ul class="fleet-robots" id="fleet-robots"></ul>
       <h2>Dispatch to a POI</h2>
-      <label class="fleet-send">send <select id="fleet-send"><option value="">the best robot (nearest idle)</option></select></label>
+      <label class="fleet-send">send <select id="fleet-send"><option value="">${BEST_ROBOT}</option></select></label>
       <ul class="fleet-pois" id="fleet-pois"><li class="empty">no POIs</li></ul>
       <div class="fleet-reply" id="fleet-reply"></div>
       <h2>Tasks</h2>
@@ -205,6 +216,8 @@ export class Fleet {
       reply.textContent = r.message;
       reply.dataset.accepted = String(r.accepted);
       reply.dataset.robot = r.robot;
+      reply.dataset.task = String(r.task || 0);
+      this.showTasks();
       log(r.accepted ? 'info' : 'error', `dispatch to ${poi}: ${r.message}`);
     }, (error) => {
       reply.textContent = String(error);
@@ -214,6 +227,7 @@ export class Fleet {
   }
 
   showTasks() {
+    this.showOutcome();
     const list = document.getElementById('fleet-tasks');
     if (!this.tasks.length) {
       list.innerHTML = '<li class="empty">none</li>';
@@ -223,7 +237,7 @@ export class Fleet {
       const li = document.createElement('li');
       li.dataset.task = String(t.id);
       li.dataset.state = t.state;
-      li.textContent = `#${t.id} ${t.poi || 'pose'} — ${t.state}${t.assigned ? ` (${t.assigned})` : ''}: ${t.message} `;
+      li.textContent = `#${t.id} ${t.poi || 'pose'} — ${STATE_WORDS[t.state] || t.state}${t.assigned ? ` (${t.assigned})` : ''}: ${t.message} `;
       if (t.state === 'queued' || t.state === 'running') {
         const cancel = document.createElement('button');
         cancel.type = 'button';
@@ -235,5 +249,15 @@ export class Fleet {
       }
       return li;
     }));
+  }
+
+  /** The last dispatch's reply ("task 6: b is on its way") once its task has ended: what
+   * happened instead (it used to stay, after the task failed). */
+  showOutcome() {
+    const reply = document.getElementById('fleet-reply');
+    const t = this.tasks.find((task) => String(task.id) === reply.dataset.task);
+    if (!t || !['succeeded', 'failed', 'cancelled'].includes(t.state)) return;
+    reply.dataset.state = t.state;
+    reply.textContent = `task ${t.id} ${STATE_WORDS[t.state]}${t.message && t.message !== t.state ? `: ${t.message}` : ''}`;
   }
 }

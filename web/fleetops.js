@@ -81,7 +81,7 @@ export class FleetOps {
     this.robots = robots;
     this.tab.hidden = robots.length === 0;
     const names = robots.map((r) => r.name);
-    this.form.setRobots(names);
+    this.form.setRobots(robots);
     this.board.setRobots(names);
     if (first) this.readPolicy();
     this.showRobots();
@@ -90,6 +90,7 @@ export class FleetOps {
   onTasks(tasks) {
     this.tasks = tasks;
     this.board.setTasks(tasks);
+    this.form.setTasks(tasks);
     this.showRobots();
     const newest = Math.max(0, ...tasks.map((t) => t.id));
     if (newest > this.lastTask && this.lastTask) this.schedules.refresh(); // a slot may have fired
@@ -131,7 +132,7 @@ export class FleetOps {
         r.task ? el('span', { class: 'task' }, ` · task #${r.task}`) : null, this.serviceButton(r.name, serving)),
       el('div', { class: 'battery' }, el('span', { class: `bar${low ? ' low' : ''}` }, fill),
         el('span', { class: 'percent' }, ` ${Math.round(r.battery)} %`), words ? el('span', { class: 'charge' }, ` · ${words}`) : null),
-      r.message && r.state !== 'idle' ? el('div', { class: 'message' }, r.message) : null);
+      r.message && !['idle', 'waiting'].includes(r.state) ? el('div', { class: 'message' }, r.message) : null);
   }
 
   async setInService(robot, serving, button) {

@@ -3,7 +3,7 @@
 // its history (/fleet/history), and the schedules (/fleet/schedule_list, _add, _remove).
 import { log } from './log.js';
 import { SERVICES } from './names.js';
-import { KIND_WORDS, STATE_WORDS, caller, robotWords, targetWords } from './fleetwords.js';
+import { BEST_ROBOT, KIND_WORDS, STATE_WORDS, caller, robotWords, targetWords } from './fleetwords.js';
 import { el, plural, quatOfYaw } from './util.js';
 
 const OPEN = ['running', 'paused', 'queued'];
@@ -29,7 +29,10 @@ export function showReply(box, { ok, message, robot = '', id = 0 }) {
   box.replaceChildren(el('div', { class: 'headline' }, ok ? head : `Refused: ${head}`));
   if (!bids) return;
   const winner = robot || (head.match(/queued for (\S+)/) || [])[1] || 'this robot';
-  box.append(el('div', { class: 'why' }, `Why ${winner}: each robot's estimated finish time`),
+  const why = /\(asked for\)/.test(head) || (robot && bids.split('; ').length === 1)
+    ? `Why ${winner}: asked for by name; its estimated finish time`
+    : `Why ${winner}: each robot's estimated finish time, and the robots skipped`;
+  box.append(el('div', { class: 'why' }, why),
     el('ul', { class: 'bids' }, ...bids.split('; ').map((b) => el('li', {}, b))));
 }
 
@@ -43,7 +46,8 @@ export class TaskForm {
     this.kind = el('select', { id: 'fleetops-kind', onchange: () => this.showKind() },
       option('goto', 'go to a POI or a point'), option('sequence', 'a sequence of POIs'), option('patrol', 'patrol a route'));
     this.poi = el('select', { id: 'fleetops-poi', onchange: () => this.showKind() });
-    this.pose = ['x', 'y', 'yaw'].map((k) => input({ id: `fleetops-${k}`, type: 'number', step: k === 'yaw' ? '15' : '0.1', value: '0', 'aria-label': k === 'yaw' ? 'heading (°)' : `${k} (m)` }));
+    this.pose = ['x', 'y', 'yaw'].map((k) => input({ id: `fleetops-${k}`, type: 'number', step: k === 'yaw' ? '15' : '0.1', value: '0', 'aria-label': k === 'yaw' ? 'heading (°)' : `${k} (m)`,
+      oninput: () => { this.placed = true; } }));
     this.poseRow = el('div', { class: 'fleetops-pose' }, 'x ', this.pose[0], ' y ', this.pose[1], ' heading ', this.pose[2], ' °');
     this.stops = el('ol', { class: 'fleetops-stops', id: 'fleetops-stops' });
     this.laps = input({ id: 'fleetops-laps', type: 'number', min: '1', max: '100', value: '1' });
@@ -51,7 +55,8 @@ export class TaskForm {
     this.route = el('div', { class: 'fleetops-route' }, this.stops,
       el('button', { type: 'button', class: 'small', id: 'fleetops-add-stop', onclick: () => this.addStop() }, 'Add stop'), this.lapsRow);
     this.priority = input({ id: 'fleetops-priority', type: 'number', min: '-100', max: '100', value: '0' });
-    this.robot = el('select', { id: 'fleetops-robot' }, option('', 'the best (by cost)'));
+    this.robot = el('select', { id: 'fleetops-robot' }, option('', BEST_ROBOT));
+    this.placed = false; // the operator typed a point: it is theirs, not the default's
     this.when = input({ id: 'fleetops-when', placeholder: 'every 2 h, or daily 09:00', maxlength: '40' });
     this.reply = el('div', { class: 'fleetops-reply', id: 'fleetops-reply', role: 'status' });
     this.panel = el('section', { class: 'panel', id: 'fleetops-new' }, el('h2', {}, 'New task'),
@@ -74,8 +79,15 @@ export class TaskForm {
     this.showKind();
   }
 
-  setRobots(names) {
-    refill(this.robot, [['', 'the best (by cost)'], ...names.map((n) => [n, n])]);
+  /** The robots (/fleet/robots): the choice of one, and the point's default where the first
+   * one stands (a free spot of the map: (0, 0) is inside the office's outer wall). */
+  setRobots(robots) {
+    refill(this.robot, [['', BEST_ROBOT], ...robots.map((r) => [r.name, r.name])]);
+    const here = robots.find((r) => r.state !== 'offline');
+    if (this.placed || !here) return;
+    const p = here.pose.position;
+    this.pose[0].value = p.x.toFixed(1);
+    this.pose[1].value = p.y.toFixed(1);
   }
 
   addStop() {
@@ -113,7 +125,7 @@ export class TaskForm {
 
   /** The reply box while a request is on its way (the last reply is not taken for this one's). */
   asking() {
-    for (const key of ['accepted', 'robot', 'id']) delete this.reply.dataset[key];
+    for (const key of ['accepted', 'robot', 'id', 'ended', 'schedule']) delete this.reply.dataset[key];
     this.reply.replaceChildren(el('div', { class: 'headline' }, 'asking the fleet…'));
   }
 
@@ -126,11 +138,24 @@ export class TaskForm {
     return reply;
   }
 
+  /** The tasks changed: a dispatch's reply ("task 6: b is on its way") is replaced once its
+   * task has failed or was cancelled, by what happened (it used to stay). */
+  setTasks(tasks) {
+    const shown = this.reply.dataset.id;
+    const t = shown && this.reply.dataset.accepted === 'true' && !this.reply.dataset.schedule
+      ? tasks.find((task) => String(task.id) === shown) : null;
+    if (!t || !['failed', 'cancelled'].includes(t.state) || this.reply.dataset.ended === t.state) return;
+    this.reply.dataset.ended = t.state;
+    const why = t.message && t.message !== t.state ? `: ${t.message}` : '';
+    this.reply.querySelector('.headline').textContent = `task ${t.id} ${STATE_WORDS[t.state]}${why}`;
+  }
+
   async schedule() {
     this.asking();
     const { reply, error } = await this.schedules.add({ when: this.when.value, ...this.request() });
     if (error) return this.refused(`the server did not answer: ${error}`);
     showReply(this.reply, { ok: reply.success, message: reply.message, id: reply.id });
+    this.reply.dataset.schedule = 'true'; // its id is a schedule's, not a task's
     log(reply.success ? 'info' : 'error', `schedule: ${reply.message}`);
     return reply;
   }
@@ -286,7 +311,7 @@ export class Schedules {
     const target = (s.pois || []).length && kind !== 'goto' ? s.pois.join(' → ') : s.poi || 'a point on the map';
     return el('li', { dataset: { schedule: String(s.id), missed: String(/missed/.test(s.message)) } },
       el('div', { class: 'head' }, el('span', { class: 'id' }, `#${s.id}`), ' ', el('span', { class: 'when' }, s.when), ' · ',
-        `${KIND_WORDS[kind] || kind} ${target} · ${s.robot || 'the best robot'}`,
+        `${KIND_WORDS[kind] || kind} ${target} · ${s.robot || BEST_ROBOT}`,
         el('button', { type: 'button', class: 'small danger', dataset: { action: 'remove' }, onclick: (e) => this.remove(s.id, e.target) }, 'Remove')),
       el('div', { class: 'times' }, `next ${this.clock.format(s.next)} · last ${this.clock.format(s.last)}`),
       s.message ? el('div', { class: 'message' }, s.message) : null);

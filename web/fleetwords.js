@@ -39,6 +39,10 @@ export class SiteClock {
   }
 }
 
+/** One name for the dispatcher's choice, on the Operate and the Fleet tab alike: the robot
+ * whose bid finishes first (its path, its work before, its charge counted). */
+export const BEST_ROBOT = 'the best robot (by cost)';
+
 export const KIND_WORDS = { goto: 'Go to', sequence: 'Sequence', patrol: 'Patrol', charge: 'Charge' };
 export const STATE_WORDS = { queued: 'waiting', running: 'running', paused: 'paused', succeeded: 'done', failed: 'failed', cancelled: 'cancelled' };
 
@@ -60,7 +64,7 @@ export function targetWords(t) {
 /** Who runs it: the robot running it (or that last ran it), the one asked for, or any. */
 export function robotWords(t) {
   if (t.assigned) return t.assigned;
-  return t.robot ? `${t.robot} (asked for)` : 'the best robot';
+  return t.robot ? `${t.robot} (asked for)` : BEST_ROBOT;
 }
 
 /** Call service `name` (of `serviceType`) with `request`: resolves { reply } or { error } (the

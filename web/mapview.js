@@ -6,6 +6,7 @@
 //   canvas = (stage.x + x * scale, stage.y - y * scale)
 // and the canvas is devicePixelRatio times the CSS size, for crisp lines on HiDPI screens.
 /* global createjs, ROS2D */
+import { placeLabels } from './labels.js';
 import { TOPICS } from './names.js';
 
 const MIN_SCALE = 2; // canvas px per metre
@@ -99,9 +100,19 @@ export class MapView extends EventTarget {
     }
     if (!this.needsRender) return;
     this.needsRender = false;
+    this.placeLabels();
     const ctx = this.canvas.getContext('2d');
     ctx.imageSmoothingEnabled = false; // map cells stay sharp squares when zoomed in
     this.stage.update();
+  }
+
+  /** The names on the map kept apart (labels.js); their boxes, in client px, for the tests. */
+  placeLabels() {
+    const r = this.canvas.getBoundingClientRect();
+    const kx = r.width / this.canvas.width;
+    const ky = r.height / this.canvas.height;
+    this.labelBoxes = placeLabels(this.overlay, this.dpr).map((b) => ({ name: b.name,
+      left: r.left + b.left * kx, right: r.left + b.right * kx, top: r.top + b.top * ky, bottom: r.top + b.bottom * ky }));
   }
 
   onMap() {
@@ -161,13 +172,14 @@ export class MapView extends EventTarget {
     this.dispatchEvent(new Event('view'));
   }
 
-  /** Show the whole map, centred in the part of the canvas below the toolbar. */
+  /** Show the whole map, centred in the part of the canvas below the toolbar (and above
+   * `bottomInset` CSS px: the replay's timeline). */
   fit() {
     const b = this.mapBounds;
     if (!b || b.w <= 0 || b.h <= 0) return;
     const top = FIT_TOP_INSET * this.dpr;
     const { width } = this.canvas;
-    const height = Math.max(1, this.canvas.height - top);
+    const height = Math.max(1, this.canvas.height - top - (this.bottomInset || 0) * this.dpr);
     const fitting = Math.min(width / b.w, height / b.h) * 0.96;
     const s = Math.min(MAX_SCALE, Math.max(MIN_SCALE, fitting));
     this.stage.scaleX = this.stage.scaleY = s;

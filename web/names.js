@@ -99,6 +99,9 @@ export const ACTIONS = Object.freeze({
   moveBase: '/move_base',
 });
 
+/** An action's result topic (actionlib: ACTION/result), where every goal's end is told. */
+export const resultTopic = (action) => `${action}/result`;
+
 /** The entries of /diagnostics_agg the console looks for by name. */
 export const DIAGNOSTICS = Object.freeze({
   bridgeState: '/Bridge/State', // where the robot's state came from (restored or fresh)

@@ -11,7 +11,7 @@ import { operatorText, publishTracked } from './connection.js';
 import { CurrentRobot } from './currentrobot.js';
 import { ArrowMarker, COLORS } from './overlays.js';
 import { log } from './log.js';
-import { ACTIONS, TOPICS } from './names.js';
+import { ACTIONS, TOPICS, resultTopic } from './names.js';
 import { fromOne } from './patrol.js';
 import { formatPose, quatOfYaw, yawOf } from './util.js';
 
@@ -52,6 +52,22 @@ export class Navigator {
     this.cancelButton = document.getElementById('cancel-goal');
     this.cancelButton.addEventListener('click', () => this.cancel());
     this.robotPose = null;
+    this.replaying = false; // a replay's page: nothing is sent, Cancel stays off
+    this.elsewhereEnded = -Infinity; // when a motion sent elsewhere was last seen to stop
+    // how a goal sent elsewhere ends: its abort and the reason (the recorded one in a replay)
+    robot.subscribe(ros, resultTopic(serverName), 'move_base_msgs/MoveBaseActionResult', {},
+      (result) => this.resultElsewhere(result));
+  }
+
+  /** The page shows a replay: Cancel and the rest that would send stay off. */
+  setReplaying() {
+    this.replaying = true;
+    this.cancelButton.disabled = true;
+  }
+
+  /** Cancel is on while something this page can cancel runs (never in a replay). */
+  allowCancel() {
+    this.cancelButton.disabled = this.replaying || !this.online;
   }
 
   /** The action client and topics of the chosen robot (`robot`, a CurrentRobot). */
@@ -124,7 +140,7 @@ export class Navigator {
     this.target = { x, y, yaw };
     this.marker.setPose(x, y, yaw);
     this.show('pending', `PENDING → ${formatPose(x, y, yaw)}`);
-    this.cancelButton.disabled = false;
+    this.allowCancel();
     goal.on('status', (status) => this.onStatus(goal, status));
     goal.on('feedback', (feedback) => this.onFeedback(goal, feedback));
     goal.send();
@@ -184,7 +200,7 @@ export class Navigator {
     const mine = { label, target, cancel: () => this.cancelTopic.publish(new ROSLIB.Message({})) };
     this.activity = mine;
     this.show('active', `ACTIVE → ${label}`);
-    this.cancelButton.disabled = false;
+    this.allowCancel();
     mine.done = publishTracked(topic, message, (status) => {
       if (this.activity !== mine) return;
       const text = status.msg || '';
@@ -224,7 +240,7 @@ export class Navigator {
         this.endActivity();
         this.goal = null;
         this.activity = { patrol: true, label, target: { x: w.x, y: w.y }, cancel: stop };
-        this.cancelButton.disabled = !this.online;
+        this.allowCancel();
       }
       Object.assign(this.activity, { label, target: { x: w.x, y: w.y } });
       this.marker.hide();
@@ -267,14 +283,35 @@ export class Navigator {
       this.activity = { label: 'a motion sent elsewhere', target: null, elsewhere: true,
         cancel: () => this.cancelTopic.publish(new ROSLIB.Message({})) };
       this.marker.hide();
-      this.cancelButton.disabled = false;
+      this.allowCancel();
       this.show('active', 'ACTIVE → a motion sent elsewhere');
     } else if (this.planLength == null && this.activity && this.activity.elsewhere) {
       this.activity = null;
       this.cancelButton.disabled = true;
+      this.elsewhereEnded = performance.now();
       this.show('idle', 'No goal — the robot stopped');
     }
     this.progress();
+  }
+
+  /**
+   * A /move_base result. One that fails the motion sent elsewhere the panel follows (or
+   * followed until a moment ago, the plan gone first) is shown with its reason: an abort is
+   * news wherever the goal came from. Other ends show as "the robot stopped".
+   */
+  resultElsewhere(result) {
+    const status = result && result.status;
+    if (!status || (this.goal && status.goal_id && this.goal.goalID === status.goal_id.id)) return;
+    const followed = this.activity && this.activity.elsewhere;
+    const stopped = !this.activity && this.statusBox.dataset.status === 'idle' &&
+      performance.now() - this.elsewhereEnded < STALE_PLAN_MS * 2;
+    if ((!followed && !stopped) || (status.status !== 4 && status.status !== 5)) return;
+    this.activity = null;
+    this.cancelButton.disabled = true;
+    this.elsewhereEnded = -Infinity;
+    const reason = status.text || 'no reason given';
+    this.show('aborted', `No goal — the robot stopped: a motion sent elsewhere failed — ${reason}`);
+    log('error', `a motion sent elsewhere failed: ${reason}`);
   }
 
   /** The robot moved: the distance left to what it is doing. */

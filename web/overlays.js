@@ -1,6 +1,7 @@
 // Overlay layers drawn over the map, in metres (ROS y flipped, as ros2d draws). Sizes given in
 // CSS pixels stay the same on screen at any zoom: each layer is redrawn when the scale changes.
 /* global createjs */
+import { avoid, label as named } from './labels.js';
 import { ROBOT_RADIUS, SAFETY_MARGIN } from './placement.js';
 import { degrees, yawOf } from './util.js';
 
@@ -191,15 +192,39 @@ class PoseMarker extends Layer {
   }
 }
 
-/** The robot: its footprint (at least 9 px) and an arrow for its heading. */
+/** The robot: its footprint (at least 9 px) and an arrow for its heading; on a fleet server
+ * the chosen robot's ring and name (setLabel), drawn here once, where the robot is now. */
 export class RobotMarker extends PoseMarker {
   constructor(view, radius = 0.2) {
     super(view);
     this.radius = radius;
+    this.label = null;
+    avoid(this.shape, 9);
+  }
+
+  /** Name the robot beside it (`text` in `color`), or no name (null). */
+  setLabel(text, color) {
+    if (this.label && this.label.text === text && this.label.color === color) return;
+    if (this.label) this.node.removeChild(this.label);
+    this.label = text ? named(new createjs.Text(text, 'bold 12px sans-serif', color), text) : null;
+    if (this.label) this.node.addChild(this.label);
+    this.view.requestRender();
+  }
+
+  setPose(x, y, yaw) {
+    super.setPose(x, y, yaw);
+    this.node.rotation = 0; // the name stays upright: only the body turns
+    this.shape.rotation = -degrees(yaw);
   }
 
   draw(g, u) {
     const r = Math.max(this.radius / u, 9);
+    this.shape.avoidRadius = r;
+    if (this.label) {
+      this.label.x = r + 4;
+      this.label.y = this.label.baseY = -r - 10;
+      g.setStrokeStyle(3).beginStroke('#ffeb3b').drawCircle(0, 0, r + 4).endStroke();
+    }
     g.setStrokeStyle(2).beginStroke(COLORS.robotEdge).beginFill(COLORS.robot).drawCircle(0, 0, r);
     g.endStroke().endFill();
     g.beginFill('#ffffff').moveTo(r * 0.75, 0).lineTo(-r * 0.35, r * 0.45).lineTo(-r * 0.1, 0)
@@ -258,12 +283,26 @@ export class PoiLayer extends Layer {
       label.x = 15;
       label.y = -15;
       const tag = new createjs.Shape();
-      tag.graphics.beginFill('rgba(33, 26, 10, 0.85)')
-        .drawRoundRect(label.x - 5, label.y - 9, label.getMeasuredWidth() + 10, 18, 4);
-      marker.addChild(shape, tag, label);
+      const width = label.getMeasuredWidth() + 10;
+      tag.graphics.beginFill('rgba(33, 26, 10, 0.85)').drawRoundRect(label.x - 5, label.y - 9, width, 18, 4);
+      const tagged = new createjs.Container(); // the name and its tag move together (labels.js)
+      tagged.addChild(tag, label);
+      tagged.setBounds(label.x - 5, label.y - 9, width, 18);
+      marker.addChild(shape, named(tagged, poi.name));
       this.node.addChild(marker);
     }
   }
+}
+
+export const SONAR_NEAR = 0.5; // m: a sonar echo nearer than this is shown as triggered
+
+/** Whether a sensor reading (basic_sensors_values' `value`) of a sensor of `type` (0 bumper,
+ * 1 cliff, 2 sonar) is triggered. A Slamware analog sonar always reports `is_in_impact`
+ * (slamware_ros_sdk's rule): its range against SONAR_NEAR says it instead. */
+export function sensorTriggered(type, value) {
+  if (!value) return false;
+  if (type === 2) return Number.isFinite(value.value) && value.value > 0 && value.value < SONAR_NEAR;
+  return Boolean(value.is_in_impact);
 }
 
 /** Distance from (x, y) to the segment a–b. */
@@ -533,7 +572,8 @@ export class GraphLayer extends Layer {
 
 /**
  * Bumpers, cliff sensors and sonars (basic_sensors_info + basic_sensors_values), drawn where
- * they sit on the robot: green when quiet, red when triggered; sonars as a cone to their range.
+ * they sit on the robot: green when quiet, red when triggered; sonars as a cone to their range
+ * (red when nearer than SONAR_NEAR).
  */
 export class SensorLayer extends Layer {
   constructor(view) {
@@ -570,7 +610,7 @@ export class SensorLayer extends Layer {
     const sin = Math.sin(yaw);
     for (const [id, s] of this.info) {
       const v = this.values.get(id);
-      const hit = Boolean(v && v.value && v.value.is_in_impact);
+      const hit = sensorTriggered(s.sensor_type.type, v && v.value);
       const p = s.install_pose.position;
       const a = yaw + yawOf(s.install_pose.orientation);
       const x = rx + p.x * cos - p.y * sin;

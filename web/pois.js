@@ -56,16 +56,17 @@ export class Pois {
   async addAt(x, y, yaw) {
     const n = this.pois.length + 1;
     const problem = this.warning(x, y);
-    const answer = await poiForm({ title: 'Add point of interest', name: `poi ${n}`,
+    // the dialog stays open until the map manager answers: a refusal is shown in it, with
+    // the name as typed, to change the name or cancel
+    await poiForm({ title: 'Add point of interest', name: `poi ${n}`,
       where: `at ${formatPose(x, y, yaw)}`, warning: problem && `⚠ ${problem}: the map manager will refuse it.`,
-      validate: (name) => this.taken(name) });
-    if (!answer) return;
-    this.request(this.addTopic, {
-      type: POI_DEFAULT,
-      name: answer.name,
-      remarks: answer.remarks,
-      pose: { position: { x, y, z: 0 }, orientation: quatOfYaw(yaw) },
-    }, `POI “${answer.name}” added at ${formatPose(x, y, yaw)}`);
+      validate: (name) => this.taken(name),
+      submit: (answer) => this.request(this.addTopic, {
+        type: POI_DEFAULT,
+        name: answer.name,
+        remarks: answer.remarks,
+        pose: { position: { x, y, z: 0 }, orientation: quatOfYaw(yaw) },
+      }, `POI “${answer.name}” added at ${formatPose(x, y, yaw)}`) });
   }
 
   async rename(poi) {
@@ -84,13 +85,17 @@ export class Pois {
   }
 
   /** Publish a POI request; its line in Messages comes with the map manager's answer (one
-   * line, the operator's words, only once it is done). */
+   * line, the operator's words, only once it is done). Resolves '' once done, or the refusal. */
   request(topic, message, doneText) {
-    const done = publishTracked(topic, new ROSLIB.Message(message), (status) => {
-      if (status.level === 'error') log('error', operatorText(status.msg || 'refused'));
-      else if (status.level === 'info') log('info', doneText);
-      else return;
-      done();
+    return new Promise((resolve) => {
+      const done = publishTracked(topic, new ROSLIB.Message(message), (status) => {
+        const refused = status.level === 'error' ? operatorText(status.msg || 'refused') : '';
+        if (refused) log('error', refused);
+        else if (status.level === 'info') log('info', doneText);
+        else return;
+        done();
+        resolve(refused);
+      });
     });
   }
 

@@ -7,12 +7,23 @@
 // black box saved on demand (/record/snapshot), and a replay in two clicks: Replay starts
 // `hitrobot-server replay` on a port of its own (/record/replay), Open replay opens it.
 // ReplayTimeline (over the map): shown when the server replays a file (`hitrobot-server
-// replay`): play/pause, a seek bar, position/duration and the speed, from /replay/state.
+// replay`): play/pause, a seek bar, position/duration and the speed, from /replay/state; a
+// black-box file's incident shown and marked on it (replayincident.js). A replay's server has
+// none of the live server's record services: in a replay they are not called, and their
+// absence is no error.
 /* global ROSLIB */
+import { quietWhen } from './connection.js';
 import { log } from './log.js';
 import { SERVICES, TOPICS } from './names.js';
 import { withToken } from './signin.js';
+import { CAUSES, ReplayIncident, replayLink } from './replayincident.js';
 import { el, plural } from './util.js';
+
+/** Whether this page is a replay's: set by the first /replay/state. */
+export const replay = { on: false };
+/** A service the replaying server has not (the black box's): no news in a replay. */
+const missingInReplay = (text) => replay.on && /does not exist/.test(String(text));
+quietWhen(missingInReplay);
 
 const SPEEDS = [0.25, 0.5, 1, 2, 4, 8];
 
@@ -35,7 +46,7 @@ function caller(ros, name, serviceType) {
       if (reply.success === false) log('error', `${name}: ${reply.message}`);
       resolve(reply);
     }, (error) => {
-      log('error', `${name} failed: ${error}`);
+      if (!missingInReplay(error)) log('error', `${name} failed: ${error}`);
       resolve(null);
     });
   });
@@ -95,17 +106,8 @@ export class Recordings {
   }
 }
 
-const CAUSES = {
-  link_lost: 'Robot link lost',
-  goal_aborted: 'Goal aborted',
-  localization_lost: 'Localization lost',
-  emergency_stop: 'Emergency stop',
-  shutdown: 'Server stopped',
-  snapshot: 'Saved by hand',
-};
-
 function clock(seconds) {
-  return new Date(seconds * 1000).toLocaleString([], { dateStyle: 'short', timeStyle: 'medium' });
+  return new Date(seconds * 1000).toLocaleString([], { dateStyle: 'short', timeStyle: 'medium', hour12: false });
 }
 
 class Incidents {
@@ -124,6 +126,8 @@ class Incidents {
   }
 
   show(m) {
+    // a replay's incidents are the recorded server's: the timeline shows the file's own
+    if (replay.on) return;
     const first = this.section.hidden;
     this.section.hidden = false; // the server keeps a black box
     if (!first && m.cause && m.cause !== 'snapshot') { // the first is latched: told before
@@ -154,11 +158,11 @@ class Incidents {
       el('span', { class: 'cause' }, CAUSES[cause] || cause), ' ',
       el('small', { class: 'when' }, clock(Number(reply.times[i]))), ' ', button,
       el('div', { class: 'detail', title: name }, reply.details[i]));
-    button.addEventListener('click', () => this.onReplay(name, button));
+    button.addEventListener('click', () => this.onReplay(name, button, reply.times[i], reply.details[i]));
     return li;
   }
 
-  async onReplay(name, button) {
+  async onReplay(name, button, time, detail) {
     button.disabled = true;
     button.textContent = 'Starting…';
     const reply = await this.replay({ name });
@@ -168,13 +172,21 @@ class Incidents {
       return;
     }
     log('info', reply.message);
-    const href = `http://${window.location.hostname}:${reply.port}/`;
+    const href = replayLink(reply.port, Number(time), detail); // the replay shows its incident
     button.replaceWith(el('a', { class: 'open-replay', href, target: '_blank', rel: 'noopener', title: `The replay of ${name}` }, 'Open replay ↗'));
   }
 }
 
+/** Whether the replay went from `a` to `b` other than by playing for `elapsed` seconds. */
+function jumped(a, elapsed, b) {
+  const expected = a.paused ? a.position : a.position + elapsed * a.speed;
+  return b.position < a.position - 0.05 || b.position > expected + 1;
+}
+
 export class ReplayTimeline {
-  constructor({ ros, parent }) {
+  /** `view`: the map view, fitted above the bar while it is shown. */
+  constructor({ ros, parent, view }) {
+    this.view = view;
     this.pause = caller(ros, SERVICES.replayPause, 'std_srvs/Trigger');
     this.resume = caller(ros, SERVICES.replayResume, 'std_srvs/Trigger');
     this.seek = caller(ros, SERVICES.replaySeek, 'hitrobot_msgs/ReplaySeek');
@@ -193,16 +205,24 @@ export class ReplayTimeline {
     this.speed.value = '1';
     this.speed.addEventListener('change', () => this.setSpeed({ speed: Number(this.speed.value) }));
     this.file = el('span', { class: 'file' });
+    const track = el('span', { class: 'track' }, this.slider);
+    this.incident = new ReplayIncident({ track, seek: (position) => this.seek({ position }) });
     this.bar = el('div', { class: 'replay-bar', id: 'replay-bar', hidden: true, dataset: { paused: 'unknown' } },
-      this.play, this.slider, this.time, this.speed, this.file);
+      el('div', { class: 'controls' }, this.play, track, this.time, this.speed, this.file), this.incident.line);
+    this.pane = parent;
     parent.append(this.bar);
     new ROSLIB.Topic({ ros, name: TOPICS.replayState, messageType: 'hitrobot_msgs/ReplayState' })
       .subscribe((s) => this.show(s));
   }
 
   show(s) {
+    const now = performance.now();
+    if (this.state && jumped(this.state, (now - this.shownAt) / 1000, s)) {
+      window.dispatchEvent(new Event('replayseek')); // a seek or a loop: the odometer restarts
+    }
     this.state = s;
-    this.bar.hidden = false;
+    this.shownAt = now;
+    replay.on = true;
     // the page is a replay's: app.js's followReplay says so everywhere (no "No robot" beside it)
     document.body.classList.add('replaying');
     window.dispatchEvent(new CustomEvent('replay', { detail: { state: s, summary: this.summary(s) } }));
@@ -216,6 +236,23 @@ export class ReplayTimeline {
     if (!this.dragging) {
       this.slider.value = String(s.position);
       this.showTime(s.position);
+    }
+    this.incident.show(s);
+    this.place();
+  }
+
+  /** The bar sits above the hint, and the map is fitted above both (nothing hidden under it). */
+  place() {
+    const first = this.bar.hidden;
+    this.bar.hidden = false;
+    const height = this.bar.offsetHeight;
+    if (height === this.height) return;
+    this.height = height;
+    this.pane.style.setProperty('--replay-bar', `${height}px`);
+    const hint = document.getElementById('hint');
+    if (this.view) {
+      this.view.bottomInset = height + (hint ? hint.offsetHeight : 0) + 24;
+      if (first || this.view.autoFit) this.view.fit();
     }
   }
 

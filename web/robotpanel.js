@@ -1,7 +1,8 @@
 // The Robot panel's actions and the speed/odometry readout: Relocalize (recover_localization
 // over the whole map), Go home (go_home: to the dock, where it charges), Stop (cancel_action),
-// and from odom the speed and the distance driven since the page opened; all of the robot
-// chosen in the fleet panel on a fleet server (currentrobot.js).
+// and from odom the speed and the distance driven since the page opened (only continuous
+// motion: a set pose, a relocalization or a replay's seek moves the pose, not the robot); all
+// of the robot chosen in the fleet panel on a fleet server (currentrobot.js).
 /* global ROSLIB */
 import { CurrentRobot } from './currentrobot.js';
 import { log } from './log.js';
@@ -34,21 +35,43 @@ export class RobotActions {
     this.last = null;
     this.distance = 0;
     robot.subscribe(ros, TOPICS.odom, 'nav_msgs/Odometry', { throttle_rate: 200, queue_length: 1 },
-      (odom) => this.odometry(odom), () => {
-        this.last = null;
-        this.distance = 0;
-        this.readout.textContent = 'speed –';
-      });
+      (odom) => this.odometry(odom), () => this.restart());
+    // a replay's seek (or loop) is no drive: the odometer counts again from there
+    window.addEventListener('replayseek', () => this.restart());
+  }
+
+  restart() {
+    this.last = null;
+    this.distance = 0;
+    this.readout.textContent = 'speed –';
+    this.readout.dataset.odometer = '0';
   }
 
   odometry(odom) {
     const p = odom.pose.pose.position;
-    if (this.last) this.distance += Math.hypot(p.x - this.last.x, p.y - this.last.y);
-    this.last = { x: p.x, y: p.y };
     const t = odom.twist.twist;
     const speed = Math.hypot(t.linear.x, t.linear.y);
+    const stamp = odom.header && odom.header.stamp;
+    const now = { x: p.x, y: p.y, speed, time: stamp ? stamp.secs + stamp.nsecs / 1e9 : performance.now() / 1000 };
+    if (this.last) this.distance += driven(this.last, now);
+    this.last = now;
     this.readout.textContent = `speed ${speed.toFixed(2)} m/s · turn ${t.angular.z.toFixed(2)} rad/s · ` +
       `odometer ${this.distance.toFixed(1)} m`;
     this.readout.dataset.speed = speed.toFixed(3);
+    this.readout.dataset.odometer = this.distance.toFixed(3);
   }
+}
+
+const SLACK = 1.5; // a step may be this much longer than its speed says (the speed varies)
+const FASTEST = 3; // m/s: faster than any robot here drives (a simulator sped up 4× included)
+const GAP = 2; // s between two readings: longer is a pause or a seek, not a drive
+
+/** The metres driven from reading `a` to `b`: 0 when it is a jump the robot could not have
+ * driven in the time between (a set pose, a relocalization, a replay's seek). */
+export function driven(a, b) {
+  const step = Math.hypot(b.x - a.x, b.y - a.y);
+  const dt = b.time - a.time;
+  if (!(dt > 0) || dt > GAP) return 0;
+  const reach = Math.max(a.speed * SLACK, b.speed * SLACK, FASTEST) * dt + 0.05;
+  return step <= reach ? step : 0;
 }

@@ -16,6 +16,19 @@ function savingPill() {
   return pill;
 }
 
+/**
+ * The server's start-up line as this page says it: what came back at the start, without the
+ * values of then that the page shows live now (the battery, the pose: "battery 78%" beside a
+ * bar at 77 % reads as a contradiction), and in a replay as the recorded server's line.
+ */
+export function startLine(message, restored) {
+  const what = (restored || '').replace(/robot pose \([^)]*\)/, "the robot's pose")
+    .replace(/battery \d+(?:\.\d+)?\s*%/, 'its battery level');
+  let text = what && what !== 'nothing' ? `${message} at the server's start: ${what}` : message;
+  if (document.body.classList.contains('replaying')) text = `recorded: ${text} (the replayed server's start, not this one's)`;
+  return text;
+}
+
 export function showStateOnce(ros) {
   const topic = new ROSLIB.Topic({
     ros, name: TOPICS.diagnostics, messageType: 'diagnostic_msgs/DiagnosticArray',
@@ -29,9 +42,7 @@ export function showStateOnce(ros) {
     const value = (key) => (item.values.find((v) => v.key === key) || {}).value;
     if (!told) {
       told = true;
-      const restored = value('restored');
-      const text = restored && restored !== 'nothing' ? `${item.message}: ${restored}` : item.message;
-      log('info', text);  // the Messages panel; no toast: toasts are for what went wrong
+      log('info', startLine(item.message, value('restored')));  // no toast: nothing went wrong
     }
     const saving = value('saving') || 'yes';
     const now = saving.startsWith('no: ') ? saving.slice(4) : '';

@@ -4,6 +4,7 @@
 // Remove button each, and draws a new one: "Draw a zone", click its corners on the map, name
 // it, Save (/fleet/zone_add). Shown on a fleet server only (one with /fleet/robots).
 /* global ROSLIB, createjs */
+import { label as named } from './labels.js';
 import { SERVICES, TOPICS } from './names.js';
 import { Layer } from './overlays.js';
 
@@ -56,7 +57,7 @@ class ZonesLayer extends Layer {
       label.y = -Math.max(...pts.map((p) => p.y));
       label.scaleX = label.scaleY = u;
       label.textBaseline = 'bottom';
-      this.node.addChild(shape, label);
+      this.node.addChild(shape, named(label, z.name)); // kept off robots and other names
     }
     if (this.draft.length) {
       const shape = new createjs.Shape();

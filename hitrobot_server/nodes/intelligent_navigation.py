@@ -26,7 +26,9 @@ Feedback every 0.1 s: ``current_pose`` (the localized pose) and ``current_state`
 ``{message, result}``: status 4 arrived, 6 failed (the robot's reason), 5 canceled
 (``cancel_action_goal``; the robot stops). ``should_stop: true`` is a stop command: it cancels
 every running goal of this action, stops the robot's current action and succeeds with
-``"stopped"`` (no pose needed). A new goal replaces a running one, which ends ABORTED.
+``"stopped"`` (no pose needed). A new goal replaces a running one, which ends ABORTED. A pose on
+an obstacle of ``/map``, or nearer one than the robot's clearance, ends the goal at once (status
+6, the reason as text, ``ground/placement.py``) and the robot does not move.
 
 ``/set_initialpose`` (``daystar_navigation_msgs/srv/SetInitialPose``): validate first, then
 commit (:func:`~hitrobot_server.robot.relocalization.localize_near`). The robot's latest lidar
@@ -68,6 +70,7 @@ from ..robot.motion import drive
 from ..robot.relocalization import localize_near
 from .base import RobotNode
 from .ground.messages import GoalRejected, goal_pose, map_frames, pose_stamped, rejected
+from .ground.placement import target_problem
 from .ground.requests import NOT_CONNECTED, robot_error
 
 log = logging.getLogger(__name__)
@@ -169,6 +172,8 @@ class IntelligentNavigationNode(RobotNode):
             options, summary = _options(goal)
             if not self.link.connected:
                 raise GoalRejected(NOT_CONNECTED)
+            if problem := target_problem(self.bus, "goal", target.x, target.y):
+                raise GoalRejected(problem)
         except GoalRejected as exc:
             return rejected(str(exc))
         self.running.add(handle)

@@ -8,7 +8,10 @@ server side, with the semantics of ``move_base``'s SimpleActionServer:
 * one goal runs at a time; a new goal preempts the running one (old → PREEMPTED, or RECALLED
   if it had not started yet);
 * an invalid goal (NaN, a frame other than the map) is REJECTED with the reason, and leaves
-  the running goal alone; an all-zero quaternion is accepted as yaw 0;
+  the running goal alone; an all-zero quaternion is accepted as yaw 0; so is a goal on an
+  obstacle of ``/map`` or nearer one than the robot's clearance (``ground/placement.py``:
+  "goal (3.20, 1.10) is on an obstacle", the publisher told that one line), before the robot
+  moves;
 * the goal is the robot's ``move_to`` (precise, with yaw); its action is polled until done:
   success → SUCCEEDED, failure (no path, blocked, ...) → ABORTED with the robot's reason, an
   action cancelled or replaced on the robot by someone else → PREEMPTED with the robot's
@@ -61,6 +64,7 @@ from .ground import messages as m
 from .ground.claims import MotionClaims
 from .ground.messages import map_frames, pose2d_of
 from .ground.pacing import Pace
+from .ground.placement import target_problem
 from .ground.requests import require_robot, robot_error
 
 log = logging.getLogger(__name__)
@@ -239,9 +243,10 @@ class MoveBaseNode(RobotNode):
         if goal.handle is not None:
             goal.handle.feedback(feedback)
 
-    def _finish(self, goal: Goal, status: int, text: str = "") -> None:
+    def _finish(self, goal: Goal, status: int, text: str = "", said: str = "") -> None:
         """Move ``goal`` to a terminal state: status first, then the result (roslibpy's Goal
-        only counts as finished once it has both)."""
+        only counts as finished once it has both). ``said``: what its publisher is told, when
+        the text says it all (a refused place: one message, no goal id)."""
         if goal.done:
             return
         goal.status, goal.text, goal.finished = status, text, time.monotonic()
@@ -252,7 +257,7 @@ class MoveBaseNode(RobotNode):
         self.publish(f"{self.server}/result", {
             "header": self._header("result"), "status": goal.status_msg, "result": {}})
         if goal.message is not None and status in (ABORTED, REJECTED):
-            goal.message.reply.fail(f"goal '{goal.id}' "
+            goal.message.reply.fail(said or f"goal '{goal.id}' "
                                     f"{'aborted' if status == ABORTED else 'rejected'}: {text}")
 
     # ------------------------------------------------------------------ goals
@@ -287,6 +292,9 @@ class MoveBaseNode(RobotNode):
             require_robot(self.link, "")
         except RequestRejected as exc:
             self._finish(goal, REJECTED, str(exc))  # tells the publisher too
+            return goal
+        if problem := target_problem(self.bus, "goal", goal.target.x, goal.target.y):
+            self._finish(goal, REJECTED, problem, said=problem)  # the robot does not move
             return goal
         previous, self.current = self.current, goal
         self._publish_status()

@@ -10,7 +10,9 @@ a ``move_to`` on the robot:
   by :data:`FAST_PLANNING_MARGIN` on every side (``MoveOptions.planning_area``), so a goal
   reachable only by a detour outside it is unreachable.
 
-The map manager's BLOCKED/OBSTACLE masks are already in the robot's planner. When the robot
+The map manager's BLOCKED/OBSTACLE masks are already in the robot's planner. A goal on an
+obstacle of ``/map``, or nearer one than the robot's clearance, is refused before the robot
+moves (``ground/placement.py``), unreachable as any other. When the robot
 cannot get there (no path, stuck, blocked), ``/navigation/target_unreachable`` gets a
 TargetUnreachable with the reason's constant and the requester a status error; arrival is an
 ``info`` status. A newer navigation (or any other motion request) replaces a running one
@@ -31,6 +33,7 @@ from ..robot.motion import follow
 from .base import RobotNode, require_finite
 from .ground import messages as m
 from .ground.claims import MotionClaims
+from .ground.placement import target_problem
 from .ground.pois import find_poi
 from .ground.requests import answer, require_robot
 
@@ -119,6 +122,9 @@ class NavigationNode(RobotNode):
             raise RequestRejected("field 'distance_to_target' must not be negative")
         require_robot(self.link, what)
         target = Point2D(float(position["x"]), float(position["y"]))
+        if problem := target_problem(self.bus, "goal", target.x, target.y):
+            self.publish(UNREACHABLE_TOPIC, {"reason": unreachable_reason(problem)})
+            raise RequestRejected(f"{what}: target unreachable: {problem}")
         yaw = m.yaw_of(q)
         reply = message.reply
 

@@ -16,6 +16,10 @@ and starts over after the last one, until stopped. A waypoint the robot cannot r
 (the patrol stops when none is reachable); anything else that ends the robot's action — another
 command replacing it, ``sit_down``, a cancel — stops the patrol, as does a refused command.
 ``planning/patrol_state`` (latched ``hitrobot_msgs/PatrolState``) reports the route and progress.
+A waypoint on an obstacle of ``/map``, or nearer one than the robot's clearance
+(``ground/placement.py``), is refused when the route is set or a waypoint appended, and a patrol
+whose route has one (a route loaded from a file, a map changed since) is refused at its start,
+before the robot moves.
 
 Frames: a waypoint's ``frame`` is the loaded map's name (``map`` when none is loaded, ``map``
 is always accepted) or ``odom``; map→odom is the identity on this robot, so both mean the same
@@ -48,6 +52,7 @@ from .ground.claims import MotionClaims
 from .ground.loadedmap import ROUTE_FILE, MapDefaults
 from .ground.memory import NodeMemory
 from .ground.namedfiles import FileError, NamedFiles, dump_yaml, list_reply, load_yaml, number
+from .ground.placement import target_problem
 from .ground.requests import robot_error
 from .options import NodeOptions
 
@@ -331,6 +336,14 @@ class PatrolNode(RobotNode):
             "waypoints": [asdict(w) for w in self.route.waypoints],
             "target_index": run.target, "laps": run.laps, "message": run.text})
 
+    def _misplaced(self, waypoints: Sequence[Waypoint], first: int = 0) -> str | None:
+        """Why a waypoint (numbered from ``first``) cannot be sent to: on an obstacle of
+        ``/map`` or nearer one than the robot's clearance (ground/placement.py)."""
+        for i, w in enumerate(waypoints, first):
+            if problem := target_problem(self.bus, f"waypoint {i}", w.x, w.y):
+                return problem
+        return None
+
     def _replace(self, waypoints: list[Waypoint], name: str) -> None:
         self.route.set(waypoints, name)
         self._publish()
@@ -341,6 +354,8 @@ class PatrolNode(RobotNode):
             waypoints = waypoints_of(request["waypoints"], self.map_frames)
         except RouteError as exc:
             return {"success": False, "message": str(exc)}
+        if problem := self._misplaced(waypoints):
+            return {"success": False, "message": problem}
         await self.patrol.halt("stopped: the route was replaced")
         self._replace(waypoints, "")
         await self.route.durable()
@@ -354,6 +369,8 @@ class PatrolNode(RobotNode):
             waypoint = waypoint_of(request["waypoint"], "waypoint", self.map_frames)
         except RouteError as exc:
             return {"success": False, "message": str(exc), "waypoint_index": 0}
+        if problem := self._misplaced([waypoint], len(self.route.waypoints)):
+            return {"success": False, "message": problem, "waypoint_index": 0}
         # a running patrol picks it up on its next leg
         self.route.set([*self.route.waypoints, waypoint], self.route.name)
         self._publish()
@@ -413,6 +430,8 @@ class PatrolNode(RobotNode):
     async def _start(self, request: dict) -> dict:
         if not self.route.waypoints:
             return {"success": False, "message": "No waypoints loaded"}
+        if problem := self._misplaced(self.route.waypoints):
+            return {"success": False, "message": f"patrol refused: {problem}"}
         error = await self.patrol.begin(0)
         if error:
             return {"success": False, "message": error}
@@ -421,6 +440,9 @@ class PatrolNode(RobotNode):
     async def _resume(self, request: dict) -> dict:
         if not self.route.waypoints:
             return {"success": False, "message": "No waypoints loaded", "waypoint_index": 0}
+        if problem := self._misplaced(self.route.waypoints):
+            return {"success": False, "message": f"patrol refused: {problem}",
+                    "waypoint_index": 0}
         try:
             pose = await self.localization.get_pose()
         except BackendError as exc:

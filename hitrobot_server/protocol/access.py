@@ -125,6 +125,7 @@ RULES: tuple[tuple[frozenset[str], str, str], ...] = tuple(
         ("goal", "*", "goals"),
         ("call", "*/_action/send_goal", "goals"),
         ("publish", "*/cmd_vel", "drive"),
+        ("call", "*/drive_lease/take", "drive"),  # the node lets only an admin take over
         ("publish", "*/cmd_string", "shell"),
         ("publish", "*/move_base/cancel", "cancel"),
         ("publish", "*/cancel_action", "cancel"),

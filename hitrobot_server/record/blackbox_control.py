@@ -43,6 +43,8 @@ QUIET = 30.0
 MAX_REASON = 200
 DISK_FILES = 16
 """The black box's files may hold this many times its buffer's bound on disk."""
+QUIET_CAUSES = frozenset({"snapshot", "shutdown"})
+"""Files written on request, not on an incident: logged at INFO."""
 RESERVE = 64 * 1024 * 1024
 """Bytes a black-box file must leave free on its disk."""
 
@@ -145,8 +147,10 @@ class BlackBoxControl:
                 self._publish(incident, "")
                 raise
             self.count += 1
-        log.warning("black box: %s: %d messages written to %s", incident.cause, len(items),
-                    name)
+        # an incident is a warning; a snapshot asked for (or the shutdown file) is news
+        level = logging.INFO if incident.cause in QUIET_CAUSES else logging.WARNING
+        log.log(level, "black box: %s: %d messages written to %s", incident.cause, len(items),
+                name)
         self._publish(incident, name)
         return name
 

@@ -14,10 +14,8 @@ from importlib.util import find_spec
 
 from ..bus.core import Bus
 from ..bus.demand import Passive
-from ..nodes.ground.names import FLEET_ROBOTS, MAP_MANAGER_LOADED_MAP, MAP_TOPIC, VDA5050_LINK
-from ..nodes.map_manager.grids import grid_of_message
-from ..nodes.map_manager.layers import Grid
-from ..nodes.map_manager.placement import placement_problem
+from ..nodes.ground.names import FLEET_ROBOTS, MAP_MANAGER_LOADED_MAP, VDA5050_LINK
+from ..nodes.ground.placement import placement_problem, site_cells
 from ..robot.capabilities import Robot
 from .mqtt import MqttLink, base_topic, tls_context
 from .options import Vda5050Options
@@ -60,7 +58,6 @@ class Vda5050Service:
                           options.vda5050_key_file) if broker.tls else None
         password = options.password()
         self.map_name = ""
-        self._grid: tuple[object, Grid | None] = (None, None)
         self.tasks: dict[str, int] = {}  # robot → its fleet task
         self.links: list[tuple[str, MqttLink]] = []
         self._shown: dict | None = None
@@ -109,18 +106,9 @@ class Vda5050Service:
         return self.map_name or DEFAULT_MAP_ID
 
     def problem(self, x: float, y: float) -> str | None:
-        """Why a robot cannot stand at (x, y) on the composed map (None: it can, or no map)."""
-        topic = self.bus.topic(MAP_TOPIC)
-        last = topic.last if topic is not None else None
-        if last is None:
-            return None
-        if self._grid[0] is not last:
-            try:
-                self._grid = (last, grid_of_message(last.msg))
-            except Exception as exc:  # noqa: BLE001 - a map we cannot read judges nothing
-                log.warning("vda5050: the map cannot be read: %s", exc)
-                self._grid = (last, None)
-        return placement_problem(self._grid[1], x, y)
+        """Why a robot cannot stand at (x, y) on the composed map (None: it can, or no map):
+        the POIs' rule (ground/placement.py), on known floor."""
+        return placement_problem(site_cells(self.bus), x, y)
 
     # ------------------------------------------------------------------ to the bus
     def lines(self) -> list[dict]:

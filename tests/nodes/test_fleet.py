@@ -133,9 +133,9 @@ async def test_bad_dispatches_are_refused(make_server, tmp_path):
         assert not got["accepted"] and "pose.position" in got["message"]
         outside = await dispatch(w, target=pose(-0.4, -0.4))  # beyond the site map's edge
         assert not outside["accepted"] and "off the map" in outside["message"], outside
-        inside = await dispatch(w, target=pose(10.0, 0.1))  # in the outer wall: no path
-        assert not inside["accepted"] and inside["task"] == 0, inside  # refused, with why
-        assert "no robot can take it: a: " in inside["message"] and "b: " in inside["message"]
+        inside = await dispatch(w, target=pose(10.0, 0.1))  # in the outer wall
+        assert not inside["accepted"] and inside["task"] == 0, inside  # refused, with why:
+        assert inside["message"] == "(10, 0.1) is on an obstacle", inside  # the POIs' rule
         assert w.latest("/fleet/tasks")["tasks"][:len(before)] == before
     finally:
         await w.close()

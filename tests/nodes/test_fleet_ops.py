@@ -229,7 +229,7 @@ async def test_the_queue_is_bounded_and_targets_are_checked(make_server, tmp_pat
         for target, needle in ((pose(1e308, Y), "off the map"),
                                (pose(float("inf"), Y), "pose.position"),
                                (pose(200.0, 200.0), "off the map"),
-                               (pose(10.0, 0.1), "no robot can take it: a: ")):
+                               (pose(10.0, 0.1), "(10, 0.1) is on an obstacle")):
             got = await dispatch(w, target=target)
             assert not got["accepted"] and needle in got["message"], (target, got)
         await w.call("/fleet/set_in_service", {"robot": "b", "in_service": False})

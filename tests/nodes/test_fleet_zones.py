@@ -89,6 +89,9 @@ async def test_two_robots_pass_a_mutex_corridor_in_turn(make_server, tmp_path):
         await w.until(lambda: any("waiting for zone corridor_a" in (task(w, t) or {}).get(
             "message", "") for t in (east["task"], west["task"])), 20,
             "one robot waiting for the zone")
+        await w.until(lambda: any(  # issue 46: listed waiting for it, not idle
+            r["state"] == "waiting" and r["message"].startswith("waiting for zone corridor_a")
+            for r in robots(w).values()), 5, "the robot listed waiting for the zone")
         await w.until(lambda: zones(w)["corridor_a"]["waiting"], 5, "the waiter listed")
         listed = zones(w)["corridor_a"]
         assert len(listed["holders"]) == 1 and listed["waiting"] != listed["holders"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+from hitrobot_server.nodes.ground.placement import cells_of, placement_problem
 from hitrobot_server.nodes.navigation import (
     LASER_OBSTACLE,
     STALL_OCCURED,
@@ -183,17 +184,21 @@ DESK = (9.75, 2.2)
 
 
 async def test_a_goal_inside_furniture_is_unreachable_on_every_interface(start_robot):
-    """No interface reports an arrival 1 m off: map_messages gets TargetUnreachable with a
-    reason, the Slamware move_to and /move_base fail with the distance, compute_path_to_pose
-    fails, RETURN_UNREACHABLE_DIRECTLY fails without moving; the robot parks clear of the
-    obstacle and can drive on (it is not wedged)."""
+    """No interface reports an arrival 1 m off, and none drives there first (issue 46): the
+    planner's compute_path_to_pose fails, and every interface that moves the robot refuses the
+    goal at once by the POIs' placement rule, naming the problem: the Slamware move_to,
+    map_messages (TargetUnreachable with a reason) and /move_base (REJECTED, one line to its
+    publisher); the robot has not moved, and it drives on afterwards."""
     server = await start_robot(sim_speed=4.0)
     w = await Watcher.open(server.port)
     await w.client.send({"op": "set_level", "level": "info"})
     await w.subscribe(f"{NS}/odom", "nav_msgs/Odometry")
     await w.subscribe(UNREACHABLE)
     await w.subscribe("/move_base/result")
+    await w.subscribe("/map", "nav_msgs/OccupancyGrid")
     await w.until(lambda: w.latest(f"{NS}/odom"), 10, "odometry")
+    await w.until(lambda: "obstacle" in (placement_problem(
+        cells_of(w.latest("/map")), *DESK, known=False) or ""), 20, "the desk on /map")
     c = await WsClient.open(server.port)
     try:
         await c.send({"op": "send_action_goal", "id": "plan", "action": "/compute_path_to_pose",
@@ -205,6 +210,7 @@ async def test_a_goal_inside_furniture_is_unreachable_on_every_interface(start_r
         assert "inside an obstacle" in res["values"]
 
         start_xy = current(w)[:2]
+        on_desk = f"goal ({DESK[0]:.2f}, {DESK[1]:.2f}) is on an obstacle"
         await w.publish(f"{NS}/move_to", {"location": {"x": DESK[0], "y": DESK[1], "z": 0.0},
                                           "options": {"opt_flags": {"flags": 64},
                                                       "speed_ratio": {"is_valid": False,
@@ -212,30 +218,31 @@ async def test_a_goal_inside_furniture_is_unreachable_on_every_interface(start_r
                                           "yaw": 0.0}, "slamware_ros_sdk/MoveToRequest",
                         op_id="direct")
         status = await w.until(lambda: next((s for s in w.statuses if s.get("id") == "direct"),
-                                            None), 20, "RETURN_UNREACHABLE_DIRECTLY refused")
-        assert status["level"] == "error" and "occupied" in status["msg"], status
-        assert math.dist(current(w)[:2], start_xy) < 0.05
+                                            None), 20, "move_to refused")
+        assert status["level"] == "error" and on_desk in status["msg"], status
 
         await w.publish(f"{NAV}/start", start_msg(*DESK, distance=0.2), START_T, op_id="nav")
-        got = await w.until(lambda: w.latest(UNREACHABLE), 60, "TargetUnreachable")
+        got = await w.until(lambda: w.latest(UNREACHABLE), 20, "TargetUnreachable")
         assert got["reason"] == LASER_OBSTACLE
         status = await w.until(lambda: next((s for s in w.statuses if s.get("id") == "nav"),
                                             None), 10, "the navigation's status")
         assert status["level"] == "error" and "unreachable" in status["msg"], status
-        await w.until(lambda: still(w), 10, "the robot stopped")
-        parked = current(w)
-        assert math.dist(parked[:2], DESK) > 0.5
+        assert on_desk in status["msg"], status
 
         await w.publish("/move_base/goal", {
             "goal_id": {"id": "desk"},
             "goal": {"target_pose": {"header": {"frame_id": "map"}, "pose": pose(*DESK)}}},
-            "move_base_msgs/MoveBaseActionGoal")
+            "move_base_msgs/MoveBaseActionGoal", op_id="mb")
 
         def result():
             return next((m["status"] for _t, m in w.messages.get("/move_base/result", [])
                          if m["status"]["goal_id"]["id"] == "desk"), None)
-        done = await w.until(result, 60, "the move_base result")
-        assert done["status"] == 4 and "inside an obstacle" in done["text"], done  # ABORTED
+        done = await w.until(result, 20, "the move_base result")
+        assert done["status"] == 5 and done["text"] == on_desk, done  # REJECTED
+        said = [s for s in w.statuses if s.get("id") == "mb"]
+        assert [s["msg"] for s in said] == [
+            f"publish to '/move_base/goal': {on_desk}"], said  # one line, no goal id
+        assert math.dist(current(w)[:2], start_xy) < 0.05  # it never left
 
         await w.publish(f"{NAV}/start", start_msg(7.0, 8.0, distance=0.2), START_T,
                         op_id="away")

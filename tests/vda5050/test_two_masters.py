@@ -42,7 +42,8 @@ async def test_a_robot_on_a_vda_order_is_busy_and_gets_no_fleet_task(make_server
             assert shown["state"] == "moving" and broker.url in shown["message"], shown
             await add_poi(w, "west", 4.5, Y)  # nearer a than b
             got = await dispatch(w, "west")
-            assert got["accepted"], got
+            assert got["accepted"] and got["robot"] == "b", got  # a bids not: another's order
+            assert "a: skipped, busy with VDA 5050 order job" in got["message"], got
             while master.last["nodeStates"]:  # a never takes the task while the order runs
                 assert robots(w)["a"]["task"] == 0, robots(w)["a"]
                 await w.next("/fleet/robots", timeout=10)

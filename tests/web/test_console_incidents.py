@@ -6,6 +6,8 @@ replay) open that file's replay in a tab of its own."""
 
 from __future__ import annotations
 
+import re
+
 from ..helpers import WsClient
 from .conftest import ARTIFACTS
 
@@ -29,6 +31,8 @@ async def test_an_incident_is_listed_with_its_cause_and_replays_in_two_clicks(
         row = page.locator(ROW)
         await row.wait_for(timeout=20_000)
         assert await row.locator(".cause").inner_text() == "Emergency stop"
+        when = await row.locator(".when").inner_text()  # 24-hour time, as the rest (issue 46)
+        assert re.search(r"\b\d\d:\d\d:\d\d$", when) and not re.search(r"AM|PM", when), when
         assert "emergency stop" in (await row.locator(".detail").inner_text()).lower()
         name = await row.get_attribute("data-name")
         assert name.startswith("blackbox-") and name.endswith("-emergency_stop.mcap")

@@ -218,3 +218,34 @@ async def test_dispatch_to_a_chosen_robot_and_out_of_service(fleet_console: Cons
     }""")
     assert service == "out" and "b — out of service" in text, (service, text)
     assert c.errors == []
+
+
+async def test_a_dispatch_reply_is_replaced_when_its_task_fails(fleet_console: Console):
+    """Issue 46, friction 7: "task N: a is on its way" used to stay after task N failed; the
+    Operate tab's reply says what happened instead."""
+    c = fleet_console
+    page = c.page
+    w = await Watcher.open(c.server.port)
+    try:
+        await add_poi(w, "west", 9.0, Y)
+        await page.select_option("#fleet-send", "a")
+        await page.locator("[data-dispatch=west]").click()
+        await page.wait_for_function(
+            "() => document.querySelector('#fleet-reply').dataset.robot === 'a'", timeout=15_000)
+        task = await page.get_attribute("#fleet-reply", "data-task")
+        assert (await page.text_content("#fleet-reply")).startswith(
+            f"task {task}: a is on its way")
+        await page.locator("#fleet-tasks li[data-state=running]").wait_for(timeout=10_000)
+        await w.subscribe("/fleet/robots")
+        await w.until(lambda: any(r["name"] == "a" and r["state"] == "moving" for r in (
+            w.latest("/fleet/robots") or {"robots": []})["robots"]), 10, "a moving")
+        assert (await w.call("/a/sit_down"))["values"]["success"]
+        await page.locator(f"#fleet-tasks li[data-task='{task}'][data-state=failed]").wait_for(
+            timeout=15_000)
+        reply = page.locator("#fleet-reply[data-state=failed]")
+        await reply.wait_for(timeout=5_000)
+        text = await reply.text_content()
+        assert text.startswith(f"task {task} failed: a failed") and "on its way" not in text, text
+    finally:
+        await w.close()
+    assert c.errors == []

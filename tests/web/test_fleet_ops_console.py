@@ -163,7 +163,8 @@ async def test_service_schedules_refusals_and_charging(ops: Console):
     await page.click("#fleetops-dispatch")  # the best robot: a is out, so b
     assert await replied(page) == ("true", "b"), await page.inner_text("#fleetops-reply")
     bids = await page.locator("#fleetops-reply .bids li").all_inner_texts()
-    assert [b.split(" ")[0] for b in bids] == ["b"], bids
+    assert [b.split(" ")[0] for b in bids] == ["b", "a:"], bids  # a skipped, and why:
+    assert bids[1] == "a: skipped, out of service", bids
     await a.locator("[data-action=service]").click()
     await page.locator("#fleetops-robots li[data-robot=a][data-service=in]").wait_for()
 
@@ -204,4 +205,74 @@ async def test_service_schedules_refusals_and_charging(ops: Console):
     assert "its dock" in await charge.inner_text()
     await plain_words(page)
     await ops.snapshot("console-fleet-ops")
+    assert ops.errors == []
+
+
+async def test_the_fleets_words(ops: Console):
+    """Issue 46, friction 7, as the operator reads it: the form's point starts where a robot
+    stands (not (0, 0), inside the outer wall), "the best robot" is one phrase on both tabs, a
+    robot's row says what it does in words, the bids name the robot skipped and why, a pause
+    says what happened, a robot waiting for a zone says so, and the reply "task N: a is on its
+    way" is replaced once task N failed."""
+    page = ops.page
+    await idle(page, "a")
+    await page.select_option("#fleetops-poi", "")
+    assert (await page.input_value("#fleetops-x"), await page.input_value("#fleetops-y")) == (
+        "4.0", "8.0")  # where a stands
+    best = await page.text_content("#fleetops-robot option[value='']")
+    assert best == await page.text_content("#fleet-send option[value='']") == \
+        "the best robot (by cost)"
+
+    b = page.locator("#fleetops-robots li[data-robot=b]")
+    await b.locator("[data-action=service]").click()
+    await page.locator("#fleetops-robots li[data-robot=b][data-service=out]").wait_for()
+    await page.fill("#fleetops-x", "9.0")
+    await page.click("#fleetops-dispatch")
+    assert await replied(page) == ("true", "a"), await page.inner_text("#fleetops-reply")
+    bids = await page.locator("#fleetops-reply .bids li").all_inner_texts()
+    assert bids[1:] == ["b: skipped, out of service"], bids
+    task = await page.get_attribute("#fleetops-reply", "data-id")
+    moving = page.locator("#fleetops-robots li[data-robot=a][data-state=moving]")
+    await moving.wait_for(timeout=10_000)
+    assert "go to" in await moving.inner_text() and "Action" not in await moving.inner_text()
+
+    row = page.locator(f"#fleetops-tasks li[data-task='{task}']")
+    await row.locator("[data-action=pause]").click()
+    await wait_state(page, "fleetops-tasks", task, "paused")
+    text = await row.inner_text()
+    assert "paused on its way: a stopped" in text and "(running)" not in text, text
+    await row.locator("[data-action=cancel]").click()
+    await wait_state(page, "fleetops-tasks", task, "cancelled")
+    headline = await page.inner_text("#fleetops-reply .headline")
+    assert headline == f"task {task} cancelled", headline
+
+    await page.select_option("#fleetops-robot", "a")
+    await page.fill("#fleetops-x", "10.5")
+    await page.click("#fleetops-dispatch")
+    assert (await replied(page))[0] == "true", await page.inner_text("#fleetops-reply")
+    failing = await page.get_attribute("#fleetops-reply", "data-id")
+    said = await page.inner_text("#fleetops-reply .headline")  # on its way, or queued for a
+    assert said.startswith(f"task {failing}: ") and " a " in f"{said} ", said
+    await wait_state(page, "fleetops-tasks", failing, "running")
+    await moving.wait_for(timeout=10_000)
+    w = await Watcher.open(ops.server.port)
+    try:
+        assert (await w.call("/a/sit_down"))["values"]["success"]
+    finally:
+        await w.close()
+    await wait_state(page, "fleetops-tasks", failing, "failed")
+    await page.wait_for_function(
+        "(id) => document.querySelector('#fleetops-reply .headline').textContent"
+        ".startsWith(`task ${id} failed: a failed`)", arg=failing, timeout=5_000)
+
+    # a robot stopped before a mutex zone: listed as waiting for it (the renderer fed the live
+    # list with the state the fleet gives such a robot)
+    shown = await page.evaluate("""() => {
+        const ops = window.hitrobot.fleetops;
+        ops.onRobots(ops.robots.map((r) => (r.name === 'a' ? { ...r, state: 'waiting',
+            message: 'waiting for zone lobby (held by b)' } : r)));
+        return document.querySelector('#fleetops-robots li[data-robot=a]').innerText;
+    }""")
+    assert "waiting for zone lobby (held by b)" in shown and "idle" not in shown, shown
+    await plain_words(page)
     assert ops.errors == []

@@ -34,8 +34,8 @@ import re
 
 import numpy as np
 
+from hitrobot_server.nodes.ground.placement import placement_problem
 from hitrobot_server.nodes.map_manager.layers import Grid
-from hitrobot_server.nodes.map_manager.placement import placement_problem
 
 from .conftest import Console, add_poi, grid_map
 
@@ -96,6 +96,12 @@ async def test_a_poi_beside_an_obstacle_is_warned_while_placing_and_refused(cons
     assert (await refused.locator(".text").text_content()).startswith("POI: ")  # not "add_poi:"
     assert "beside the desk" not in names(watcher)
     assert await page.locator('#poi-list li[data-name="beside the desk"]').count() == 0
+    # the dialog stays open with the refusal and the name as typed (issue 46, friction 8)
+    assert await dialog.is_visible()
+    assert await name.input_value() == "beside the desk"
+    assert "nearer than the robot's clearance" in await dialog.locator("#poi-error").text_content()
+    await dialog.get_by_role("button", name="Cancel").click()
+    await dialog.wait_for(state="hidden")
 
     await page.click("[data-tool=poi]")
     spot = await console.to_client(*CLEAR)

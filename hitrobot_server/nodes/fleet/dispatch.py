@@ -1,7 +1,8 @@
 """Dispatch by cost: every capable robot bids its estimated finish time for the task (see
 :mod:`.policy`); the reply says who won and why. A named robot is sent as asked. A target is
-checked before it is accepted: finite, on the map and reachable (each bidder plans it; a target
-no robot can reach is refused with the planners' reasons). The charging policy lives here too:
+checked before it is accepted: finite, where a robot can stand on the map (the POIs' placement
+rule) and reachable (each bidder plans it; a target no robot can reach is refused with the
+planners' reasons). The charging policy lives here too:
 a free robot below ``charge_below`` gets a ``charge`` task to its dock; robots sharing a dock
 take turns."""
 
@@ -9,7 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 from ...bus.core import Bus
 from ...bus.services import service_caller
@@ -19,7 +20,7 @@ from .board import MAX_OPEN, Board
 from .member import ERROR, OFFLINE
 from .policy import Bid, Bidder, ChargePolicy, metres, winner
 from .policy import bids as offers_for
-from .requests import check_on_map, read_stops
+from .requests import check_placed, read_stops
 from .roster import Roster
 from .runner import TaskRunner
 from .tasks import CHARGE, QUEUED, RUNNING, Refused, Stop, Task
@@ -32,6 +33,26 @@ CHARGE_PRIORITY = 1000
 MAX_PER_CLIENT = 50
 """Open tasks one bridge client may have asked for (the board bounds them in all and per
 robot)."""
+
+
+def bidding(robots: Iterable[dict], exclude: Sequence[str] = (),
+            held: Mapping[str, str] | None = None) -> tuple[list[dict], list[str]]:
+    """The robots that bid for a task (heard from, not in error, in service, not ``exclude``,
+    not ``held`` by another master's order) and, for the bids' reader, why each other one was
+    skipped."""
+    bidders, skipped = [], []
+    held = held or {}
+    for r in robots:
+        name, state = r["name"], r["state"]
+        why = ("offline" if state == OFFLINE else
+               f"in error ({r.get('message') or 'no reason given'})" if state == ERROR else
+               "out of service" if not r["in_service"] else
+               held.get(name, "tried it already" if name in exclude else ""))
+        if why:
+            skipped.append(f"{name}: skipped, {why}")
+        else:
+            bidders.append(r)
+    return bidders, skipped
 
 
 class Dispatcher:
@@ -98,22 +119,25 @@ class Dispatcher:
             raise Refused("every robot is offline")
         if wanted and robots[wanted]["state"] == OFFLINE:
             raise Refused(f"robot '{wanted}' is offline")
+        if wanted in self.roster.vda:
+            raise Refused(f"robot '{wanted}' is {self.roster.vda[wanted]}")
         board.check_room(wanted)
         kind, stops, laps = await read_stops(self.bus, request)
         for stop in stops:
-            check_on_map(self.site_map(), stop)
+            check_placed(self.site_map(), stop)
             self.traffic.check_stop(stop)
         self._check_client(client)
         priority = max(-100, min(100, int(request.get("priority") or 0)))
         task = Task(0, kind, stops, wanted, priority, laps, created=self.clock())
-        offers, refusals = await self.bids(task, [robots[wanted]] if wanted else [
-            r for r in robots.values() if r["state"] not in (OFFLINE, ERROR) and r["in_service"]])
+        bidders, skipped = (([robots[wanted]], []) if wanted
+                            else bidding(robots.values(), held=self.roster.vda))
+        offers, refusals = await self.bids(task, bidders)
         if not offers:
-            raise Refused("no robot can take it: " + ("; ".join(refusals) or
+            raise Refused("no robot can take it: " + ("; ".join(refusals + skipped) or
                                                        "every robot is out of service"))
         best = winner(offers)
         task.id = board.new_id()
-        why = "; ".join(b.why(self.policy) for b in sorted(offers, key=lambda b: b.finish))
+        why = self._why(offers, skipped)
         free = {r["name"] for r in self.free()}
         board.add(task)
         if best.charge:
@@ -121,25 +145,57 @@ class Dispatcher:
         if best.robot in free and not best.charge:
             return task, f"{best.robot} is on its way — bids: {why}", best.robot
         task.reserved = best.robot
-        task.message = f"queued for {best.robot} (finishes first) — bids: {why}"
+        task.message = f"queued for {best.robot} " + (
+            "(asked for)" if wanted else "(finishes first)") + f" — bids: {why}"
         self.changed()
         return task, task.message, ""
 
+    def _why(self, offers: list[Bid], skipped: list[str]) -> str:
+        """The bids, best first, then the robots that did not bid and why."""
+        return "; ".join([*(b.why(self.policy) for b in sorted(offers, key=lambda b: b.finish)),
+                          *skipped])
+
     async def rebid(self, task: Task) -> None:
         """A task that failed on a robot: the others bid again (once, on that event)."""
-        robots = [r for r in self.roster.robots() if r["state"] not in (OFFLINE, ERROR)
-                  and r["in_service"] and r["name"] not in task.tried]
+        await self.offer(task, task.message, exclude=task.tried,
+                         none="no other robot can take it")
+
+    async def offer(self, task: Task, note: str, exclude: Sequence[str] = (),
+                    none: str = "no robot can take it") -> None:
+        """Offer a queued task again (one the operator gave no robot), saying ``note`` first:
+        the robots in service but ``exclude`` bid, the charging rule in every bid
+        (``ChargePolicy.charges_first``), and the winner reserves it; one that charges first
+        is sent to charge. The one decision of a re-offer after a failure, a resumed task and
+        a robot back in or out of service, as of a first dispatch (a schedule's too) in
+        :meth:`accept`."""
+        robots, skipped = bidding(self.roster.robots(), exclude, self.roster.vda)
         task.reserved = BIDDING  # no robot takes it while the others bid
         offers, refusals = await self.bids(task, robots)
         task.reserved = ""
-        if task.state != QUEUED:
+        if task.state != QUEUED or task.robot:  # paused or cancelled meanwhile
             return
         if not offers:
-            task.message += "; no other robot can take it: " + "; ".join(refusals)
+            task.message = f"{note}; {none}: " + ("; ".join(refusals + skipped) or
+                                                 "every robot is out of service")
         else:
-            task.reserved = winner(offers).robot
+            best = winner(offers)
+            task.reserved = best.robot
+            task.message = f"{note}; queued for {best.robot} — bids: " \
+                f"{self._why(offers, skipped)}"
+            if best.charge:
+                self.charge(best.robot, f"task {task.id} needs more than its battery")
         self.changed()
         self.kick()
+
+    async def offer_queued(self, note: str) -> None:
+        """Every queued task no robot was named for, offered again, one after the other (a
+        robot came back into service or went out of it: the bids changed)."""
+        ids = [t.id for t in self.board.queued() if not t.robot and t.kind != CHARGE
+               and t.reserved != BIDDING]
+        for task_id in ids:
+            task = self.board.tasks.get(task_id)
+            if task is not None and task.state == QUEUED and task.reserved != BIDDING:
+                await self.offer(task, note)
 
     def changed(self) -> None:
         """A task changed: kept, and the list published."""
@@ -186,8 +242,9 @@ class Dispatcher:
     # ------------------------------------------------------------------ handing out
     def next_for(self, robot: dict) -> Task | None:
         """The task ``robot`` (free) starts now, if any: its charge first; nothing else while
-        its battery is below the charge threshold or a charge is not finished; a task its
-        battery would not last is left for another (its bid said so)."""
+        the charging rule says it charges first (``ChargePolicy.charges_first``, the rule of
+        every bid: below the threshold, a charge not finished, a task its battery would not
+        last); a task reserved for another robot is left to it."""
         name, board = robot["name"], self.board
         for task in board.queued():
             if task.robot not in ("", name) or task.reserved not in ("", name):
@@ -197,7 +254,10 @@ class Dispatcher:
                     return task
                 task.message = f"{name} waits for its dock"
                 continue
-            if robot["battery"] < self.policy.charge_below:
+            here = robot.get("pose", {}).get("position", {"x": 0.0, "y": 0.0})
+            bidder = Bidder(name, robot["battery"], 0.0, self._charging(robot))
+            if self.policy.charges_first(bidder, metres(task.route[task.leg:],
+                                                        (here["x"], here["y"]))):
                 continue
             return task
         return None

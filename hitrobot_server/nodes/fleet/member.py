@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import logging
+import re
 
 from ...bus.core import Bus
 from ...robot.backend import BackendError
@@ -21,6 +22,9 @@ MEMBERS = FLEET_MEMBERS
 PERIOD = 0.5  # /fleet/robots and /fleet/members: 2 Hz
 OFFLINE_AFTER = 3.0
 IDLE, MOVING, CHARGING, ERROR, OFFLINE = "idle", "moving", "charging", "error", "offline"
+WAITING = "waiting"
+"""On ``/fleet/robots`` only: stopped before a mutex zone it waits for (the fleet knows it,
+the robot reports itself idle)."""
 
 
 class FleetMemberNode(RobotNode):
@@ -59,9 +63,26 @@ class FleetMemberNode(RobotNode):
         if errors:
             msg.update(state=ERROR, message=errors[0].message)
         elif action is not None:
-            msg.update(state=MOVING, message=action.action_name.rsplit(".", 1)[-1])
+            msg.update(state=MOVING, message=action_words(action.action_name))
         elif power.is_charging:
             msg["state"] = CHARGING
         else:
             msg["state"] = IDLE
         return msg
+
+
+ACTION_WORDS = {"MoveToAction": "go to", "SeriesMoveToAction": "go to", "GoHomeAction": "go home",
+                "MoveByAction": "move by", "RotateAction": "rotate", "RotateToAction": "turn",
+                "RecoverLocalizationAction": "find its place",
+                "VelocityControlAction": "driven by hand"}
+"""What the robot does, in the operator's words (the robot names its action's class)."""
+
+
+def action_words(action_name: str) -> str:
+    """``slamtec.agent.actions.SeriesMoveToAction`` → ``go to``; an action not listed, its name
+    as words (``SweepSpotAction`` → ``sweep spot``)."""
+    name = action_name.rsplit(".", 1)[-1]
+    if name in ACTION_WORDS:
+        return ACTION_WORDS[name]
+    words = re.sub(r"(?<!^)(?=[A-Z])", " ", name.removesuffix("Action")).lower()
+    return words or name

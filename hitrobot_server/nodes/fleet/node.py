@@ -23,7 +23,7 @@ from ..ground.names import VDA5050_LINK
 from .board import Board
 from .dispatch import Dispatcher
 from .leader import Leadership
-from .member import CHARGING, IDLE, MEMBERS, PERIOD, PKG
+from .member import CHARGING, IDLE, MEMBERS, MOVING, PERIOD, PKG, WAITING
 from .policy import ChargePolicy
 from .policyinfo import PolicyService
 from .roster import Roster
@@ -88,7 +88,8 @@ class FleetNode(RobotNode):
         self.service("/fleet/dispatch", f"{PKG}/Dispatch", self.dispatcher.dispatch)
         TaskRequests(self.board, self.roster, self.traffic, finish=self._finish,
                      release=self.dispatcher.release, changed=self.changed, kick=self.kick,
-                     serve=self.service)
+                     serve=self.service, offer=self.dispatcher.offer,
+                     offer_queued=lambda note: self.spawn(self.dispatcher.offer_queued(note)))
         self.publish_tasks()
         self.zoning.publish()
 
@@ -106,7 +107,7 @@ class FleetNode(RobotNode):
     async def _tick(self) -> None:
         if not self.lead.leading:
             return
-        self.publish(ROBOTS, {"robots": self.roster.robots()})
+        self.publish(ROBOTS, {"robots": [self._waiting(r) for r in self.roster.robots()]})
         self.spawn(self.schedules.fire_due())
 
     # ------------------------------------------------------------------ robots
@@ -119,6 +120,13 @@ class FleetNode(RobotNode):
         """A new site map: targets found unreachable may be reachable now."""
         self.site_map = message.msg
         self.runner.forget_unreachable()
+
+    def _waiting(self, robot: dict) -> dict:
+        """A robot stopped before a mutex zone says it waits for it (not that it is idle)."""
+        why = self.traffic.waiting_for(robot["name"])
+        if not why or robot["state"] not in (IDLE, MOVING):
+            return robot
+        return {**robot, "state": WAITING, "message": why}
 
     def free(self) -> list[dict]:
         """Robots that may start a task now: heard from, in service, idle (or on the dock);

@@ -5,11 +5,10 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from ...bus.core import Bus
 from ...bus.topics import RequestRejected
 from ..ground import messages as m
+from ..ground.placement import cells_of, placement_problem
 from ..ground.pois import find_poi
 from .tasks import (
     CHARGE,
@@ -24,8 +23,6 @@ from .tasks import (
     checked_pose,
 )
 
-FREE_BELOW = 50
-"""Occupancy (0–100) below which a cell of the site map is floor."""
 SITE_LIMIT = 10_000.0
 """Metres from the map origin beyond which a target is refused at once (off any site's map)."""
 
@@ -72,27 +69,12 @@ async def _poi_pose(bus: Bus, name: str):
     return m.pose2d(poi["pose"])
 
 
-NEAR = 0.3
-"""Metres around a target within which a free cell of the site map must be (a target drawn a
-little into a wall is still reachable; the planner has the same tolerance)."""
-
-
-def check_on_map(grid: dict | None, stop: Stop) -> None:
-    """Refuse a stop off the site map (``/map``) or with no free cell near it: no robot could
-    reach it, and a search that fails explores the whole map."""
-    if grid is None:
-        return
-    info = grid["info"]
-    res, width, height = info["resolution"], info["width"], info["height"]
-    origin = info["origin"]["position"]
-    col = math.floor((stop.pose.x - origin["x"]) / res)
-    row = math.floor((stop.pose.y - origin["y"]) / res)
-    what = stop.name or f"({stop.pose.x:g}, {stop.pose.y:g})"
-    if not (0 <= col < width and 0 <= row < height):
-        raise Refused(f"{what} is off the map")
-    cells = np.asarray(grid["data"]).reshape(height, width)
-    reach = max(1, math.ceil(NEAR / res))
-    window = cells[max(0, row - reach):row + reach + 1, max(0, col - reach):col + reach + 1]
-    if not ((window >= 0) & (window < FREE_BELOW)).any():
-        raise Refused(f"{what} is inside a wall or unknown space: no free floor within "
-                      f"{NEAR:g} m")
+def check_placed(grid: dict | None, stop: Stop) -> None:
+    """Refuse a stop where the robot cannot stand on the site map (``/map``): off it, on an
+    unknown cell, on an obstacle or nearer one than the robot's clearance (the POIs' rule,
+    ground/placement.py). No robot could stop there, and a search that fails explores the whole
+    map."""
+    x, y = stop.pose.x, stop.pose.y
+    problem = placement_problem(cells_of(grid), x, y, where=stop.name or f"({x:g}, {y:g})")
+    if problem:
+        raise Refused(problem)

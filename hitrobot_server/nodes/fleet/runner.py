@@ -39,6 +39,12 @@ stand on the way or on the spot, waiting before a zone or coming out of it)."""
 WaitMember = Callable[[str, Callable[[dict], bool], float], Awaitable[dict | None]]
 
 
+def plain(reason: str, action: str) -> str:
+    """A robot action's reason without the action's name before it (a task's words are the
+    operator's: "stopped on the robot: cancelled", not "follow_path: stopped ...")."""
+    return reason.removeprefix(f"{action.strip('/')}: ")
+
+
 class TaskFailed(Exception):
     """The task did not happen; the text is why."""
 
@@ -92,8 +98,8 @@ class TaskRunner:
         except Exception as exc:
             return math.inf, None, str(exc)
         if result.status != STATUS_SUCCEEDED or not isinstance(result.values, dict):
-            return math.inf, None, result.values if isinstance(result.values, str) else \
-                "no path"
+            return math.inf, None, plain(result.values, COMPUTE_PATH) if isinstance(
+                result.values, str) else "no path"
         path = result.values["path"]
         points = [(p["pose"]["position"]["x"], p["pose"]["position"]["y"]) for p in path["poses"]]
         return sum(math.dist(a, b) for a, b in zip(points, points[1:], strict=False)), path, ""
@@ -162,7 +168,8 @@ class TaskRunner:
         finally:
             task.goal = None
         if outcome.status != STATUS_SUCCEEDED:
-            reason = outcome.values if isinstance(outcome.values, str) else ""
+            reason = plain(outcome.values, FOLLOW_PATH) if isinstance(outcome.values, str) \
+                else ""
             if outcome.status == STATUS_CANCELED and not reason:
                 reason = "its motion was stopped"
             raise TaskFailed(reason or "the path was not followed")

@@ -4,7 +4,7 @@ change on the board, answered as :mod:`..ground.acks` says (a change once it is 
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 
 from .board import Board
 from .member import PKG
@@ -16,14 +16,20 @@ from .traffic import Traffic
 class TaskRequests:
     """The requests on the ``board``'s tasks and the ``roster``'s robots. Handed what they ask
     of the node: ``finish`` (a task ends), ``release`` (a robot's reserved tasks go to others),
-    ``changed`` (kept and published), ``kick`` (look for work) and ``serve``."""
+    ``changed`` (kept and published), ``kick`` (look for work), ``serve``, and the bids of
+    the dispatcher: ``offer`` (a resumed task) and ``offer_queued`` (every queued task, in the
+    background, when a robot goes out of service or comes back): a low robot never takes a
+    task there while a charged one is idle."""
 
     def __init__(self, board: Board, roster: Roster, traffic: Traffic, *,
                  finish: Callable[[Task, str, str], None],
                  release: Callable[[str], list[int]], changed: Callable[[], None],
-                 kick: Callable[[], None], serve: Callable[..., None]):
+                 kick: Callable[[], None], serve: Callable[..., None],
+                 offer: Callable[[Task, str], Awaitable[None]],
+                 offer_queued: Callable[[str], None]):
         self.board, self.roster, self.traffic = board, roster, traffic
         self.finish, self.release, self.changed, self.kick = finish, release, changed, kick
+        self.offer, self.offer_queued = offer, offer_queued
         for name, kind, handler in (
                 ("cancel", "CancelTask", self._cancel), ("pause", "CancelTask", self._pause),
                 ("resume", "CancelTask", self._resume),
@@ -59,7 +65,9 @@ class TaskRequests:
         except Refused as exc:
             return {"success": False, "message": str(exc)}
         was = task.state
-        task.state, task.message = PAUSED, f"paused ({was})"
+        task.state = PAUSED
+        task.message = f"paused on its way: {task.assigned} stopped" if was == RUNNING else \
+            "paused before it started"
         if task.goal is not None:
             task.goal.cancel()
         if was == RUNNING:
@@ -76,6 +84,8 @@ class TaskRequests:
             return {"success": False, "message": str(exc)}
         task.state, task.message = QUEUED, "resumed; waiting for a robot"
         self.changed()
+        if not task.robot:  # offered again: the robot it had may be low now
+            await self.offer(task, "resumed")
         self.kick()
         return {"success": True, "message": f"task {task.id} resumed"}
 
@@ -95,6 +105,7 @@ class TaskRequests:
         self.board.save_service()
         moved = self.release(robot) if not serving else []
         self.changed()
+        self.offer_queued(f"{robot} is {'back in' if serving else 'out of'} service")
         self.kick()
         text = f"{robot} is {'in' if serving else 'out of'} service"
         if moved:

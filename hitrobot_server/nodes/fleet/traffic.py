@@ -215,6 +215,12 @@ class Traffic:
     def _holds_any(self, request: Request) -> bool:
         return any(request.robot in self.holders.get(z, {}) for z in request.zones)
 
+    def waiting_for(self, robot: str) -> str:
+        """What ``robot`` waits for, as :meth:`why_waiting` says it ('' when it waits for no
+        zone)."""
+        return next((self.why_waiting(r) for r in self.queue
+                     if r.robot == robot and not r.granted.done()), "")
+
     def why_waiting(self, request: Request) -> str:
         names = ", ".join(sorted(request.zones))
         held = sorted({h for z in request.zones for h in self.holders.get(z, {})}

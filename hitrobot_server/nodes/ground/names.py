@@ -14,6 +14,10 @@ and the map-files node's ``load_laser_map`` ask it on a client's behalf."""
 SLAMWARE_NODE = "/slamware_ros_sdk_server_node"
 """The Slamware node's name: its relative topic names live under it."""
 SLAMWARE_SYNC_MAP = f"{SLAMWARE_NODE}/sync_map"
+SLAMWARE_CLEAR_MAP = f"{SLAMWARE_NODE}/clear_map"
+"""Clears the robot's map (``slamware_ros_sdk/ClearMapRequest``); the map manager hears its
+success (``SLAMWARE_MAP_CLEARED`` in the Slamware node's reply): no saved map is loaded then."""
+SLAMWARE_MAP_CLEARED = "the map was cleared"
 """Asks the Slamware node to read the robot's whole map again (after the map manager replaced
 it)."""
 MAP_TOPIC = "/map"

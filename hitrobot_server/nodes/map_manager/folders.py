@@ -13,7 +13,12 @@ from ...robot.model import ArtifactUsage
 from ..base import RobotNode
 from ..ground.mapstore import MapStore, StoreError
 from ..ground.memory import NotSaved
-from ..ground.names import MAP_MANAGER_LOAD_MAP, MAP_MANAGER_SAVE_MAP
+from ..ground.names import (
+    MAP_MANAGER_LOAD_MAP,
+    MAP_MANAGER_SAVE_MAP,
+    SLAMWARE_CLEAR_MAP,
+    SLAMWARE_MAP_CLEARED,
+)
 from . import mapio
 from .composition import MapComposition
 from .jobs import job
@@ -43,6 +48,20 @@ class MapFolders:
     def listen(self) -> None:
         self.node.subscribe(MAP_MANAGER_SAVE_MAP, f"{PKG}/SaveMap", self._on_save_map)
         self.node.subscribe(MAP_MANAGER_LOAD_MAP, f"{PKG}/SaveMap", self._on_load_map)
+        self.node.subscribe(SLAMWARE_CLEAR_MAP, "slamware_ros_sdk/ClearMapRequest",
+                            self._on_clear_map, passive=True)
+
+    def _on_clear_map(self, message: Message) -> None:
+        """The robot's map cleared (the Slamware node's answer says so): no saved map is loaded
+        any more, and the console's "· loaded" goes."""
+
+        def cleared(level: str, text: str) -> None:
+            if level == "info" and text.endswith(SLAMWARE_MAP_CLEARED) and self.sections.loaded:
+                self.sections.loaded = ""
+                self.sections.remember("loaded")
+                self.publish_loaded()
+
+        message.reply.observe(cleared)
 
     def clean_leftovers(self) -> list[str]:
         """At start-up, before anything can save: what interrupted saves left behind."""

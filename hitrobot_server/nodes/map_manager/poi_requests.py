@@ -12,8 +12,8 @@ from ...bus.topics import Message, RequestRejected
 from ..base import RobotNode
 from ..ground.memory import NotSaved
 from ..ground.names import MAP_MANAGER_GET_POIS
+from ..ground.placement import placement_problem
 from .layers import Grid
-from .placement import placement_problem
 from .pois import PoiError, PoiRegistry
 from .sections import Sections
 from .topics import PKG, POIS_TOPIC, request_topic

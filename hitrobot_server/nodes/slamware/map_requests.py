@@ -11,7 +11,7 @@ from ...robot.capabilities import Robot
 from ...robot.model import ArtifactUsage, Line, MapKind
 from ..ground import messages as m
 from ..ground.memory import NotSaved
-from ..ground.names import SLAMWARE_SYNC_MAP
+from ..ground.names import SLAMWARE_MAP_CLEARED, SLAMWARE_SYNC_MAP
 from .fields import enum_field, line, lines, usage
 from .map_copy import MapCopy
 from .runner import Request, Runner
@@ -44,12 +44,13 @@ class MapRequests:
     def _on_clear_map(self, message: Message) -> None:
         kind = enum_field("kind.kind", message.msg["kind"]["kind"], MapKind)
 
-        async def clear() -> None:
+        async def clear() -> str:
             await self.robot.maps.clear_map(kind)
             try:
                 await self.map_copy.cleared()
             except NotSaved as exc:
                 raise BackendError(f"the map was cleared, but {exc}") from None
+            return SLAMWARE_MAP_CLEARED  # the map manager hears it: no saved map is loaded any more
 
         self.runner.run(message, "clear_map", clear)
 

@@ -9,13 +9,21 @@ import time
 from ...bus.topics import Message, RequestRejected
 from ...robot.backend import ACTION_PREFIX
 from ...robot.capabilities import Robot
-from ...robot.model import ActionDirection, LocalizationMovement, MoveOptions, Pose2D, Rect
+from ...robot.model import (
+    ActionDirection,
+    LocalizationMovement,
+    MoveOptions,
+    Point2D,
+    Pose2D,
+    Rect,
+)
 from ...robot.motion import GOAL_FLAGS
 from ...robot.relocalization import GOOD_QUALITY, settled_quality
 from ..base import require_finite
 from ..ground import messages as m
 from ..ground.claims import MotionClaims, who
 from ..ground.drive_lease import Verdict
+from ..ground.placement import target_problem
 from ..ground.slamware_params import SlamwareParams
 from .driving import Driving, moving
 from .fields import enum_field, move_options, point, quaternion_yaw
@@ -98,10 +106,19 @@ class MotionRequests:
             return
         await motion.set_velocity(0.0, 0.0)
 
+    def _placed(self, what: str, targets: list[Point2D]) -> None:
+        """Refuse targets on an obstacle of ``/map`` or nearer one than the robot's clearance
+        (ground/placement.py), before the robot moves."""
+        for i, target in enumerate(targets):
+            name = "goal" if len(targets) == 1 else f"location {i}"
+            if problem := target_problem(self.runner.node.bus, name, target.x, target.y):
+                raise RequestRejected(f"{what}: {problem}")
+
     def _on_goal(self, message: Message) -> None:
         p = message.msg["pose"]
         target = point(p["position"], "pose.position")
         yaw = quaternion_yaw(p["orientation"], "pose.orientation")
+        self._placed("move_base_simple/goal", [target])
         self.runner.run(message, "move_base_simple/goal", lambda: self.robot.motion.move_to(
             [target], MoveOptions(flags=GOAL_FLAGS), yaw))
 
@@ -162,6 +179,7 @@ class MotionRequests:
         target = point(msg["location"], "location")
         require_finite("yaw", msg["yaw"])
         opts = move_options(msg["options"])
+        self._placed("move_to", [target])
         self.runner.run(message, "move_to",
                         lambda: self.robot.motion.move_to([target], opts, float(msg["yaw"])))
 
@@ -172,6 +190,7 @@ class MotionRequests:
         targets = [point(p, f"locations[{i}]") for i, p in enumerate(msg["locations"])]
         require_finite("yaw", msg["yaw"])
         opts = move_options(msg["options"])
+        self._placed("move_to_locations", targets)
         self.runner.run(message, "move_to_locations",
                         lambda: self.robot.motion.move_to(targets, opts, float(msg["yaw"])))
 

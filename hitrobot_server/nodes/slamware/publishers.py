@@ -68,8 +68,9 @@ class Publishers:
 
     async def _watch_connection(self) -> None:
         connected = self.node.link.connected
+        robot = _robot_words(self.node.name)
         if connected and not self._was_connected:
-            log.info("robot connected")
+            log.info("%s connected", robot)
             self.map_copy.forget_robot()
             self._sensors = []  # a (re)connected robot may have other sensors
             try:
@@ -79,7 +80,7 @@ class Publishers:
                 log.warning("device info: %s", exc)
                 return  # try again on the next tick
         elif not connected and self._was_connected:
-            log.warning("robot disconnected; retrying every %d ms", self.params.reconn_wait_ms)
+            log.warning("%s disconnected; retrying every %d ms", robot, self.params.reconn_wait_ms)
         self._was_connected = connected
 
     async def _publish_pose(self) -> None:
@@ -159,3 +160,10 @@ class Publishers:
         lines = await self.robot.maps.get_lines(usage)
         topic = self.topics.walls if usage == ArtifactUsage.VIRTUAL_WALL else self.topics.tracks
         self.node.publish(topic, {"lines": [m.line(ln) for ln in lines]})
+
+
+def _robot_words(node: str) -> str:
+    """"robot alpha" for a fleet robot's node (/alpha/slamware_ros_sdk_server_node), "robot"
+    alone on a single-robot server: each robot's connection is logged once, by its name."""
+    robot = node.rsplit("/", 1)[0].strip("/")
+    return f"robot {robot}" if robot else "robot"

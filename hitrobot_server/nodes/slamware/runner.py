@@ -28,12 +28,15 @@ class Runner:
         self.node, self.motion = node, motion
 
     def run(self, message: Message, what: str, call: Callable[[], Awaitable[Any]]) -> None:
-        async def carry_out() -> None:
+        async def carry_out() -> str | None:
             result = await call()
             if isinstance(result, ActionInfo):
                 await self._watch_action(message.reply, what, result)
             elif result is False:
                 message.reply.fail(f"{what}: the robot refused the request")
+            elif isinstance(result, str):
+                return result  # done: answered as ok with this text
+            return None
 
         require_robot(self.node.link, what)
         self.node.spawn(answer(message.reply, what, carry_out()))

@@ -95,11 +95,12 @@ class PublishOps:
             body = {topic.mtype.fields[0].name: body}  # seed 4.1: "msg": <string> on /cmd_string
         value, missing, verbatim = from_json_verbatim(topic.mtype, body, c.bus.types)
         seed = None
-        if frame is not None and len(frame) >= VERBATIM_MIN:
+        if frame is not None:  # the op's length: the message's size (/metrics counts it)
             text = None
-            if verbatim and body is op.msg and not is_ros2(topic.mtype.name):  # (its times)
+            if len(frame) >= VERBATIM_MIN and verbatim and body is op.msg \
+                    and not is_ros2(topic.mtype.name):  # (its times)
                 text = verbatim_publish(frame, op.raw)  # the client's text is the outgoing op
-            seed = seeded(len(frame), op.topic, text)  # the op's length: the message's size
+            seed = seeded(len(frame), op.topic, text)
         if missing:
             c.status(
                 "warning",

@@ -1,4 +1,4 @@
-"""Where a POI may stand (nodes/map_manager/placement.py), checked directly on small grids:
+"""Where a POI may stand (nodes/ground/placement.py), checked directly on small grids:
 a known free cell at least the robot's clearance from every obstacle."""
 
 from __future__ import annotations
@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hitrobot_server.nodes.map_manager.layers import Grid
-from hitrobot_server.nodes.map_manager.placement import (
+from hitrobot_server.nodes.ground.placement import (
     CLEARANCE,
     ROBOT_RADIUS,
     SAFETY_MARGIN,
     placement_problem,
 )
+from hitrobot_server.nodes.map_manager.layers import Grid
 from hitrobot_server.robot.planning.costmap import CostmapConfig
 from hitrobot_server.robot.sim.kinematics import DriveLimits
 
@@ -44,8 +44,8 @@ def test_a_free_cell_far_from_obstacles_is_accepted():
 @pytest.mark.parametrize(("x", "y", "words"), [
     (1.02, 0.0, "on an obstacle"),
     (0.0, 0.8, "unknown cell"),
-    (5.0, 0.0, "outside the map"),
-    (0.0, -1.5, "outside the map"),
+    (5.0, 0.0, "off the map"),
+    (0.0, -1.5, "off the map"),
 ])
 def test_obstacles_unknown_and_outside_are_refused(x, y, words):
     problem = placement_problem(room(), x, y)
