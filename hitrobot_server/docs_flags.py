@@ -21,7 +21,6 @@ SECTION_TITLES = {
     "bus": "The bus: Zenoh",
     "process": "The process: log, event loop, workers",
     "record": "Recording and the black box",
-    "vda5050": "VDA 5050: a master control over MQTT",
     "nodes": "Nodes: the fleet and the site",
     "vda5050": "VDA 5050: a master control over MQTT",
 }
