@@ -9,8 +9,8 @@ import signal
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from ..helpers import WsClient
-from ..transport.test_http import http
+from tests.helpers import WsClient
+from tests.transport.test_http import http
 
 
 async def test_start_list_download_and_stop_a_recording(make_server, tmp_path):

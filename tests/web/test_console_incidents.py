@@ -6,8 +6,8 @@ replay) open that file's replay in a tab of its own."""
 
 from __future__ import annotations
 
-from ..helpers import WsClient
-from .conftest import ARTIFACTS
+from tests.helpers import WsClient
+from tests.web.conftest import ARTIFACTS
 
 ROW = "#incident-list li[data-cause=emergency_stop]"
 
