@@ -35,7 +35,7 @@ from pathlib import Path
 from websockets.asyncio.client import connect
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_bridge import HOST, pct, start_ours, table  # noqa: E402
+from benchlib import HOST, pct, start_ours, table  # noqa: E402
 
 BIG, SMALL = "/bench/cloud", "/bench/pose"
 BIG_BYTES = 500_000

@@ -6,7 +6,7 @@ the server takes it; N subscribers are either rosbridge clients (JSON ``publish`
 once per message) or Foxglove clients (``foxglove.websocket.v1``: binary message data, the CDR
 encoded once per message and shared). Each run has a fresh server in its own process
 (``--robot none``, loopback, ephemeral port); the subscribers are the header-only clients of
-bench_bridge.py. Every loop is bounded in count and time.
+wsclient.py. Every loop is bounded in count and time.
 
     .venv/bin/python bench/bench_foxglove.py            # 50 clients of each kind, ~1 min
     .venv/bin/python bench/bench_foxglove.py --clients 10 --count 500
@@ -24,19 +24,15 @@ import orjson
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench_bridge import (  # noqa: E402
+from benchlib import (  # noqa: E402
     CpuMeter,
-    RawWs,
     ScanSource,
-    close_all,
     fnum,
-    perf,
     start_ours,
     table,
     verify_scan_samples,
-    warm_up,
-    ws_frame,
 )
+from wsclient import RawWs, close_all, perf, warm_up, ws_frame  # noqa: E402
 
 from hitrobot_server.bus.cdr import codec_for  # noqa: E402
 from hitrobot_server.types.registry import TypeRegistry  # noqa: E402

@@ -1,5 +1,5 @@
 """Hostile Foxglove clients at the size issue 37 measured them (the tests in
-tests/transport/test_foxglove_hostile.py run them scaled down).
+tests/session/foxglove/test_clients_that_never_read.py run them scaled down).
 
 Starts ``hitrobot-server`` (no robot) as a separate process per attack and prints the server's
 resident memory (server + worker processes, from /proc) before, at its peak (sampled every

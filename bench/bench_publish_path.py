@@ -2,10 +2,10 @@
 """Where the CPU of one relayed LaserScan goes at one subscriber (issue 38 item 3).
 
 In one process, without sockets: a real server's rosbridge sessions (a publisher and a
-subscriber whose outbox writes into a list), fed bench_bridge's pre-encoded LaserScan publish
+subscriber whose outbox writes into a list), fed benchlib's pre-encoded LaserScan publish
 frames. Each stage of the publish path is timed on its own (CPU time per message, many
 repetitions), then the whole ``receive``. What is left beyond the stages is the transport's
-share (websockets' parsing and framing, the syscalls), which bench_bridge.py's ceiling section
+share (websockets' parsing and framing, the syscalls), which bench_ceiling.py
 measures against a bare websockets server. With msgspec installed, a typed decoder of the same
 frame is timed too (the alternative to orjson + today's validator). No assertions.
 
@@ -25,7 +25,7 @@ from pathlib import Path
 import orjson
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_bridge import HOST, ScanSource, table  # noqa: E402
+from benchlib import HOST, ScanSource, table  # noqa: E402
 
 from hitrobot_server.config import Settings  # noqa: E402
 from hitrobot_server.protocol import ops  # noqa: E402

@@ -50,8 +50,12 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import bench_bridge as bb  # noqa: E402
+import benchlib as bb  # noqa: E402
+from bench_fanout import fanout_run  # noqa: E402
 from bench_workers import cpu_seconds  # noqa: E402
+from wsclient import RawWs, close_all, warm_up, ws_frame  # noqa: E402
+
+from hitrobot_server import procmem  # noqa: E402
 
 
 def recorded_count(folder: Path, topic: str) -> int:
@@ -84,7 +88,7 @@ async def one_run(n: int, record: bool, cfg, folder: Path, tag: str) -> dict:
     server = bb.start_ours(None, tag)
     try:
         before = await writer_started(server.proc.pid) if record else 0.0
-        run = await bb.fanout_run(server.port, server, n, cfg.scan_counts[n], src, topic, cfg)
+        run = await fanout_run(server.port, server, n, cfg.scan_counts[n], src, topic, cfg)
         run["writer_s"] = children_cpu(server) - before
     finally:
         server.stop()
@@ -138,7 +142,7 @@ async def main_async(cfg, rounds: int) -> None:
                     "writer CPU s", "writer us/msg", "srv us/msg plain/rec"], rows))
 
 
-async def call(client: bb.RawWs, service: str, args: dict, timeout: float = 15.0) -> bytes:
+async def call(client: RawWs, service: str, args: dict, timeout: float = 15.0) -> bytes:
     """A ``call_service`` from a bench client; its ``service_response`` (raw JSON)."""
     op_id = f"bench:{service}:{time.monotonic_ns()}".encode()
     got = asyncio.get_running_loop().create_future()
@@ -165,20 +169,20 @@ async def paired_run(n: int, pairs: int, seconds: float, folder: Path) -> dict:
     subs = []
     try:
         for k in range(0, n, 25):
-            subs += await asyncio.gather(*(bb.RawWs.open(server.port)
+            subs += await asyncio.gather(*(RawWs.open(server.port)
                                            for _ in range(min(25, n - k))))
-        pub = await bb.RawWs.open(server.port)
-        control = await bb.RawWs.open(server.port)
+        pub = await RawWs.open(server.port)
+        control = await RawWs.open(server.port)
         pub.send({"op": "advertise", "topic": topic, "type": "sensor_msgs/LaserScan"})
         for sub in subs:
             sub.send({"op": "subscribe", "topic": topic, "type": "sensor_msgs/LaserScan"})
-        await bb.warm_up(pub, src, subs, lambda sub: sub.count)
+        await warm_up(pub, src, subs, lambda sub: sub.count)
         sent = [0]
         running = [True]
 
         async def publish() -> None:
             while running[0]:  # as fast as the server takes them
-                pub.write_frame(bb.ws_frame(src.frame(sent[0])))
+                pub.write_frame(ws_frame(src.frame(sent[0])))
                 sent[0] += 1
                 await pub.drain()
                 if sent[0] % 20 == 0:
@@ -214,7 +218,7 @@ async def paired_run(n: int, pairs: int, seconds: float, folder: Path) -> dict:
         finally:
             running[0] = False
             await task
-        await bb.close_all([pub, control, *subs])
+        await close_all([pub, control, *subs])
     finally:
         server.stop()
     for line in server.output:
@@ -319,7 +323,7 @@ def writer_pids(parent: int) -> list[int]:
     """The recorder's writer among ``parent``'s children (not multiprocessing's resource
     tracker, also a child)."""
     found = []
-    for pid in bb.procmem.children(parent):
+    for pid in procmem.children(parent):
         with contextlib.suppress(OSError):
             if b"spawn_main" in Path(f"/proc/{pid}/cmdline").read_bytes():
                 found.append(pid)

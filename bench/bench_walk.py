@@ -75,7 +75,7 @@ SETTLE_STEPS = 50  # loop iterations run before a window opens
 POI_T = "map_messages/PointOfInterest"
 FOXGLOVE_V1 = "foxglove.websocket.v1"  # the subprotocol Foxglove Studio asks for
 MESSAGE_DATA = 1  # a Foxglove server's binary opcode: one message of one subscription
-CORRIDOR = 8.0  # y of the simulated office's corridor (tests/nodes/test_fleet.py)
+CORRIDOR = 8.0  # y of the simulated office's corridor (tests/nodes/fleet/test_node.py)
 T = TypeVar("T")
 Client = Any  # a rosbridge Session or a FoxgloveSession: frames in, its outbox drained
 

@@ -29,18 +29,14 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_bridge import (  # noqa: E402  (a sibling script, not a package)
-    HOST,
-    RawWs,
+from benchlib import (  # noqa: E402  (a sibling script, not a package)
     ScanSource,
     ServerProc,
-    barrier,
-    close_all,
     fnum,
     pct,
     table,
-    ws_frame,
 )
+from wsclient import HOST, RawWs, barrier, close_all, ws_frame  # noqa: E402
 
 perf = time.perf_counter
 

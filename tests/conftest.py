@@ -8,8 +8,7 @@ import pytest
 
 from hitrobot_server.config import Settings
 from hitrobot_server.server import HitrobotServer
-
-from .helpers import ServerProcess, WsClient
+from tests.helpers import ServerProcess, WsClient
 
 _XDG: str | None = None
 
@@ -22,6 +21,14 @@ def pytest_configure(config: pytest.Config) -> None:
     _XDG = tempfile.mkdtemp(prefix="hitrobot-tests-xdg-")
     os.environ["XDG_STATE_HOME"] = os.path.join(_XDG, "state")
     os.environ["XDG_DATA_HOME"] = os.path.join(_XDG, "data")
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Every test of the console (tests/web/) drives a real Chromium: marked ``browser``, so
+    ``-m "not browser"`` runs the rest where no browser is installed."""
+    for item in items:
+        if "web" in item.path.relative_to(item.config.rootpath).parts[:2]:
+            item.add_marker(pytest.mark.browser)
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:

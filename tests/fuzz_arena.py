@@ -11,8 +11,7 @@ from typing import Any
 
 from hitrobot_server.config import Settings
 from hitrobot_server.server import HitrobotServer
-
-from .witness import Witness
+from tests.witness import Witness
 
 
 class LoopThread:

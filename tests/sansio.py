@@ -20,8 +20,7 @@ from hitrobot_server.nodes.options import NodeOptions
 from hitrobot_server.session.options import SessionOptions
 from hitrobot_server.session.rosbridge.session import Session, Shared
 from hitrobot_server.types.registry import TypeRegistry
-
-from .helpers import ProtocolClient, decode_frame
+from tests.helpers import ProtocolClient, decode_frame
 
 
 class SessionClient(ProtocolClient):

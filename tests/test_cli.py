@@ -12,8 +12,7 @@ import pytest
 
 from hitrobot_server.cli import build_parser
 from hitrobot_server.config import load
-
-from .helpers import ServerProcess
+from tests.helpers import ServerProcess
 
 FLAGS = ["--port", "--address", "--tcp-port", "--authenticate", "--auth-secret-file",
          "--fragment-timeout", "--max-message-size", "--delay-between-messages",

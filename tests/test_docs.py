@@ -1,7 +1,7 @@
 """The manual (docs/, mkdocs.yml) and the README: the flags page is what the parsers say, the
 site builds with ``mkdocs build --strict`` (every link and anchor checked), every page is in the
 nav, and the README stays a short tour that links each page. The snippets on the pages run in
-tests/integration/test_doc_snippets.py."""
+tests/test_doc_snippets.py."""
 
 from __future__ import annotations
 

@@ -11,11 +11,10 @@ from prometheus_client.parser import text_string_to_metric_families
 from websockets.asyncio.client import connect
 
 from hitrobot_server.session.traffic import MAX_TOPICS, OTHER_TOPICS
-
-from .helpers import ServerProcess, WsClient, round_trip
-from .test_process_tree import wait_for_line
-from .transport.test_http import http
-from .witness import MemoryPeak, RoundTrips
+from tests.helpers import ServerProcess, WsClient, round_trip
+from tests.test_process_tree import wait_for_line
+from tests.transport.test_http import http
+from tests.witness import MemoryPeak, RoundTrips
 
 
 async def scrape(port: int) -> dict[str, dict[tuple, float]]:

@@ -12,8 +12,7 @@ from pathlib import Path
 import pytest
 
 from hitrobot_server.procmem import children
-
-from .helpers import ServerProcess, WsClient, round_trip
+from tests.helpers import ServerProcess, WsClient, round_trip
 
 BIG = "x" * (400 * 1024)  # above protocol.bulk.OFFLOAD_BYTES: parsed in the worker pool
 
@@ -117,7 +116,7 @@ def state_dir_of(pid: int) -> Path:
 async def test_the_consoles_replay_and_its_folder_end_with_the_server(end, tmp_path):
     """"Open replay" starts a replay server; whichever way the live one ends, the replay (and
     its children) end too and its /tmp/hitrobot-replay-* folder goes."""
-    from .record.test_player import make_recording
+    from tests.record.test_player import make_recording
 
     folder = tmp_path / "recordings"
     folder.mkdir()

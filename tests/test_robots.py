@@ -11,8 +11,7 @@ import pytest
 from hitrobot_server.cli import build_parser
 from hitrobot_server.config import load
 from hitrobot_server.robot.options import RobotEntry
-
-from .helpers import Watcher
+from tests.helpers import Watcher
 
 
 def parse(*argv: str):

@@ -15,8 +15,7 @@ from pathlib import Path
 import pytest
 
 from hitrobot_server.signals import ServiceNotifier
-
-from .helpers import ServerProcess, WsClient, round_trip
+from tests.helpers import ServerProcess, WsClient, round_trip
 
 UNIT = Path(__file__).resolve().parents[1] / "deploy" / "hitrobot-server.service"
 

@@ -18,14 +18,13 @@ from hitrobot_server.site import MOVED
 from hitrobot_server.state import StateStore, identity_folder
 from hitrobot_server.state.journal import encode_record
 from hitrobot_server.state.loading import JOURNAL
-
-from .helpers import Watcher
-from .integration.test_site_restart import write_old_layout
-from .nodes.map_manager.util import MM, poi, request
-from .state.failing_folder import FailingFolder
-from .state.test_rest_identity import device
-from .test_metrics import scrape
-from .transport.test_http import http
+from tests.helpers import Watcher
+from tests.nodes.map_manager.util import MM, poi, request
+from tests.state.failing_folder import FailingFolder
+from tests.state.test_rest_identity import device
+from tests.test_metrics import scrape
+from tests.test_site_restart import write_old_layout
+from tests.transport.test_http import http
 
 ROBOTS = (RobotEntry("a", "sim", (6.0, 8.0, 0.0)), RobotEntry("b", "sim", (12.0, 8.0, 0.0)))
 SLAM_MAP = "slamware_ros_sdk_server_node/map"

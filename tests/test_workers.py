@@ -18,9 +18,8 @@ from hitrobot_server.cli import build_parser
 from hitrobot_server.config import load
 from hitrobot_server.robots import start_plan
 from hitrobot_server.workers import reserve_port, without_workers_flag
-
-from .helpers import ServerProcess, WsClient, round_trip
-from .test_process_tree import BIG, alive, descendants, until_some, wait_for_line
+from tests.helpers import ServerProcess, WsClient, round_trip
+from tests.test_process_tree import BIG, alive, descendants, until_some, wait_for_line
 
 
 def free_port() -> int:

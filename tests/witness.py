@@ -7,8 +7,7 @@ import asyncio
 import threading
 
 from hitrobot_server import procmem
-
-from .helpers import ProtocolClient, WsClient
+from tests.helpers import ProtocolClient, WsClient
 
 TOPIC = "/witness/chatter"
 

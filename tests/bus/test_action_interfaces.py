@@ -17,8 +17,7 @@ from hitrobot_server.bus.services import (
 )
 from hitrobot_server.types.convert import from_json
 from hitrobot_server.types.registry import TypeRegistry
-
-from ..helpers import until
+from tests.helpers import until
 
 ACTION = "/drive"
 UUID_A, UUID_B = bytes(range(16)), bytes(range(16, 32))

@@ -12,8 +12,7 @@ from hitrobot_server.bus.core import Bus
 from hitrobot_server.bus.rosout import RosoutHandler
 from hitrobot_server.nodes.base import Node, RobotNode
 from hitrobot_server.types.registry import TypeRegistry
-
-from ..helpers import until
+from tests.helpers import until
 
 log = logging.getLogger(__name__)
 

@@ -13,8 +13,7 @@ from hitrobot_server.bus.core import Bus
 from hitrobot_server.bus.errors import ServiceError
 from hitrobot_server.bus.zenoh.link import ZenohLink
 from hitrobot_server.types.registry import TypeRegistry
-
-from ..integration.test_zenoh_scale_out import free_port
+from tests.bus.test_zenoh_scale_out import free_port
 
 
 class Member:

@@ -12,9 +12,8 @@ import pytest
 
 from hitrobot_server.robot.device import SimDevice
 from hitrobot_server.robot.factory import build_simulator
-
-from ..helpers import Watcher, WsClient
-from .robot_setup import Robot, RobotSetup
+from tests.helpers import Watcher, WsClient
+from tests.nodes.robot_setup import Robot, RobotSetup
 
 BACKENDS = ("sim", "rest")
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from ..helpers import Watcher, WsClient
+from tests.helpers import Watcher, WsClient
 
 
 @dataclass(frozen=True)

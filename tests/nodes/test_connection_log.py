@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import logging
 
-from ..helpers import WsClient
-from .test_fleet import fleet
+from tests.helpers import WsClient
+from tests.nodes.fleet.test_node import fleet
 
 
 async def test_each_robot_is_logged_connected_once_by_its_name(make_server, tmp_path, caplog):

@@ -9,8 +9,7 @@ import time
 import pytest
 
 from hitrobot_server.nodes.ground.messages import yaw_of
-
-from .robot_setup import RobotSetup
+from tests.nodes.robot_setup import RobotSetup
 
 POSE_TYPE = "geometry_msgs/PoseWithCovarianceStamped"
 

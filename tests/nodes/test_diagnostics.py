@@ -5,9 +5,8 @@ from __future__ import annotations
 import pytest
 
 from hitrobot_server.nodes.diagnostics import ERROR, OK, STALE, WARN
-
-from ..helpers import Watcher
-from .robot_setup import RobotSetup
+from tests.helpers import Watcher
+from tests.nodes.robot_setup import RobotSetup
 
 
 def by_name(msg: dict) -> dict[str, dict]:

@@ -17,9 +17,8 @@ except ImportError:  # roslibpy 2.x
     from roslibpy.ros1.actionlib import ActionClient, Goal, GoalStatus
 
 from hitrobot_server.nodes.ground.placement import cells_of, placement_problem
-
-from ..helpers import ServerProcess, WsClient, connect_roslibpy
-from .map_manager.util import NS, OBSTACLE, current, modify_map, rect, start
+from tests.helpers import ServerProcess, WsClient, connect_roslibpy
+from tests.nodes.map_manager.util import NS, OBSTACLE, current, modify_map, rect, start
 
 DESK = (9.75, 2.2)  # inside the office's desk
 ON_DESK = "goal (9.75, 2.20) is on an obstacle"

@@ -15,8 +15,7 @@ from hitrobot_server.nodes.graph import (
     nearest_node,
     shortest_path,
 )
-
-from .map_manager.util import NS, current, start
+from tests.nodes.map_manager.util import NS, current, start
 
 
 def node(i: int, x: float, y: float, z: float = 0.0) -> dict:

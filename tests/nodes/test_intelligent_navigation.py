@@ -11,9 +11,8 @@ import pytest
 import roslibpy
 
 from hitrobot_server.nodes.ground.messages import yaw_of
-
-from ..helpers import Watcher, WsClient
-from .robot_setup import RobotSetup
+from tests.helpers import Watcher, WsClient
+from tests.nodes.robot_setup import RobotSetup
 
 ODOM = "/slamware_ros_sdk_server_node/odom"
 ACTION = "/intelligent_navigate_to_pose"

@@ -14,9 +14,8 @@ from hitrobot_server.nodes.locomotion import (
     topic_part,
     wheel_speeds,
 )
-
-from ..helpers import Watcher
-from .map_manager.util import SPEED
+from tests.helpers import Watcher
+from tests.nodes.map_manager.util import SPEED
 
 SITTING = "motion refused: the robot is sitting (locomotion state SITDOWN_MODE)"
 IN_CONTROL, STANDING_MODE, SITDOWN_MODE = 7, 6, 8

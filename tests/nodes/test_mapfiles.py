@@ -11,8 +11,7 @@ from hitrobot_server.nodes.ground.namedfiles import (
     check_name,
     is_default_dir,
 )
-
-from .map_manager.util import MM, request, start
+from tests.nodes.map_manager.util import MM, request, start
 
 
 def test_named_files_refuse_bad_names(tmp_path):

@@ -16,8 +16,8 @@ try:  # roslibpy 1.x
 except ImportError:  # roslibpy 2.x
     from roslibpy.ros1.actionlib import ActionClient, Goal, GoalStatus
 
-from ..helpers import ServerProcess, Watcher, connect_roslibpy
-from .robot_setup import RobotSetup
+from tests.helpers import ServerProcess, Watcher, connect_roslibpy
+from tests.nodes.robot_setup import RobotSetup
 
 SPEED = "4"  # simulated seconds per wall second
 ACTION = "move_base_msgs/MoveBaseAction"

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from ..helpers import WsClient
+from tests.helpers import WsClient
 
 FAR = (20.0, 8.2)  # the far end of the corridor: a long drive
 

@@ -21,9 +21,8 @@ from hitrobot_server.nodes.slamware.topics import NODE_NAME
 from hitrobot_server.robot.factory import build_simulator, robot_of
 from hitrobot_server.robot.sim.backend import SimBackend
 from hitrobot_server.types.registry import TypeRegistry
-
-from ..helpers import Watcher
-from .robot_setup import RobotSetup
+from tests.helpers import Watcher
+from tests.nodes.robot_setup import RobotSetup
 
 SIMPLE = "/move_base_simple/goal"
 STATUS, FEEDBACK, RESULT = "/move_base/status", "/move_base/feedback", "/move_base/result"

@@ -12,9 +12,8 @@ from hitrobot_server.nodes.ground.messages import yaw_of
 from hitrobot_server.nodes.nav2_actions import PathProgress, resample, simplify
 from hitrobot_server.robot.model import Point2D
 from hitrobot_server.robot.sim.world import load_world
-
-from ..helpers import Watcher, WsClient
-from .robot_setup import RobotSetup
+from tests.helpers import Watcher, WsClient
+from tests.nodes.robot_setup import RobotSetup
 
 ODOM = "/slamware_ros_sdk_server_node/odom"
 COMPUTE = "/compute_path_to_pose"

@@ -14,9 +14,8 @@ from hitrobot_server.nodes.navigation import (
     planning_area,
     unreachable_reason,
 )
-
-from ..helpers import Watcher, WsClient
-from .map_manager.util import (
+from tests.helpers import Watcher, WsClient
+from tests.nodes.map_manager.util import (
     BLOCKED,
     MM,
     NOT_MASKED,

@@ -16,8 +16,7 @@ from hitrobot_server.nodes.patrol import (
     nearest,
     waypoints_of,
 )
-
-from .map_manager.util import current, start
+from tests.nodes.map_manager.util import current, start
 
 FRAMES = frozenset({"map", "floor1"})
 

@@ -24,8 +24,7 @@ from hitrobot_server.nodes.pointclouds import (
 )
 from hitrobot_server.robot.model import LaserScan, Pose2D
 from hitrobot_server.robot.sim.world import load_world
-
-from ..helpers import Watcher
+from tests.helpers import Watcher
 
 FIELDS = [{"name": "x", "offset": 0, "datatype": 7, "count": 1},
           {"name": "y", "offset": 4, "datatype": 7, "count": 1},

@@ -8,7 +8,7 @@ import re
 
 import pytest
 
-from ..helpers import WsClient
+from tests.helpers import WsClient
 
 BUILTINS = {"bool", "byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32",
             "int64", "uint64", "float32", "float64", "string", "time", "duration"}

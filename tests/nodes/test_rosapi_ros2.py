@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from ..helpers import WsClient
+from tests.helpers import WsClient
 
 
 @pytest.fixture

@@ -12,9 +12,8 @@ import pytest
 from hitrobot_server import __version__
 from hitrobot_server.bus.names import CLIENT_NODE_PREFIX
 from hitrobot_server.nodes.base import Node
-
-from ..helpers import Watcher
-from .robot_setup import RobotSetup
+from tests.helpers import Watcher
+from tests.nodes.robot_setup import RobotSetup
 
 NS = "/slamware_ros_sdk_server_node"
 SECRET = "0123456789abcdef"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from ..helpers import Watcher
+from tests.helpers import Watcher
 
 TOPICS = {
     "/scan": "sensor_msgs/LaserScan",

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from ..helpers import WsClient
+from tests.helpers import WsClient
 
 FEEDBACK = "/tf2_web_republisher/feedback"
 GOAL_TYPE = "tf2_web_republisher/TFSubscriptionActionGoal"

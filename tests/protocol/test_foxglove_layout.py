@@ -14,8 +14,7 @@ import pytest
 
 from hitrobot_server.protocol import foxglove_layout as L
 from hitrobot_server.robot.options import RobotEntry
-
-from ..helpers import WsClient
+from tests.helpers import WsClient
 
 
 def sdk_layout(robots: list[str], fleet: bool) -> fl.Layout:

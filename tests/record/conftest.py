@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 import roslibpy
 
-from ..helpers import ServerProcess, connect_roslibpy
+from tests.helpers import ServerProcess, connect_roslibpy
 
 ODOM = "/odom"
 SCAN = "/scan"

@@ -13,9 +13,8 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from hitrobot_server.record.blackbox_file import METADATA
-
-from ..helpers import ServerProcess, WsClient, round_trip
-from ..witness import MemoryPeak
+from tests.helpers import ServerProcess, WsClient, round_trip
+from tests.witness import MemoryPeak
 
 AWAY = (100.0, 100.0)  # a goal far off the map: move_base aborts it at once
 

@@ -9,8 +9,8 @@ import signal
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from ..helpers import WsClient
-from ..transport.test_http import http
+from tests.helpers import WsClient
+from tests.transport.test_http import http
 
 
 async def test_start_list_download_and_stop_a_recording(make_server, tmp_path):
@@ -146,8 +146,7 @@ async def test_replay_with_authenticate_asks_the_same_tokens(make_server, tmp_pa
     from websockets.exceptions import InvalidStatus
 
     from hitrobot_server.state.tokens import add_token, tokens_path
-
-    from .test_player import make_recording
+    from tests.record.test_player import make_recording
 
     folder = tmp_path / "recordings"
     folder.mkdir()

@@ -21,8 +21,7 @@ from hitrobot_server.record.files import check_writable, prune
 from hitrobot_server.record.options import RecordOptions, parse_duration, parse_size
 from hitrobot_server.record.recorder import Recorder
 from hitrobot_server.types.registry import TypeRegistry
-
-from ..helpers import WsClient, until
+from tests.helpers import WsClient, until
 
 
 def texts(path, topic: str = "/big") -> list[str]:

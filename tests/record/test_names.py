@@ -8,8 +8,7 @@ import os
 import pytest
 
 from hitrobot_server.record.names import MAX_NAME, recording_name
-
-from ..helpers import WsClient
+from tests.helpers import WsClient
 
 DEFAULT = "rec-20261126-001500"
 

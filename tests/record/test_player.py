@@ -10,8 +10,7 @@ from hitrobot_server.record.player import Player
 from hitrobot_server.record.reading import load_recording
 from hitrobot_server.record.recorder import Recorder
 from hitrobot_server.types.registry import TypeRegistry
-
-from ..helpers import until
+from tests.helpers import until
 
 
 async def make_recording(path, count: int = 20, period: float = 0.02) -> None:

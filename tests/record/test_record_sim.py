@@ -21,9 +21,8 @@ from mcap.reader import NonSeekingReader, make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from hitrobot_server.record.profile import AUDIT_TOPIC
-
-from ..helpers import connect_roslibpy
-from .conftest import ODOM, SCAN, rate, record_server
+from tests.helpers import connect_roslibpy
+from tests.record.conftest import ODOM, SCAN, rate, record_server
 
 
 def read_all(path: Path):

@@ -6,8 +6,8 @@ from __future__ import annotations
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from ..helpers import WsClient
-from ..integration.test_zenoh_scale_out import free_port, sees_subscriber, until, zenoh_server
+from tests.bus.test_zenoh_scale_out import free_port, sees_subscriber, until, zenoh_server
+from tests.helpers import WsClient
 
 
 async def test_messages_from_another_server_are_recorded(tmp_path):

@@ -19,8 +19,7 @@ from hitrobot_server.record.recorder import Recorder, split_name
 from hitrobot_server.record.writer import write_recording
 from hitrobot_server.session.rosbridge.encodings import seeded
 from hitrobot_server.types.registry import TypeRegistry
-
-from ..helpers import until
+from tests.helpers import until
 
 
 def decoded(path):

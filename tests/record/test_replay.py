@@ -16,9 +16,9 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 from mcap_ros2.decoder import DecoderFactory
 
-from ..helpers import ServerProcess, connect_roslibpy
-from ..integration.test_roslibjs import run_checks
-from .conftest import ODOM
+from tests.clients.test_roslibjs import run_checks
+from tests.helpers import ServerProcess, connect_roslibpy
+from tests.record.conftest import ODOM
 
 JS = Path(__file__).resolve().parents[1] / "js"
 

@@ -22,10 +22,9 @@ from mcap_ros2.writer import Writer as Ros2Writer
 
 from hitrobot_server.record.reading import RecordingError, load_recording
 from hitrobot_server.types.registry import TypeRegistry
-
-from ..helpers import ServerProcess, connect_roslibpy
-from .conftest import ODOM
-from .test_replay import Collector, call
+from tests.helpers import ServerProcess, connect_roslibpy
+from tests.record.conftest import ODOM
+from tests.record.test_replay import Collector, call
 
 ODD_STRING = "int32 data\nstring note  # a field our std_msgs/String does not have\n"
 SEP = "=" * 80

@@ -12,8 +12,7 @@ import pytest
 from websockets.asyncio.client import connect
 
 from hitrobot_server.protocol import foxglove_playback as pb
-
-from ..helpers import ServerProcess
+from tests.helpers import ServerProcess
 
 TIME_OP = 2
 

@@ -14,9 +14,8 @@ from mcap.reader import make_reader
 
 from hitrobot_server.record.reading import NOT_REPLAYED
 from hitrobot_server.robot.options import RobotEntry
-
-from ..helpers import ServerProcess, Watcher
-from ..nodes.test_fleet import POI_T, Y, dispatch, idle, pose, task
+from tests.helpers import ServerProcess, Watcher
+from tests.nodes.fleet.test_node import POI_T, Y, dispatch, idle, pose, task
 
 EXPECTED_TYPES = {
     "move_base_msgs/msg/MoveBaseActionResult",  # the result the issue found refused

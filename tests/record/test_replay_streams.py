@@ -31,9 +31,8 @@ from hitrobot_server.bus.core import Bus
 from hitrobot_server.record.player import Player
 from hitrobot_server.record.reading import RecordingError, load_recording
 from hitrobot_server.types.registry import TypeRegistry
-
-from ..helpers import until
-from .test_replay_files import ZEROS, bomb_file
+from tests.helpers import until
+from tests.record.test_replay_files import ZEROS, bomb_file
 
 BLOB = 60 << 10  # bytes of each message's payload
 COUNT = 400  # 400 x 60 KiB = 23.4 MiB of messages

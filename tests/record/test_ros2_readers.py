@@ -13,8 +13,7 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from hitrobot_server.record.profile import AUDIT_TOPIC
-
-from ..helpers import WsClient
+from tests.helpers import WsClient
 
 SCAN = {"header": {"frame_id": "laser"}, "angle_min": -1.0, "angle_max": 1.0,
         "angle_increment": 1.0, "range_min": 0.1, "range_max": 10.0,

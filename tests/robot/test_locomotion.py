@@ -18,8 +18,7 @@ from hitrobot_server.robot.locomotion import (
 )
 from hitrobot_server.robot.model import ActionDirection, Point2D
 from hitrobot_server.robot.sim.backend import SimBackend
-
-from ..helpers import until
+from tests.helpers import until
 
 
 def test_parse_listen_formats():

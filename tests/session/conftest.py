@@ -2,7 +2,7 @@ from __future__ import annotations
 
 import pytest
 
-from ..sansio import Hub, SessionClient
+from tests.sansio import Hub, SessionClient
 
 
 @pytest.fixture

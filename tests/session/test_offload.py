@@ -36,9 +36,8 @@ from hitrobot_server.session.rosbridge.verbatim import VERBATIM_MIN
 from hitrobot_server.types.convert import from_json
 from hitrobot_server.types.registry import TypeRegistry
 from hitrobot_server.wire.frames import PendingFrames
-
-from ..helpers import WsClient
-from .test_encodings import decode_png_op
+from tests.helpers import WsClient
+from tests.session.rosbridge.test_encodings import decode_png_op
 
 BIG = 700  # a BIG x BIG OccupancyGrid is ~1.2 MB of JSON: well over bulk.OFFLOAD_BYTES
 

@@ -13,8 +13,7 @@ import orjson
 from hitrobot_server.procmem import children
 from hitrobot_server.protocol.bulk import OFFLOAD_BYTES
 from hitrobot_server.session.offload import WorkerPool
-
-from ..helpers import WsClient
+from tests.helpers import WsClient
 
 WARM = 60.0  # seconds a warm-up may take on a loaded machine
 

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import time
 
-from ..helpers import WsClient, silent_provider
-from ..witness import Witness
+from tests.helpers import WsClient, silent_provider
+from tests.witness import Witness
 
 LIMIT = 20
 EXTRA = 5

@@ -12,8 +12,8 @@ from pathlib import Path
 
 from websockets.asyncio.client import connect
 
-from ..helpers import WsClient, round_trip
-from .lines.session import SUBPROTOCOL, Lines
+from tests.helpers import WsClient, round_trip
+from tests.session.lines.session import SUBPROTOCOL, Lines
 
 LINES = Path(__file__).parent / "lines"
 

@@ -7,10 +7,10 @@ test may mount one; otherwise the folder is made read-only by its modes (see
 
 from __future__ import annotations
 
-from ..helpers import ServerProcess, Watcher
-from ..nodes.map_manager.util import MM, poi, request
-from .failing_folder import FailingFolder
-from .test_restart import diagnostic, value
+from tests.helpers import ServerProcess, Watcher
+from tests.nodes.map_manager.util import MM, poi, request
+from tests.state.failing_folder import FailingFolder
+from tests.state.test_restart import diagnostic, value
 
 POI_T = "map_messages/PointOfInterest"
 LONG = "x" * 6000  # a journal line longer than a page: it needs space the disk no longer has

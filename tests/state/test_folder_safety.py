@@ -18,9 +18,8 @@ import pytest
 
 from hitrobot_server.state import StateFolderError, StateStore
 from hitrobot_server.state.journal import encode_record, encode_snapshot
-
-from ..helpers import ServerProcess
-from .failing_folder import FailingFolder
+from tests.helpers import ServerProcess
+from tests.state.failing_folder import FailingFolder
 
 MiB = 1024 * 1024
 BOUND = 100 * MiB  # what opening a damaged folder may cost over opening a clean one

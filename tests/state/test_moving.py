@@ -10,8 +10,7 @@ from hitrobot_server.state import StateStore, StateWriteError
 from hitrobot_server.state.journal import decode_journal
 from hitrobot_server.state.loading import JOURNAL
 from hitrobot_server.state.moving import finish_move, move_sections, moving_from
-
-from .failing_folder import FailingFolder
+from tests.state.failing_folder import FailingFolder
 
 MARK = "site/moved"
 POIS = [{"type": 100, "name": "kitchen"}]

@@ -6,10 +6,9 @@ from __future__ import annotations
 
 from hitrobot_server.robot.device import SimDevice
 from hitrobot_server.robot.factory import build_simulator
-
-from ..helpers import ServerProcess, Watcher
-from ..nodes.map_manager.util import BLOCKED, MM, NS, cell, modify_map, poi, rect, request
-from .test_restart import WALL, diagnostic, line, lines_of
+from tests.helpers import ServerProcess, Watcher
+from tests.nodes.map_manager.util import BLOCKED, MM, NS, cell, modify_map, poi, rect, request
+from tests.state.test_restart import WALL, diagnostic, line, lines_of
 
 POI_T = "map_messages/PointOfInterest"
 MASK = (8.0, 3.0, 8.6, 3.6)

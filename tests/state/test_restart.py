@@ -6,9 +6,19 @@ from __future__ import annotations
 import math
 import random
 
-from ..helpers import ServerProcess, Watcher
-from ..nodes.map_manager.util import BLOCKED, MM, NS, cell, current, modify_map, poi, rect, request
-from ..nodes.test_graph import EDGES, NODES
+from tests.helpers import ServerProcess, Watcher
+from tests.nodes.map_manager.util import (
+    BLOCKED,
+    MM,
+    NS,
+    cell,
+    current,
+    modify_map,
+    poi,
+    rect,
+    request,
+)
+from tests.nodes.test_graph import EDGES, NODES
 
 POI_T = "map_messages/PointOfInterest"
 ROUTE = [{"frame": "map", "x": 2.5, "y": 8.0, "z": 0.0, "use_z": False},

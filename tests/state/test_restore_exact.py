@@ -10,8 +10,8 @@ from __future__ import annotations
 import contextlib
 import json
 
-from ..helpers import ServerProcess, Watcher
-from ..nodes.map_manager.util import BLOCKED, MM, NS, cell, modify_map, poi, rect, request
+from tests.helpers import ServerProcess, Watcher
+from tests.nodes.map_manager.util import BLOCKED, MM, NS, cell, modify_map, poi, rect, request
 
 POI_T = "map_messages/PointOfInterest"
 SAVE_T = "map_messages/SaveMap"

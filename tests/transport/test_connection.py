@@ -10,9 +10,8 @@ import json
 import pytest
 
 from hitrobot_server.transport.connection import keep_reading, run_session
-
-from ..helpers import decode_frame
-from ..sansio import Hub
+from tests.helpers import decode_frame
+from tests.sansio import Hub
 
 
 @pytest.fixture

@@ -14,10 +14,9 @@ from websockets.asyncio.client import connect
 
 from hitrobot_server.session.core import BEHIND_BYTES, CONTROL_FRAMES_PER_SECOND
 from hitrobot_server.transport.control import ControlBudget
-
-from ..helpers import ServerProcess
-from ..integration.test_fleet_restart import cpu_seconds
-from ..witness import MemoryPeak, RoundTrips
+from tests.helpers import ServerProcess
+from tests.nodes.fleet.test_restart import cpu_seconds
+from tests.witness import MemoryPeak, RoundTrips
 
 FLOOD_SECONDS = 3.0
 

@@ -10,9 +10,8 @@ import pytest
 
 from hitrobot_server.procmem import memory
 from hitrobot_server.transport.download import byte_range, claims
-
-from ..helpers import ServerProcess, WsClient, round_trip
-from .test_http import http
+from tests.helpers import ServerProcess, WsClient, round_trip
+from tests.transport.test_http import http
 
 SIZE = 64 * 1024 * 1024
 

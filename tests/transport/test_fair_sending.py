@@ -10,8 +10,7 @@ import time
 from websockets.asyncio.client import connect
 
 from hitrobot_server.nodes.diagnostics import WARN, DiagnosticsNode
-
-from ..helpers import WsClient, round_trip
+from tests.helpers import WsClient, round_trip
 
 BIG = "/fair/cloud"
 SMALL = "/fair/pose"

@@ -11,9 +11,8 @@ from websockets.asyncio.client import connect
 
 from hitrobot_server.protocol.foxglove import SUBPROTOCOLS
 from hitrobot_server.session.client import WireProtocols
-
-from ..helpers import WsClient
-from .test_tls import cert  # noqa: F401  (the certificate fixture)
+from tests.helpers import WsClient
+from tests.transport.test_tls import cert  # noqa: F401  (the certificate fixture)
 
 
 def choose_subprotocol(offered: list[str], foxglove: bool) -> str | None:

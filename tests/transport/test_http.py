@@ -17,8 +17,7 @@ from hitrobot_server.transport.http import (
     default_web_root,
     missing_libraries,
 )
-
-from ..helpers import WsClient, until
+from tests.helpers import WsClient, until
 
 REPO = Path(__file__).resolve().parents[2]
 WEB = REPO / "web"

@@ -13,9 +13,8 @@ import pytest
 from websockets.asyncio.client import connect
 
 from hitrobot_server.nodes.base import Node
-
-from ..helpers import TcpClient, until
-from ..witness import Witness
+from tests.helpers import TcpClient, until
+from tests.witness import Witness
 
 BUDGET = 1_000_000  # --reply-buffer-limit of the test server
 REPLY = 200_000  # bytes of each reply of /big_reply (the sync_get_stcm: 205 kB)

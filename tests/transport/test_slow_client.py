@@ -6,7 +6,7 @@ import asyncio
 
 from websockets.asyncio.client import connect
 
-from ..helpers import WsClient, round_trip
+from tests.helpers import WsClient, round_trip
 
 
 async def test_stalled_client_does_not_delay_fast_one(make_server):

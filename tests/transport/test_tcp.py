@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 import json
 
-from ..helpers import TcpClient, WsClient, round_trip
+from tests.helpers import TcpClient, WsClient, round_trip
 
 
 async def test_concatenated_split_and_newline_input(server):
@@ -68,8 +68,7 @@ async def test_a_flood_of_garbage_is_reported_a_few_times_a_second(server):
     STREAM_ERRORS_PER_SECOND per second plus one notice, while errors of ops with an id are
     all reported and the witness sees nothing of it."""
     from hitrobot_server.session.rosbridge.session import STREAM_ERRORS_PER_SECOND
-
-    from ..witness import Witness
+    from tests.witness import Witness
 
     witness = await Witness.open(server.port)
     c = await TcpClient.open(server.tcp_port)

@@ -19,9 +19,8 @@ from websockets.asyncio.client import connect
 
 from hitrobot_server.cli import build_parser
 from hitrobot_server.config import load
-
-from ..helpers import TcpClient, WsClient, until
-from ..witness import Witness
+from tests.helpers import TcpClient, WsClient, until
+from tests.witness import Witness
 
 
 @pytest.fixture(scope="module")

@@ -18,8 +18,7 @@ from websockets.uri import parse_uri
 
 from hitrobot_server.transport.flight import ARM_AGE, ARM_SPAN, INITIAL_WINDOW, WATCH_EVERY
 from hitrobot_server.transport.websocket import COUNT_EVERY, window_tick
-
-from ..helpers import WsClient, round_trip, until
+from tests.helpers import WsClient, round_trip, until
 
 BIG, POSE = "/window/cloud", "/window/pose"
 

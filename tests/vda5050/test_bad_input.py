@@ -16,8 +16,7 @@ from hitrobot_server.vda5050 import errors as e
 from hitrobot_server.vda5050.inbox import MAX_BYTES
 from hitrobot_server.vda5050.orders import INSTANT_KEPT
 from tests.helpers import WsClient, round_trip
-
-from .master import Master, action, has_error, node
+from tests.vda5050.master import Master, action, has_error, node
 
 
 async def vehicle_server(make_server, broker):

@@ -3,7 +3,7 @@ once it charges; ``stopCharging`` finished at once, as the factsheet says."""
 
 from __future__ import annotations
 
-from .master import Master, action, node
+from tests.vda5050.master import Master, action, node
 
 
 def status(state: dict, action_id: str) -> str:

@@ -7,8 +7,7 @@ from __future__ import annotations
 import asyncio
 
 from tests.helpers import ServerProcess
-
-from .master import Master
+from tests.vda5050.master import Master
 
 
 def states(master: Master) -> list[str]:

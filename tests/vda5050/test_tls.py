@@ -19,8 +19,7 @@ from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import NameOID
 
 from tests.helpers import WsClient, round_trip, until
-
-from .conftest import Broker
+from tests.vda5050.conftest import Broker
 
 
 def issue(name: str, folder, ca=None, server: bool = False):

@@ -8,9 +8,8 @@ from __future__ import annotations
 from hitrobot_server.robot.options import RobotEntry
 from hitrobot_server.vda5050 import errors as e
 from tests.helpers import Watcher
-from tests.nodes.test_fleet import add_poi, dispatch, robots
-
-from .master import Master, has_error, node
+from tests.nodes.fleet.test_node import add_poi, dispatch, robots
+from tests.vda5050.master import Master, has_error, node
 
 Y = 8.0
 NS = "/slamware_ros_sdk_server_node"

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from ..helpers import Watcher
+from tests.helpers import Watcher
 
 REPO = Path(__file__).resolve().parents[2]
 ARTIFACTS = REPO / "test-artifacts"

@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-from .conftest import ARTIFACTS, REPO, Console, add_poi, grid_map, yaw_of
+from tests.web.conftest import ARTIFACTS, REPO, Console, add_poi, grid_map, yaw_of
 
 ODOM = "/slamware_ros_sdk_server_node/odom"
 ROBOT_BLUE = np.array([0x21, 0x96, 0xF3])

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import re
 
-from ..helpers import Watcher
-from .conftest import Console, add_poi
-from .test_fleet import Y, fleet_console  # noqa: F401 (a fixture)
-from .test_zones import polygon
+from tests.helpers import Watcher
+from tests.web.conftest import Console, add_poi
+from tests.web.test_fleet import Y, fleet_console  # noqa: F401 (a fixture)
+from tests.web.test_zones import polygon
 
 ROBOTS = """() => window.hitrobot.fleet.robots.map((r) => ({ name: r.name,
   ...window.hitrobot.view.rosToClient(r.pose.position.x, r.pose.position.y) }))"""

@@ -4,7 +4,7 @@ beside it is the URL to connect the Foxglove app to."""
 
 from __future__ import annotations
 
-from .conftest import Console
+from tests.web.conftest import Console
 
 FETCHED = """async (href) => {
   const answer = await fetch(href);

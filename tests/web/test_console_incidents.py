@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import re
 
-from ..helpers import WsClient
-from .conftest import ARTIFACTS
+from tests.helpers import WsClient
+from tests.web.conftest import ARTIFACTS
 
 ROW = "#incident-list li[data-cause=emergency_stop]"
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from .conftest import Console
+from tests.web.conftest import Console
 
 ODOM = "/slamware_ros_sdk_server_node/odom"
 RARE = "/inspector_rare"

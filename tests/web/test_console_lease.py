@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import asyncio
 
-from .conftest import Console
+from tests.web.conftest import Console
 
 TWIST = "geometry_msgs/Twist"
 

@@ -4,8 +4,8 @@ placement.js): nothing is sent, the robot does not move."""
 
 from __future__ import annotations
 
-from .conftest import Console, grid_map
-from .test_journeys import CLEAR, west_of_clear
+from tests.web.conftest import Console, grid_map
+from tests.web.test_journeys import CLEAR, west_of_clear
 
 
 def on_an_obstacle(grid_msg: dict) -> tuple[float, float]:

@@ -9,9 +9,8 @@ import time
 from hitrobot_server.bus.core import Bus
 from hitrobot_server.record.recorder import Recorder
 from hitrobot_server.types.registry import TypeRegistry
-
-from ..helpers import ServerProcess, Watcher
-from .conftest import ARTIFACTS
+from tests.helpers import ServerProcess, Watcher
+from tests.web.conftest import ARTIFACTS
 
 BAR = "#replay-bar"
 

@@ -8,9 +8,9 @@ scale and the dock, and says the recorded server's start-up line as the recordin
 
 from __future__ import annotations
 
-from ..helpers import Watcher
-from .conftest import ARTIFACTS, grid_map
-from .test_console_placement import on_an_obstacle
+from tests.helpers import Watcher
+from tests.web.conftest import ARTIFACTS, grid_map
+from tests.web.test_console_placement import on_an_obstacle
 
 ROW = "#incident-list li[data-cause=goal_aborted]"
 # what the page shows, sampled every 50 ms from its first script on

@@ -4,8 +4,8 @@ the map is not dimmed as a robot's absence dims it."""
 
 from __future__ import annotations
 
-from ..helpers import ServerProcess
-from .test_console_recordings import synthetic_recording
+from tests.helpers import ServerProcess
+from tests.web.test_console_recordings import synthetic_recording
 
 BAR = "#replay-bar"
 CONNECTED = {"level": 0, "name": "/Robot/Connection", "message": "robot connected",

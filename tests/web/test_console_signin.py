@@ -7,8 +7,7 @@ from __future__ import annotations
 import pytest
 
 from hitrobot_server.state.tokens import add_token, tokens_path
-
-from .conftest import READY
+from tests.web.conftest import READY
 
 
 @pytest.fixture

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .jssource import functions
+from tests.web.jssource import functions
 
 WEB = Path(__file__).resolve().parents[2] / "web"
 MAX_LINES = 60

@@ -8,8 +8,8 @@ import shutil
 
 import numpy as np
 
-from ..helpers import Watcher
-from .conftest import REPO, Console, GridMap, add_poi, grid_map
+from tests.helpers import Watcher
+from tests.web.conftest import REPO, Console, GridMap, add_poi, grid_map
 
 NODE = "/slamware_ros_sdk_server_node"
 ODOM = f"{NODE}/odom"

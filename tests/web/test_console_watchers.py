@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from .conftest import READY, Console, grid_map
+from tests.web.conftest import READY, Console, grid_map
 
 ODOM = "/slamware_ros_sdk_server_node/odom"
 
@@ -102,9 +102,8 @@ async def test_choosing_another_robot_never_stops_the_one_left(make_server, brow
     """Fleet: b runs a task; the operator clicks b's radio button, then a's. The page never
     drove b, so leaving it sends no stop: b's task still succeeds, as the page lists it."""
     from hitrobot_server.robot.options import RobotEntry
-
-    from ..helpers import Watcher
-    from ..nodes.test_fleet import dispatch, pose
+    from tests.helpers import Watcher
+    from tests.nodes.fleet.test_node import dispatch, pose
 
     y = 8.0
     server = await make_server(

@@ -6,9 +6,8 @@ from __future__ import annotations
 import pytest
 
 from hitrobot_server.server import WORKER_HEADER
-
-from ..helpers import ServerProcess
-from .conftest import READY
+from tests.helpers import ServerProcess
+from tests.web.conftest import READY
 
 MAX_LOADS = 16  # page loads at most to be served by both workers
 

@@ -4,7 +4,7 @@ Esc cancels in every dialog, the Delete confirmation included; a cancelled goal 
 
 from __future__ import annotations
 
-from .conftest import Console, add_poi, grid_map
+from tests.web.conftest import Console, add_poi, grid_map
 
 NODE = "/slamware_ros_sdk_server_node"
 POIS = "/map_manager/pois"

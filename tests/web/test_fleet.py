@@ -10,9 +10,8 @@ import numpy as np
 import pytest
 
 from hitrobot_server.robot.options import RobotEntry
-
-from ..helpers import Watcher
-from .conftest import Console, add_poi
+from tests.helpers import Watcher
+from tests.web.conftest import Console, add_poi
 
 Y = 8.0
 RED, GREEN = (0xE5, 0x39, 0x35), (0x43, 0xA0, 0x47)  # FLEET_COLORS[0], [1]

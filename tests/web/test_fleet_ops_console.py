@@ -15,9 +15,9 @@ import pytest
 import roslibpy
 from playwright.async_api import TimeoutError as PlaywrightTimeout
 
-from ..helpers import Watcher, connect_roslibpy
-from . import test_fleet
-from .conftest import Console, add_poi
+from tests.helpers import Watcher, connect_roslibpy
+from tests.web import test_fleet
+from tests.web.conftest import Console, add_poi
 
 Y = 8.0  # the office corridor
 # what the page must never show: JSON or Python reprs, JavaScript's placeholders

@@ -36,8 +36,7 @@ import numpy as np
 
 from hitrobot_server.nodes.ground.placement import placement_problem
 from hitrobot_server.nodes.map_manager.layers import Grid
-
-from .conftest import Console, add_poi, grid_map
+from tests.web.conftest import Console, add_poi, grid_map
 
 POIS = "/map_manager/pois"
 POI_COLOUR = (0xFF, 0xC4, 0x00)  # COLORS.poi

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from .jssource import string_literals
+from tests.web.jssource import string_literals
 
 WEB = Path(__file__).resolve().parents[2] / "web"
 NAMES = WEB / "names.js"

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import re
 
-from ..helpers import Watcher
-from ..nodes.map_manager.util import MM, poi, request
-from ..state.failing_folder import FailingFolder
-from .conftest import READY
+from tests.helpers import Watcher
+from tests.nodes.map_manager.util import MM, poi, request
+from tests.state.failing_folder import FailingFolder
+from tests.web.conftest import READY
 
 NOTICE = "#log li.info .text"
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from .conftest import Console
+from tests.web.conftest import Console
 
 NODE = "/slamware_ros_sdk_server_node"
 WALL = (0xFF, 0x17, 0x44)   # COLORS.wall

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..helpers import Watcher
-from . import test_fleet
-from .conftest import Console
+from tests.helpers import Watcher
+from tests.web import test_fleet
+from tests.web.conftest import Console
 
 Y = 8.0
 ZONE = (0x7B, 0x1F, 0xA2)  # zones.js ZONE_COLOR

@@ -5,7 +5,7 @@ protocol/ nor a session."""
 
 from __future__ import annotations
 
-from ..test_architecture import violations
+from tests.test_architecture import violations
 
 
 def test_the_wire_floor_sits_between_the_bus_and_the_session():

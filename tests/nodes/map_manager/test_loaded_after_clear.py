@@ -4,8 +4,8 @@ node's answer and says so on the latched ``loaded_map``, after a restart too."""
 
 from __future__ import annotations
 
-from ...helpers import Watcher
-from .util import MM, request
+from tests.helpers import Watcher
+from tests.nodes.map_manager.util import MM, request
 
 CLEAR = "/slamware_ros_sdk_server_node/clear_map"
 

@@ -12,9 +12,8 @@ import pytest
 import yaml
 from PIL import Image
 
-from ...helpers import Watcher, WsClient
-from ...witness import RoundTrips
-from .util import (
+from tests.helpers import Watcher, WsClient
+from tests.nodes.map_manager.util import (
     BLOCKED,
     MASKING_LAYER,
     MM,
@@ -30,6 +29,7 @@ from .util import (
     request,
     start,
 )
+from tests.witness import RoundTrips
 
 POI_T = "map_messages/PointOfInterest"
 SAVE_T = "map_messages/SaveMap"

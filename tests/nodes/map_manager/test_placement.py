@@ -15,8 +15,7 @@ from hitrobot_server.nodes.ground.placement import (
 from hitrobot_server.nodes.map_manager.layers import Grid
 from hitrobot_server.robot.planning.costmap import CostmapConfig
 from hitrobot_server.robot.sim.kinematics import DriveLimits
-
-from .util import MM, poi, request, start
+from tests.nodes.map_manager.util import MM, poi, request, start
 
 RES = 0.05
 

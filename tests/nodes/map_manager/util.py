@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from ...helpers import Watcher
+from tests.helpers import Watcher
 
 NS = "/slamware_ros_sdk_server_node"
 MM = "/map_manager"

@@ -27,8 +27,7 @@ from hitrobot_server.robot.model import (
 )
 from hitrobot_server.robot.rest import paths, shapes
 from hitrobot_server.robot.rest.client import SlamwareRestBackend
-
-from .conftest import connected
+from tests.robot.rest.conftest import connected
 
 
 async def until(predicate, seconds: float = 10.0):

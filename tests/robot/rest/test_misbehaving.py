@@ -23,10 +23,9 @@ from hitrobot_server.nodes.options import SlamwareParams
 from hitrobot_server.robot.backend import BackendError
 from hitrobot_server.robot.model import MapRegion, Rect
 from hitrobot_server.robot.rest import limits, mapformat, paths
-
-from ...helpers import Watcher
-from ...transport.test_http import http
-from ...witness import MemoryPeak, RoundTrips
+from tests.helpers import Watcher
+from tests.transport.test_http import http
+from tests.witness import MemoryPeak, RoundTrips
 
 NS = "/slamware_ros_sdk_server_node"
 MAP = f"{NS}/map"

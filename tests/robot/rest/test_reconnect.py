@@ -10,8 +10,7 @@ import time
 from hitrobot_server.nodes.options import SlamwareParams
 from hitrobot_server.robot.device import SimDevice
 from hitrobot_server.robot.factory import build_simulator
-
-from ...helpers import Watcher
+from tests.helpers import Watcher
 
 NS = "/slamware_ros_sdk_server_node"
 RECONN_WAIT = 0.5

@@ -19,8 +19,7 @@ from hitrobot_server.robot.model import (
 )
 from hitrobot_server.robot.sim.backend import SimBackend
 from hitrobot_server.robot.sim.simulator import Simulator
-
-from ..test_composed import PROTOCOLS, capabilities
+from tests.robot.test_composed import PROTOCOLS, capabilities
 
 
 @pytest.fixture
