@@ -22,7 +22,7 @@ export function bridgeUrl() {
 export function showFoxgloveUrl() {
   const link = document.getElementById('foxglove-layout');
   link.href = withToken(link.getAttribute('href'));
-  document.getElementById('foxglove-url').textContent = plainBridgeUrl();
+  document.getElementById('foxglove-url').textContent = plainBridgeUrl().replace(/\/$/, '');
 }
 
 // Statuses that a caller of publishTracked() reports itself (so they are not shown twice).

@@ -86,6 +86,7 @@ export const SERVICES = Object.freeze({
   recordStart: '/record/start',
   recordStop: '/record/stop',
   recordList: '/record/list',
+  whoami: '/hitrobot/whoami', // the token's name, role and permissions (signin.js)
   recordIncidents: '/record/incidents',
   recordSnapshot: '/record/snapshot',
   recordReplay: '/record/replay',

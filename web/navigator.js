@@ -295,17 +295,16 @@ export class Navigator {
   }
 
   /**
-   * A /move_base result. One that fails the motion sent elsewhere the panel follows (or
-   * followed until a moment ago, the plan gone first) is shown with its reason: an abort is
-   * news wherever the goal came from. Other ends show as "the robot stopped".
+   * A /move_base result. One that fails a goal sent elsewhere (followed by the panel, or
+   * refused or aborted before the robot set off) is shown with its reason, unless this page's
+   * own goal runs: an abort is news wherever the goal came from. Other ends show as "the robot
+   * stopped".
    */
   resultElsewhere(result) {
     const status = result && result.status;
     if (!status || (this.goal && status.goal_id && this.goal.goalID === status.goal_id.id)) return;
-    const followed = this.activity && this.activity.elsewhere;
-    const stopped = !this.activity && this.statusBox.dataset.status === 'idle' &&
-      performance.now() - this.elsewhereEnded < STALE_PLAN_MS * 2;
-    if ((!followed && !stopped) || (status.status !== 4 && status.status !== 5)) return;
+    // this page's own goal or motion running: its own end is what the panel shows
+    if ((this.activity && !this.activity.elsewhere) || (status.status !== 4 && status.status !== 5)) return;
     this.activity = null;
     this.cancelButton.disabled = true;
     this.elsewhereEnded = -Infinity;

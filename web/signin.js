@@ -4,6 +4,7 @@
 // name, role and permissions: the role badge shows them, and each control the role lacks is
 // disabled with the reason on hover. Signing out forgets the token and reloads.
 /* global ROSLIB */
+import { SERVICES } from './names.js';
 
 const KEY = 'hitrobot.token';
 
@@ -83,7 +84,7 @@ export function followRole(ros) {
     title: 'Who this console is signed in as' }, el('b', {}, 'role'), ' ',
   el('span', { class: 'value' }, '…'));
   document.querySelector('.topbar .pills').append(badge);
-  const service = new ROSLIB.Service({ ros, name: '/hitrobot/whoami', serviceType: 'std_srvs/Trigger' });
+  const service = new ROSLIB.Service({ ros, name: SERVICES.whoami, serviceType: 'std_srvs/Trigger' });
   let who = null;
   const apply = () => { if (who) disableLacking(who); };
   ros.on('connection', () => service.callService({}, (answer) => {

@@ -7,6 +7,7 @@ from zoneinfo import ZoneInfo
 from ..bus.core import Bus
 from ..bus.namespace import SITE_WIDE, SITE_WIDE_TOPICS
 from ..bus.rosout import SERVER_NODE
+from ..protocol.access import WHOAMI, WHOAMI_NODE
 from ..robot.backend import Link
 from ..robot.capabilities import Robot
 from ..robot.sim.backend.controls import SimControls
@@ -182,6 +183,7 @@ def reserved_names() -> frozenset[str]:
     names every node class declares (``Node.GLOBAL_NAMES``). The robot-name check of the
     configuration is handed this set."""
     names = [*SITE_WIDE, *SITE_WIDE_TOPICS, SERVER_NODE, *BESIDE_THE_NODES, *ROS_PARAMS,
+             WHOAMI, WHOAMI_NODE,
              *(name for cls in NODE_CLASSES for name in cls.GLOBAL_NAMES)]
     return frozenset(name.strip("/").split("/")[0] for name in names)
 

@@ -18,6 +18,11 @@ from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from typing import Any
 
+WHOAMI = "/hitrobot/whoami"
+"""The service that tells a client its token's name, role and permissions (every role)."""
+WHOAMI_NODE = "/hitrobot_access"
+"""The node serving it: both are global names no robot may take."""
+
 KINDS = ("subscribe", "publish", "call", "provide", "goal", "cancel", "param_get",
          "param_set", "playback", "http")
 """What a client does: receive a topic, publish (or advertise) one, call a service, offer a

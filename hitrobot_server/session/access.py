@@ -22,6 +22,8 @@ from ..bus.services import service_caller
 from ..bus.topics import Origin
 from ..protocol.access import (
     NOBODY,
+    WHOAMI,
+    WHOAMI_NODE,
     Grant,
     Role,
     RoleTable,
@@ -146,8 +148,6 @@ def presented_token(path: str, authorization: str | None) -> str | None:
 
 
 
-WHOAMI = "/hitrobot/whoami"
-WHOAMI_NODE = "/hitrobot_access"
 
 
 class WhoAmI:

@@ -121,7 +121,8 @@ def test_checkout_serves_the_repo_web_folder():
 def page_assets() -> set[str]:
     """Every file the page loads: scripts and links in index.html, then module imports."""
     html = (WEB / "index.html").read_text()
-    assets = set(re.findall(r'(?:src|href)="([^":#?]+)"', html))
+    # (an absolute path such as /foxglove/layout.json is a page the server makes, not a file)
+    assets = set(re.findall(r'(?:src|href)="([^":#?/][^":#?]*)"', html))
     todo = [a for a in assets if a.endswith(".js")]
     while todo:
         name = todo.pop()

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from hitrobot_server.bus.topics import Origin
 from hitrobot_server.nodes.ground.drive_lease import (
     LAPSE,
@@ -95,17 +93,10 @@ def test_a_take_over_stops_the_holder_and_lapses_unless_the_taker_drives():
     assert ended is not None and not ended.stop  # root never moved the robot
 
 
-@dataclass(frozen=True)
-class NamedOrigin(Origin):
-    name: str | None = None
-    role: str | None = None
-
-
 def test_a_driver_is_named_by_its_token_once_it_has_one_and_admins_take_over():
     assert driver_name(Origin("/rosbridge_client_7")) == "/rosbridge_client_7"
-    assert driver_name(NamedOrigin("/rosbridge_client_7", name="tablet-3")) == "tablet-3"
-    assert may_take_over(Origin("/c"), authenticate=False)
-    assert not may_take_over(Origin("/c", auth_level="user"), authenticate=True)
-    assert may_take_over(Origin("/c", auth_level="admin"), authenticate=True)
-    assert may_take_over(NamedOrigin("/c", role="admin"), authenticate=True)
-    assert not may_take_over(NamedOrigin("/c", role="operator"), authenticate=True)
+    assert driver_name(Origin("/rosbridge_client_7", name="tablet-3")) == "tablet-3"
+    assert may_take_over(Origin("/c", role="operator"), authenticate=False)
+    assert may_take_over(Origin("/c", role="admin"), authenticate=True)
+    assert not may_take_over(Origin("/c", role="operator"), authenticate=True)
+    assert not may_take_over(Origin("/c", role="none"), authenticate=True)

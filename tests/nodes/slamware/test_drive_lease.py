@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import asyncio
-import hashlib
 import time
 
 import pytest
@@ -13,12 +12,12 @@ import roslibpy
 from hitrobot_server.robot.device import SimDevice
 from hitrobot_server.robot.factory import build_simulator
 from hitrobot_server.robot.rest import paths
+from hitrobot_server.state.tokens import add_token
 from tests.helpers import TcpClient, Watcher, connect_roslibpy
 
 NS = "/slamware_ros_sdk_server_node"
 TWIST = "geometry_msgs/Twist"
 LEASE = "/drive_lease"
-SECRET = "0123456789abcdef"
 
 
 def twist(x: float = 0.0, z: float = 0.0) -> dict:
@@ -122,26 +121,17 @@ async def test_a_holder_that_disconnects_mid_drive_stops_the_robot_at_once(make_
         await w.close()
 
 
-def auth_op(level: str, rand: str) -> dict:
-    """A rosauth MAC (each client its own ``rand``: a MAC is good once)."""
-    t = int(time.time())
-    end = t + 60
-    mac = hashlib.sha512(f"{SECRET}127.0.0.1127.0.0.1{rand}{t}{level}{end}".encode()).hexdigest()
-    return {"op": "auth", "mac": mac, "client": "127.0.0.1", "dest": "127.0.0.1",
-            "rand": rand, "t": t, "level": level, "end": end}
-
-
 async def test_an_admin_takes_the_lease_over_and_a_user_may_not(make_server, tmp_path):
-    secret = tmp_path / "secret"
-    secret.write_text(SECRET + "\n")
-    server = await make_server(robot="sim", authenticate=True, auth_secret_file=str(secret))
+    tokens = tmp_path / "tokens.json"
+    names = (("watcher-1", "operator"), ("user-1", "operator"), ("admin-1", "admin"))
+    secrets = [add_token(tokens, name, role, None) for name, role in names]
+    server = await make_server(robot="sim", authenticate=True, tokens_file=str(tokens))
     clients = [await Watcher.open(server.port) for _ in range(3)]
     w, user, admin = clients
     drive = asyncio.ensure_future(asyncio.sleep(0))
     try:
-        for i, (client, level) in enumerate(zip(clients, ("user", "user", "admin"),
-                                                strict=True)):
-            await client.client.send(auth_op(level, f"r4nd{i}"))
+        for client, token in zip(clients, secrets, strict=True):  # named tokens, not rosauth
+            await client.client.send({"op": "auth", "token": token})
         await w.subscribe("/cmd_vel", TWIST)
         await w.subscribe(LEASE)
         await w.publish("/cmd_vel", twist(0.2), TWIST)  # the watcher drives first, at 10 Hz
