@@ -4,7 +4,7 @@
 // those panels follow it and move their names under /NAME/), the POIs with a Dispatch button
 // each (/fleet/dispatch picks the best robot by cost: the soonest to finish, its charge counted),
 // and the task list of /fleet/tasks with Cancel; a dispatch's reply says so when its task ends. It stays hidden on a single-robot server (no /fleet/robots).
-/* global ROSLIB, createjs */
+/* global createjs */
 import { CurrentRobot } from './currentrobot.js';
 import { BEST_ROBOT, STATE_WORDS } from './fleetwords.js';
 import { avoid, label as named } from './labels.js';
@@ -78,7 +78,7 @@ class FleetLayer {
 
 export class Fleet {
   /** `robot`: the current robot (a CurrentRobot), which this panel chooses and shows. */
-  constructor({ ros, view, robot = new CurrentRobot(), marker = null }) {
+  constructor({ stores, view, robot = new CurrentRobot(), marker = null }) {
     this.robot = robot;
     this.robots = [];
     this.tasks = [];
@@ -87,14 +87,10 @@ export class Fleet {
     this.layer = new FleetLayer(view, marker);
     this.panel = this.buildPanel();
     robot.follow((name) => this.showSelected(name));
-    this.dispatchService = new ROSLIB.Service({ ros, name: SERVICES.fleetDispatch, serviceType: 'hitrobot_msgs/Dispatch' });
-    this.cancelService = new ROSLIB.Service({ ros, name: SERVICES.fleetCancel, serviceType: 'hitrobot_msgs/CancelTask' });
-    new ROSLIB.Topic({ ros, name: TOPICS.fleetRobots, messageType: 'hitrobot_msgs/FleetRobots', throttle_rate: 250 })
-      .subscribe((m) => this.onRobots(m.robots));
-    new ROSLIB.Topic({ ros, name: TOPICS.fleetTasks, messageType: 'hitrobot_msgs/FleetTasks' })
-      .subscribe((m) => { this.tasks = m.tasks; this.showTasks(); });
-    new ROSLIB.Topic({ ros, name: TOPICS.pois, messageType: 'map_messages/PointsOfInterest' })
-      .subscribe((m) => { this.pois = m.pois; this.showPois(); });
+    this.stores = stores;
+    stores.topic(TOPICS.fleetRobots).subscribe((m) => this.onRobots(m.robots));
+    stores.topic(TOPICS.fleetTasks).subscribe((m) => { this.tasks = m.tasks; this.showTasks(); });
+    stores.topic(TOPICS.pois).subscribe((m) => { this.pois = m.pois; this.showPois(); });
   }
 
   /** The robot the tools act on (null until one is chosen). */
@@ -208,22 +204,23 @@ export class Fleet {
     }));
   }
 
-  dispatch(poi) {
+  async dispatch(poi) {
     const reply = document.getElementById('fleet-reply');
     const zero = { position: { x: 0, y: 0, z: 0 }, orientation: { x: 0, y: 0, z: 0, w: 1 } };
     const robot = document.getElementById('fleet-send').value; // '' = the best robot
-    this.dispatchService.callService({ poi, pose: zero, robot }, (r) => {
-      reply.textContent = r.message;
-      reply.dataset.accepted = String(r.accepted);
-      reply.dataset.robot = r.robot;
-      reply.dataset.task = String(r.task || 0);
-      this.showTasks();
-      log(r.accepted ? 'info' : 'error', `dispatch to ${poi}: ${r.message}`);
-    }, (error) => {
-      reply.textContent = String(error);
+    const { reply: r, error } = await this.stores.call(SERVICES.fleetDispatch, { poi, pose: zero, robot });
+    if (error) {
+      reply.textContent = error;
       reply.dataset.accepted = 'false';
       log('error', `dispatch to ${poi}: ${error}`);
-    });
+      return;
+    }
+    reply.textContent = r.message;
+    reply.dataset.accepted = String(r.accepted);
+    reply.dataset.robot = r.robot;
+    reply.dataset.task = String(r.task || 0);
+    this.showTasks();
+    log(r.accepted ? 'info' : 'error', `dispatch to ${poi}: ${r.message}`);
   }
 
   showTasks() {
@@ -243,8 +240,11 @@ export class Fleet {
         cancel.type = 'button';
         cancel.className = 'small danger';
         cancel.textContent = 'Cancel';
-        cancel.addEventListener('click', () => this.cancelService.callService({ task: t.id },
-          (r) => log(r.success ? 'info' : 'error', r.message)));
+        cancel.addEventListener('click', async () => {
+          const { reply: r, error } = await this.stores.call(SERVICES.fleetCancel, { task: t.id });
+          if (r) log(r.success ? 'info' : 'error', r.message);
+          else log('error', `cancel task ${t.id}: ${error}`);
+        });
         li.append(cancel);
       }
       return li;

@@ -3,7 +3,7 @@
 // filled while a robot holds it, with who holds it and who waits. A panel lists them with a
 // Remove button each, and draws a new one: "Draw a zone", click its corners on the map, name
 // it, Save (/fleet/zone_add). Shown on a fleet server only (one with /fleet/robots).
-/* global ROSLIB, createjs */
+/* global createjs */
 import { label as named } from './labels.js';
 import { SERVICES, TOPICS } from './names.js';
 import { Layer } from './overlays.js';
@@ -73,19 +73,15 @@ class ZonesLayer extends Layer {
 }
 
 export class Zones {
-  constructor({ ros, view }) {
+  constructor({ stores, view }) {
     this.view = view;
     this.zones = [];
     this.draft = null; // the corners clicked so far while drawing
     this.layer = new ZonesLayer(view);
     this.panel = this.buildPanel();
-    const service = (name, type) => new ROSLIB.Service({ ros, name, serviceType: `hitrobot_msgs/${type}` });
-    this.addService = service(SERVICES.fleetZoneAdd, 'FleetZoneAdd');
-    this.removeService = service(SERVICES.fleetZoneRemove, 'FleetZoneRemove');
-    new ROSLIB.Topic({ ros, name: TOPICS.fleetZones, messageType: 'hitrobot_msgs/FleetZones' })
-      .subscribe((m) => this.onZones(m.zones));
-    new ROSLIB.Topic({ ros, name: TOPICS.fleetRobots, messageType: 'hitrobot_msgs/FleetRobots', throttle_rate: 1000 })
-      .subscribe((m) => { this.panel.hidden = m.robots.length === 0; });
+    this.stores = stores;
+    stores.topic(TOPICS.fleetZones).subscribe((m) => this.onZones(m.zones));
+    stores.topic(TOPICS.fleetRobots).subscribe((m) => { this.panel.hidden = m.robots.length === 0; });
     // before the map tools (a click while drawing is a corner, not a pan)
     view.canvas.parentElement.addEventListener('pointerdown', (e) => this.corner(e), true);
   }
@@ -165,18 +161,21 @@ export class Zones {
     this.layer.setDraft([...this.draft]);
   }
 
-  save() {
+  async save() {
     const name = document.getElementById('zone-name').value.trim();
     const kind = document.getElementById('zone-kind').value.trim();
     const points = (this.draft || []).map((p) => ({ x: p.x, y: p.y, z: 0 }));
-    this.addService.callService({ name, kind, polygon: { points } }, (r) => {
-      this.reply(r.message);
-      if (r.success) this.endDraft();
-    }, (err) => this.reply(`not added: ${err}`));
+    const { reply, error } = await this.stores.call(SERVICES.fleetZoneAdd, { name, kind, polygon: { points } });
+    if (error) {
+      this.reply(`not added: ${error}`);
+      return;
+    }
+    this.reply(reply.message);
+    if (reply.success) this.endDraft();
   }
 
-  remove(name) {
-    this.removeService.callService({ name }, (r) => this.reply(r.message),
-      (err) => this.reply(`not removed: ${err}`));
+  async remove(name) {
+    const { reply, error } = await this.stores.call(SERVICES.fleetZoneRemove, { name });
+    this.reply(error ? `not removed: ${error}` : reply.message);
   }
 }
