@@ -30,6 +30,7 @@ import { RobotActions } from './robotpanel.js';
 import { RobotPresence } from './robotpresence.js';
 import { RobotState } from './robotstate.js';
 import { Shell } from './shell.js';
+import { mount } from './slots.js';
 import { Stores } from './stores.js';
 import { followRole, signedIn } from './signin.js';
 import { showStateOnce } from './statenotice.js';
@@ -153,9 +154,8 @@ function buildPanels({ ros, stores, view, layers, navigator, currentRobot, marke
   const zones = new Zones({ stores, view }); // under the robots; shown with named robots only
   const fleet = new Fleet({ stores, view, robot: currentRobot, marker }); // shown with named robots only
   // the fleet's panels scroll with the others above the Drive pad
-  const scroll = document.getElementById('operate-scroll');
-  scroll.prepend(fleet.panel);
-  scroll.append(zones.panel);
+  mount('operate', fleet.panel, { first: true });
+  mount('operate', zones.panel);
   patrol.onState = (s) => navigator.patrolState(s, () => patrol.call('stop', {}));
   pois.onGo = (poi) => {
     navigator.goToPoi(poi);
@@ -339,12 +339,13 @@ function wireShortcuts({ view, tools }) {
 function main() {
   const ros = connect();
   const stores = new Stores(ros); // every topic the panels share, subscribed once (stores.js)
-  const role = followRole(ros); // the badge, and the controls this role lacks disabled
+  const role = followRole(stores); // the badge, and the controls this role lacks disabled
   showFoxgloveUrl();
   const view = new MapView(document.getElementById('map'), ros);
   // record and replay (recordings.js): a timeline over the map, first: the page knows it is a
   // replay's before the recorded topics reach the panels
-  const timeline = new ReplayTimeline({ stores, parent: document.querySelector('.map-pane'), view });
+  const timeline = new ReplayTimeline({ stores, view });
+  mount('map', timeline.bar);
   const layers = buildLayers(view);
   const currentRobot = new CurrentRobot(); // on a fleet server, the one the tools act on
   const navigator = new Navigator({ ros, view, robot: currentRobot });
@@ -365,17 +366,21 @@ function main() {
   wireToolbar({ view, layers, tools, state });
   wireShortcuts({ view, tools });
 
-  // For debugging from the browser console, and for the tests: the page's own objects.
-  window.hitrobot = { ros, stores, role, view, navigator, ...panels, tools, layers, editor, presence, showTab,
-    robot, currentRobot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
-      easeljs: createjs.EaselJS && createjs.EaselJS.version } };
   // record and replay (recordings.js): a panel in the Status tab
-  window.hitrobot.recordings = new Recordings({ stores, parent: document.querySelector('[data-tab-panel=status]') });
-  window.hitrobot.timeline = timeline;
-  // fleet operations (fleetops.js): the Fleet tab, shown on a server with named robots
-  window.hitrobot.fleetops = new FleetOps({ stores, tab: document.getElementById('fleet-tab'), parent: document.getElementById('fleetops') });
-  // the robots' VDA 5050 links (vda5050.js), on the Fleet tab
-  window.hitrobot.vda5050 = new VdaLinks({ stores, tab: document.getElementById('fleet-tab'), parent: document.getElementById('fleetops') });
+  const recordings = new Recordings({ stores });
+  mount('status', recordings.panel);
+  // fleet operations (fleetops.js): the Fleet tab, shown on a server with named robots; the
+  // robots' VDA 5050 links (vda5050.js) under them
+  const fleetTab = document.getElementById('fleet-tab');
+  const fleetops = new FleetOps({ stores, tab: fleetTab });
+  const vda5050 = new VdaLinks({ stores, tab: fleetTab });
+  mount('fleet', [...fleetops.panels, vda5050.panel]);
+
+  // The page's test interface (and the browser console's), declared once: its connection and
+  // stores, the view and its layers, every panel, the tools and the page's state.
+  window.hitrobot = { ros, stores, role, view, navigator, ...panels, tools, layers, editor, presence, showTab,
+    robot, currentRobot, state, recordings, timeline, fleetops, vda5050,
+    libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION, easeljs: createjs.EaselJS && createjs.EaselJS.version } };
 }
 
 async function start() {

@@ -111,8 +111,6 @@ export class Fleet {
       <div class="fleet-reply" id="fleet-reply"></div>
       <h2>Tasks</h2>
       <ul class="fleet-tasks" id="fleet-tasks"><li class="empty">none</li></ul>`;
-    const operate = document.querySelector('[data-tab-panel="operate"]') || document.body;
-    operate.prepend(panel);
     return panel;
   }
 

@@ -28,8 +28,8 @@ export function chargeWords(r, tasks, policy) {
 }
 
 export class FleetOps {
-  /** `tab`: the side panel's Fleet tab button; `parent`: its panel. */
-  constructor({ stores, tab, parent }) {
+  /** `tab`: the side panel's Fleet tab button; `panels`: what app.js mounts in the tab. */
+  constructor({ stores, tab }) {
     this.tab = tab;
     this.clock = new SiteClock();
     this.robots = [];
@@ -47,7 +47,7 @@ export class FleetOps {
     this.schedules = new Schedules({ stores, clock: this.clock });
     this.form = new TaskForm({ stores, schedules: this.schedules });
     this.board = new TaskBoard({ stores, clock: this.clock });
-    parent.append(robotsPanel, this.form.panel, this.board.panel, this.schedules.panel);
+    this.panels = [robotsPanel, this.form.panel, this.board.panel, this.schedules.panel];
     tab.addEventListener('click', () => this.schedules.refresh());
     window.addEventListener('bridge', (e) => { if (e.detail.online && this.robots.length) this.readPolicy(); });
     stores.topic(TOPICS.fleetRobots).subscribe((m) => this.onRobots(m.robots));

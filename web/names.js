@@ -111,6 +111,7 @@ export const TOPIC_TYPES = Object.freeze({
 
 export const SERVICES = Object.freeze({
   rosapiNodes: '/rosapi/nodes',
+  whoami: '/hitrobot/whoami', // who this page is signed in as (signin.js)
   listMapFiles: '/list_map_files',
   loadLaserMap: '/load_laser_map',
   setWaypoints: '/planning/set_waypoints',
@@ -146,6 +147,7 @@ export const SERVICES = Object.freeze({
 /** The service type of each service, by the same keys as SERVICES (stores.js's call()). */
 export const SERVICE_TYPES = Object.freeze({
   rosapiNodes: 'rosapi/Nodes',
+  whoami: 'std_srvs/Trigger',
   listMapFiles: 'hitrobot_msgs/ListMapFiles',
   loadLaserMap: 'hitrobot_msgs/LoadLaserMap',
   setWaypoints: 'hitrobot_msgs/SetWaypoints',

@@ -53,7 +53,7 @@ function caller(stores, name) {
 }
 
 export class Recordings {
-  constructor({ stores, parent }) {
+  constructor({ stores }) {
     this.start = caller(stores, SERVICES.recordStart);
     this.stop = caller(stores, SERVICES.recordStop);
     this.listService = caller(stores, SERVICES.recordList);
@@ -66,7 +66,6 @@ export class Recordings {
     this.panel = el('section', { class: 'panel', id: 'recordings-panel', dataset: { robotless: '' } },
       el('h2', {}, 'Recordings ', el('button', { type: 'button', class: 'small', id: 'recordings-refresh', title: 'List again', onclick: () => this.refresh() }, '↻')),
       this.state, el('div', { class: 'buttons' }, this.startButton, this.stopButton), this.list);
-    parent.append(this.panel);
     stores.topic(TOPICS.recordState).subscribe((s) => this.show(s));
     this.incidents = new Incidents({ stores, parent: this.panel, onWritten: () => this.refresh() });
   }
@@ -183,7 +182,7 @@ function jumped(a, elapsed, b) {
 
 export class ReplayTimeline {
   /** `view`: the map view, fitted above the bar while it is shown. */
-  constructor({ stores, parent, view }) {
+  constructor({ stores, view }) {
     this.view = view;
     this.pause = caller(stores, SERVICES.replayPause);
     this.resume = caller(stores, SERVICES.replayResume);
@@ -207,8 +206,6 @@ export class ReplayTimeline {
     this.incident = new ReplayIncident({ track, seek: (position) => this.seek({ position }) });
     this.bar = el('div', { class: 'replay-bar', id: 'replay-bar', hidden: true, dataset: { paused: 'unknown' } },
       el('div', { class: 'controls' }, this.play, track, this.time, this.speed, this.file), this.incident.line);
-    this.pane = parent;
-    parent.append(this.bar);
     stores.topic(TOPICS.replayState).subscribe((s) => this.show(s));
   }
 
@@ -245,7 +242,7 @@ export class ReplayTimeline {
     const height = this.bar.offsetHeight;
     if (height === this.height) return;
     this.height = height;
-    this.pane.style.setProperty('--replay-bar', `${height}px`);
+    this.bar.parentElement.style.setProperty('--replay-bar', `${height}px`);
     const hint = document.getElementById('hint');
     if (this.view) {
       this.view.bottomInset = height + (hint ? hint.offsetHeight : 0) + 24;

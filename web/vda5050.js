@@ -18,14 +18,13 @@ export function linkWords(link) {
 }
 
 export class VdaLinks {
-  /** `tab`: the Fleet tab's button; `parent`: its panel. */
-  constructor({ stores, tab, parent }) {
+  /** `tab`: the Fleet tab's button (the panel is mounted by app.js, in the Fleet tab). */
+  constructor({ stores, tab }) {
     this.tab = tab;
     this.links = [];
     this.list = el('ul', { class: 'vda5050-links', id: 'vda5050-links' });
     this.panel = el('section', { class: 'panel', id: 'vda5050-panel', hidden: true },
       el('h2', {}, 'VDA 5050 master control'), this.list);
-    parent.append(this.panel);
     stores.topic(TOPICS.vda5050Link).subscribe((m) => this.show(m.links));
   }
 

@@ -102,8 +102,6 @@ export class Zones {
         <button type="button" class="small" id="zone-cancel">Cancel</button>
       </div>
       <div class="zones-reply" id="zones-reply"></div>`;
-    const operate = document.querySelector('[data-tab-panel="operate"]') || document.body;
-    operate.append(panel);
     panel.querySelector('#zone-draw').addEventListener('click', () => this.startDraft());
     panel.querySelector('#zone-cancel').addEventListener('click', () => this.endDraft());
     panel.querySelector('#zone-save').addEventListener('click', () => this.save());
