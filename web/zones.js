@@ -7,6 +7,7 @@
 import { label as named } from './labels.js';
 import { SERVICES, TOPICS } from './names.js';
 import { Layer } from './overlays.js';
+import { el } from './util.js';
 
 export const ZONE_COLOR = '#7b1fa2'; // a free zone's outline
 export const HELD_COLOR = '#d50000'; // a held zone's outline and fill
@@ -87,25 +88,19 @@ export class Zones {
   }
 
   buildPanel() {
-    const panel = document.createElement('section');
-    panel.className = 'panel';
-    panel.id = 'zones-panel';
-    panel.hidden = true;
-    panel.innerHTML = `<h2>Mutex zones <span class="count" id="zones-count"></span></h2>
-      <ul class="zones-list" id="zones-list"><li class="empty">none</li></ul>
-      <button type="button" class="small" id="zone-draw">Draw a zone</button>
-      <div id="zone-form" hidden>
-        <p class="hint">Click the zone's corners on the map, then name it.</p>
-        <label>name <input id="zone-name" maxlength="64" placeholder="corridor_a"></label>
-        <label>kind <input id="zone-kind" maxlength="32" placeholder="corridor, door"></label>
-        <button type="button" class="small" id="zone-save">Save</button>
-        <button type="button" class="small" id="zone-cancel">Cancel</button>
-      </div>
-      <div class="zones-reply" id="zones-reply"></div>`;
-    panel.querySelector('#zone-draw').addEventListener('click', () => this.startDraft());
-    panel.querySelector('#zone-cancel').addEventListener('click', () => this.endDraft());
-    panel.querySelector('#zone-save').addEventListener('click', () => this.save());
-    return panel;
+    const input = (id, maxlength, placeholder) => el('input', { id, maxlength, placeholder });
+    const button = (id, text, onclick) => el('button', { type: 'button', class: 'small', id, onclick }, text);
+    return el('section', { class: 'panel', id: 'zones-panel', hidden: true },
+      el('h2', {}, 'Mutex zones ', el('span', { class: 'count', id: 'zones-count' })),
+      el('ul', { class: 'zones-list', id: 'zones-list' }, el('li', { class: 'empty' }, 'none')),
+      button('zone-draw', 'Draw a zone', () => this.startDraft()),
+      el('div', { id: 'zone-form', hidden: true },
+        el('p', { class: 'hint' }, "Click the zone's corners on the map, then name it."),
+        el('label', {}, 'name ', input('zone-name', '64', 'corridor_a')), ' ',
+        el('label', {}, 'kind ', input('zone-kind', '32', 'corridor, door')), ' ',
+        button('zone-save', 'Save', () => this.save()), ' ',
+        button('zone-cancel', 'Cancel', () => this.endDraft())),
+      el('div', { class: 'zones-reply', id: 'zones-reply' }));
   }
 
   onZones(zones) {
@@ -114,24 +109,12 @@ export class Zones {
     document.getElementById('zones-count').textContent = String(zones.length);
     const list = document.getElementById('zones-list');
     if (!zones.length) {
-      list.innerHTML = '<li class="empty">none</li>';
+      list.replaceChildren(el('li', { class: 'empty' }, 'none'));
       return;
     }
-    list.replaceChildren(...zones.map((z) => {
-      const li = document.createElement('li');
-      li.dataset.zone = z.name;
-      li.dataset.held = z.holders.length ? 'yes' : 'no';
-      const text = document.createElement('span');
-      text.textContent = `${zoneWords(z)} `;
-      const remove = document.createElement('button');
-      remove.type = 'button';
-      remove.className = 'small';
-      remove.dataset.removeZone = z.name;
-      remove.textContent = 'Remove';
-      remove.addEventListener('click', () => this.remove(z.name));
-      li.append(text, remove);
-      return li;
-    }));
+    list.replaceChildren(...zones.map((z) => el('li', { dataset: { zone: z.name, held: z.holders.length ? 'yes' : 'no' } },
+      el('span', {}, `${zoneWords(z)} `),
+      el('button', { type: 'button', class: 'small', dataset: { removeZone: z.name }, onclick: () => this.remove(z.name) }, 'Remove'))));
   }
 
   reply(text) {
