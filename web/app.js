@@ -30,6 +30,8 @@ import { RobotActions } from './robotpanel.js';
 import { RobotPresence } from './robotpresence.js';
 import { RobotState } from './robotstate.js';
 import { Shell } from './shell.js';
+import { mount } from './slots.js';
+import { Stores } from './stores.js';
 import { followRole, signedIn } from './signin.js';
 import { showStateOnce } from './statenotice.js';
 import { Teleop } from './teleop.js';
@@ -47,11 +49,6 @@ function librariesMissing() {
   showBroken('console libraries missing (npm ci --prefix web)');
   console.error(text);
   return true;
-}
-
-/** A maker of roslib topics on `ros`: topic(name, messageType, options). */
-function topicMaker(ros) {
-  return (name, messageType, options = {}) => new ROSLIB.Topic({ ros, name, messageType, ...options });
 }
 
 /** The map's layers, bottom to top. */
@@ -73,27 +70,24 @@ function buildLayers(view) {
 
 /** The layers drawn from the robot's topics: walls and tracks, the graph, the dock, the
  * costmap and the planned path (which the navigator measures too; the chosen robot's). */
-function subscribeLayers({ ros, layers, editor, navigator, currentRobot }) {
-  const topic = topicMaker(ros);
-  topic(TOPICS.virtualWalls, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 500 })
-    .subscribe((m) => { layers.walls.set(m); editor.showCounts(); });
-  topic(TOPICS.virtualTracks, 'slamware_ros_sdk/Line2DFlt32Array', { throttle_rate: 500 })
-    .subscribe((m) => { layers.tracks.set(m); editor.showCounts(); });
-  topic(TOPICS.graph, 'hitrobot_msgs/Graph').subscribe((g) => layers.graph.set(g));
-  topic(TOPICS.home, 'geometry_msgs/PoseStamped').subscribe((h) => layers.dock.set(h));
+function subscribeLayers({ ros, stores, layers, editor, navigator, currentRobot }) {
+  stores.topic(TOPICS.virtualWalls).subscribe((m) => { layers.walls.set(m); editor.showCounts(); });
+  stores.topic(TOPICS.virtualTracks).subscribe((m) => { layers.tracks.set(m); editor.showCounts(); });
+  stores.topic(TOPICS.graph).subscribe((g) => layers.graph.set(g));
+  stores.topic(TOPICS.home).subscribe((h) => layers.dock.set(h));
   // the costmap overlay is computed from the very /map messages ros2d receives (no second
   // subscription): roslib emits each topic's messages on the Ros object under the topic name
   ros.on(TOPICS.map, (grid) => layers.costmap.set(grid));
   const noPlan = { poses: [] };
-  currentRobot.subscribe(ros, TOPICS.globalPlan, 'nav_msgs/Path', { throttle_rate: 200, queue_length: 1 },
+  stores.follow(currentRobot, TOPICS.globalPlan,
     (m) => { layers.path.set(m); navigator.plan = m; }, () => layers.path.set(noPlan));
 }
 
 /** The chosen robot's pose (into `state.pose`): its marker, the distance to go, where its
  * sensors are drawn, the pose readout, and the view when it follows the robot. */
-function followPose({ ros, view, layers, navigator, robot, state, currentRobot }) {
+function followPose({ stores, view, layers, navigator, robot, state, currentRobot }) {
   const poseText = document.getElementById('robot-pose');
-  currentRobot.subscribe(ros, TOPICS.robotPose, 'geometry_msgs/Pose', { throttle_rate: 100, queue_length: 1 },
+  stores.follow(currentRobot, TOPICS.robotPose,
     (pose) => {
       const yaw = yawOf(pose.orientation);
       state.pose = { x: pose.position.x, y: pose.position.y, yaw };
@@ -107,8 +101,7 @@ function followPose({ ros, view, layers, navigator, robot, state, currentRobot }
 
 /** The chosen robot's laser points, placed with the map→laser transform of the scan's frame
  * published with each scan (same stamp); the robot's pose stands in if no such transform comes. */
-function followScan({ ros, layers, state, currentRobot }) {
-  const topic = topicMaker(ros);
+function followScan({ stores, layers, state, currentRobot }) {
   const laserPoses = [];
   let pendingScan = null;
   const sameStamp = (a, b) => a && b && a.secs === b.secs && a.nsecs === b.nsecs;
@@ -123,7 +116,7 @@ function followScan({ ros, layers, state, currentRobot }) {
     }
     return false;
   };
-  topic(TOPICS.tf, 'tf2_msgs/TFMessage').subscribe((msg) => {
+  stores.topic(TOPICS.tf).subscribe((msg) => {
     for (const t of msg.transforms || []) {
       if (!/laser/.test(t.child_frame_id || '')) continue;
       const tr = t.transform;
@@ -133,7 +126,7 @@ function followScan({ ros, layers, state, currentRobot }) {
       if (pendingScan) drawScan(pendingScan.scan);
     }
   });
-  currentRobot.subscribe(ros, TOPICS.scan, 'sensor_msgs/LaserScan', { throttle_rate: 200, queue_length: 1 },
+  stores.follow(currentRobot, TOPICS.scan,
     (scan) => {
       if (drawScan(scan)) return;
       pendingScan = { scan, at: Date.now() };
@@ -147,23 +140,22 @@ function followScan({ ros, layers, state, currentRobot }) {
 }
 
 /** The side panels. The drive pad, the navigator and the fleet view share the current robot. */
-function buildPanels({ ros, view, layers, navigator, currentRobot, marker }) {
-  const pois = new Pois({ ros, layer: layers.pois, warning: (x, y) => placementProblem(layers.costmap.grid, x, y) });
-  const shell = new Shell({ ros, robot: currentRobot });
-  const teleop = new Teleop({ ros, robot: currentRobot });
-  const robotState = new RobotState({ ros, robot: currentRobot });
-  const robotActions = new RobotActions({ ros, navigator, robot: currentRobot });
-  const patrol = new Patrol({ ros, layer: layers.waypoints });
-  const maps = new SavedMaps({ ros });
-  const diagnostics = new Diagnostics({ ros, sensorLayer: layers.sensors });
-  showStateOnce(ros);
+function buildPanels({ ros, stores, view, layers, navigator, currentRobot, marker }) {
+  const pois = new Pois({ ros, stores, layer: layers.pois, warning: (x, y) => placementProblem(layers.costmap.grid, x, y) });
+  const shell = new Shell({ ros, stores, robot: currentRobot });
+  const teleop = new Teleop({ ros, stores, robot: currentRobot });
+  const robotState = new RobotState({ stores, robot: currentRobot });
+  const robotActions = new RobotActions({ ros, stores, navigator, robot: currentRobot });
+  const patrol = new Patrol({ stores, layer: layers.waypoints });
+  const maps = new SavedMaps({ ros, stores });
+  const diagnostics = new Diagnostics({ stores, sensorLayer: layers.sensors });
+  showStateOnce(stores);
   const inspector = new Inspector({ ros });
-  const zones = new Zones({ ros, view }); // under the robots; shown with named robots only
-  const fleet = new Fleet({ ros, view, robot: currentRobot, marker }); // shown with named robots only
+  const zones = new Zones({ stores, view }); // under the robots; shown with named robots only
+  const fleet = new Fleet({ stores, view, robot: currentRobot, marker }); // shown with named robots only
   // the fleet's panels scroll with the others above the Drive pad
-  const scroll = document.getElementById('operate-scroll');
-  scroll.prepend(fleet.panel);
-  scroll.append(zones.panel);
+  mount('operate', fleet.panel, { first: true });
+  mount('operate', zones.panel);
   patrol.onState = (s) => navigator.patrolState(s, () => patrol.call('stop', {}));
   pois.onGo = (poi) => {
     navigator.goToPoi(poi);
@@ -225,9 +217,9 @@ const robotControls = () => [...document.querySelectorAll(
 
 /** No robot behind the bridge (--robot none, or its server gone): say so, and disable
  * everything that would drive or change it. */
-function followPresence({ ros, tools, navigator, robotState }) {
+function followPresence({ ros, stores, tools, navigator, robotState }) {
   return new RobotPresence({
-    ros,
+    ros, stores,
     onChange: (present, seen) => {
       if (present) return;
       tools.setEnabled(false);
@@ -346,43 +338,49 @@ function wireShortcuts({ view, tools }) {
 
 function main() {
   const ros = connect();
-  const role = followRole(ros); // the badge, and the controls this role lacks disabled
+  const stores = new Stores(ros); // every topic the panels share, subscribed once (stores.js)
+  const role = followRole(stores); // the badge, and the controls this role lacks disabled
   showFoxgloveUrl();
   const view = new MapView(document.getElementById('map'), ros);
   // record and replay (recordings.js): a timeline over the map, first: the page knows it is a
   // replay's before the recorded topics reach the panels
-  const timeline = new ReplayTimeline({ ros, parent: document.querySelector('.map-pane'), view });
+  const timeline = new ReplayTimeline({ stores, view });
+  mount('map', timeline.bar);
   const layers = buildLayers(view);
   const currentRobot = new CurrentRobot(); // on a fleet server, the one the tools act on
   const navigator = new Navigator({ ros, view, robot: currentRobot });
   const robot = new RobotMarker(view);
   const editor = new MapEditor({ ros, view, walls: layers.walls, tracks: layers.tracks });
-  subscribeLayers({ ros, layers, editor, navigator, currentRobot });
+  subscribeLayers({ ros, stores, layers, editor, navigator, currentRobot });
   const state = { pose: null, follow: false };
-  followPose({ ros, view, layers, navigator, robot, state, currentRobot });
-  followScan({ ros, layers, state, currentRobot });
+  followPose({ stores, view, layers, navigator, robot, state, currentRobot });
+  followScan({ stores, layers, state, currentRobot });
 
-  const panels = buildPanels({ ros, view, layers, navigator, currentRobot, marker: robot });
+  const panels = buildPanels({ ros, stores, view, layers, navigator, currentRobot, marker: robot });
   const tools = buildTools({ view, state, navigator, panels, editor });
   followBridge({ ros, tools, navigator });
-  const presence = followPresence({ ros, tools, navigator, robotState: panels.robotState });
+  const presence = followPresence({ ros, stores, tools, navigator, robotState: panels.robotState });
   followReplay({ navigator, robotState: panels.robotState, tools });
   const showTab = wireTabs(panels);
   wireScaleBar(view);
   wireToolbar({ view, layers, tools, state });
   wireShortcuts({ view, tools });
 
-  // For debugging from the browser console, and for the tests: the page's own objects.
-  window.hitrobot = { ros, role, view, navigator, ...panels, tools, layers, editor, presence, showTab,
-    robot, currentRobot, state, libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION,
-      easeljs: createjs.EaselJS && createjs.EaselJS.version } };
   // record and replay (recordings.js): a panel in the Status tab
-  window.hitrobot.recordings = new Recordings({ ros, parent: document.querySelector('[data-tab-panel=status]') });
-  window.hitrobot.timeline = timeline;
-  // fleet operations (fleetops.js): the Fleet tab, shown on a server with named robots
-  window.hitrobot.fleetops = new FleetOps({ ros, tab: document.getElementById('fleet-tab'), parent: document.getElementById('fleetops') });
-  // the robots' VDA 5050 links (vda5050.js), on the Fleet tab
-  window.hitrobot.vda5050 = new VdaLinks({ ros, tab: document.getElementById('fleet-tab'), parent: document.getElementById('fleetops') });
+  const recordings = new Recordings({ stores });
+  mount('status', recordings.panel);
+  // fleet operations (fleetops.js): the Fleet tab, shown on a server with named robots; the
+  // robots' VDA 5050 links (vda5050.js) under them
+  const fleetTab = document.getElementById('fleet-tab');
+  const fleetops = new FleetOps({ stores, tab: fleetTab });
+  const vda5050 = new VdaLinks({ stores, tab: fleetTab });
+  mount('fleet', [...fleetops.panels, vda5050.panel]);
+
+  // The page's test interface (and the browser console's), declared once: its connection and
+  // stores, the view and its layers, every panel, the tools and the page's state.
+  window.hitrobot = { ros, stores, role, view, navigator, ...panels, tools, layers, editor, presence, showTab,
+    robot, currentRobot, state, recordings, timeline, fleetops, vda5050,
+    libraries: { roslib: ROSLIB.REVISION, ros2d: ROS2D.REVISION, easeljs: createjs.EaselJS && createjs.EaselJS.version } };
 }
 
 async function start() {

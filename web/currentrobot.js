@@ -3,7 +3,7 @@
 // tools, "Go" to a POI) follow it: each re-makes its own topics under /NAME/. On a
 // single-robot server none is chosen and the names stay as they are. What the page shows of
 // "the robot" (its pose, laser, planned path, state in the top bar, the Navigation panel) is
-// subscribed through subscribe(), so it follows the chosen robot too.
+// read through stores.js's follow(), so it follows the chosen robot too.
 /* global ROSLIB */
 import { robotName } from './names.js';
 
@@ -25,21 +25,6 @@ export class CurrentRobot {
   /** Call `follower(name)` whenever another robot is chosen. */
   follow(follower) {
     this.followers.push(follower);
-  }
-
-  /** Subscribe `callback` to the chosen robot's topic `name` (ROSLIB.Topic `options`), moved
-   * under the next robot's /NAME/ whenever another is chosen; `onSwitch()` runs at each move,
-   * to forget what the last robot sent. Messages from the robot left behind are dropped. */
-  subscribe(ros, name, messageType, options, callback, onSwitch = () => {}) {
-    let topic = null;
-    const open = () => {
-      if (topic) topic.unsubscribe();
-      const chosen = this.name;
-      topic = new ROSLIB.Topic({ ros, name: this.nameOf(name), messageType, ...options });
-      topic.subscribe((message) => { if (this.name === chosen) callback(message); });
-    };
-    open();
-    this.follow(() => { onSwitch(); open(); });
   }
 
   /** The chosen robot's topic `name` to publish on (made once per robot). */

@@ -1,7 +1,6 @@
 // The Status tab: /diagnostics_agg as a list (group summaries and their items, worst first in
 // the header), and the robot's bumpers, cliff sensors and sonars (basic_sensors_info/values)
 // listed and drawn on the map.
-/* global ROSLIB */
 import { TOPICS } from './names.js';
 import { sensorTriggered } from './overlays.js';
 import { el } from './util.js';
@@ -10,21 +9,18 @@ const LEVELS = ['OK', 'WARN', 'ERROR', 'STALE'];
 const SENSOR_TYPES = { 0: 'bumper', 1: 'cliff', 2: 'sonar', 3: 'depth camera', 4: 'wall sensor', 5: 'magnetic tape' };
 
 export class Diagnostics {
-  constructor({ ros, sensorLayer }) {
+  constructor({ stores, sensorLayer }) {
     this.list = document.getElementById('diagnostics');
     this.summary = document.getElementById('diag-summary');
     this.sensorList = document.getElementById('sensors');
     this.sensorLayer = sensorLayer;
     this.info = [];
-    new ROSLIB.Topic({ ros, name: TOPICS.diagnostics, messageType: 'diagnostic_msgs/DiagnosticArray', throttle_rate: 500 })
-      .subscribe((array) => this.show(array.status || []));
-    new ROSLIB.Topic({ ros, name: TOPICS.sensorsInfo, messageType: 'slamware_ros_sdk/BasicSensorInfoArray' })
-      .subscribe((msg) => {
-        this.info = msg.sensors_info || [];
-        sensorLayer.setInfo(this.info);
-      });
-    new ROSLIB.Topic({ ros, name: TOPICS.sensorsValues, messageType: 'slamware_ros_sdk/BasicSensorValueDataArray',
-      throttle_rate: 200, queue_length: 1 }).subscribe((msg) => this.sensors(msg.values_data || []));
+    stores.topic(TOPICS.diagnostics).subscribe((array) => this.show(array.status || []));
+    stores.topic(TOPICS.sensorsInfo).subscribe((msg) => {
+      this.info = msg.sensors_info || [];
+      sensorLayer.setInfo(this.info);
+    });
+    stores.topic(TOPICS.sensorsValues).subscribe((msg) => this.sensors(msg.values_data || []));
   }
 
   show(statuses) {

@@ -4,13 +4,13 @@
 // those panels follow it and move their names under /NAME/), the POIs with a Dispatch button
 // each (/fleet/dispatch picks the best robot by cost: the soonest to finish, its charge counted),
 // and the task list of /fleet/tasks with Cancel; a dispatch's reply says so when its task ends. It stays hidden on a single-robot server (no /fleet/robots).
-/* global ROSLIB, createjs */
+/* global createjs */
 import { CurrentRobot } from './currentrobot.js';
 import { BEST_ROBOT, STATE_WORDS } from './fleetwords.js';
 import { avoid, label as named } from './labels.js';
 import { log } from './log.js';
 import { SERVICES, TOPICS } from './names.js';
-import { yawOf } from './util.js';
+import { el, yawOf } from './util.js';
 
 const FAINT = 0.45; // the robots not chosen, on the map
 
@@ -78,7 +78,7 @@ class FleetLayer {
 
 export class Fleet {
   /** `robot`: the current robot (a CurrentRobot), which this panel chooses and shows. */
-  constructor({ ros, view, robot = new CurrentRobot(), marker = null }) {
+  constructor({ stores, view, robot = new CurrentRobot(), marker = null }) {
     this.robot = robot;
     this.robots = [];
     this.tasks = [];
@@ -87,14 +87,10 @@ export class Fleet {
     this.layer = new FleetLayer(view, marker);
     this.panel = this.buildPanel();
     robot.follow((name) => this.showSelected(name));
-    this.dispatchService = new ROSLIB.Service({ ros, name: SERVICES.fleetDispatch, serviceType: 'hitrobot_msgs/Dispatch' });
-    this.cancelService = new ROSLIB.Service({ ros, name: SERVICES.fleetCancel, serviceType: 'hitrobot_msgs/CancelTask' });
-    new ROSLIB.Topic({ ros, name: TOPICS.fleetRobots, messageType: 'hitrobot_msgs/FleetRobots', throttle_rate: 250 })
-      .subscribe((m) => this.onRobots(m.robots));
-    new ROSLIB.Topic({ ros, name: TOPICS.fleetTasks, messageType: 'hitrobot_msgs/FleetTasks' })
-      .subscribe((m) => { this.tasks = m.tasks; this.showTasks(); });
-    new ROSLIB.Topic({ ros, name: TOPICS.pois, messageType: 'map_messages/PointsOfInterest' })
-      .subscribe((m) => { this.pois = m.pois; this.showPois(); });
+    this.stores = stores;
+    stores.topic(TOPICS.fleetRobots).subscribe((m) => this.onRobots(m.robots));
+    stores.topic(TOPICS.fleetTasks).subscribe((m) => { this.tasks = m.tasks; this.showTasks(); });
+    stores.topic(TOPICS.pois).subscribe((m) => { this.pois = m.pois; this.showPois(); });
   }
 
   /** The robot the tools act on (null until one is chosen). */
@@ -103,21 +99,15 @@ export class Fleet {
   }
 
   buildPanel() {
-    const panel = document.createElement('section');
-    panel.className = 'panel';
-    panel.id = 'fleet-panel';
-    panel.hidden = true;
-    panel.innerHTML = `<h2>Fleet <span class="count" id="fleet-count"></span></h2>
-      <ul class="fleet-robots" id="fleet-robots"></ul>
-      <h2>Dispatch to a POI</h2>
-      <label class="fleet-send">send <select id="fleet-send"><option value="">${BEST_ROBOT}</option></select></label>
-      <ul class="fleet-pois" id="fleet-pois"><li class="empty">no POIs</li></ul>
-      <div class="fleet-reply" id="fleet-reply"></div>
-      <h2>Tasks</h2>
-      <ul class="fleet-tasks" id="fleet-tasks"><li class="empty">none</li></ul>`;
-    const operate = document.querySelector('[data-tab-panel="operate"]') || document.body;
-    operate.prepend(panel);
-    return panel;
+    return el('section', { class: 'panel', id: 'fleet-panel', hidden: true },
+      el('h2', {}, 'Fleet ', el('span', { class: 'count', id: 'fleet-count' })),
+      el('ul', { class: 'fleet-robots', id: 'fleet-robots' }),
+      el('h2', {}, 'Dispatch to a POI'),
+      el('label', { class: 'fleet-send' }, 'send ', el('select', { id: 'fleet-send' }, el('option', { value: '' }, BEST_ROBOT))),
+      el('ul', { class: 'fleet-pois', id: 'fleet-pois' }, el('li', { class: 'empty' }, 'no POIs')),
+      el('div', { class: 'fleet-reply', id: 'fleet-reply' }),
+      el('h2', {}, 'Tasks'),
+      el('ul', { class: 'fleet-tasks', id: 'fleet-tasks' }, el('li', { class: 'empty' }, 'none')));
   }
 
   colorOf(name) {
@@ -134,26 +124,14 @@ export class Fleet {
     this.showSendChoice(robots);
     const list = document.getElementById('fleet-robots');
     list.replaceChildren(...robots.map((r) => {
-      const li = document.createElement('li');
-      li.dataset.robot = r.name;
-      li.dataset.state = r.state;
-      li.dataset.service = r.in_service === false ? 'out' : 'in';
-      const label = document.createElement('label');
-      const pick = document.createElement('input');
-      pick.type = 'radio';
-      pick.name = 'fleet-robot';
-      pick.value = r.name;
-      pick.checked = r.name === this.selected;
-      pick.addEventListener('change', () => this.select(r.name));
-      const swatch = document.createElement('span');
-      swatch.className = 'swatch';
+      const swatch = el('span', { class: 'swatch' });
+      // set through the CSSOM: the page's CSP refuses style attributes
       swatch.style.cssText = `display:inline-block;width:0.8em;height:0.8em;border-radius:50%;background:${this.colorOf(r.name)}`;
-      const text = document.createElement('span');
-      text.className = 'fleet-state';
-      text.textContent = ` ${r.name} — ${stateWords(r)}, ${Math.round(r.battery)} %${r.task ? `, task ${r.task}` : ''}`;
-      label.append(pick, swatch, text);
-      li.append(label);
-      return li;
+      return el('li', { dataset: { robot: r.name, state: r.state, service: r.in_service === false ? 'out' : 'in' } },
+        el('label', {},
+          el('input', { type: 'radio', name: 'fleet-robot', value: r.name, checked: r.name === this.selected, onchange: () => this.select(r.name) }),
+          swatch,
+          el('span', { class: 'fleet-state' }, ` ${r.name} — ${stateWords(r)}, ${Math.round(r.battery)} %${r.task ? `, task ${r.task}` : ''}`)));
     }));
   }
 
@@ -164,12 +142,7 @@ export class Fleet {
     const have = [...select.options].slice(1).map((o) => o.value);
     if (names.join('\n') === have.join('\n')) return;
     const kept = select.value;
-    select.replaceChildren(select.options[0], ...names.map((n) => {
-      const option = document.createElement('option');
-      option.value = n;
-      option.textContent = n;
-      return option;
-    }));
+    select.replaceChildren(select.options[0], ...names.map((n) => el('option', { value: n }, n)));
     select.value = names.includes(kept) ? kept : '';
   }
 
@@ -190,65 +163,50 @@ export class Fleet {
   showPois() {
     const list = document.getElementById('fleet-pois');
     if (!this.pois.length) {
-      list.innerHTML = '<li class="empty">no POIs</li>';
+      list.replaceChildren(el('li', { class: 'empty' }, 'no POIs'));
       return;
     }
-    list.replaceChildren(...this.pois.map((p) => {
-      const li = document.createElement('li');
-      li.textContent = `${p.name} `;
-      const button = document.createElement('button');
-      button.type = 'button';
-      button.className = 'small';
-      button.dataset.dispatch = p.name;
-      button.textContent = 'Dispatch';
-      button.title = 'Send the robot chosen above, or the best one';
-      button.addEventListener('click', () => this.dispatch(p.name));
-      li.append(button);
-      return li;
-    }));
+    list.replaceChildren(...this.pois.map((p) => el('li', {}, `${p.name} `,
+      el('button', { type: 'button', class: 'small', dataset: { dispatch: p.name }, title: 'Send the robot chosen above, or the best one',
+        onclick: () => this.dispatch(p.name) }, 'Dispatch'))));
   }
 
-  dispatch(poi) {
+  async dispatch(poi) {
     const reply = document.getElementById('fleet-reply');
     const zero = { position: { x: 0, y: 0, z: 0 }, orientation: { x: 0, y: 0, z: 0, w: 1 } };
     const robot = document.getElementById('fleet-send').value; // '' = the best robot
-    this.dispatchService.callService({ poi, pose: zero, robot }, (r) => {
-      reply.textContent = r.message;
-      reply.dataset.accepted = String(r.accepted);
-      reply.dataset.robot = r.robot;
-      reply.dataset.task = String(r.task || 0);
-      this.showTasks();
-      log(r.accepted ? 'info' : 'error', `dispatch to ${poi}: ${r.message}`);
-    }, (error) => {
-      reply.textContent = String(error);
+    const { reply: r, error } = await this.stores.call(SERVICES.fleetDispatch, { poi, pose: zero, robot });
+    if (error) {
+      reply.textContent = error;
       reply.dataset.accepted = 'false';
       log('error', `dispatch to ${poi}: ${error}`);
-    });
+      return;
+    }
+    reply.textContent = r.message;
+    reply.dataset.accepted = String(r.accepted);
+    reply.dataset.robot = r.robot;
+    reply.dataset.task = String(r.task || 0);
+    this.showTasks();
+    log(r.accepted ? 'info' : 'error', `dispatch to ${poi}: ${r.message}`);
   }
 
   showTasks() {
     this.showOutcome();
     const list = document.getElementById('fleet-tasks');
     if (!this.tasks.length) {
-      list.innerHTML = '<li class="empty">none</li>';
+      list.replaceChildren(el('li', { class: 'empty' }, 'none'));
       return;
     }
-    list.replaceChildren(...[...this.tasks].reverse().map((t) => {
-      const li = document.createElement('li');
-      li.dataset.task = String(t.id);
-      li.dataset.state = t.state;
-      li.textContent = `#${t.id} ${t.poi || 'pose'} — ${STATE_WORDS[t.state] || t.state}${t.assigned ? ` (${t.assigned})` : ''}: ${t.message} `;
-      if (t.state === 'queued' || t.state === 'running') {
-        const cancel = document.createElement('button');
-        cancel.type = 'button';
-        cancel.className = 'small danger';
-        cancel.textContent = 'Cancel';
-        cancel.addEventListener('click', () => this.cancelService.callService({ task: t.id },
-          (r) => log(r.success ? 'info' : 'error', r.message)));
-        li.append(cancel);
-      }
-      return li;
-    }));
+    list.replaceChildren(...[...this.tasks].reverse().map((t) => el('li', { dataset: { task: String(t.id), state: t.state } },
+      `#${t.id} ${t.poi || 'pose'} — ${STATE_WORDS[t.state] || t.state}${t.assigned ? ` (${t.assigned})` : ''}: ${t.message} `,
+      t.state === 'queued' || t.state === 'running'
+        ? el('button', { type: 'button', class: 'small danger', onclick: () => this.cancel(t.id) }, 'Cancel') : null)));
+  }
+
+  async cancel(task) {
+    const { reply, error } = await this.stores.call(SERVICES.fleetCancel, { task });
+    if (reply) log(reply.success ? 'info' : 'error', reply.message);
+    else log('error', `cancel task ${task}: ${error}`);
   }
 
   /** The last dispatch's reply ("task 6: b is on its way") once its task has ended: what

@@ -5,10 +5,9 @@
 // a new task (fleettasks.js: dispatched now to the best robot by cost or a chosen one, the
 // reply's bids shown, or added as a schedule); the task list with pause / resume / cancel and
 // its history; the schedules. Times are the site's (/fleet/policy's time zone).
-/* global ROSLIB */
 import { stateWords } from './fleet.js';
 import { Schedules, TaskBoard, TaskForm } from './fleettasks.js';
-import { SiteClock, caller } from './fleetwords.js';
+import { SiteClock } from './fleetwords.js';
 import { log } from './log.js';
 import { SERVICES, TOPICS } from './names.js';
 import { el } from './util.js';
@@ -29,8 +28,8 @@ export function chargeWords(r, tasks, policy) {
 }
 
 export class FleetOps {
-  /** `tab`: the side panel's Fleet tab button; `parent`: its panel. */
-  constructor({ ros, tab, parent }) {
+  /** `tab`: the side panel's Fleet tab button; `panels`: what app.js mounts in the tab. */
+  constructor({ stores, tab }) {
     this.tab = tab;
     this.clock = new SiteClock();
     this.robots = [];
@@ -38,25 +37,22 @@ export class FleetOps {
     this.policy = null;
     this.lastTask = 0;
     this.buttons = new Map(); // robot → its service button
-    this.policyService = caller(ros, SERVICES.fleetPolicy, 'hitrobot_msgs/FleetPolicy');
-    this.serviceSwitch = caller(ros, SERVICES.fleetSetInService, 'hitrobot_msgs/SetInService');
+    this.policyService = () => stores.call(SERVICES.fleetPolicy);
+    this.serviceSwitch = (request) => stores.call(SERVICES.fleetSetInService, request);
     this.policyText = el('div', { class: 'fleetops-policy', id: 'fleetops-policy' }, 'charging policy –');
     this.list = el('ul', { class: 'fleetops-robots', id: 'fleetops-robots' });
     this.zone = el('div', { class: 'fleetops-zone', id: 'fleetops-zone' });
     const robotsPanel = el('section', { class: 'panel', id: 'fleetops-robots-panel' },
       el('h2', {}, 'Robots'), this.policyText, this.list, this.zone);
-    this.schedules = new Schedules({ ros, clock: this.clock });
-    this.form = new TaskForm({ ros, schedules: this.schedules });
-    this.board = new TaskBoard({ ros, clock: this.clock });
-    parent.append(robotsPanel, this.form.panel, this.board.panel, this.schedules.panel);
+    this.schedules = new Schedules({ stores, clock: this.clock });
+    this.form = new TaskForm({ stores, schedules: this.schedules });
+    this.board = new TaskBoard({ stores, clock: this.clock });
+    this.panels = [robotsPanel, this.form.panel, this.board.panel, this.schedules.panel];
     tab.addEventListener('click', () => this.schedules.refresh());
     window.addEventListener('bridge', (e) => { if (e.detail.online && this.robots.length) this.readPolicy(); });
-    new ROSLIB.Topic({ ros, name: TOPICS.fleetRobots, messageType: 'hitrobot_msgs/FleetRobots', throttle_rate: 250 })
-      .subscribe((m) => this.onRobots(m.robots));
-    new ROSLIB.Topic({ ros, name: TOPICS.fleetTasks, messageType: 'hitrobot_msgs/FleetTasks' })
-      .subscribe((m) => this.onTasks(m.tasks));
-    new ROSLIB.Topic({ ros, name: TOPICS.pois, messageType: 'map_messages/PointsOfInterest' })
-      .subscribe((m) => this.form.setPois(m.pois.map((p) => p.name)));
+    stores.topic(TOPICS.fleetRobots).subscribe((m) => this.onRobots(m.robots));
+    stores.topic(TOPICS.fleetTasks).subscribe((m) => this.onTasks(m.tasks));
+    stores.topic(TOPICS.pois).subscribe((m) => this.form.setPois(m.pois.map((p) => p.name)));
   }
 
   async readPolicy() {

@@ -3,7 +3,7 @@
 // its history (/fleet/history), and the schedules (/fleet/schedule_list, _add, _remove).
 import { log } from './log.js';
 import { SERVICES } from './names.js';
-import { BEST_ROBOT, KIND_WORDS, STATE_WORDS, caller, robotWords, targetWords } from './fleetwords.js';
+import { BEST_ROBOT, KIND_WORDS, STATE_WORDS, robotWords, targetWords } from './fleetwords.js';
 import { el, plural, quatOfYaw } from './util.js';
 
 const OPEN = ['running', 'paused', 'queued'];
@@ -39,8 +39,8 @@ export function showReply(box, { ok, message, robot = '', id = 0 }) {
 /** What to do: a POI or a point (go to), POIs with dwell times (sequence), a route for N laps
  * (patrol); a priority; the best robot or a chosen one. Dispatched now, or as a schedule. */
 export class TaskForm {
-  constructor({ ros, schedules }) {
-    this.dispatchService = caller(ros, SERVICES.fleetDispatch, 'hitrobot_msgs/Dispatch');
+  constructor({ stores, schedules }) {
+    this.dispatchService = (request) => stores.call(SERVICES.fleetDispatch, request);
     this.schedules = schedules;
     this.pois = [];
     this.kind = el('select', { id: 'fleetops-kind', onchange: () => this.showKind() },
@@ -190,14 +190,11 @@ function taskRow(t, clock, act) {
 
 /** The tasks: live (open first, then the last finished) and the history, by robot. */
 export class TaskBoard {
-  constructor({ ros, clock }) {
+  constructor({ stores, clock }) {
     this.clock = clock;
-    this.services = {
-      pause: caller(ros, SERVICES.fleetPause, 'hitrobot_msgs/CancelTask'),
-      resume: caller(ros, SERVICES.fleetResume, 'hitrobot_msgs/CancelTask'),
-      cancel: caller(ros, SERVICES.fleetCancel, 'hitrobot_msgs/CancelTask'),
-    };
-    this.history = caller(ros, SERVICES.fleetHistory, 'hitrobot_msgs/FleetHistory');
+    const call = (name) => (request) => stores.call(name, request);
+    this.services = { pause: call(SERVICES.fleetPause), resume: call(SERVICES.fleetResume), cancel: call(SERVICES.fleetCancel) };
+    this.history = call(SERVICES.fleetHistory);
     this.tasks = [];
     this.finished = new Set();
     this.live = el('ul', { class: 'fleetops-tasks', id: 'fleetops-tasks' }, el('li', { class: 'empty' }, 'no tasks yet'));
@@ -269,11 +266,11 @@ export class TaskBoard {
 /** The recurring tasks: listed with their next and last slots and what the last one did (or the
  * slots missed while the server was down), each removable; added from the task form. */
 export class Schedules {
-  constructor({ ros, clock }) {
+  constructor({ stores, clock }) {
     this.clock = clock;
-    this.addService = caller(ros, SERVICES.fleetScheduleAdd, 'hitrobot_msgs/FleetScheduleAdd');
-    this.listService = caller(ros, SERVICES.fleetScheduleList, 'hitrobot_msgs/FleetScheduleList');
-    this.removeService = caller(ros, SERVICES.fleetScheduleRemove, 'hitrobot_msgs/CancelTask');
+    this.addService = (request) => stores.call(SERVICES.fleetScheduleAdd, request);
+    this.listService = () => stores.call(SERVICES.fleetScheduleList);
+    this.removeService = (request) => stores.call(SERVICES.fleetScheduleRemove, request);
     this.list = el('ul', { class: 'fleetops-schedules', id: 'fleetops-schedules' }, el('li', { class: 'empty' }, '–'));
     this.panel = el('section', { class: 'panel', id: 'fleetops-schedules-panel' },
       el('h2', {}, 'Schedules ', el('span', { class: 'count', id: 'fleetops-schedule-count' }),

@@ -1,7 +1,5 @@
-// What the fleet-operations console (fleetops.js) says of tasks and times, and how it calls the
-// fleet's services: the site's clock (/fleet/policy's time zone), a task's kind, target and
-// robot in the operator's words, and a service call that answers with the reply or the error.
-/* global ROSLIB */
+// What the fleet-operations console (fleetops.js) says of tasks and times: the site's clock (/fleet/policy's time zone), a task's kind, target and
+// robot in the operator's words.
 
 /** Times as the site's clock reads them: its IANA zone when the server names one
  * (--site-timezone), else the server's UTC offset, else the browser's own zone. */
@@ -65,14 +63,4 @@ export function targetWords(t) {
 export function robotWords(t) {
   if (t.assigned) return t.assigned;
   return t.robot ? `${t.robot} (asked for)` : BEST_ROBOT;
-}
-
-/** Call service `name` (of `serviceType`) with `request`: resolves { reply } or { error } (the
- * server's words, without the developer's prefix roslib gives them). */
-export function caller(ros, name, serviceType) {
-  const service = new ROSLIB.Service({ ros, name, serviceType });
-  return (request = {}) => new Promise((resolve) => {
-    service.callService(new ROSLIB.ServiceRequest(request), (reply) => resolve({ reply }),
-      (error) => resolve({ error: String(error).replace(/^Error: /, '') || 'no answer' }));
-  });
 }

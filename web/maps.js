@@ -10,16 +10,14 @@ import { el } from './util.js';
 const NAME = /^[A-Za-z0-9_][A-Za-z0-9_.-]{0,63}$/;
 
 export class SavedMaps {
-  constructor({ ros }) {
-    this.ros = ros;
+  constructor({ ros, stores }) {
+    this.stores = stores;
     this.names = [];
     this.current = '';
     this.list = document.getElementById('map-list');
-    this.listService = new ROSLIB.Service({ ros, name: SERVICES.listMapFiles, serviceType: 'hitrobot_msgs/ListMapFiles' });
-    this.loadService = new ROSLIB.Service({ ros, name: SERVICES.loadLaserMap, serviceType: 'hitrobot_msgs/LoadLaserMap' });
     this.saveTopic = new ROSLIB.Topic({ ros, name: TOPICS.saveMap, messageType: 'map_messages/SaveMap' });
     // which map is loaded, as the server keeps it (latched, so after a reload or a restart too)
-    new ROSLIB.Topic({ ros, name: TOPICS.loadedMap, messageType: 'std_msgs/String' }).subscribe((msg) => {
+    stores.topic(TOPICS.loadedMap).subscribe((msg) => {
       this.current = msg.data;
       this.show(this.names);
     });
@@ -28,16 +26,11 @@ export class SavedMaps {
   }
 
   /** Ask the server for the list; resolves the names. */
-  refresh() {
-    return new Promise((resolve) => {
-      this.listService.callService(new ROSLIB.ServiceRequest({ directory: '' }), (reply) => {
-        this.show(reply.files || []);
-        resolve(this.names);
-      }, (error) => {
-        log('error', `listing the saved maps failed: ${error}`);
-        resolve(this.names);
-      });
-    });
+  async refresh() {
+    const { reply, error } = await this.stores.call(SERVICES.listMapFiles, { directory: '' });
+    if (error) log('error', `listing the saved maps failed: ${error}`);
+    else this.show(reply.files || []);
+    return this.names;
   }
 
   show(names) {
@@ -51,15 +44,14 @@ export class SavedMaps {
   async load(name) {
     if (!(await confirmAction(`Load the map “${name}”? The robot's current map, masks, POIs and walls are replaced.`, 'Load'))) return;
     log('info', `loading the map “${name}”…`);
-    this.loadService.callService(new ROSLIB.ServiceRequest({ name }), (reply) => {
-      if (reply.success) {
-        this.current = name;
-        this.show(this.names);
-        log('info', `map “${name}”: ${reply.message}`);
-      } else {
-        log('error', `loading the map “${name}” failed: ${reply.message}`);
-      }
-    }, (error) => log('error', `loading the map “${name}” failed: ${error}`));
+    const { reply, error } = await this.stores.call(SERVICES.loadLaserMap, { name });
+    if (reply && reply.success) {
+      this.current = name;
+      this.show(this.names);
+      log('info', `map “${name}”: ${reply.message}`);
+    } else {
+      log('error', `loading the map “${name}” failed: ${error || reply.message}`);
+    }
   }
 
   async saveAs() {

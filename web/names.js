@@ -61,8 +61,57 @@ export const TOPICS = Object.freeze({
   vda5050Link: '/vda5050/link',  // latched: each robot's VDA 5050 link (vda5050.js)
 });
 
+/** The message type of each topic, by the same keys as TOPICS (the stores, stores.js, open
+ * their subscriptions from these two tables). */
+export const TOPIC_TYPES = Object.freeze({
+  map: 'nav_msgs/OccupancyGrid',
+  tf: 'tf2_msgs/TFMessage',
+  robotPose: 'geometry_msgs/Pose',
+  scan: 'sensor_msgs/LaserScan',
+  globalPlan: 'nav_msgs/Path',
+  graph: 'hitrobot_msgs/Graph',
+  home: 'geometry_msgs/PoseStamped',
+  virtualWalls: 'slamware_ros_sdk/Line2DFlt32Array',
+  virtualTracks: 'slamware_ros_sdk/Line2DFlt32Array',
+  cmdVel: 'geometry_msgs/Twist',
+  driveLease: 'hitrobot_msgs/DriveLease',
+  initialPose: 'geometry_msgs/PoseWithCovarianceStamped',
+  navigateToPoi: 'map_messages/NavigateToPOI',
+  cancelAction: 'slamware_ros_sdk/CancelActionRequest',
+  goHome: 'slamware_ros_sdk/GoHomeRequest',
+  recoverLocalization: 'slamware_ros_sdk/RecoverLocalizationRequest',
+  odom: 'nav_msgs/Odometry',
+  addLine: 'slamware_ros_sdk/AddLineRequest',
+  removeLine: 'slamware_ros_sdk/RemoveLineRequest',
+  clearLines: 'slamware_ros_sdk/ClearLinesRequest',
+  modifyMap: 'map_messages/ModifyMap',
+  mapLayers: 'map_messages/MapLayers',
+  pois: 'map_messages/PointsOfInterest',
+  addPoi: 'map_messages/PointOfInterest',
+  modifyPoi: 'map_messages/ModifyPOI',
+  deletePoi: 'map_messages/DeletePointOfInterest',
+  saveMap: 'map_messages/SaveMap',
+  loadedMap: 'std_msgs/String',
+  robotBasicState: 'slamware_ros_sdk/RobotBasicState',
+  diagnostics: 'diagnostic_msgs/DiagnosticArray',
+  sensorsInfo: 'slamware_ros_sdk/BasicSensorInfoArray',
+  sensorsValues: 'slamware_ros_sdk/BasicSensorValueDataArray',
+  shellCommand: 'std_msgs/String',
+  systemMode: 'std_msgs/String',
+  version: 'std_msgs/String',
+  patrolState: 'hitrobot_msgs/PatrolState',
+  fleetRobots: 'hitrobot_msgs/FleetRobots',
+  fleetTasks: 'hitrobot_msgs/FleetTasks',
+  fleetZones: 'hitrobot_msgs/FleetZones',
+  recordState: 'hitrobot_msgs/RecordState',
+  recordIncident: 'hitrobot_msgs/RecordIncident',
+  replayState: 'hitrobot_msgs/ReplayState',
+  vda5050Link: 'hitrobot_msgs/VdaLinks',
+});
+
 export const SERVICES = Object.freeze({
   rosapiNodes: '/rosapi/nodes',
+  whoami: '/hitrobot/whoami', // who this page is signed in as (signin.js)
   listMapFiles: '/list_map_files',
   loadLaserMap: '/load_laser_map',
   setWaypoints: '/planning/set_waypoints',
@@ -86,7 +135,6 @@ export const SERVICES = Object.freeze({
   recordStart: '/record/start',
   recordStop: '/record/stop',
   recordList: '/record/list',
-  whoami: '/hitrobot/whoami', // the token's name, role and permissions (signin.js)
   recordIncidents: '/record/incidents',
   recordSnapshot: '/record/snapshot',
   recordReplay: '/record/replay',
@@ -96,8 +144,48 @@ export const SERVICES = Object.freeze({
   replaySetSpeed: '/replay/set_speed',
 });
 
+/** The service type of each service, by the same keys as SERVICES (stores.js's call()). */
+export const SERVICE_TYPES = Object.freeze({
+  rosapiNodes: 'rosapi/Nodes',
+  whoami: 'std_srvs/Trigger',
+  listMapFiles: 'hitrobot_msgs/ListMapFiles',
+  loadLaserMap: 'hitrobot_msgs/LoadLaserMap',
+  setWaypoints: 'hitrobot_msgs/SetWaypoints',
+  clearWaypoints: 'std_srvs/Trigger',
+  startPatrol: 'std_srvs/Trigger',
+  stopPatrol: 'std_srvs/Trigger',
+  resumePatrol: 'hitrobot_msgs/ResumePatrol',
+  fleetDispatch: 'hitrobot_msgs/Dispatch',
+  fleetCancel: 'hitrobot_msgs/CancelTask',
+  fleetZoneAdd: 'hitrobot_msgs/FleetZoneAdd',
+  fleetZoneRemove: 'hitrobot_msgs/FleetZoneRemove',
+  fleetPause: 'hitrobot_msgs/CancelTask',
+  fleetResume: 'hitrobot_msgs/CancelTask',
+  fleetHistory: 'hitrobot_msgs/FleetHistory',
+  fleetScheduleAdd: 'hitrobot_msgs/FleetScheduleAdd',
+  fleetScheduleList: 'hitrobot_msgs/FleetScheduleList',
+  fleetScheduleRemove: 'hitrobot_msgs/CancelTask',
+  fleetSetInService: 'hitrobot_msgs/SetInService',
+  fleetPolicy: 'hitrobot_msgs/FleetPolicy',
+  recordStart: 'hitrobot_msgs/RecordStart',
+  recordStop: 'std_srvs/Trigger',
+  recordList: 'hitrobot_msgs/ListRecordings',
+  recordIncidents: 'hitrobot_msgs/ListIncidents',
+  recordSnapshot: 'hitrobot_msgs/RecordSnapshot',
+  recordReplay: 'hitrobot_msgs/ReplayRecording',
+  replayPause: 'std_srvs/Trigger',
+  replayResume: 'std_srvs/Trigger',
+  replaySeek: 'hitrobot_msgs/ReplaySeek',
+  replaySetSpeed: 'hitrobot_msgs/ReplaySetSpeed',
+});
+
 export const ACTIONS = Object.freeze({
   moveBase: '/move_base',
+});
+
+/** The action type of each action, by the same keys as ACTIONS. */
+export const ACTION_TYPES = Object.freeze({
+  moveBase: 'move_base_msgs/MoveBase',
 });
 
 /** An action's result topic (actionlib: ACTION/result), where every goal's end is told. */

@@ -33,6 +33,10 @@ export class Navigator {
     this.online = true;
     this.serverName = serverName;
     this.actionName = actionName;
+    // how a goal sent elsewhere ends: its abort and the reason (the recorded one in a replay),
+    // heard on the action client's own result subscription (roslib emits each topic's messages
+    // on the Ros object too), not on a second one
+    this.onResult = (result) => this.resultElsewhere(result);
     this.useRobot(robot);
     robot.follow((name) => {
       this.client.dispose?.();
@@ -54,9 +58,6 @@ export class Navigator {
     this.robotPose = null;
     this.replaying = false; // a replay's page: nothing is sent, Cancel stays off
     this.elsewhereEnded = -Infinity; // when a motion sent elsewhere was last seen to stop
-    // how a goal sent elsewhere ends: its abort and the reason (the recorded one in a replay)
-    robot.subscribe(ros, resultTopic(serverName), 'move_base_msgs/MoveBaseActionResult', {},
-      (result) => this.resultElsewhere(result));
   }
 
   /** The page shows a replay: Cancel and the rest that would send stay off. */
@@ -74,6 +75,9 @@ export class Navigator {
   useRobot(robot) {
     const ros = this.ros;
     this.client = new ROSLIB.ActionClient({ ros, serverName: robot.nameOf(this.serverName), actionName: this.actionName });
+    if (this.resultName) ros.off(this.resultName, this.onResult);
+    this.resultName = robot.nameOf(resultTopic(this.serverName));
+    ros.on(this.resultName, this.onResult);
     this.poiTopic = new ROSLIB.Topic({ ros, name: robot.nameOf(TOPICS.navigateToPoi), messageType: 'map_messages/NavigateToPOI' });
     this.cancelTopic = new ROSLIB.Topic({ ros, name: robot.nameOf(TOPICS.cancelAction),
       messageType: 'slamware_ros_sdk/CancelActionRequest' });

@@ -2,7 +2,6 @@
 // route (planning/set_waypoints after each click), drawn numbered; Run (start_patrol), Stop
 // (stop_patrol), Resume (resume_patrol, from the waypoint nearest the robot), Clear. The
 // latched planning/patrol_state says what the patrol does: its target, laps and last event.
-/* global ROSLIB */
 import { log } from './log.js';
 import { SERVICES, TOPICS } from './names.js';
 import { el } from './util.js';
@@ -11,19 +10,14 @@ import { el } from './util.js';
 export const fromOne = (text) => text.replace(/\bwaypoint (\d+)/g, (_, n) => `waypoint ${Number(n) + 1}`);
 
 export class Patrol {
-  constructor({ ros, layer }) {
+  constructor({ stores, layer }) {
     this.layer = layer;
     this.onState = null; // (state) => …: the Navigation panel follows a running patrol
     this.waypoints = [];
     this.frame = 'map';
-    const service = (name, serviceType) => new ROSLIB.Service({ ros, name, serviceType });
-    this.services = {
-      set: service(SERVICES.setWaypoints, 'hitrobot_msgs/SetWaypoints'),
-      clear: service(SERVICES.clearWaypoints, 'std_srvs/Trigger'),
-      start: service(SERVICES.startPatrol, 'std_srvs/Trigger'),
-      stop: service(SERVICES.stopPatrol, 'std_srvs/Trigger'),
-      resume: service(SERVICES.resumePatrol, 'hitrobot_msgs/ResumePatrol'),
-    };
+    this.stores = stores;
+    this.services = { set: SERVICES.setWaypoints, clear: SERVICES.clearWaypoints, start: SERVICES.startPatrol,
+      stop: SERVICES.stopPatrol, resume: SERVICES.resumePatrol };
     this.stateBox = document.getElementById('patrol-state');
     this.list = document.getElementById('waypoint-list');
     this.count = document.getElementById('patrol-count');
@@ -31,15 +25,14 @@ export class Patrol {
     document.getElementById('patrol-start').addEventListener('click', () => this.call('start', {}));
     document.getElementById('patrol-stop').addEventListener('click', () => this.call('stop', {}));
     document.getElementById('patrol-resume').addEventListener('click', () => this.call('resume', {}));
-    new ROSLIB.Topic({ ros, name: TOPICS.patrolState, messageType: 'hitrobot_msgs/PatrolState' })
-      .subscribe((state) => this.show(state));
+    stores.topic(TOPICS.patrolState).subscribe((state) => this.show(state));
   }
 
-  call(what, request, okText = '') {
-    this.services[what].callService(new ROSLIB.ServiceRequest(request), (reply) => {
-      if (reply.success) log('info', okText || `patrol ${what}: ${fromOne(reply.message)}`);
-      else log('error', `patrol ${what}: ${fromOne(reply.message)}`);
-    }, (error) => log('error', `patrol ${what} failed: ${error}`));
+  async call(what, request, okText = '') {
+    const { reply, error } = await this.stores.call(this.services[what], request);
+    if (error) log('error', `patrol ${what} failed: ${error}`);
+    else if (reply.success) log('info', okText || `patrol ${what}: ${fromOne(reply.message)}`);
+    else log('error', `patrol ${what}: ${fromOne(reply.message)}`);
   }
 
   /** A click with the waypoint tool: the route gets one more waypoint. */

@@ -11,7 +11,7 @@ export const POI_DEFAULT = 100; // map_messages/PointOfInterest.DEFAULT
 
 export class Pois {
   /** `warning(x, y)`: why a POI should not stand at (x, y) ('' when it may). */
-  constructor({ ros, layer, warning = () => '' }) {
+  constructor({ ros, stores, layer, warning = () => '' }) {
     this.layer = layer;
     this.warning = warning;
     this.pois = [];
@@ -22,8 +22,7 @@ export class Pois {
     this.goTopic = topic(TOPICS.navigateToPoi, 'map_messages/NavigateToPOI');
     this.list = document.getElementById('poi-list');
     this.count = document.getElementById('poi-count');
-    topic(TOPICS.pois, 'map_messages/PointsOfInterest')
-      .subscribe((msg) => this.set((msg && msg.pois) || []));
+    stores.topic(TOPICS.pois).subscribe((msg) => this.set((msg && msg.pois) || []));
   }
 
   set(pois) {

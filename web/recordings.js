@@ -11,7 +11,6 @@
 // black-box file's incident shown and marked on it (replayincident.js). A replay's server has
 // none of the live server's record services: in a replay they are not called, and their
 // absence is no error.
-/* global ROSLIB */
 import { quietWhen } from './connection.js';
 import { log } from './log.js';
 import { SERVICES, TOPICS } from './names.js';
@@ -39,24 +38,25 @@ function formatTime(s) {
   return `${m}:${(s - m * 60).toFixed(1).padStart(4, '0')}`;
 }
 
-function caller(ros, name, serviceType) {
-  const service = new ROSLIB.Service({ ros, name, serviceType });
-  return (args = {}) => new Promise((resolve) => {
-    service.callService(new ROSLIB.ServiceRequest(args), (reply) => {
-      if (reply.success === false) log('error', `${name}: ${reply.message}`);
-      resolve(reply);
-    }, (error) => {
+/** Service `name` as a function of its request: resolves the reply, or null when the call
+ * failed; a failure or a refusal is said in Messages (a service a replay has not, quietly). */
+function caller(stores, name) {
+  return async (args = {}) => {
+    const { reply, error } = await stores.call(name, args);
+    if (error) {
       if (!missingInReplay(error)) log('error', `${name} failed: ${error}`);
-      resolve(null);
-    });
-  });
+      return null;
+    }
+    if (reply.success === false) log('error', `${name}: ${reply.message}`);
+    return reply;
+  };
 }
 
 export class Recordings {
-  constructor({ ros, parent }) {
-    this.start = caller(ros, SERVICES.recordStart, 'hitrobot_msgs/RecordStart');
-    this.stop = caller(ros, SERVICES.recordStop, 'std_srvs/Trigger');
-    this.listService = caller(ros, SERVICES.recordList, 'hitrobot_msgs/ListRecordings');
+  constructor({ stores }) {
+    this.start = caller(stores, SERVICES.recordStart);
+    this.stop = caller(stores, SERVICES.recordStop);
+    this.listService = caller(stores, SERVICES.recordList);
     this.state = el('div', { class: 'record-state', id: 'record-state', dataset: { recording: 'unknown' } }, 'recorder –');
     this.startButton = el('button', { type: 'button', id: 'record-start', title: 'Record every topic into a new file in the recordings folder (/record/start)', onclick: () => this.onStart() }, 'Start recording');
     this.stopButton = el('button', { type: 'button', id: 'record-stop', class: 'danger', disabled: true, onclick: () => this.onStop() }, 'Stop');
@@ -66,10 +66,8 @@ export class Recordings {
     this.panel = el('section', { class: 'panel', id: 'recordings-panel', dataset: { robotless: '' } },
       el('h2', {}, 'Recordings ', el('button', { type: 'button', class: 'small', id: 'recordings-refresh', title: 'List again', onclick: () => this.refresh() }, '↻')),
       this.state, el('div', { class: 'buttons' }, this.startButton, this.stopButton), this.list);
-    parent.append(this.panel);
-    new ROSLIB.Topic({ ros, name: TOPICS.recordState, messageType: 'hitrobot_msgs/RecordState' })
-      .subscribe((s) => this.show(s));
-    this.incidents = new Incidents({ ros, parent: this.panel, onWritten: () => this.refresh() });
+    stores.topic(TOPICS.recordState).subscribe((s) => this.show(s));
+    this.incidents = new Incidents({ stores, parent: this.panel, onWritten: () => this.refresh() });
   }
 
   show(s) {
@@ -111,18 +109,17 @@ function clock(seconds) {
 }
 
 class Incidents {
-  constructor({ ros, parent, onWritten }) {
-    this.listService = caller(ros, SERVICES.recordIncidents, 'hitrobot_msgs/ListIncidents');
-    this.snapshot = caller(ros, SERVICES.recordSnapshot, 'hitrobot_msgs/RecordSnapshot');
-    this.replay = caller(ros, SERVICES.recordReplay, 'hitrobot_msgs/ReplayRecording');
+  constructor({ stores, parent, onWritten }) {
+    this.listService = caller(stores, SERVICES.recordIncidents);
+    this.snapshot = caller(stores, SERVICES.recordSnapshot);
+    this.replay = caller(stores, SERVICES.recordReplay);
     this.onWritten = onWritten;
     this.list = el('ul', { class: 'incidents', id: 'incident-list' }, el('li', { class: 'empty' }, '–'));
     this.saveButton = el('button', { type: 'button', class: 'small', id: 'black-box-save', title: 'Write the black box (the last seconds of every topic) to the recordings folder now (/record/snapshot)', onclick: () => this.onSave() }, 'Save black box');
     this.section = el('div', { class: 'incident-section', id: 'incidents', hidden: true },
       el('h3', {}, 'Incidents ', this.saveButton), this.list);
     parent.append(this.section);
-    new ROSLIB.Topic({ ros, name: TOPICS.recordIncident, messageType: 'hitrobot_msgs/RecordIncident' })
-      .subscribe((m) => this.show(m));
+    stores.topic(TOPICS.recordIncident).subscribe((m) => this.show(m));
   }
 
   show(m) {
@@ -185,12 +182,12 @@ function jumped(a, elapsed, b) {
 
 export class ReplayTimeline {
   /** `view`: the map view, fitted above the bar while it is shown. */
-  constructor({ ros, parent, view }) {
+  constructor({ stores, view }) {
     this.view = view;
-    this.pause = caller(ros, SERVICES.replayPause, 'std_srvs/Trigger');
-    this.resume = caller(ros, SERVICES.replayResume, 'std_srvs/Trigger');
-    this.seek = caller(ros, SERVICES.replaySeek, 'hitrobot_msgs/ReplaySeek');
-    this.setSpeed = caller(ros, SERVICES.replaySetSpeed, 'hitrobot_msgs/ReplaySetSpeed');
+    this.pause = caller(stores, SERVICES.replayPause);
+    this.resume = caller(stores, SERVICES.replayResume);
+    this.seek = caller(stores, SERVICES.replaySeek);
+    this.setSpeed = caller(stores, SERVICES.replaySetSpeed);
     this.dragging = false;
     this.play = el('button', { type: 'button', class: 'play', title: 'Play / pause the replay', onclick: () => this.toggle() }, '❚❚');
     this.slider = el('input', { type: 'range', class: 'seek', min: '0', max: '0', step: '0.1', value: '0', 'aria-label': 'Replay position' });
@@ -209,10 +206,7 @@ export class ReplayTimeline {
     this.incident = new ReplayIncident({ track, seek: (position) => this.seek({ position }) });
     this.bar = el('div', { class: 'replay-bar', id: 'replay-bar', hidden: true, dataset: { paused: 'unknown' } },
       el('div', { class: 'controls' }, this.play, track, this.time, this.speed, this.file), this.incident.line);
-    this.pane = parent;
-    parent.append(this.bar);
-    new ROSLIB.Topic({ ros, name: TOPICS.replayState, messageType: 'hitrobot_msgs/ReplayState' })
-      .subscribe((s) => this.show(s));
+    stores.topic(TOPICS.replayState).subscribe((s) => this.show(s));
   }
 
   show(s) {
@@ -248,7 +242,7 @@ export class ReplayTimeline {
     const height = this.bar.offsetHeight;
     if (height === this.height) return;
     this.height = height;
-    this.pane.style.setProperty('--replay-bar', `${height}px`);
+    this.bar.parentElement.style.setProperty('--replay-bar', `${height}px`);
     const hint = document.getElementById('hint');
     if (this.view) {
       this.view.bottomInset = height + (hint ? hint.offsetHeight : 0) + 24;

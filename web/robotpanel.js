@@ -9,7 +9,7 @@ import { log } from './log.js';
 import { TOPICS } from './names.js';
 
 export class RobotActions {
-  constructor({ ros, navigator, robot = new CurrentRobot() }) {
+  constructor({ ros, stores, navigator, robot = new CurrentRobot() }) {
     const publisher = (name, messageType) => () => robot.publisher(ros, name, messageType);
     this.recover = publisher(TOPICS.recoverLocalization, 'slamware_ros_sdk/RecoverLocalizationRequest');
     this.home = publisher(TOPICS.goHome, 'slamware_ros_sdk/GoHomeRequest');
@@ -34,8 +34,7 @@ export class RobotActions {
     this.readout = document.getElementById('odometry');
     this.last = null;
     this.distance = 0;
-    robot.subscribe(ros, TOPICS.odom, 'nav_msgs/Odometry', { throttle_rate: 200, queue_length: 1 },
-      (odom) => this.odometry(odom), () => this.restart());
+    stores.follow(robot, TOPICS.odom, (odom) => this.odometry(odom), () => this.restart());
     // a replay's seek (or loop) is no drive: the odometer counts again from there
     window.addEventListener('replayseek', () => this.restart());
   }

@@ -3,19 +3,17 @@
 // when that server dies). No robot yet: "no robot" (--robot none); gone: "robot offline". Both
 // disable what would drive or change the robot; when it comes (back) the page reloads, so the
 // map, POIs and state are fresh.
-/* global ROSLIB */
 import { SERVICES, SLAMWARE_NODE } from './names.js';
 
 const PERIOD_MS = 2000;
 
 export class RobotPresence {
   /** `onChange(present, seen)`: present is this poll's answer, seen whether it ever was. */
-  constructor({ ros, onChange }) {
-    this.ros = ros;
+  constructor({ ros, stores, onChange }) {
+    this.stores = stores;
     this.onChange = onChange;
     this.present = null; // unknown until rosapi answers
     this.seen = false;
-    this.nodes = new ROSLIB.Service({ ros, name: SERVICES.rosapiNodes, serviceType: 'rosapi/Nodes' });
     const poll = () => {
       if (ros.isConnected) this.poll();
     };
@@ -24,11 +22,10 @@ export class RobotPresence {
     setInterval(poll, PERIOD_MS);
   }
 
-  poll() {
-    this.nodes.callService(new ROSLIB.ServiceRequest({}),
-      // the single robot's node, or a fleet robot's under its /NAME/ namespace
-      (reply) => this.update((reply.nodes || []).some((n) => n === SLAMWARE_NODE || n.endsWith(SLAMWARE_NODE))),
-      () => {});
+  async poll() {
+    const { reply } = await this.stores.call(SERVICES.rosapiNodes);
+    // the single robot's node, or a fleet robot's under its /NAME/ namespace
+    if (reply) this.update((reply.nodes || []).some((n) => n === SLAMWARE_NODE || n.endsWith(SLAMWARE_NODE)));
   }
 
   update(present) {

@@ -19,14 +19,12 @@ function meter(id, percent, text, state) {
 }
 
 export class RobotState {
-  constructor({ ros, robot = new CurrentRobot() }) {
+  constructor({ stores, robot = new CurrentRobot() }) {
     this.robotPill = document.getElementById('robot-state');
     this.robot = robot;
     this.lastDiagnostics = 0;
-    robot.subscribe(ros, TOPICS.robotBasicState, 'slamware_ros_sdk/RobotBasicState', { throttle_rate: 500 },
-      (s) => this.basic(s), () => this.forget());
-    robot.subscribe(ros, TOPICS.diagnostics, 'diagnostic_msgs/DiagnosticArray', { throttle_rate: 500 },
-      (d) => this.diagnostics(d));
+    stores.follow(robot, TOPICS.robotBasicState, (s) => this.basic(s), () => this.forget());
+    stores.follow(robot, TOPICS.diagnostics, (d) => this.diagnostics(d));
     setInterval(() => {
       // robotpresence.js says so, or app.js's followReplay
       if (document.body.classList.contains('no-robot') || document.body.classList.contains('replaying')) return;

@@ -11,16 +11,15 @@ import { TOPICS } from './names.js';
 const MODE_LABELS = { gmapping: 'mapping', navigation: 'navigation', busy: 'switching…' };
 
 export class Shell {
-  constructor({ ros, robot = new CurrentRobot() }) {
+  constructor({ ros, stores, robot = new CurrentRobot() }) {
     this.cmd = () => robot.publisher(ros, TOPICS.shellCommand, 'std_msgs/String');
     this.pill = document.getElementById('mode');
     this.buttons = [...document.querySelectorAll('#shell [data-cmd]')];
     for (const b of this.buttons) b.addEventListener('click', () => this.run(b));
-    robot.subscribe(ros, TOPICS.systemMode, 'std_msgs/String', {}, (msg) => this.showMode(msg.data),
-      () => this.showMode(''));
+    stores.follow(robot, TOPICS.systemMode, (msg) => this.showMode(msg.data), () => this.showMode(''));
     this.version = document.getElementById('version');
     this.versionAsked = false;
-    robot.subscribe(ros, TOPICS.version, 'std_msgs/String', {}, (msg) => this.showVersion(msg.data));
+    stores.follow(robot, TOPICS.version, (msg) => this.showVersion(msg.data));
   }
 
   showVersion(text) {

@@ -3,8 +3,8 @@
 // the console's HTTP requests (downloads). After connecting, /hitrobot/whoami says the token's
 // name, role and permissions: the role badge shows them, and each control the role lacks is
 // disabled with the reason on hover. Signing out forgets the token and reloads.
-/* global ROSLIB */
 import { SERVICES } from './names.js';
+import { el } from './util.js';
 
 const KEY = 'hitrobot.token';
 
@@ -30,13 +30,6 @@ const NEEDS = [
   ['[data-tool=erase]', 'walls'], ['[data-tool=unline]', 'walls'], ['#clear-walls', 'walls'],
   ['#clear-tracks', 'walls'], ['#map-save-as', 'maps'], ['#publish-send', 'publish'],
 ];
-
-function el(tag, attrs = {}, ...children) {
-  const node = document.createElement(tag);
-  for (const [k, v] of Object.entries(attrs)) node.setAttribute(k, v);
-  node.append(...children);
-  return node;
-}
 
 /** The sign-in box, shown over the page; resolves never (a sign-in reloads the page). */
 export function showSignIn(reason = '') {
@@ -79,15 +72,16 @@ function signOut() {
 }
 
 /** The role badge and the controls the role lacks, from /hitrobot/whoami. */
-export function followRole(ros) {
+export function followRole(stores) {
   const badge = el('span', { class: 'pill', id: 'role', 'data-role': 'unknown', hidden: '',
     title: 'Who this console is signed in as' }, el('b', {}, 'role'), ' ',
   el('span', { class: 'value' }, '…'));
   document.querySelector('.topbar .pills').append(badge);
-  const service = new ROSLIB.Service({ ros, name: SERVICES.whoami, serviceType: 'std_srvs/Trigger' });
   let who = null;
   const apply = () => { if (who) disableLacking(who); };
-  ros.on('connection', () => service.callService({}, (answer) => {
+  stores.ros.on('connection', async () => {
+    const { reply: answer } = await stores.call(SERVICES.whoami);
+    if (!answer) return;
     who = JSON.parse(answer.message);
     badge.hidden = !who.authenticate; // without --authenticate everyone is admin: no badge
     badge.dataset.role = who.role;
@@ -98,7 +92,7 @@ export function followRole(ros) {
       badge.append(' ', out);
     }
     apply();
-  }));
+  });
   // the page re-enables its tools when the bridge comes back: the role's limits after it
   window.addEventListener('bridge', () => setTimeout(apply, 0));
   return { get who() { return who; } };

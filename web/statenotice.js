@@ -3,7 +3,6 @@
 // for as long as it lasts, a red pill in the top bar when the state folder cannot be written:
 // "state is not being saved: disk full" (changes are then refused, not acknowledged). The
 // server reports both in the /Bridge/State entry of /diagnostics_agg (its `saving` value).
-/* global ROSLIB */
 import { log } from './log.js';
 import { DIAGNOSTICS, TOPICS } from './names.js';
 import { el } from './util.js';
@@ -29,10 +28,8 @@ export function startLine(message, restored) {
   return text;
 }
 
-export function showStateOnce(ros) {
-  const topic = new ROSLIB.Topic({
-    ros, name: TOPICS.diagnostics, messageType: 'diagnostic_msgs/DiagnosticArray',
-  });
+export function showStateOnce(stores) {
+  const topic = stores.topic(TOPICS.diagnostics);
   const pill = savingPill();
   let told = false;
   let failing = '';

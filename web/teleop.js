@@ -20,8 +20,9 @@ const KEYS = {
 };
 
 export class Teleop {
-  constructor({ ros, robot = new CurrentRobot() }) {
+  constructor({ ros, stores, robot = new CurrentRobot() }) {
     this.ros = ros;
+    this.stores = stores;
     this.robot = robot;
     this.topic = this.cmdVel();
     this.keys = new Set();
@@ -89,8 +90,7 @@ export class Teleop {
       shown.dataset.holder = holder;
       shown.textContent = holder ? `driven by ${holder}` : '';
     };
-    this.robot.subscribe(this.ros, TOPICS.driveLease, 'hitrobot_msgs/DriveLease', {}, show,
-      () => show(null));
+    this.stores.follow(this.robot, TOPICS.driveLease, show, () => show(null));
   }
 
   /** /cmd_vel of the chosen robot. */

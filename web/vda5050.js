@@ -1,7 +1,6 @@
 // The robots' VDA 5050 links (`--vda5050 mqtt://HOST:PORT`), on the Fleet tab: for each robot
 // the broker and its topic tree, whether it is connected, the master control's current order
 // and the last error, from the latched /vda5050/link. Shown (with the tab) once a link exists.
-/* global ROSLIB */
 import { TOPICS } from './names.js';
 import { el } from './util.js';
 
@@ -19,16 +18,14 @@ export function linkWords(link) {
 }
 
 export class VdaLinks {
-  /** `tab`: the Fleet tab's button; `parent`: its panel. */
-  constructor({ ros, tab, parent }) {
+  /** `tab`: the Fleet tab's button (the panel is mounted by app.js, in the Fleet tab). */
+  constructor({ stores, tab }) {
     this.tab = tab;
     this.links = [];
     this.list = el('ul', { class: 'vda5050-links', id: 'vda5050-links' });
     this.panel = el('section', { class: 'panel', id: 'vda5050-panel', hidden: true },
       el('h2', {}, 'VDA 5050 master control'), this.list);
-    parent.append(this.panel);
-    new ROSLIB.Topic({ ros, name: TOPICS.vda5050Link, messageType: 'hitrobot_msgs/VdaLinks' })
-      .subscribe((m) => this.show(m.links));
+    stores.topic(TOPICS.vda5050Link).subscribe((m) => this.show(m.links));
   }
 
   show(links) {

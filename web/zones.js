@@ -3,10 +3,11 @@
 // filled while a robot holds it, with who holds it and who waits. A panel lists them with a
 // Remove button each, and draws a new one: "Draw a zone", click its corners on the map, name
 // it, Save (/fleet/zone_add). Shown on a fleet server only (one with /fleet/robots).
-/* global ROSLIB, createjs */
+/* global createjs */
 import { label as named } from './labels.js';
 import { SERVICES, TOPICS } from './names.js';
 import { Layer } from './overlays.js';
+import { el } from './util.js';
 
 export const ZONE_COLOR = '#7b1fa2'; // a free zone's outline
 export const HELD_COLOR = '#d50000'; // a held zone's outline and fill
@@ -73,45 +74,33 @@ class ZonesLayer extends Layer {
 }
 
 export class Zones {
-  constructor({ ros, view }) {
+  constructor({ stores, view }) {
     this.view = view;
     this.zones = [];
     this.draft = null; // the corners clicked so far while drawing
     this.layer = new ZonesLayer(view);
     this.panel = this.buildPanel();
-    const service = (name, type) => new ROSLIB.Service({ ros, name, serviceType: `hitrobot_msgs/${type}` });
-    this.addService = service(SERVICES.fleetZoneAdd, 'FleetZoneAdd');
-    this.removeService = service(SERVICES.fleetZoneRemove, 'FleetZoneRemove');
-    new ROSLIB.Topic({ ros, name: TOPICS.fleetZones, messageType: 'hitrobot_msgs/FleetZones' })
-      .subscribe((m) => this.onZones(m.zones));
-    new ROSLIB.Topic({ ros, name: TOPICS.fleetRobots, messageType: 'hitrobot_msgs/FleetRobots', throttle_rate: 1000 })
-      .subscribe((m) => { this.panel.hidden = m.robots.length === 0; });
+    this.stores = stores;
+    stores.topic(TOPICS.fleetZones).subscribe((m) => this.onZones(m.zones));
+    stores.topic(TOPICS.fleetRobots).subscribe((m) => { this.panel.hidden = m.robots.length === 0; });
     // before the map tools (a click while drawing is a corner, not a pan)
     view.canvas.parentElement.addEventListener('pointerdown', (e) => this.corner(e), true);
   }
 
   buildPanel() {
-    const panel = document.createElement('section');
-    panel.className = 'panel';
-    panel.id = 'zones-panel';
-    panel.hidden = true;
-    panel.innerHTML = `<h2>Mutex zones <span class="count" id="zones-count"></span></h2>
-      <ul class="zones-list" id="zones-list"><li class="empty">none</li></ul>
-      <button type="button" class="small" id="zone-draw">Draw a zone</button>
-      <div id="zone-form" hidden>
-        <p class="hint">Click the zone's corners on the map, then name it.</p>
-        <label>name <input id="zone-name" maxlength="64" placeholder="corridor_a"></label>
-        <label>kind <input id="zone-kind" maxlength="32" placeholder="corridor, door"></label>
-        <button type="button" class="small" id="zone-save">Save</button>
-        <button type="button" class="small" id="zone-cancel">Cancel</button>
-      </div>
-      <div class="zones-reply" id="zones-reply"></div>`;
-    const operate = document.querySelector('[data-tab-panel="operate"]') || document.body;
-    operate.append(panel);
-    panel.querySelector('#zone-draw').addEventListener('click', () => this.startDraft());
-    panel.querySelector('#zone-cancel').addEventListener('click', () => this.endDraft());
-    panel.querySelector('#zone-save').addEventListener('click', () => this.save());
-    return panel;
+    const input = (id, maxlength, placeholder) => el('input', { id, maxlength, placeholder });
+    const button = (id, text, onclick) => el('button', { type: 'button', class: 'small', id, onclick }, text);
+    return el('section', { class: 'panel', id: 'zones-panel', hidden: true },
+      el('h2', {}, 'Mutex zones ', el('span', { class: 'count', id: 'zones-count' })),
+      el('ul', { class: 'zones-list', id: 'zones-list' }, el('li', { class: 'empty' }, 'none')),
+      button('zone-draw', 'Draw a zone', () => this.startDraft()),
+      el('div', { id: 'zone-form', hidden: true },
+        el('p', { class: 'hint' }, "Click the zone's corners on the map, then name it."),
+        el('label', {}, 'name ', input('zone-name', '64', 'corridor_a')), ' ',
+        el('label', {}, 'kind ', input('zone-kind', '32', 'corridor, door')), ' ',
+        button('zone-save', 'Save', () => this.save()), ' ',
+        button('zone-cancel', 'Cancel', () => this.endDraft())),
+      el('div', { class: 'zones-reply', id: 'zones-reply' }));
   }
 
   onZones(zones) {
@@ -120,24 +109,12 @@ export class Zones {
     document.getElementById('zones-count').textContent = String(zones.length);
     const list = document.getElementById('zones-list');
     if (!zones.length) {
-      list.innerHTML = '<li class="empty">none</li>';
+      list.replaceChildren(el('li', { class: 'empty' }, 'none'));
       return;
     }
-    list.replaceChildren(...zones.map((z) => {
-      const li = document.createElement('li');
-      li.dataset.zone = z.name;
-      li.dataset.held = z.holders.length ? 'yes' : 'no';
-      const text = document.createElement('span');
-      text.textContent = `${zoneWords(z)} `;
-      const remove = document.createElement('button');
-      remove.type = 'button';
-      remove.className = 'small';
-      remove.dataset.removeZone = z.name;
-      remove.textContent = 'Remove';
-      remove.addEventListener('click', () => this.remove(z.name));
-      li.append(text, remove);
-      return li;
-    }));
+    list.replaceChildren(...zones.map((z) => el('li', { dataset: { zone: z.name, held: z.holders.length ? 'yes' : 'no' } },
+      el('span', {}, `${zoneWords(z)} `),
+      el('button', { type: 'button', class: 'small', dataset: { removeZone: z.name }, onclick: () => this.remove(z.name) }, 'Remove'))));
   }
 
   reply(text) {
@@ -165,18 +142,21 @@ export class Zones {
     this.layer.setDraft([...this.draft]);
   }
 
-  save() {
+  async save() {
     const name = document.getElementById('zone-name').value.trim();
     const kind = document.getElementById('zone-kind').value.trim();
     const points = (this.draft || []).map((p) => ({ x: p.x, y: p.y, z: 0 }));
-    this.addService.callService({ name, kind, polygon: { points } }, (r) => {
-      this.reply(r.message);
-      if (r.success) this.endDraft();
-    }, (err) => this.reply(`not added: ${err}`));
+    const { reply, error } = await this.stores.call(SERVICES.fleetZoneAdd, { name, kind, polygon: { points } });
+    if (error) {
+      this.reply(`not added: ${error}`);
+      return;
+    }
+    this.reply(reply.message);
+    if (reply.success) this.endDraft();
   }
 
-  remove(name) {
-    this.removeService.callService({ name }, (r) => this.reply(r.message),
-      (err) => this.reply(`not removed: ${err}`));
+  async remove(name) {
+    const { reply, error } = await this.stores.call(SERVICES.fleetZoneRemove, { name });
+    this.reply(error ? `not removed: ${error}` : reply.message);
   }
 }
