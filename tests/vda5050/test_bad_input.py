@@ -75,7 +75,7 @@ async def test_a_node_outside_the_map_or_on_an_obstacle_has_no_route(make_server
         here = (await master.sync())["agvPosition"]
         x, y = here["x"], here["y"]
         await master.order("far", 0, [node("a", 0, x, y), node("b", 2, x + 500.0, y)])
-        await master.state(has_error(e.NO_ROUTE, "outside the map"), "outside the map")
+        await master.state(has_error(e.NO_ROUTE, "off the map"), "off the map")
         grid = grid_of_message(server.bus.topic(MAP_TOPIC).last.msg)
         rows, cols = np.nonzero(grid.data >= 90)
         wall = (float(grid.origin_x + (cols[0] + 0.5) * grid.resolution),
