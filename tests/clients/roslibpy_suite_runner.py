@@ -8,6 +8,12 @@ free there, and nothing of the host is reached or taken. Usage::
 
 It brings the namespace's loopback up, starts the server on 9090, runs their pytest in
 ``SUITE_DIR`` with ``ROSLIBPY_TRANSPORT=TRANSPORT`` and exits with pytest's status.
+
+One of their tests is left out, named in ``NOT_OF_THE_SERVER``: ``test_ws_headers.py`` starts a
+websockets server of its own on port 9000 (with websockets' legacy two-argument handler) and
+checks the headers roslibpy sends to it; it never reaches the server under test, and it stops
+that server by setting an ``asyncio.Event`` from another thread, which under load leaves it
+running ("Server did not stop as expected").
 """
 
 from __future__ import annotations
@@ -45,13 +51,18 @@ def start_server(state_dir: str) -> subprocess.Popen:
         raise SystemExit(f"the server did not start:\n{log.read()}")
 
 
+NOT_OF_THE_SERVER = ("tests/test_ws_headers.py",)
+"""Their tests that talk to a server of their own, not to ours (see above)."""
+
+
 def main(suite: str, transport: str, state_dir: str) -> int:
     subprocess.run(["ip", "link", "set", "lo", "up"], check=True)
     server = start_server(state_dir)
     try:
         return subprocess.call(
             [sys.executable, "-m", "pytest", "tests", "-q", "-p", "no:xdist",
-             "-p", "no:cacheprovider", "--timeout", "60"],
+             "-p", "no:cacheprovider", "--timeout", "60",
+             *(f"--deselect={test}" for test in NOT_OF_THE_SERVER)],
             cwd=suite, env={**os.environ, "ROSLIBPY_TRANSPORT": transport},
             timeout=SUITE_TIMEOUT,
         )

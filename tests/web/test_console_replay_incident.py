@@ -86,7 +86,6 @@ async def test_a_black_box_replay_opens_on_its_incident(browser, make_server, tm
     aborted = await replay.locator("#goal-status").inner_text()
     assert "the robot stopped" in aborted and REASON in aborted, aborted
     seen = await replay.evaluate("window.__seen")
-    assert any(REASON in s["text"] for s in seen)
     # nothing that would drive was on once the page knew it shows a replay (its first
     # /replay/state): Cancel goal included, while the motion was shown
     replaying = [s for s in seen if s["replaying"]]
